@@ -1,0 +1,458 @@
+"""``Planar3P-v0``: move the gripper of a 3-PRR parallel manipulator to a target pose."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from . import kinematics, task
+from .design import Design
+from .observation import bounds, build_observation, wrap_angle
+from .physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PSim, SimState
+from .rewards import RewardWeights, pose_error, reward_terms
+from .scalar_kinematics import ConfigurationMeasures, ScalarKinematics
+
+__all__ = ["DEFAULT_WORKING_MODE", "TERMINATION_REASONS", "Planar3PEnv"]
+
+#: The working mode used unless another is asked for: the mode of the default design with the
+#: largest well-conditioned workspace.
+DEFAULT_WORKING_MODE: tuple[int, int, int] = (1, 1, -1)
+#: Values of ``info["termination_reason"]`` (``None`` while the episode runs).
+TERMINATION_REASONS = ("success", "singularity_crossing", "physics_breakdown")
+
+
+def _design_from(arg: Design | dict | str | None) -> Design:
+    if arg is None:
+        return Design.fig8()
+    if isinstance(arg, Design):
+        return arg
+    if isinstance(arg, dict):
+        return Design.from_dict(arg)
+    if isinstance(arg, str):
+        presets = {"fig8": Design.fig8, "fig7": Design.fig7}
+        if arg not in presets:
+            raise ValueError(f"unknown design preset {arg!r}; known: {sorted(presets)}")
+        return presets[arg]()
+    raise ValueError(f"design must be a Design, a dict of its fields or a preset name, got {arg!r}")
+
+
+def _mode_from(arg: Any) -> tuple[int, int, int]:
+    try:
+        m = tuple(int(v) for v in arg)
+        ok = len(m) == 3 and all(v in (1, -1) for v in m) and all(float(v) == int(v) for v in arg)
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ValueError(f"working_mode must be three entries of +1 or -1, got {arg!r}")
+    return m  # type: ignore[return-value]
+
+
+class Planar3PEnv(gym.Env):
+    """Reach a target pose with a 3-PRR planar parallel manipulator simulated in pymunk.
+
+    ## Description
+    Three sliders move on parallel horizontal rails (``y = 0``); each carries a rigid leg whose
+    other end is pinned to a straight platform holding, in line, the joints ``C_1, C_2, C_3``
+    and the gripper point ``G`` (``MECHANISM.md``).  The closed chain is a pymunk rigid-body
+    model with gravity; each slider is driven by a force-limited velocity servo.  The agent
+    commands slider velocities and must bring the gripper to a target position and
+    orientation, without crossing a parallel singularity (where the platform can no longer be
+    controlled and the machine would switch assembly mode).
+
+    ## Action Space
+    ``Box(-1, 1, (3,), float32)``: slider velocity commands as fractions of the design's
+    ``max_speed`` (m/s).  Values outside ``[-1, 1]`` are clipped; NaN/inf or a wrong shape
+    raise ``ValueError`` and leave the state unchanged.
+
+    ## Observation Space
+    ``Box(low, high, (28,), float32)``, SI units, documented index by index in
+    :mod:`planar3p_gym.observation`: slider travels and rates, gripper position,
+    ``cos/sin theta``, gripper twist, ``cos/sin`` of each leg angle, target position and
+    ``cos/sin`` of its angle, position and orientation errors, parallel and serial margins.
+
+    ## Rewards
+    ``-w_pose * e - w_singularity * barrier - w_action * effort + w_success * success
+    - w_failure * failure`` (:mod:`planar3p_gym.rewards`): ``e = (|dp| + L_ref |dtheta|)/L_ref``;
+    the barrier is ``ref/m - 1`` for each margin ``m`` below its reference (capped);
+    effort is the mean squared action; failure is a singularity crossing or a physics
+    breakdown.  Weighted terms are in ``info["reward_terms"]`` and sum to the reward.
+
+    ## Starting State
+    Start and target are drawn from ``self.np_random``: reachable in the episode's working
+    mode within the stroke (away from the end stops), with parallel and serial margins above
+    thresholds, in the same assembly mode, and by default joined by a straight path in pose
+    space that stays clear of singularities (:class:`planar3p_gym.task.TaskConfig`).  The
+    mechanism starts at rest.  ``reset(options={"start": pose, "target": pose,
+    "working_mode": (s1, s2, s3)})`` sets any of them (validated; ``ValueError`` if invalid).
+
+    ## Episode End
+    ``terminated`` when the gripper is within ``position_tolerance`` and
+    ``orientation_tolerance`` of the target with every slider slower than ``rest_speed``
+    (``"success"``), when ``sign det A`` changes (``"singularity_crossing"``), or when the
+    loop-closure error exceeds ``breakdown_threshold`` or the state is not finite
+    (``"physics_breakdown"``); ``info["termination_reason"]`` says which.  ``truncated`` only
+    by the registered time limit (``max_episode_steps=250``, 5 s at 50 Hz).
+
+    ## Arguments
+    - ``design``: a :class:`Design`, a dict of its fields, or a preset name (``"fig8"``,
+      ``"fig7"``); default ``Design.fig8()``.
+    - ``working_mode``: ``(s1, s2, s3)`` of +-1 (default ``(1, 1, -1)``) or ``"random"``
+      (one of the modes with a usable workspace, drawn per episode).
+    - ``control_frequency``: control rate (Hz), default 50; also the render fps.
+    - ``substeps``: physics steps per control step (default 4); ``solver_iterations``: pymunk
+      constraint iterations per physics step (default 20).
+    - ``reward_weights``: :class:`RewardWeights` or a dict of its fields.
+    - ``task_config``: :class:`TaskConfig` or a dict of its fields (tolerances, sampling
+      margins).
+    - ``breakdown_threshold``: loop-closure error ending the episode, as a fraction of the
+      shortest leg (default 0.01).
+    - ``render_mode``: ``None``, ``"rgb_array"`` or ``"human"``; ``render_size`` in pixels.
+
+    ## Version History
+    - v0: initial release.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
+
+    def __init__(
+        self,
+        design: Design | dict | str | None = None,
+        *,
+        working_mode: tuple[int, int, int] | str = DEFAULT_WORKING_MODE,
+        control_frequency: float = 50.0,
+        substeps: int = DEFAULT_SUBSTEPS,
+        solver_iterations: int = DEFAULT_ITERATIONS,
+        reward_weights: RewardWeights | dict | None = None,
+        task_config: task.TaskConfig | dict | None = None,
+        breakdown_threshold: float = 0.01,
+        render_mode: str | None = None,
+        render_size: tuple[int, int] = (640, 480),
+    ) -> None:
+        self.design = _design_from(design)
+        if isinstance(working_mode, str):
+            if working_mode != "random":
+                raise ValueError(
+                    f"working_mode must be a triple of +-1 or 'random', got {working_mode!r}"
+                )
+            self._fixed_mode = None
+        else:
+            self._fixed_mode = _mode_from(working_mode)
+        if not (isinstance(control_frequency, (int, float)) and math.isfinite(control_frequency)):
+            raise ValueError(
+                f"control_frequency must be a finite number (Hz), got {control_frequency!r}"
+            )
+        if not 1.0 <= control_frequency <= 10_000.0:
+            raise ValueError(
+                f"control_frequency must be in [1, 10000] Hz, got {control_frequency!r}"
+            )
+        if not (isinstance(substeps, (int, np.integer)) and 1 <= substeps <= 1000):
+            raise ValueError(f"substeps must be an integer in [1, 1000], got {substeps!r}")
+        if not (
+            isinstance(solver_iterations, (int, np.integer)) and 1 <= solver_iterations <= 1000
+        ):
+            raise ValueError(
+                f"solver_iterations must be an integer in [1, 1000], got {solver_iterations!r}"
+            )
+        if not (isinstance(breakdown_threshold, (int, float)) and 0 < breakdown_threshold < 1):
+            raise ValueError(f"breakdown_threshold must be in (0, 1), got {breakdown_threshold!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']} or None, "
+                f"got {render_mode!r}"
+            )
+        if isinstance(reward_weights, dict):
+            reward_weights = RewardWeights(**reward_weights)
+        if isinstance(task_config, dict):
+            task_config = task.TaskConfig(**task_config)
+        self.reward_weights = reward_weights or RewardWeights()
+        self.task_config = task_config or task.TaskConfig()
+        if not isinstance(self.reward_weights, RewardWeights):
+            raise ValueError("reward_weights must be a RewardWeights or a dict of its fields")
+        if not isinstance(self.task_config, task.TaskConfig):
+            raise ValueError("task_config must be a TaskConfig or a dict of its fields")
+        self.control_frequency = float(control_frequency)
+        self.dt = 1.0 / self.control_frequency
+        self.substeps = int(substeps)
+        self.solver_iterations = int(solver_iterations)
+        self.breakdown_distance = breakdown_threshold * self.design.shortest_leg
+        self.render_mode = render_mode
+        self.render_size = tuple(render_size)
+        self.metadata = {**self.metadata, "render_fps": int(round(self.control_frequency))}
+
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
+        self._obs_low, self._obs_high = bounds(self.design)
+        self.observation_space = spaces.Box(self._obs_low, self._obs_high, dtype=np.float32)
+        self._kin = ScalarKinematics(self.design)
+        self._length = self.design.characteristic_length
+        self._renderer = None
+        self._modes = [self._fixed_mode] if self._fixed_mode else self._usable_modes()
+        self._sim: Planar3PSim | None = None
+        self._target = (0.0, 0.0, 0.0)
+        self._mode = self._modes[0]
+        self._assembly = 0
+        self._obs = np.zeros(self.observation_space.shape, dtype=np.float32)
+        self._measures: ConfigurationMeasures | None = None
+        self._last_info: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ helpers
+    def _usable_modes(self) -> list[tuple[int, int, int]]:
+        """Working modes with acceptable start poses (checked with a fixed internal seed, so
+        the list never depends on, or consumes, the episode's random stream)."""
+        rng = np.random.default_rng(0)
+        usable = []
+        for m in kinematics.ALL_MODES.tolist():
+            try:
+                task.sample_poses(self.design, m, rng, self.task_config, max_batches=20)
+            except ValueError:
+                continue
+            usable.append(tuple(m))
+        if not usable:
+            raise ValueError("no working mode of this design has poses meeting the task's margins")
+        return usable
+
+    @property
+    def sim(self) -> Planar3PSim:
+        """The physics model of the current episode."""
+        if self._sim is None:
+            raise RuntimeError("call reset() before using the environment")
+        return self._sim
+
+    @property
+    def target(self) -> tuple[float, float, float]:
+        """Target pose ``(x, y, theta)`` of the episode (m, m, rad)."""
+        return self._target
+
+    @property
+    def working_mode(self) -> tuple[int, int, int]:
+        """Working mode of the episode."""
+        return self._mode
+
+    @property
+    def assembly_mode(self) -> int:
+        """``sign(det A)`` at the start of the episode."""
+        return self._assembly
+
+    # ------------------------------------------------------------------ Gymnasium API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        options = dict(options or {})
+        unknown = set(options) - {"start", "target", "working_mode"}
+        if unknown:
+            raise ValueError(
+                f"unknown reset options {sorted(unknown)}; known: start, target, working_mode"
+            )
+        if "working_mode" in options and options["working_mode"] is not None:
+            mode = _mode_from(options["working_mode"])
+        elif len(self._modes) == 1:
+            mode = self._modes[0]
+        else:
+            mode = self._modes[int(self.np_random.integers(len(self._modes)))]
+        start = options.get("start")
+        target = options.get("target")
+        if start is not None:
+            start = task.check_pose(self.design, start, mode, "start")
+        if target is not None:
+            target = task.check_pose(self.design, target, mode, "target")
+        if start is not None and target is not None:
+            assemblies = [
+                int(
+                    kinematics.assembly_mode(
+                        self.design, p, kinematics.inverse(self.design, p, mode).rho
+                    )
+                )
+                for p in (start, target)
+            ]
+            if assemblies[0] != assemblies[1]:
+                raise ValueError(
+                    "start and target are in different assembly modes (sign det A "
+                    f"{assemblies[0]} vs {assemblies[1]}): no motion joins them without "
+                    "crossing a parallel singularity"
+                )
+        start, target = task.sample_pair(
+            self.design, mode, self.np_random, self.task_config, start=start, target=target
+        )
+        self._mode = mode
+        self._target = (float(target[0]), float(target[1]), float(target[2]))
+        self._sim = Planar3PSim(
+            self.design,
+            start,
+            mode,
+            dt=self.dt,
+            substeps=self.substeps,
+            iterations=self.solver_iterations,
+        )
+        state = self._sim.state
+        self._measures = self._kin.measures(state.pose, state.rho)
+        self._assembly = self._measures.det_sign
+        self._obs = self._observe(state, self._measures)
+        info = self._info(state, self._measures, None, {}, False)
+        self._last_info = info
+        if self.render_mode == "human":
+            self.render()
+        return self._obs.copy(), info
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        sim = self.sim
+        try:
+            a = np.asarray(action, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"action must be 3 numbers in [-1, 1], got {action!r}") from exc
+        if a.shape != (3,):
+            raise ValueError(f"action must have shape (3,), got shape {a.shape}")
+        a0, a1, a2 = a.tolist()
+        if not (math.isfinite(a0) and math.isfinite(a1) and math.isfinite(a2)):
+            raise ValueError(f"action must be finite, got {action!r}")
+        a0, a1, a2 = (min(1.0, max(-1.0, v)) for v in (a0, a1, a2))
+        vmax = self.design.max_speed
+        state = sim.step(np.array((a0 * vmax, a1 * vmax, a2 * vmax)))
+
+        reason = None
+        if not state.finite or state.closure_error > self.breakdown_distance:
+            reason = "physics_breakdown"
+            measures = self._measures
+        else:
+            measures = self._kin.measures(state.pose, state.rho)
+            if measures.det_sign == -self._assembly:
+                reason = "singularity_crossing"
+        success = False
+        if reason is None:
+            self._obs = self._observe(state, measures)
+            pos_err, ang_err = self._errors(state.pose)
+            rest = max(abs(v) for v in state.rho_dot) <= self.task_config.rest_speed
+            success = (
+                pos_err <= self.task_config.position_tolerance
+                and abs(ang_err) <= self.task_config.orientation_tolerance
+                and rest
+            )
+            if success:
+                reason = "success"
+        else:
+            pos_err, ang_err = self._errors(self._last_info["pose"])
+        failure = reason in ("singularity_crossing", "physics_breakdown")
+        assert measures is not None
+        terms = reward_terms(
+            self.reward_weights,
+            pose_err=pose_error(pos_err, ang_err, self._length),
+            parallel_margin=measures.parallel_margin,
+            serial_margin=measures.serial_margin,
+            action=(a0, a1, a2),
+            success=success,
+            failure=failure,
+        )
+        reward = float(sum(terms.values()))
+        if reason == "physics_breakdown":
+            info = dict(self._last_info)
+            info.update(
+                termination_reason=reason,
+                is_success=False,
+                reward_terms=terms,
+                closure_error=state.closure_error
+                if math.isfinite(state.closure_error)
+                else math.inf,
+            )
+        else:
+            info = self._info(state, measures, reason, terms, success)
+            self._measures = measures
+        self._last_info = info
+        if self.render_mode == "human":
+            self.render()
+        return self._obs.copy(), reward, reason is not None, False, info
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode to make()")
+            return None
+        from .render import Frame, Renderer
+
+        if self._renderer is None:
+            self._renderer = Renderer(
+                self.design, self.render_size, self.render_mode, self.metadata["render_fps"]
+            )
+        info = self._last_info
+        pos_err = info.get("position_error", 0.0)
+        frame = Frame(
+            rho=info.get("rho", (0.0, 0.0, 0.0)),
+            pose=info.get("pose", (0.0, 0.0, 0.0)),
+            target=self._target if self._sim is not None else None,
+            parallel_margin=info.get("parallel_margin", 1.0),
+            serial_margin=info.get("serial_margin", 1.0),
+            time=info.get("time", 0.0),
+            text=(
+                f"position error {1000 * pos_err:6.1f} mm",
+                f"orientation error {math.degrees(info.get('orientation_error', 0.0)):6.1f} deg",
+            ),
+            forces=info.get("actuator_forces"),
+        )
+        return self._renderer.render(frame)
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # ------------------------------------------------------------------ internals
+    def _errors(self, pose: tuple[float, float, float]) -> tuple[float, float]:
+        tx, ty, tth = self._target
+        return math.hypot(tx - pose[0], ty - pose[1]), wrap_angle(tth - pose[2])
+
+    def _observe(self, state: SimState, measures: ConfigurationMeasures) -> np.ndarray:
+        return build_observation(
+            state.rho,
+            state.rho_dot,
+            state.pose,
+            state.twist,
+            state.leg_angles,
+            self._target,
+            measures.parallel_margin,
+            measures.serial_margin,
+            self._obs_low,
+            self._obs_high,
+        )
+
+    def _info(
+        self,
+        state: SimState,
+        measures: ConfigurationMeasures,
+        reason: str | None,
+        terms: dict[str, float],
+        success: bool,
+    ) -> dict[str, Any]:
+        pos_err, ang_err = self._errors(state.pose)
+        return {
+            "is_success": success,
+            "termination_reason": reason,
+            "position_error": pos_err,
+            "orientation_error": ang_err,
+            "parallel_margin": measures.parallel_margin,
+            "serial_margin": measures.serial_margin,
+            "assembly_mode": measures.det_sign,
+            "working_mode": self._mode,
+            "actuator_forces": state.actuator_forces,
+            "actuator_saturated": state.saturated,
+            "closure_error": state.closure_error,
+            "reward_terms": terms,
+            "pose": state.pose,
+            "rho": state.rho,
+            "rho_dot": state.rho_dot,
+            "time": state.time,
+        }
+
+    def config(self) -> dict[str, Any]:
+        """The environment's settings as plain data (for run records)."""
+        return {
+            "design": self.design.to_dict(),
+            "working_mode": self._fixed_mode or "random",
+            "control_frequency": self.control_frequency,
+            "substeps": self.substeps,
+            "solver_iterations": self.solver_iterations,
+            "reward_weights": asdict(self.reward_weights),
+            "task_config": asdict(self.task_config),
+            "breakdown_threshold": self.breakdown_distance / self.design.shortest_leg,
+        }

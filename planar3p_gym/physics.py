@@ -1,0 +1,261 @@
+"""pymunk rigid-body model of the closed chain (no Gymnasium here).
+
+Bodies: 3 sliders, 3 legs (uniform rods), the platform (a uniform rod from ``G`` to ``C_1``);
+gravity along ``-y``.  Joints: each slider rides a groove along its rail whose ends are the
+hard stops of the stroke; revolute (pivot) joints at every ``B_i`` and ``C_i``.  There are no
+collision shapes: the mechanism's parts sit in different planes and never collide.
+
+Actuation: each slider is driven by a force-limited velocity servo, a velocity-only
+constraint (no position correction) between the slider and a kinematic "drive" body moving at
+the commanded speed, whose impulse is clamped to ``design.max_force``.  Near a parallel
+singularity the servos saturate as a real machine's would.
+
+A model is built from a pose and working mode with the exact inverse kinematics; building a
+new :class:`Planar3PSim` is how a simulation is reset (spaces are never copied).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pymunk
+from numpy.typing import ArrayLike
+
+from . import kinematics
+from .design import Design
+
+__all__ = ["DEFAULT_ITERATIONS", "DEFAULT_SUBSTEPS", "Planar3PSim", "SimState"]
+
+#: Physics substeps per control step used by the environment by default.
+DEFAULT_SUBSTEPS = 4
+#: Constraint-solver iterations per substep used by default.
+DEFAULT_ITERATIONS = 20
+#: pymunk's ``error_bias`` of the joints: fraction of a joint error left after one second.
+DEFAULT_ERROR_BIAS = 1e-12
+
+
+@dataclass(frozen=True)
+class SimState:
+    """A readout of the full simulated state (SI units).
+
+    Attributes:
+        time: simulated time since the model was built (s).
+        rho: slider travels ``rho_i`` (m).
+        rho_dot: slider travel rates (m/s).
+        pose: platform pose ``(x, y, theta)`` of the gripper ``G`` (m, m, rad in ``(-pi, pi]``).
+        twist: ``(x_dot, y_dot, theta_dot)`` of ``G`` (m/s, m/s, rad/s).
+        leg_angles: ``alpha_i``, angle of each leg ``B_i -> C_i`` from the x axis (rad).
+        actuator_forces: magnitude of each servo's force along its rail, averaged over the
+            last control step (N).
+        saturated: whether each servo hit ``max_force`` during the last control step.
+        closure_error: largest joint separation of the loop (m): pivots at ``B_i``, ``C_i``
+            and the sliders' distance from their rail line.
+    """
+
+    time: float
+    rho: tuple[float, float, float]
+    rho_dot: tuple[float, float, float]
+    pose: tuple[float, float, float]
+    twist: tuple[float, float, float]
+    leg_angles: tuple[float, float, float]
+    actuator_forces: tuple[float, float, float]
+    saturated: tuple[bool, bool, bool]
+    closure_error: float
+
+    @property
+    def finite(self) -> bool:
+        """True when every number of the state is finite."""
+        vals = (*self.rho, *self.rho_dot, *self.pose, *self.twist, *self.leg_angles)
+        return all(math.isfinite(v) for v in vals) and math.isfinite(self.closure_error)
+
+
+def _wrap(angle: float) -> float:
+    """Angle wrapped into ``(-pi, pi]``."""
+    return math.pi - (math.pi - angle) % (2.0 * math.pi)
+
+
+class Planar3PSim:
+    """The 3-PRR mechanism as a pymunk space, stepped one control period at a time.
+
+    Args:
+        design: the machine.
+        pose: initial pose ``(x, y, theta)`` (m, m, rad); must be reachable in ``working_mode``
+            with travels inside the stroke.
+        working_mode: ``(sigma_1, sigma_2, sigma_3)`` of +-1.
+        dt: control period (s): one :meth:`step` advances the simulation by ``dt``.
+        substeps: physics steps per control period.
+        iterations: constraint-solver iterations per physics step.
+        error_bias: joints' position-error correction (fraction of error left after 1 s).
+    """
+
+    def __init__(
+        self,
+        design: Design,
+        pose: ArrayLike,
+        working_mode: ArrayLike = (1, 1, -1),
+        *,
+        dt: float = 0.02,
+        substeps: int = DEFAULT_SUBSTEPS,
+        iterations: int = DEFAULT_ITERATIONS,
+        error_bias: float = DEFAULT_ERROR_BIAS,
+    ) -> None:
+        if not isinstance(design, Design):
+            raise ValueError(f"design must be a Design, got {type(design).__name__}")
+        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt must be a finite number > 0 (s), got {dt!r}")
+        if not (isinstance(substeps, (int, np.integer)) and substeps >= 1):
+            raise ValueError(f"substeps must be an integer >= 1, got {substeps!r}")
+        if not (isinstance(iterations, (int, np.integer)) and iterations >= 1):
+            raise ValueError(f"iterations must be an integer >= 1, got {iterations!r}")
+        if not (math.isfinite(error_bias) and 0.0 <= error_bias <= 1.0):
+            raise ValueError(f"error_bias must be in [0, 1], got {error_bias!r}")
+        p = np.asarray(pose, dtype=np.float64)
+        if p.shape != (3,) or not np.isfinite(p).all():
+            raise ValueError(f"pose must be 3 finite numbers (x, y, theta), got {pose!r}")
+        rho, reachable = kinematics.inverse(design, p, working_mode)
+        if not bool(reachable):
+            raise ValueError(
+                f"pose {tuple(p)} is not reachable in working mode {tuple(working_mode)} "
+                f"within the stroke [0, {design.stroke}] m (travels {rho})"
+            )
+        self.design = design
+        self.dt = float(dt)
+        self.substeps = int(substeps)
+        self.iterations = int(iterations)
+        self._h = self.dt / self.substeps
+        self._k = design.joint_offsets
+        self._legs = design.leg_lengths
+        self._origins = design.rail_origins
+        self._time = 0.0
+        self._forces = (0.0, 0.0, 0.0)
+        self._saturated = (False, False, False)
+        self._build(p, rho, error_bias)
+
+    # ------------------------------------------------------------------ construction
+    def _build(self, pose: np.ndarray, rho: np.ndarray, error_bias: float) -> None:
+        d = self.design
+        space = pymunk.Space()
+        space.iterations = self.iterations
+        space.gravity = (0.0, -d.gravity)
+        x, y, th = (float(v) for v in pose)
+        c, s = math.cos(th), math.sin(th)
+        k1 = self._k[0]
+        platform = pymunk.Body(d.platform_mass, d.platform_mass * k1 * k1 / 12.0)
+        platform.position = (x + 0.5 * k1 * c, y + 0.5 * k1 * s)
+        platform.angle = th
+        space.add(platform)
+        sliders, drives, servos, legs = [], [], [], []
+        for i in range(3):
+            a, L, k = self._origins[i], self._legs[i], self._k[i]
+            b = a + float(rho[i])
+            cx, cy = x + k * c, y + k * s
+            slider = pymunk.Body(d.slider_mass, math.inf)
+            slider.position = (b, 0.0)
+            drive = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+            drive.position = (b, 0.0)
+            leg = pymunk.Body(d.leg_mass, d.leg_mass * L * L / 12.0)
+            leg.position = (0.5 * (b + cx), 0.5 * cy)
+            leg.angle = math.atan2(cy, cx - b)
+            rail = pymunk.GrooveJoint(
+                space.static_body, slider, (a, 0.0), (a + d.stroke, 0.0), (0, 0)
+            )
+            servo = pymunk.GrooveJoint(drive, slider, (0.0, -1.0), (0.0, 1.0), (0.0, 0.0))
+            servo.max_bias = 0.0
+            servo.max_force = d.max_force
+            pin_b = pymunk.PivotJoint(slider, leg, (b, 0.0))
+            pin_c = pymunk.PivotJoint(leg, platform, (cx, cy))
+            for joint in (rail, pin_b, pin_c):
+                joint.error_bias = error_bias
+            space.add(slider, drive, leg, rail, pin_b, pin_c, servo)
+            sliders.append(slider)
+            drives.append(drive)
+            servos.append(servo)
+            legs.append(leg)
+        self.space = space
+        self.platform = platform
+        self.sliders = tuple(sliders)
+        self.drives = tuple(drives)
+        self.servos = tuple(servos)
+        self.legs = tuple(legs)
+        self._state = self._read()
+
+    # ------------------------------------------------------------------ stepping
+    def step(self, velocity_command: ArrayLike) -> SimState:
+        """Hold the slider velocity commands (m/s, 3 values) for one control period ``dt``.
+
+        The servos follow the commands within the actuator force limit; returns the new state.
+        """
+        v = np.asarray(velocity_command, dtype=np.float64)
+        if v.shape != (3,) or not np.isfinite(v).all():
+            raise ValueError(f"velocity_command must be 3 finite numbers (m/s), got {v!r}")
+        for drive, vi in zip(self.drives, v.tolist(), strict=True):
+            drive.velocity = (vi, 0.0)
+        h, space, servos = self._h, self.space, self.servos
+        f0 = f1 = f2 = 0.0
+        m0 = m1 = m2 = 0.0
+        for _ in range(self.substeps):
+            space.step(h)
+            j0, j1, j2 = servos[0].impulse, servos[1].impulse, servos[2].impulse
+            f0 += j0
+            f1 += j1
+            f2 += j2
+            m0, m1, m2 = max(m0, j0), max(m1, j1), max(m2, j2)
+        self._time += self.dt
+        n = float(self.substeps)
+        self._forces = (f0 / (n * h), f1 / (n * h), f2 / (n * h))
+        limit = 0.999 * self.design.max_force * h
+        self._saturated = (m0 >= limit, m1 >= limit, m2 >= limit)
+        self._state = self._read()
+        return self._state
+
+    # ------------------------------------------------------------------ readout
+    @property
+    def state(self) -> SimState:
+        """The state after the last step (or at construction)."""
+        return self._state
+
+    def _read(self) -> SimState:
+        k, legs_len, origins = self._k, self._legs, self._origins
+        plat = self.platform
+        pc = plat.position
+        th = plat.angle
+        c, s = math.cos(th), math.sin(th)
+        half = 0.5 * k[0]
+        gx, gy = pc.x - half * c, pc.y - half * s
+        pv = plat.velocity
+        w = plat.angular_velocity
+        twist = (pv.x + w * half * s, pv.y - w * half * c, w)
+        rho, rho_dot, alphas = [], [], []
+        err = 0.0
+        for i in range(3):
+            sp = self.sliders[i].position
+            rho.append(sp.x - origins[i])
+            rho_dot.append(self.sliders[i].velocity.x)
+            leg = self.legs[i]
+            lp = leg.position
+            phi = leg.angle
+            hl = 0.5 * legs_len[i]
+            lc, ls = hl * math.cos(phi), hl * math.sin(phi)
+            # Pivot at B_i: slider centre vs the leg's lower end; at C_i: the leg's upper end
+            # vs the platform point at distance k_i from G.
+            eb = math.hypot(lp.x - lc - sp.x, lp.y - ls - sp.y)
+            ec = math.hypot(lp.x + lc - (gx + k[i] * c), lp.y + ls - (gy + k[i] * s))
+            err = max(err, eb, ec, abs(sp.y))
+            alphas.append(_wrap(phi))
+        return SimState(
+            self._time,
+            (rho[0], rho[1], rho[2]),
+            (rho_dot[0], rho_dot[1], rho_dot[2]),
+            (gx, gy, _wrap(th)),
+            twist,
+            (alphas[0], alphas[1], alphas[2]),
+            self._forces,
+            self._saturated,
+            err,
+        )
+
+    def closure_error(self) -> float:
+        """Largest joint separation of the closed loop (m) in the current state."""
+        return self._state.closure_error

@@ -1,0 +1,109 @@
+"""Single-configuration kinematic measures in plain Python floats, for the simulation loop.
+
+The vectorised functions of :mod:`planar3p_gym.kinematics` are the reference; these give the
+same numbers (tests check the agreement) without numpy's per-call overhead, which dominates
+for one 3x3 configuration per control step.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from .design import Design
+
+__all__ = ["ConfigurationMeasures", "ScalarKinematics"]
+
+
+class ConfigurationMeasures(NamedTuple):
+    """Singularity measures of one configuration.
+
+    Attributes:
+        parallel_margin: inverse condition number of ``A_bar`` in ``[0, 1]``.
+        serial_margin: ``min_i |cos alpha_i|`` in ``[0, 1]``.
+        det_sign: ``sign(det A)``: +1, -1, or 0 exactly at a parallel singularity.
+        leg_angles: ``alpha_i`` (rad).
+    """
+
+    parallel_margin: float
+    serial_margin: float
+    det_sign: int
+    leg_angles: tuple[float, float, float]
+
+
+class ScalarKinematics:
+    """Measures of single configurations of ``design`` (see :class:`ConfigurationMeasures`)."""
+
+    def __init__(self, design: Design) -> None:
+        self.design = design
+        self._k = design.joint_offsets
+        self._legs = design.leg_lengths
+        self._origins = design.rail_origins
+        self._ref = design.characteristic_length
+
+    def measures(
+        self, pose: tuple[float, float, float], rho: tuple[float, float, float]
+    ) -> ConfigurationMeasures:
+        """Margins, assembly mode and leg angles at ``pose`` (m, m, rad) and ``rho`` (m)."""
+        x, y, th = pose
+        c, s = math.cos(th), math.sin(th)
+        rows = []
+        serial = 1.0
+        angles = []
+        for i in range(3):
+            k, L = self._k[i], self._legs[i]
+            ux = x + k * c - self._origins[i] - rho[i]
+            uy = y + k * s
+            norm = math.hypot(ux, uy)
+            serial = min(serial, abs(ux) / norm if norm > 0.0 else 0.0)
+            angles.append(math.atan2(uy, ux))
+            rows.append((ux / L, uy / L, k * (uy * c - ux * s) / (L * self._ref)))
+        det = _det(rows)
+        return ConfigurationMeasures(
+            _inverse_condition(rows, det),
+            serial,
+            int(det > 0.0) - int(det < 0.0),
+            (angles[0], angles[1], angles[2]),
+        )
+
+
+def _det(m: list[tuple[float, float, float]]) -> float:
+    (a, b, c), (d, e, f), (g, h, i) = m
+    return a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+
+
+def _inverse_condition(m: list[tuple[float, float, float]], det: float) -> float:
+    """``sigma_min / sigma_max`` of a 3x3 matrix from the eigenvalues of ``M^T M``.
+
+    The two largest eigenvalues come from the closed-form trigonometric solution; the smallest
+    is recovered as ``det(M)^2 / (lambda_1 lambda_2)``, which stays accurate near zero.
+    """
+    (a, b, c), (d, e, f), (g, h, i) = m
+    s00 = a * a + d * d + g * g
+    s11 = b * b + e * e + h * h
+    s22 = c * c + f * f + i * i
+    s01 = a * b + d * e + g * h
+    s02 = a * c + d * f + g * i
+    s12 = b * c + e * f + h * i
+    q = (s00 + s11 + s22) / 3.0
+    p1 = s01 * s01 + s02 * s02 + s12 * s12
+    p2 = (s00 - q) ** 2 + (s11 - q) ** 2 + (s22 - q) ** 2 + 2.0 * p1
+    if p2 <= 1e-300:
+        return 1.0 if q > 0.0 else 0.0
+    p = math.sqrt(p2 / 6.0)
+    b00, b11, b22 = (s00 - q) / p, (s11 - q) / p, (s22 - q) / p
+    b01, b02, b12 = s01 / p, s02 / p, s12 / p
+    r = 0.5 * (
+        b00 * (b11 * b22 - b12 * b12)
+        - b01 * (b01 * b22 - b12 * b02)
+        + b02 * (b01 * b12 - b11 * b02)
+    )
+    phi = math.acos(max(-1.0, min(1.0, r))) / 3.0
+    lam1 = q + 2.0 * p * math.cos(phi)
+    lam3 = q + 2.0 * p * math.cos(phi + 2.0 * math.pi / 3.0)
+    lam2 = 3.0 * q - lam1 - lam3
+    if lam1 <= 0.0:
+        return 0.0
+    if lam2 > 0.0:
+        lam3 = det * det / (lam1 * lam2)
+    return math.sqrt(max(lam3, 0.0) / lam1)

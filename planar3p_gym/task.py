@@ -1,0 +1,252 @@
+"""The reaching task: sampling start and target poses, and the success test.
+
+Poses are drawn by rejection from the search rectangle (uniform ``x``, ``y >= 0``,
+``theta``) and kept when they are reachable in the episode's working mode with every travel
+away from the end stops and both singularity margins above thresholds.  A target is paired with
+a start only if it has the same assembly mode (``sign det A``) and, by default, the straight
+path between them in pose space stays reachable, in that assembly mode, with margins: every
+task the environment samples can be solved without crossing a singularity.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from . import kinematics
+from .design import Design
+
+__all__ = ["TaskConfig", "check_pose", "path_is_clear", "sample_pair", "sample_poses"]
+
+
+@dataclass(frozen=True)
+class TaskConfig:
+    """Parameters of the reaching task.
+
+    Attributes:
+        position_tolerance: success when ``G`` is within this distance of the target (m).
+        orientation_tolerance: ... and the angle within this of the target angle (rad).
+        rest_speed: ... and every slider slower than this (m/s): "nearly at rest".
+        min_parallel_margin: sampled poses have at least this parallel margin.
+        min_serial_margin: sampled poses have at least this serial margin.
+        travel_margin: sampled poses keep this fraction of the stroke free at both ends.
+        min_distance: start and target differ by at least this pose distance
+            ``|dp| + L_ref |dtheta|`` (m).
+        clear_path: require the straight start-target path to stay clear of singularities.
+        path_parallel_margin: parallel margin required along that path.
+        path_serial_margin: serial margin required along that path.
+        path_points: number of poses at which the path is checked.
+    """
+
+    position_tolerance: float = 0.002
+    orientation_tolerance: float = math.radians(1.0)
+    rest_speed: float = 0.01
+    min_parallel_margin: float = 0.04
+    min_serial_margin: float = 0.2
+    travel_margin: float = 0.03
+    min_distance: float = 0.03
+    clear_path: bool = True
+    path_parallel_margin: float = 0.02
+    path_serial_margin: float = 0.1
+    path_points: int = 24
+
+    def __post_init__(self) -> None:
+        for name, value in asdict(self).items():
+            if name == "clear_path":
+                if not isinstance(value, bool):
+                    raise ValueError(f"TaskConfig.clear_path must be a bool, got {value!r}")
+                continue
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"TaskConfig.{name} must be finite and >= 0, got {value!r}")
+        for name in ("position_tolerance", "orientation_tolerance", "rest_speed"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"TaskConfig.{name} must be > 0, got {getattr(self, name)!r}")
+        for name in (
+            "min_parallel_margin",
+            "min_serial_margin",
+            "path_parallel_margin",
+            "path_serial_margin",
+        ):
+            if getattr(self, name) >= 1:
+                raise ValueError(f"TaskConfig.{name} must be < 1, got {getattr(self, name)!r}")
+        if self.travel_margin >= 0.5:
+            raise ValueError(f"TaskConfig.travel_margin must be < 0.5, got {self.travel_margin!r}")
+        if not isinstance(self.path_points, int) or self.path_points < 2:
+            raise ValueError(
+                f"TaskConfig.path_points must be an int >= 2, got {self.path_points!r}"
+            )
+
+
+def _margins(design: Design, pose: np.ndarray, rho: np.ndarray) -> tuple[np.ndarray, ...]:
+    A = kinematics.normalised_A(design, pose, rho)
+    sv = np.linalg.svd(A, compute_uv=False)
+    pm = sv[..., -1] / sv[..., 0]
+    u = kinematics.leg_vectors(design, pose, rho)
+    sm = np.min(np.abs(u[..., 0]) / np.hypot(u[..., 0], u[..., 1]), axis=-1)
+    det = np.sign(np.linalg.det(A))
+    return pm, sm, det
+
+
+def _acceptable(
+    design: Design, poses: np.ndarray, mode: np.ndarray, cfg: TaskConfig
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mask of acceptable poses ``(N,)`` and their assembly modes."""
+    rho, _ = kinematics.inverse(design, poses, mode)
+    lo, hi = cfg.travel_margin * design.stroke, (1.0 - cfg.travel_margin) * design.stroke
+    inside = np.all((rho >= lo) & (rho <= hi), axis=-1)  # NaN compares False
+    ok = np.zeros(len(poses), dtype=bool)
+    det = np.zeros(len(poses))
+    if inside.any():
+        pm, sm, d = _margins(design, poses[inside], rho[inside])
+        ok[inside] = (pm >= cfg.min_parallel_margin) & (sm >= cfg.min_serial_margin)
+        det[inside] = d
+    return ok, det
+
+
+def sample_poses(
+    design: Design,
+    mode: ArrayLike,
+    rng: np.random.Generator,
+    cfg: TaskConfig,
+    batch: int = 4096,
+    max_batches: int = 200,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Acceptable poses drawn by rejection: ``(poses (M, 3), assembly (M,))``, ``M >= 1``.
+
+    Raises ``ValueError`` if the working mode has no acceptable pose (after ``max_batches``).
+    """
+    x0, x1, _, h = design.search_rectangle
+    mode = np.asarray(mode, dtype=np.float64)
+    for _ in range(max_batches):
+        u = rng.random((batch, 3))
+        poses = np.column_stack(
+            [x0 + (x1 - x0) * u[:, 0], h * u[:, 1], math.pi * (2.0 * u[:, 2] - 1.0)]
+        )
+        ok, det = _acceptable(design, poses, mode, cfg)
+        if ok.any():
+            return poses[ok], det[ok]
+    raise ValueError(
+        f"no pose of working mode {tuple(int(m) for m in mode)} meets the task's margins "
+        f"(parallel >= {cfg.min_parallel_margin}, serial >= {cfg.min_serial_margin}) on this design"
+    )
+
+
+def interpolate(start: np.ndarray, target: np.ndarray, n: int) -> np.ndarray:
+    """``n`` poses on the straight path from ``start`` to ``target`` (shortest rotation);
+    shapes ``(..., 3)`` -> ``(..., n, 3)``."""
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    delta = target - start
+    delta = np.concatenate(
+        [delta[..., :2], (delta[..., 2:] + math.pi) % (2.0 * math.pi) - math.pi], axis=-1
+    )
+    return start[..., None, :] + t * delta[..., None, :]
+
+
+def path_is_clear(
+    design: Design,
+    start: np.ndarray,
+    targets: np.ndarray,
+    mode: ArrayLike,
+    assembly: float,
+    cfg: TaskConfig,
+) -> np.ndarray:
+    """Mask ``(N,)``: the straight path from ``start`` to each target stays reachable within
+    the stroke, with the path margins, in the assembly mode ``assembly``."""
+    path = interpolate(start[None, :], targets, cfg.path_points)  # (N, P, 3)
+    rho, reachable = kinematics.inverse(design, path, np.asarray(mode, dtype=np.float64))
+    ok = reachable.all(axis=-1)
+    if ok.any():
+        pm, sm, det = _margins(design, path[ok], rho[ok])
+        ok[ok] = (
+            (pm >= cfg.path_parallel_margin).all(-1)
+            & (sm >= cfg.path_serial_margin).all(-1)
+            & (det == assembly).all(-1)
+        )
+    return ok
+
+
+def pose_distance(a: np.ndarray, b: np.ndarray, length: float) -> np.ndarray:
+    """``|dp| + length * |dtheta|`` (m) between poses ``(..., 3)``."""
+    dth = np.abs((b[..., 2] - a[..., 2] + math.pi) % (2.0 * math.pi) - math.pi)
+    return np.hypot(b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]) + length * dth
+
+
+def sample_pair(
+    design: Design,
+    mode: ArrayLike,
+    rng: np.random.Generator,
+    cfg: TaskConfig,
+    start: np.ndarray | None = None,
+    target: np.ndarray | None = None,
+    max_tries: int = 100,
+) -> tuple[np.ndarray, np.ndarray]:
+    """A ``(start, target)`` pair for the task; either may be given (already validated)."""
+    if start is not None and target is not None:
+        return start, target
+    for _ in range(max_tries):
+        if start is None:
+            starts, dets = sample_poses(design, mode, rng, cfg)
+            s, det = starts[0], dets[0]
+        else:
+            s = start
+            det = float(
+                np.sign(
+                    kinematics.assembly_mode(design, s, kinematics.inverse(design, s, mode).rho)
+                )
+            )
+        if target is not None:
+            if _pair_ok(design, s, target[None, :], mode, det, cfg)[0]:
+                return s, target
+            if start is not None:
+                break
+            continue
+        cands, cdet = sample_poses(design, mode, rng, cfg)
+        cands = cands[cdet == det]
+        if len(cands):
+            ok = _pair_ok(design, s, cands, mode, det, cfg)
+            if ok.any():
+                return s, cands[int(np.argmax(ok))]
+    raise ValueError(
+        "could not pair a start with a target under the task's constraints "
+        "(same assembly mode, minimum distance, clear path); relax TaskConfig or give both"
+    )
+
+
+def _pair_ok(
+    design: Design,
+    start: np.ndarray,
+    targets: np.ndarray,
+    mode: ArrayLike,
+    assembly: float,
+    cfg: TaskConfig,
+) -> np.ndarray:
+    far = pose_distance(start[None, :], targets, design.characteristic_length) >= cfg.min_distance
+    if not cfg.clear_path or not far.any():
+        return far
+    ok = far.copy()
+    ok[far] = path_is_clear(design, start, targets[far], mode, assembly, cfg)
+    return ok
+
+
+def check_pose(design: Design, pose: ArrayLike, mode: ArrayLike, name: str) -> np.ndarray:
+    """Validate a user-given pose: 3 finite numbers, reachable in ``mode`` within the stroke and
+    not at a parallel singularity.  Returns it as a float array, or raises ``ValueError``."""
+    try:
+        p = np.asarray(pose, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be 3 numbers (x, y, theta), got {pose!r}") from exc
+    if p.shape != (3,) or not np.isfinite(p).all():
+        raise ValueError(f"{name} must be 3 finite numbers (x, y, theta), got {pose!r}")
+    rho, reachable = kinematics.inverse(design, p, mode)
+    if not bool(reachable):
+        raise ValueError(
+            f"{name} {tuple(p.tolist())} is not reachable in working mode "
+            f"{tuple(int(m) for m in np.asarray(mode))} within the stroke [0, {design.stroke}] m "
+            f"(travels {np.round(rho, 6).tolist()} m)"
+        )
+    if float(kinematics.parallel_margin(design, p, rho)) < 1e-6:
+        raise ValueError(f"{name} {tuple(p.tolist())} is at a parallel singularity")
+    return p
