@@ -192,6 +192,7 @@ class Planar3PEnv(gym.Env):
         self._renderer = None
         self._modes = [self._fixed_mode] if self._fixed_mode else self._usable_modes()
         self._sim: Planar3PSim | None = None
+        self._samplers: dict[tuple[int, int, int], task.PoseSampler] = {}
         self._target = (0.0, 0.0, 0.0)
         self._mode = self._modes[0]
         self._assembly = 0
@@ -242,6 +243,9 @@ class Planar3PEnv(gym.Env):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
+        if seed is not None:
+            for sampler in self._samplers.values():
+                sampler.clear()
         options = dict(options or {})
         unknown = set(options) - {"start", "target", "working_mode"}
         if unknown:
@@ -275,8 +279,16 @@ class Planar3PEnv(gym.Env):
                     f"{assemblies[0]} vs {assemblies[1]}): no motion joins them without "
                     "crossing a parallel singularity"
                 )
+        if mode not in self._samplers:
+            self._samplers[mode] = task.PoseSampler(self.design, mode, self.task_config)
         start, target = task.sample_pair(
-            self.design, mode, self.np_random, self.task_config, start=start, target=target
+            self.design,
+            mode,
+            self.np_random,
+            self.task_config,
+            start=start,
+            target=target,
+            sampler=self._samplers[mode],
         )
         self._mode = mode
         self._target = (float(target[0]), float(target[1]), float(target[2]))
@@ -309,9 +321,11 @@ class Planar3PEnv(gym.Env):
         a0, a1, a2 = a.tolist()
         if not (math.isfinite(a0) and math.isfinite(a1) and math.isfinite(a2)):
             raise ValueError(f"action must be finite, got {action!r}")
-        a0, a1, a2 = (min(1.0, max(-1.0, v)) for v in (a0, a1, a2))
+        a0 = -1.0 if a0 < -1.0 else (1.0 if a0 > 1.0 else a0)
+        a1 = -1.0 if a1 < -1.0 else (1.0 if a1 > 1.0 else a1)
+        a2 = -1.0 if a2 < -1.0 else (1.0 if a2 > 1.0 else a2)
         vmax = self.design.max_speed
-        state = sim.step(np.array((a0 * vmax, a1 * vmax, a2 * vmax)))
+        state = sim.step_unchecked(a0 * vmax, a1 * vmax, a2 * vmax)
 
         reason = None
         if not state.finite or state.closure_error > self.breakdown_distance:

@@ -17,7 +17,7 @@ new :class:`Planar3PSim` is how a simulation is reset (spaces are never copied).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import pymunk
@@ -28,6 +28,23 @@ from .design import Design
 
 __all__ = ["DEFAULT_ITERATIONS", "DEFAULT_SUBSTEPS", "Planar3PSim", "SimState"]
 
+try:  # Direct Chipmunk calls skip pymunk's per-call Python bookkeeping (the hot loop's cost).
+    from pymunk._chipmunk_cffi import lib as _cp
+
+    _FAST = all(
+        hasattr(_cp, name)
+        for name in (
+            "cpSpaceStep",
+            "cpBodyGetPosition",
+            "cpBodyGetVelocity",
+            "cpBodyGetAngle",
+            "cpBodyGetAngularVelocity",
+            "cpConstraintGetImpulse",
+        )
+    )
+except ImportError:  # pragma: no cover - other pymunk builds
+    _FAST = False
+
 #: Physics substeps per control step used by the environment by default.
 DEFAULT_SUBSTEPS = 4
 #: Constraint-solver iterations per substep used by default.
@@ -36,8 +53,7 @@ DEFAULT_ITERATIONS = 20
 DEFAULT_ERROR_BIAS = 1e-12
 
 
-@dataclass(frozen=True)
-class SimState:
+class SimState(NamedTuple):
     """A readout of the full simulated state (SI units).
 
     Attributes:
@@ -67,8 +83,15 @@ class SimState:
     @property
     def finite(self) -> bool:
         """True when every number of the state is finite."""
-        vals = (*self.rho, *self.rho_dot, *self.pose, *self.twist, *self.leg_angles)
-        return all(math.isfinite(v) for v in vals) and math.isfinite(self.closure_error)
+        # A NaN or inf anywhere makes the sum non-finite (inf - inf is NaN).
+        return math.isfinite(
+            sum(self.rho)
+            + sum(self.rho_dot)
+            + sum(self.pose)
+            + sum(self.twist)
+            + sum(self.leg_angles)
+            + self.closure_error
+        )
 
 
 def _wrap(angle: float) -> float:
@@ -78,6 +101,9 @@ def _wrap(angle: float) -> float:
 
 class Planar3PSim:
     """The 3-PRR mechanism as a pymunk space, stepped one control period at a time.
+
+    Class attribute ``use_fast_path`` (default True) lets the hot loop call Chipmunk directly
+    through pymunk's own bindings; set it False to use only pymunk's public API (same results).
 
     Args:
         design: the machine.
@@ -89,6 +115,8 @@ class Planar3PSim:
         iterations: constraint-solver iterations per physics step.
         error_bias: joints' position-error correction (fraction of error left after 1 s).
     """
+
+    use_fast_path: bool = True
 
     def __init__(
         self,
@@ -179,6 +207,16 @@ class Planar3PSim:
         self.drives = tuple(drives)
         self.servos = tuple(servos)
         self.legs = tuple(legs)
+        # One public step of zero length lets pymunk validate the bodies; later steps may then
+        # go straight to Chipmunk (same calls, without pymunk's per-step bookkeeping).
+        space.step(0.0)
+        self._fast: tuple | None = None
+        if _FAST and self.use_fast_path:
+            self._fast = (
+                space._space,
+                tuple(sv._constraint for sv in servos),
+                tuple(b._body for b in (platform, *sliders, *legs)),
+            )
         self._state = self._read()
 
     # ------------------------------------------------------------------ stepping
@@ -190,21 +228,36 @@ class Planar3PSim:
         v = np.asarray(velocity_command, dtype=np.float64)
         if v.shape != (3,) or not np.isfinite(v).all():
             raise ValueError(f"velocity_command must be 3 finite numbers (m/s), got {v!r}")
-        for drive, vi in zip(self.drives, v.tolist(), strict=True):
-            drive.velocity = (vi, 0.0)
-        h, space, servos = self._h, self.space, self.servos
+        v0, v1, v2 = v.tolist()
+        return self.step_unchecked(v0, v1, v2)
+
+    def step_unchecked(self, v0: float, v1: float, v2: float) -> SimState:
+        """:meth:`step` without input validation, for callers that validated already."""
+        d0, d1, d2 = self.drives
+        d0.velocity = (v0, 0.0)
+        d1.velocity = (v1, 0.0)
+        d2.velocity = (v2, 0.0)
+        h = self._h
         f0 = f1 = f2 = 0.0
         m0 = m1 = m2 = 0.0
-        for _ in range(self.substeps):
-            space.step(h)
-            j0, j1, j2 = servos[0].impulse, servos[1].impulse, servos[2].impulse
-            f0 += j0
-            f1 += j1
-            f2 += j2
-            m0, m1, m2 = max(m0, j0), max(m1, j1), max(m2, j2)
+        if self._fast is None:
+            servos = self.servos
+            for _ in range(self.substeps):
+                self.space.step(h)
+                j0, j1, j2 = servos[0].impulse, servos[1].impulse, servos[2].impulse
+                f0, f1, f2 = f0 + j0, f1 + j1, f2 + j2
+                m0, m1, m2 = max(m0, j0), max(m1, j1), max(m2, j2)
+        else:
+            space_ptr, (s0, s1, s2) = self._fast[0], self._fast[1]
+            cp_step, impulse = _cp.cpSpaceStep, _cp.cpConstraintGetImpulse
+            for _ in range(self.substeps):
+                cp_step(space_ptr, h)
+                j0, j1, j2 = impulse(s0), impulse(s1), impulse(s2)
+                f0, f1, f2 = f0 + j0, f1 + j1, f2 + j2
+                m0, m1, m2 = max(m0, j0), max(m1, j1), max(m2, j2)
         self._time += self.dt
-        n = float(self.substeps)
-        self._forces = (f0 / (n * h), f1 / (n * h), f2 / (n * h))
+        scale = 1.0 / (self.substeps * h)
+        self._forces = (f0 * scale, f1 * scale, f2 * scale)
         limit = 0.999 * self.design.max_force * h
         self._saturated = (m0 >= limit, m1 >= limit, m2 >= limit)
         self._state = self._read()
@@ -216,33 +269,45 @@ class Planar3PSim:
         """The state after the last step (or at construction)."""
         return self._state
 
+    def _body_values(self) -> list[tuple[float, ...]]:
+        """``(x, y, vx, vy, angle, angular velocity)`` of platform, sliders, legs."""
+        bodies = (self.platform, *self.sliders, *self.legs)
+        if self._fast is None:
+            out = []
+            for b in bodies:
+                p, v = b.position, b.velocity
+                out.append((p.x, p.y, v.x, v.y, b.angle, b.angular_velocity))
+            return out
+        pos, vel = _cp.cpBodyGetPosition, _cp.cpBodyGetVelocity
+        ang, angv = _cp.cpBodyGetAngle, _cp.cpBodyGetAngularVelocity
+        out = []
+        for ptr in self._fast[2]:
+            p, v = pos(ptr), vel(ptr)
+            out.append((p.x, p.y, v.x, v.y, ang(ptr), angv(ptr)))
+        return out
+
     def _read(self) -> SimState:
         k, legs_len, origins = self._k, self._legs, self._origins
-        plat = self.platform
-        pc = plat.position
-        th = plat.angle
+        bodies = self._body_values()
+        px, py, pvx, pvy, th, w = bodies[0]
         c, s = math.cos(th), math.sin(th)
         half = 0.5 * k[0]
-        gx, gy = pc.x - half * c, pc.y - half * s
-        pv = plat.velocity
-        w = plat.angular_velocity
-        twist = (pv.x + w * half * s, pv.y - w * half * c, w)
+        gx, gy = px - half * c, py - half * s
+        twist = (pvx + w * half * s, pvy - w * half * c, w)
         rho, rho_dot, alphas = [], [], []
         err = 0.0
         for i in range(3):
-            sp = self.sliders[i].position
-            rho.append(sp.x - origins[i])
-            rho_dot.append(self.sliders[i].velocity.x)
-            leg = self.legs[i]
-            lp = leg.position
-            phi = leg.angle
+            sx, sy, svx = bodies[1 + i][:3]
+            lx, ly, _, _, phi, _ = bodies[4 + i]
+            rho.append(sx - origins[i])
+            rho_dot.append(svx)
             hl = 0.5 * legs_len[i]
             lc, ls = hl * math.cos(phi), hl * math.sin(phi)
             # Pivot at B_i: slider centre vs the leg's lower end; at C_i: the leg's upper end
             # vs the platform point at distance k_i from G.
-            eb = math.hypot(lp.x - lc - sp.x, lp.y - ls - sp.y)
-            ec = math.hypot(lp.x + lc - (gx + k[i] * c), lp.y + ls - (gy + k[i] * s))
-            err = max(err, eb, ec, abs(sp.y))
+            eb = math.hypot(lx - lc - sx, ly - ls - sy)
+            ec = math.hypot(lx + lc - (gx + k[i] * c), ly + ls - (gy + k[i] * s))
+            err = max(err, eb, ec, abs(sy))
             alphas.append(_wrap(phi))
         return SimState(
             self._time,

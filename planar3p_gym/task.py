@@ -19,7 +19,14 @@ from numpy.typing import ArrayLike
 from . import kinematics
 from .design import Design
 
-__all__ = ["TaskConfig", "check_pose", "path_is_clear", "sample_pair", "sample_poses"]
+__all__ = [
+    "PoseSampler",
+    "TaskConfig",
+    "check_pose",
+    "path_is_clear",
+    "sample_pair",
+    "sample_poses",
+]
 
 
 @dataclass(frozen=True)
@@ -174,6 +181,47 @@ def pose_distance(a: np.ndarray, b: np.ndarray, length: float) -> np.ndarray:
     return np.hypot(b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]) + length * dth
 
 
+class PoseSampler:
+    """Acceptable poses of one working mode, drawn by rejection in batches and handed out in
+    order (a batch yields tens of poses, so most resets need no new batch).
+
+    Every random number comes from the generator passed to :meth:`draw`; :meth:`clear` drops
+    the pool (the environment does so when it is re-seeded, so a seed fixes the episode).
+    """
+
+    def __init__(self, design: Design, mode: ArrayLike, cfg: TaskConfig) -> None:
+        self.design = design
+        self.mode = tuple(int(m) for m in np.asarray(mode).tolist())
+        self.cfg = cfg
+        self._pool: list[tuple[np.ndarray, float]] = []
+
+    def clear(self) -> None:
+        """Forget the pooled poses."""
+        self._pool.clear()
+
+    def _refill(self, rng: np.random.Generator) -> None:
+        poses, dets = sample_poses(self.design, self.mode, rng, self.cfg)
+        self._pool.extend(zip(poses, dets.tolist(), strict=True))
+
+    def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, float]:
+        """The next pose and its assembly mode."""
+        if not self._pool:
+            self._refill(rng)
+        return self._pool.pop(0)
+
+    def draw_many(self, rng: np.random.Generator, assembly: float, n: int) -> np.ndarray:
+        """Up to ``n`` next poses of assembly mode ``assembly`` (at least one), shape (m, 3)."""
+        for _ in range(50):
+            picked = [i for i, (_, det) in enumerate(self._pool) if det == assembly][:n]
+            if picked:
+                out = np.array([self._pool[i][0] for i in picked])
+                for i in reversed(picked):
+                    del self._pool[i]
+                return out
+            self._refill(rng)
+        raise ValueError(f"no pose of assembly mode {assembly:+.0f} in working mode {self.mode}")
+
+
 def sample_pair(
     design: Design,
     mode: ArrayLike,
@@ -181,34 +229,36 @@ def sample_pair(
     cfg: TaskConfig,
     start: np.ndarray | None = None,
     target: np.ndarray | None = None,
+    sampler: PoseSampler | None = None,
     max_tries: int = 100,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """A ``(start, target)`` pair for the task; either may be given (already validated)."""
+    """A ``(start, target)`` pair for the task; either may be given (already validated).
+
+    The target has the start's assembly mode, is at least ``min_distance`` away and, with
+    ``clear_path``, is joined to the start by a straight path clear of singularities.
+    """
     if start is not None and target is not None:
         return start, target
+    sampler = sampler or PoseSampler(design, mode, cfg)
     for _ in range(max_tries):
         if start is None:
-            starts, dets = sample_poses(design, mode, rng, cfg)
-            s, det = starts[0], dets[0]
+            s, det = sampler.draw(rng)
         else:
             s = start
-            det = float(
-                np.sign(
-                    kinematics.assembly_mode(design, s, kinematics.inverse(design, s, mode).rho)
-                )
-            )
+            rho = kinematics.inverse(design, s, mode).rho
+            det = float(kinematics.assembly_mode(design, s, rho))
         if target is not None:
             if _pair_ok(design, s, target[None, :], mode, det, cfg)[0]:
                 return s, target
             if start is not None:
                 break
             continue
-        cands, cdet = sample_poses(design, mode, rng, cfg)
-        cands = cands[cdet == det]
-        if len(cands):
-            ok = _pair_ok(design, s, cands, mode, det, cfg)
-            if ok.any():
-                return s, cands[int(np.argmax(ok))]
+        cands = sampler.draw_many(rng, det, 8)
+        ok = _pair_ok(design, s, cands, mode, det, cfg)
+        if ok.any():
+            return s, cands[int(np.argmax(ok))]
+        if start is None:
+            continue
     raise ValueError(
         "could not pair a start with a target under the task's constraints "
         "(same assembly mode, minimum distance, clear path); relax TaskConfig or give both"
