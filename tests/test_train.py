@@ -1,0 +1,166 @@
+"""scripts/train.py: smoke trainings, run directories, reload, resume and bad input."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+from agents import training
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _load_script(name: str):
+    spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
+    module = importlib.util.module_from_spec(spec)
+    assert spec.loader is not None
+    sys.modules[name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+train_script = _load_script("train")
+
+SMOKE = {
+    "ppo": ["n_steps=64", "batch_size=64", "n_epochs=1"],
+    "sac": ["learning_starts=64", "batch_size=32", "buffer_size=1000"],
+    "td3": ["learning_starts=64", "batch_size=32", "buffer_size=1000"],
+}
+
+
+def _smoke_args(algo: str, run_dir: Path, steps: int = 256, extra: list[str] | None = None):
+    return [
+        "--algo",
+        algo,
+        "--timesteps",
+        str(steps),
+        "--run-dir",
+        str(run_dir),
+        "--n-envs",
+        "1",
+        "--eval-freq",
+        "128",
+        "--eval-episodes",
+        "1",
+        "--final-eval-episodes",
+        "2",
+        "--checkpoint-freq",
+        "128",
+        "--no-progress-bar",
+        "--params",
+        *SMOKE[algo],
+        *(extra or []),
+    ]
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
+def test_smoke_training_writes_complete_loadable_run(algo: str, tmp_path: Path) -> None:
+    from stable_baselines3 import PPO, SAC, TD3
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    run = tmp_path / algo
+    assert train_script.main(_smoke_args(algo, run)) == 0
+    for name in ("model.zip", "config.json", "versions.json", "metrics.json", "evaluations.npz"):
+        assert (run / name).is_file(), name
+    assert (run / "vecnormalize.pkl").is_file()  # every shipped config normalises
+    assert any((run / "checkpoints").glob("rl_model_*_steps.zip"))
+    assert any((run / "tb").iterdir())
+    config = json.loads((run / "config.json").read_text())
+    assert config["config"]["algo"] == algo and config["config"]["seed"] == 0
+    assert "train.py" in config["command"] or config["command"]
+    metrics = json.loads((run / "metrics.json").read_text())
+    assert metrics["timesteps"] >= 256
+    assert 0.0 <= metrics["final_evaluation"]["success_rate"] <= 1.0
+    assert metrics["steps_per_s"] > 0
+
+    # The saved model reloads and acts exactly as the trained one did.
+    cls = {"ppo": PPO, "sac": SAC, "td3": TD3}[algo]
+    model = cls.load(str(run / "model.zip"), device="cpu")
+    venv = DummyVecEnv([training.EnvFactory("Planar3P-v0")])
+    stats = VecNormalize.load(str(run / "vecnormalize.pkl"), venv)
+    stats.training = False
+    obs = stats.normalize_obs(venv.reset())
+    a1, _ = model.predict(obs, deterministic=True)
+    again = cls.load(str(run / "model.zip"), device="cpu")
+    a2, _ = again.predict(obs, deterministic=True)
+    np.testing.assert_array_equal(a1, a2)
+    assert a1.shape == (1, 3) and np.all(np.abs(a1) <= 1.0)
+
+
+def test_resume_continues_from_last_checkpoint(tmp_path: Path) -> None:
+    run = tmp_path / "ppo"
+    assert train_script.main(_smoke_args("ppo", run, steps=256)) == 0
+    args = _smoke_args("ppo", run, steps=512) + ["--resume"]
+    assert train_script.main(args) == 0
+    metrics = json.loads((run / "metrics.json").read_text())
+    assert metrics["resumed_from"] == 256
+    assert metrics["timesteps"] >= 512
+    assert metrics["previous_sessions"]["timesteps"] >= 256
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--algo", "dqn"], "unknown algorithm"),
+        (["--algo", "sac", "--env", "NoSuchEnv-v9"], "unknown environment id"),
+        (["--algo", "sac", "--hyperparams", "/nonexistent.yml"], "does not exist"),
+        (["--algo", "sac", "--env-kwargs", "substeps=0"], "invalid environment kwargs"),
+        (["--algo", "sac", "--params", "noise_type=ou"], "noise_type"),
+    ],
+)
+def test_bad_input_fails_before_training(argv, message, tmp_path: Path, capsys) -> None:
+    run = tmp_path / "run"
+    assert train_script.main([*argv, "--run-dir", str(run)]) == 2
+    assert message in capsys.readouterr().err
+    assert not run.exists()
+
+
+def test_existing_run_dir_without_resume_is_refused(tmp_path: Path, capsys) -> None:
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "keep.txt").write_text("precious")
+    assert train_script.main(["--algo", "sac", "--run-dir", str(run)]) == 2
+    assert "exists" in capsys.readouterr().err
+    assert (run / "keep.txt").read_text() == "precious"
+
+
+def test_unreadable_config_is_a_clear_error(tmp_path: Path, capsys) -> None:
+    bad = tmp_path / "bad.yml"
+    bad.write_text("Planar3P-v0: [unclosed\n")
+    assert (
+        train_script.main(
+            ["--algo", "sac", "--hyperparams", str(bad), "--run-dir", str(tmp_path / "r")]
+        )
+        == 2
+    )
+    assert "cannot read" in capsys.readouterr().err
+
+
+def test_shipped_hyperparameters_resolve() -> None:
+    for algo in training.ALGORITHMS:
+        entry = training.load_hyperparams(
+            training.HYPERPARAMS_DIR / f"{algo}.yml", "Planar3P-v0", algo
+        )
+        cfg = training.resolve(algo, "Planar3P-v0", 0, entry)
+        assert cfg.n_timesteps > 0 and cfg.n_envs >= 1
+        assert isinstance(cfg.algo_kwargs.get("policy_kwargs"), dict)
+
+
+def test_zoo_strings_are_parsed_safely() -> None:
+    import torch.nn as nn
+
+    kwargs = training._literal(
+        "dict(net_arch=dict(pi=[64, 64]), activation_fn=nn.Tanh, x=-1.5)", "t"
+    )
+    assert kwargs == {"net_arch": {"pi": [64, 64]}, "activation_fn": nn.Tanh, "x": -1.5}
+    with pytest.raises(ValueError, match="unsupported"):
+        training._literal("__import__('os').system('true')", "t")
+    schedule = training._schedule("lin_3e-4", "learning_rate")
+    assert schedule(1.0) == pytest.approx(3e-4) and schedule(0.5) == pytest.approx(1.5e-4)
