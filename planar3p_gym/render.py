@@ -2,9 +2,9 @@
 
 Draws the rails with their strokes, sliders, legs, platform, gripper and the target; makes
 singularity proximity visible: each leg's line is extended across the view (where the three
-lines meet, or run parallel, the platform is singular) and legs and platform are coloured from
-green (far) to red (near) by the parallel margin, legs outlined in orange near a serial
-singularity.  Works headless (``SDL_VIDEODRIVER=dummy``) for ``rgb_array``.
+lines meet, or run parallel, the platform is singular) and the legs are coloured from green
+(far) to red (near) by the parallel margin, outlined in orange near a serial singularity.
+Works headless (``SDL_VIDEODRIVER=dummy``) for ``rgb_array``.
 """
 
 from __future__ import annotations
@@ -50,6 +50,7 @@ _GRID = (232, 232, 228)
 _RAIL_COLOURS = ((70, 110, 200), (60, 160, 120), (190, 120, 60))
 _INK = (40, 40, 40)
 _TARGET = (150, 80, 200)
+_PLATFORM = (55, 60, 85)
 
 
 def _margin_colour(margin: float, ref: float = 0.05) -> tuple[int, int, int]:
@@ -145,7 +146,7 @@ class Renderer:
             rect.center = sb
             pg.draw.rect(surf, _RAIL_COLOURS[i], rect)
             pg.draw.circle(surf, _INK, sb, px // 2 + 2)
-        self._draw_platform(frame.pose, pcol, ghost=False)
+        self._draw_platform(frame.pose, _PLATFORM, ghost=False)
         self._draw_text(frame)
 
     def _draw_grid(self) -> None:
