@@ -14,7 +14,7 @@ from . import kinematics, task
 from .design import Design
 from .observation import bounds, build_observation, wrap_angle
 from .physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PSim, SimState
-from .rewards import RewardWeights, pose_error, reward_terms
+from .rewards import RewardWeights, pose_error, precision_penalty, reward_terms
 from .scalar_kinematics import ConfigurationMeasures, ScalarKinematics
 
 __all__ = ["DEFAULT_WORKING_MODE", "TERMINATION_REASONS", "Planar3PEnv"]
@@ -76,9 +76,11 @@ class Planar3PEnv(gym.Env):
     ``cos/sin`` of its angle, position and orientation errors, parallel and serial margins.
 
     ## Rewards
-    ``-w_pose * e - w_singularity * barrier - w_action * effort + w_success * success
-    - w_failure * failure`` (:mod:`planar3p_gym.rewards`): ``e = (|dp| + L_ref |dtheta|)/L_ref``;
-    the barrier is ``ref/m - 1`` for each margin ``m`` below its reference (capped);
+    ``-w_pose * e - w_precision * (1 - exp(-d / s)) - w_singularity * barrier
+    - w_action * effort + w_success * success - w_failure * failure``
+    (:mod:`planar3p_gym.rewards`): ``d = |dp| + L_ref |dtheta|`` (m), ``e = d / L_ref``; the
+    precision term sharpens the signal within a few ``s`` (5 mm) of the target; the barrier
+    is ``ref/m - 1`` for each margin ``m`` below its reference (capped);
     effort is the mean squared action; failure is a singularity crossing or a physics
     breakdown.  Weighted terms are in ``info["reward_terms"]`` and sum to the reward.
 
@@ -354,6 +356,9 @@ class Planar3PEnv(gym.Env):
         terms = reward_terms(
             self.reward_weights,
             pose_err=pose_error(pos_err, ang_err, self._length),
+            precision_err=precision_penalty(
+                pos_err, ang_err, self._length, self.reward_weights.precision_scale
+            ),
             parallel_margin=measures.parallel_margin,
             serial_margin=measures.serial_margin,
             action=(a0, a1, a2),
