@@ -8,18 +8,30 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, fields, replace
+from functools import lru_cache
 from typing import Any
+
+import numpy as np
 
 __all__ = ["Design"]
 
 Triple = tuple[float, float, float]
 
 
+def _is_number(v: Any) -> bool:
+    """A real number (numpy scalars included), not a bool or a string."""
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(
+        v, (bool, np.bool_)
+    )
+
+
 def _triple(name: str, value: Any) -> Triple:
-    try:
-        items = tuple(float(v) for v in value)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"Design.{name} must be three numbers, got {value!r}") from exc
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
+        raise ValueError(f"Design.{name} must be three numbers, got {value!r}")
+    raw = list(value)
+    if not all(_is_number(v) for v in raw):
+        raise ValueError(f"Design.{name} must be three numbers, got {value!r}")
+    items = tuple(float(v) for v in raw)
     if len(items) != 3:
         raise ValueError(f"Design.{name} must have exactly 3 entries, got {len(items)}: {value!r}")
     for i, v in enumerate(items):
@@ -29,10 +41,9 @@ def _triple(name: str, value: Any) -> Triple:
 
 
 def _positive(name: str, value: Any, allow_zero: bool = False) -> float:
-    try:
-        v = float(value)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"Design.{name} must be a number, got {value!r}") from exc
+    if not _is_number(value):
+        raise ValueError(f"Design.{name} must be a number, got {value!r}")
+    v = float(value)
     if not math.isfinite(v) or v < 0 or (v == 0 and not allow_zero):
         bound = ">= 0" if allow_zero else "> 0"
         raise ValueError(f"Design.{name} must be finite and {bound}, got {value!r}")
@@ -68,10 +79,10 @@ class Design:
     stroke: float = 0.30
     rail_origins: Triple = (0.0, 0.0, 0.0)
     slider_mass: float = 0.5
-    leg_mass: float = 0.1
+    leg_mass: float = 0.3
     platform_mass: float = 0.3
     max_force: float = 40.0
-    max_speed: float = 0.25
+    max_speed: float = 0.2
     gravity: float = 9.81
     reference_length: float | None = field(default=None)
 
@@ -97,36 +108,24 @@ class Design:
         set_(self, "gravity", _positive("gravity", self.gravity, allow_zero=True))
         if self.reference_length is not None:
             set_(self, "reference_length", _positive("reference_length", self.reference_length))
-        # A leg can close only if C_i can reach its rail line; with the platform lying on
-        # the rail line every leg must at least reach it, which always holds.  A platform
-        # "cannot close" when no single pose lets all three legs meet a point of their
-        # rails: the vertical reach |C_iy| <= L_i must be satisfiable simultaneously, and
-        # the horizontal positions must fit within the rails' reach.
+        # The platform must be able to close: some pose has all three travels in the stroke.
         self._check_closable()
 
     def _check_closable(self) -> None:
-        """Raise if no pose of the platform lets the three legs reach their stroke segments."""
-        # With the platform horizontal on the rail line (y = 0, theta = 0) each leg closes
-        # with C_iy = 0 if some travel satisfies |C_ix - a_i - rho_i| = L_i.  Place G so
-        # that leg 1 closes at mid-stroke in working mode +1 and test the others with any
-        # mode; if that fails, search a coarse set of platform positions.
-        k = self.joint_offsets
-        lo = [a for a in self.rail_origins]
-        hi = [a + self.stroke for a in self.rail_origins]
-        # The x of C_i relative to G is +k_i (theta = 0) or -k_i (theta = pi).  Leg i
-        # reaches C_ix from its stroke segment iff C_ix is within L_i of [lo_i, hi_i]
-        # (any y = 0 point at that distance).  Find an x_G where all three intervals meet.
-        for sign in (1.0, -1.0):
-            lower = max(lo[i] - self.leg_lengths[i] - sign * k[i] for i in range(3))
-            upper = min(hi[i] + self.leg_lengths[i] - sign * k[i] for i in range(3))
-            if lower <= upper:
-                return
-        raise ValueError(
-            "Design cannot close: with leg_lengths="
-            f"{self.leg_lengths}, spacings={self.spacings}, stroke={self.stroke} and "
-            f"rail_origins={self.rail_origins} no platform position lets all three legs "
-            "reach their stroke segments"
-        )
+        """Raise if no pose of the platform lets all three legs close with travels in
+        ``[0, stroke]`` (an empty workspace)."""
+        witness = closing_pose(self)
+        if witness is None:
+            spread = _least_spread(
+                self.leg_lengths, self.joint_offsets, self.rail_origins, self.stroke
+            )[0]
+            raise ValueError(
+                "Design cannot close: with leg_lengths="
+                f"{self.leg_lengths}, spacings={self.spacings}, stroke={self.stroke} and "
+                f"rail_origins={self.rail_origins} no pose lets all three legs reach their "
+                f"stroke segments (the three travels of a pose span at least about "
+                f"{spread:.6g} m, more than the stroke)"
+            )
 
     # ------------------------------------------------------------------ derived quantities
     @property
@@ -217,3 +216,95 @@ class Design:
         if unknown:
             raise ValueError(f"unknown Design fields: {sorted(unknown)}")
         return cls(**data)
+
+
+# ------------------------------------------------------------------ closability
+# Leg ``i`` closes with travel ``rho_i = C_ix - a_i - sigma_i w_i`` where
+# ``w_i = sqrt(L_i^2 - C_iy^2)`` (it needs ``|C_iy| <= L_i``), and ``C_ix = x + k_i cos theta``.
+# For a fixed ``(y, theta, sigma)`` the three conditions ``0 <= rho_i <= stroke`` are intervals
+# of ``x`` of width ``stroke`` starting at ``v_i = a_i + sigma_i w_i - k_i cos theta``; they meet
+# iff ``max_i v_i - min_i v_i <= stroke``.  So the design can close iff the least spread of the
+# ``v_i`` over ``(y, theta, sigma)`` is at most the stroke.  The spread is continuous on the
+# (compact) set of ``(y, theta)`` where all three legs reach the rail line, so a grid over
+# ``theta in [0, pi]`` (the mirror ``(-y, -theta)`` gives the same spreads) and the admissible
+# ``y`` interval, refined around its best points, finds the minimum.
+_MODES = np.array(
+    [[s1, s2, s3] for s1 in (1.0, -1.0) for s2 in (1.0, -1.0) for s3 in (1.0, -1.0)]
+)
+
+
+def _spreads(
+    L: np.ndarray, k: np.ndarray, a: np.ndarray, th: np.ndarray, u: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Spread of the ``v_i`` per working mode ``(..., 8)`` at ``theta`` and the relative height
+    ``u in [0, 1]`` within the interval of ``y`` where all three legs reach the rail line
+    (inf where that interval is empty); also ``y`` and the ``v_i`` ``(..., 8, 3)``."""
+    s, c = np.sin(th)[..., None], np.cos(th)[..., None]
+    lo, hi = (-L - k * s).max(axis=-1), (L - k * s).min(axis=-1)
+    y = lo + np.clip(u, 0.0, 1.0) * (hi - lo)
+    cy = y[..., None] + k * s
+    w = np.sqrt(np.maximum(L * L - cy * cy, 0.0))
+    v = (a - k * c)[..., None, :] + _MODES * w[..., None, :]
+    spread = v.max(axis=-1) - v.min(axis=-1)
+    return np.where((hi >= lo)[..., None], spread, np.inf), y, v
+
+
+@lru_cache(maxsize=256)
+def _least_spread(
+    legs: Triple, offsets: Triple, origins: Triple, stroke: float
+) -> tuple[float, tuple[float, float, float] | None, tuple[int, int, int] | None]:
+    """Least spread (m) and, if it is within the stroke, a pose and working mode that close.
+
+    A coarse grid point within the stroke is returned at once (its spread is then only an
+    upper bound of the least spread).  Otherwise a fine grid (0.25 deg x 1/160 of the height
+    interval) is searched and its best points per working mode are refined by a shrinking
+    local grid (a pattern search in ``(theta, u)``)."""
+    L, k, a = (np.asarray(v, dtype=np.float64) for v in (legs, offsets, origins))
+    best = (math.inf, 0.0, 0.0, 0)
+    for nt, nu in ((91, 25), (721, 161)):
+        th = np.linspace(0.0, np.pi, nt)[:, None]
+        u = np.linspace(0.0, 1.0, nu)[None, :]
+        flat = _spreads(L, k, a, th + 0.0 * u, u + 0.0 * th)[0].reshape(-1, 8)
+        j = int(np.argmin(flat.min(axis=1)))
+        im = int(np.argmin(flat[j]))
+        best = min(best, (float(flat[j, im]), float(th[j // nu, 0]), float(u[0, j % nu]), im))
+        if best[0] <= stroke:
+            break
+    else:
+        steps = np.linspace(-1.0, 1.0, 9)
+        for im in range(8):
+            for j in np.argsort(flat[:, im])[:3]:
+                if not np.isfinite(flat[j, im]) or best[0] <= stroke:
+                    break
+                t0, u0 = float(th[j // nu, 0]), float(u[0, j % nu])
+                cand = (float(flat[j, im]), t0, u0, im)
+                dt, du = 2.0 * np.pi / (nt - 1), 2.0 / (nu - 1)
+                for _ in range(20):
+                    T, U = np.meshgrid(
+                        t0 + dt * steps, np.clip(u0 + du * steps, 0.0, 1.0), indexing="ij"
+                    )
+                    sp = _spreads(L, k, a, T, U)[0][..., im]
+                    jj = np.unravel_index(np.argmin(sp), sp.shape)
+                    if sp[jj] <= cand[0]:
+                        t0, u0 = float(T[jj]), float(U[jj])
+                        cand = (float(sp[jj]), t0, u0, im)
+                    dt, du = dt / 2.0, du / 2.0
+                best = min(best, cand)
+    spread_min, t0, u0, im = best
+    if not spread_min <= stroke:
+        return spread_min, None, None
+    _, y, v = _spreads(L, k, a, np.array(t0), np.array(u0))
+    x = 0.5 * float(v[im].max() + v[im].min() + stroke)  # the middle of the common interval
+    mode = tuple(int(m) for m in _MODES[im])
+    return spread_min, (x, float(y), t0), mode  # type: ignore[return-value]
+
+
+def closing_pose(design: Design) -> tuple[tuple[float, float, float], tuple[int, int, int]] | None:
+    """A pose ``(x, y, theta)`` and working mode with all three travels inside the stroke, or
+    ``None`` when the design cannot close (every valid :class:`Design` has one)."""
+    _, pose, mode = _least_spread(
+        design.leg_lengths, design.joint_offsets, design.rail_origins, design.stroke
+    )
+    if pose is None or mode is None:
+        return None
+    return pose, mode

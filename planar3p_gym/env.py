@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict
+from dataclasses import asdict, fields
 from typing import Any
 
 import gymnasium as gym
@@ -39,6 +39,35 @@ def _design_from(arg: Design | dict | str | None) -> Design:
             raise ValueError(f"unknown design preset {arg!r}; known: {sorted(presets)}")
         return presets[arg]()
     raise ValueError(f"design must be a Design, a dict of its fields or a preset name, got {arg!r}")
+
+
+def _is_number(value: Any) -> bool:
+    """A finite real number (``bool`` excluded)."""
+    return (
+        isinstance(value, (int, float, np.integer, np.floating))
+        and not isinstance(value, (bool, np.bool_))
+        and math.isfinite(value)
+    )
+
+
+def _is_int(value: Any) -> bool:
+    """An integer (``bool`` excluded)."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def _config_from(arg: Any, cls: type, name: str) -> Any:
+    """A config dataclass from ``None`` (defaults), an instance, or a dict of its fields."""
+    if arg is None:
+        return cls()
+    if isinstance(arg, cls):
+        return arg
+    if isinstance(arg, dict):
+        known = {f.name for f in fields(cls)}
+        unknown = set(arg) - known
+        if unknown:
+            raise ValueError(f"unknown {name} fields {sorted(unknown)}; known: {sorted(known)}")
+        return cls(**arg)
+    raise ValueError(f"{name} must be a {cls.__name__} or a dict of its fields, got {arg!r}")
 
 
 def _mode_from(arg: Any) -> tuple[int, int, int]:
@@ -144,39 +173,30 @@ class Planar3PEnv(gym.Env):
             self._fixed_mode = None
         else:
             self._fixed_mode = _mode_from(working_mode)
-        if not (isinstance(control_frequency, (int, float)) and math.isfinite(control_frequency)):
+        if not (_is_number(control_frequency) and 1.0 <= control_frequency <= 10_000.0):
             raise ValueError(
-                f"control_frequency must be a finite number (Hz), got {control_frequency!r}"
+                f"control_frequency must be a number in [1, 10000] (Hz), got {control_frequency!r}"
             )
-        if not 1.0 <= control_frequency <= 10_000.0:
-            raise ValueError(
-                f"control_frequency must be in [1, 10000] Hz, got {control_frequency!r}"
-            )
-        if not (isinstance(substeps, (int, np.integer)) and 1 <= substeps <= 1000):
-            raise ValueError(f"substeps must be an integer in [1, 1000], got {substeps!r}")
-        if not (
-            isinstance(solver_iterations, (int, np.integer)) and 1 <= solver_iterations <= 1000
-        ):
-            raise ValueError(
-                f"solver_iterations must be an integer in [1, 1000], got {solver_iterations!r}"
-            )
-        if not (isinstance(breakdown_threshold, (int, float)) and 0 < breakdown_threshold < 1):
+        for name, value in (("substeps", substeps), ("solver_iterations", solver_iterations)):
+            if not (_is_int(value) and 1 <= value <= 1000):
+                raise ValueError(f"{name} must be an integer in [1, 1000], got {value!r}")
+        if not (_is_number(breakdown_threshold) and 0 < breakdown_threshold < 1):
             raise ValueError(f"breakdown_threshold must be in (0, 1), got {breakdown_threshold!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be one of {self.metadata['render_modes']} or None, "
                 f"got {render_mode!r}"
             )
-        if isinstance(reward_weights, dict):
-            reward_weights = RewardWeights(**reward_weights)
-        if isinstance(task_config, dict):
-            task_config = task.TaskConfig(**task_config)
-        self.reward_weights = reward_weights or RewardWeights()
-        self.task_config = task_config or task.TaskConfig()
-        if not isinstance(self.reward_weights, RewardWeights):
-            raise ValueError("reward_weights must be a RewardWeights or a dict of its fields")
-        if not isinstance(self.task_config, task.TaskConfig):
-            raise ValueError("task_config must be a TaskConfig or a dict of its fields")
+        self.reward_weights = _config_from(reward_weights, RewardWeights, "reward_weights")
+        self.task_config = _config_from(task_config, task.TaskConfig, "task_config")
+        if not (
+            isinstance(render_size, (tuple, list))
+            and len(render_size) == 2
+            and all(_is_int(v) and 16 <= v <= 8192 for v in render_size)
+        ):
+            raise ValueError(
+                f"render_size must be (width, height) in pixels, 16..8192, got {render_size!r}"
+            )
         self.control_frequency = float(control_frequency)
         self.dt = 1.0 / self.control_frequency
         self.substeps = int(substeps)

@@ -13,8 +13,8 @@ Public functions:
   linear elimination, a cubic in ``cos theta``, circle intersection, Newton polish).
 * :func:`jacobians` -- ``A``, ``B`` of ``A p_dot = B rho_dot``.
 * :func:`simple_motion_rates` -- the paper's three simple-motion formulas superposed.
-* :func:`parallel_margin`, :func:`serial_margin`, :func:`assembly_mode`,
-  :func:`classify_singularity` -- singularity measures.
+* :func:`parallel_margin`, :func:`serial_margin`, :func:`assembly_mode` (all three at once:
+  :func:`margins`), :func:`classify_singularity` -- singularity measures.
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ __all__ = [
     "ALL_MODES",
     "ForwardSolutions",
     "IKResult",
+    "Margins",
     "PoseSolution",
     "SingularityReport",
     "assembly_mode",
@@ -43,6 +44,7 @@ __all__ = [
     "jacobians",
     "leg_vectors",
     "loop_residual",
+    "margins",
     "normalised_A",
     "parallel_margin",
     "serial_margin",
@@ -88,12 +90,22 @@ def _check_design(design: object) -> Design:
     return design
 
 
+def _as_float(name: str, value: ArrayLike) -> FloatArray:
+    """Float64 array of real numbers (no strings, booleans or complex), or ValueError."""
+    try:
+        arr = np.asarray(value)
+        if arr.dtype.kind == "O":
+            arr = arr.astype(np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be an array of real numbers: {exc}") from exc
+    if arr.dtype.kind not in "fiu":
+        raise ValueError(f"{name} must be an array of real numbers, got dtype {arr.dtype}")
+    return arr.astype(np.float64, copy=False)
+
+
 def _as_triples(name: str, value: ArrayLike) -> FloatArray:
     """Float64 array of shape (..., 3), all finite, or ValueError naming ``name``."""
-    try:
-        arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be numeric with shape (..., 3): {exc}") from exc
+    arr = _as_float(name, value)
     if arr.ndim == 0 or arr.shape[-1] != 3:
         raise ValueError(f"{name} must have shape (..., 3), got shape {arr.shape}")
     if not np.isfinite(arr).all():
@@ -108,9 +120,19 @@ def _as_modes(mode: ArrayLike) -> FloatArray:
         raise ValueError(f"mode must be +-1 with shape (..., 3): {exc}") from exc
     if arr.ndim == 0 or arr.shape[-1] != 3:
         raise ValueError(f"mode must have shape (..., 3), got shape {arr.shape}")
-    if not np.issubdtype(arr.dtype, np.number) or not np.isin(arr, (1, -1)).all():
+    if arr.dtype.kind not in "fiu" or not np.isin(arr, (1, -1)).all():
         raise ValueError("mode entries must be +1 or -1 (sign of cos alpha_i)")
     return arr.astype(np.float64)
+
+
+def _check_broadcast(name_a: str, a: NDArray, name_b: str, b: NDArray) -> None:
+    """ValueError naming both arguments when their shapes do not broadcast."""
+    try:
+        np.broadcast_shapes(a.shape, b.shape)
+    except ValueError:
+        raise ValueError(
+            f"{name_a} of shape {a.shape} and {name_b} of shape {b.shape} do not broadcast"
+        ) from None
 
 
 # ---------------------------------------------------------------------------- inverse kinematics
@@ -136,6 +158,9 @@ def inverse(design: Design, pose: ArrayLike, mode: ArrayLike = (1, 1, 1)) -> IKR
     c = _consts(_check_design(design))
     p = _as_triples("pose", pose)
     sigma = _as_modes(mode)
+    _check_broadcast("pose", p, "mode", sigma)
+    # NB: planar3p_gym.workspace reproduces this floating-point expression bit for bit
+    # (``((x + k cos) - a) - sigma w``); keep the order of the operations.
     th = p[..., 2:3]
     cx = p[..., 0:1] + c.k * np.cos(th)
     cy = p[..., 1:2] + c.k * np.sin(th)
@@ -155,6 +180,7 @@ def leg_vectors(design: Design, pose: ArrayLike, rho: ArrayLike) -> FloatArray:
 
 
 def _leg_vectors(c: _Consts, p: FloatArray, r: FloatArray) -> FloatArray:
+    _check_broadcast("pose", p, "rho", r)
     th = p[..., 2:3]
     ux = p[..., 0:1] + c.k * np.cos(th) - (c.origins + r)
     uy = np.broadcast_to(p[..., 1:2] + c.k * np.sin(th), ux.shape)
@@ -232,6 +258,36 @@ def assembly_mode(design: Design, pose: ArrayLike, rho: ArrayLike) -> NDArray[np
     singularity; shape ``(...)``."""
     A, _ = jacobians(design, pose, rho)
     return np.sign(np.linalg.det(A)).astype(np.int8)
+
+
+class Margins(NamedTuple):
+    """The singularity measures of :func:`margins`, each of shape ``(...)``.
+
+    Attributes:
+        parallel: inverse condition number of ``A_bar`` in ``[0, 1]`` (:func:`parallel_margin`).
+        serial: ``min_i |cos alpha_i|`` in ``[0, 1]`` (:func:`serial_margin`).
+        assembly: ``sign(det A)``, int8 (:func:`assembly_mode`).
+    """
+
+    parallel: FloatArray
+    serial: FloatArray
+    assembly: NDArray[np.int8]
+
+
+def margins(design: Design, pose: ArrayLike, rho: ArrayLike) -> Margins:
+    """Parallel margin, serial margin and ``sign(det A)`` together, from one evaluation of the
+    leg vectors (the same values as the three separate functions)."""
+    c = _consts(_check_design(design))
+    p = _as_triples("pose", pose)
+    u = _leg_vectors(c, p, _as_triples("rho", rho))
+    A = _jacobian_A(c, p, u)
+    A_bar = A / c.legs[:, None]
+    A_bar[..., 2] /= c.ref
+    sv = np.linalg.svd(A_bar, compute_uv=False)
+    serial = np.min(np.abs(u[..., 0]) / np.hypot(u[..., 0], u[..., 1]), axis=-1)
+    return Margins(
+        sv[..., -1] / sv[..., 0], serial, np.sign(np.linalg.det(A)).astype(np.int8)
+    )
 
 
 @dataclass(frozen=True)
@@ -316,8 +372,12 @@ def simple_motion_rates_from_angles(
     """
     c = _consts(_check_design(design))
     al = _as_triples("alpha", alpha)
-    th = np.asarray(theta, dtype=np.float64)[..., None]
+    th = _as_float("theta", theta)[..., None]
+    if not np.isfinite(th).all():
+        raise ValueError("theta contains NaN or infinite values")
     tw = _as_triples("twist", twist)
+    _check_broadcast("alpha", al, "theta[..., None]", th)
+    _check_broadcast("alpha", al, "twist", tw)
     cos_a = np.cos(al)
     with np.errstate(divide="ignore", invalid="ignore"):
         vertical = tw[..., 1:2] * np.sin(al) / cos_a
@@ -412,263 +472,805 @@ def forward(design: Design, rho: ArrayLike) -> list[PoseSolution]:
     return out
 
 
-def _cubic_candidates(a3: FloatArray, a2: FloatArray, a1: FloatArray, a0: FloatArray) -> FloatArray:
-    """Candidate real roots ``(N, 3)`` of ``a3 c^3 + a2 c^2 + a1 c + a0`` (NaN when absent).
+# ---------------------------------------------------------------------------- DK internals
+#
+# The solver works on flat 1-D arrays, one per leg, with the slider positions taken relative
+# to slider 2 (``beta_i = b_i - b_2``; the problem is invariant under a shift along the rails,
+# and the shift removes most of the cancellation from the polynomial coefficients).
+#
+# 1. Elimination.  Row i of the loop equations, ``u + 2 k_i v - 2 b_i X = e_i + g_i c`` with
+#    ``u = |G|^2``, ``v = G . e``, ``X = G_x``, ``e_i = L_i^2 - k_i^2 - b_i^2`` and
+#    ``g_i = 2 k_i b_i``, is solved by Cramer's rule without dividing by its determinant
+#    ``Delta``; ``4 Delta^2 [(u - X^2) (1 - c^2) - (v - X c)^2] = 0`` is a cubic
+#    ``f(c) = P(c) (1 - c^2) - Q(c)^2`` (the ``c^4`` terms cancel).  Its leading coefficient is
+#    ``8 (k_3 - k_2)(k_2 - k_1)(k_1 - k_3) beta_1 beta_3 (beta_3 - beta_1)``: with two sliders
+#    at the same place the cubic degenerates to a quadratic (handled below); ``Delta = 0``
+#    (the ``b_i`` affine in the ``k_i``) makes a root double, with two poses at one ``theta``.
+# 2. Roots.  ``f(+-1) = -Q(+-1)^2 <= 0``, so ``[-1, 1]`` holds an even number of roots: none or
+#    the pair on either side of the local maximum ``c_max`` of ``f`` (the third root is outside,
+#    hence at most 4 poses).  The pair is bracketed by ``c_max`` and the other critical point
+#    (or +-1) and found by safeguarded Newton; a near-double root (``f(c_max)`` close to 0, a
+#    parallel singularity or the clustering of roots at ``|c| -> 1``) marks the row *hard*.
+# 3. Poses.  For a root ``c`` (``sin theta >= 0``) the gripper lies on the circles
+#    ``|G - O_i| = L_i``, ``O_i = B_i - L_iG e``; the best-separated pair is intersected and the
+#    third circle picks the branch (both are kept when it cannot tell them apart).
+# 4. Newton on the three loop equations polishes every candidate (compressed active set, early
+#    exit); poses are folded to ``sin theta >= 0`` (the mirror ``(x, -y, -theta)`` of a solution
+#    is a solution), de-duplicated, and rows where a root gave no pose or two roots gave the
+#    same pose are also marked hard.
+# 5. Hard rows are re-solved directly in the pose space: the residual of the third leg along
+#    each intersection branch of the other two is scanned on a grid of ``theta`` around every
+#    root estimate, sign changes are refined by the Illinois method (full floating-point
+#    accuracy: the polynomial is no longer involved) and touching minima by a guarded
+#    Gauss-Newton; the results are merged with the fast path's.
 
-    Where only one root is real, the real part of the complex pair is also returned: near a
-    double root (a parallel singularity) rounding can make a real pair look complex, and the
-    caller verifies every candidate anyway.
+_ACCEPT = 1e-11  # accepted loop residual, relative to the longest leg
+_SAME = 1e-7  # poses closer than this (relative to the longest leg) are one solution
+_MERGE = 1e-6  # the same in rows re-solved by the scan (near-double roots)
+_EDGE = 1e-3  # roots in cos(theta) accepted this far outside [-1, 1], then clipped
+_NEAR_DOUBLE = 1e-5  # half-gap of the root pair in cos(theta) that makes a row hard
+_BOTH_BRANCHES = 1e-6  # third-circle residual (relative) below which the other branch is kept
+_FAST_NEWTON = 6  # Newton steps of the fast path
+_SCAN_POINTS = 49  # theta samples per scan window of a hard row
+_SCAN_HALF_WIDTH = 2.5e-3  # rad, least half-width of a scan window
+_ILLINOIS_STEPS = 40
+_GUARDED_STEPS = 40
+_GOLDEN_STEPS = 60
+
+
+class _DK(NamedTuple):
+    k: tuple[float, float, float]
+    L: tuple[float, float, float]
+    Lsq: tuple[float, float, float]
+    E: tuple[float, float, float]  # L_i^2 - k_i^2
+    kap: tuple[float, float, float]  # (k3 - k2, k1 - k3, k2 - k1)
+    scale: float  # longest leg
+    ref: float  # characteristic length (theta -> length)
+    accept: float  # accepted residual (m)
+    same: float  # de-duplication distance (m)
+    merge: float  # de-duplication distance in hard rows (m)
+    tol_f: float  # Newton stops when |F_i| = | |u_i|^2 - L_i^2 | / 2 is below this (m^2)
+
+
+@lru_cache(maxsize=64)
+def _dk_consts(design: Design) -> _DK:
+    k = tuple(float(v) for v in design.joint_offsets)
+    L = tuple(float(v) for v in design.leg_lengths)
+    scale = max(L)
+    return _DK(
+        k,  # type: ignore[arg-type]
+        L,  # type: ignore[arg-type]
+        tuple(v * v for v in L),  # type: ignore[arg-type]
+        tuple(L[i] * L[i] - k[i] * k[i] for i in range(3)),  # type: ignore[arg-type]
+        (k[2] - k[1], k[0] - k[2], k[1] - k[0]),
+        scale,
+        float(design.characteristic_length),
+        _ACCEPT * scale,
+        _SAME * scale,
+        _MERGE * scale,
+        1e-14 * scale * scale,
+    )
+
+
+def _cubic_coefficients(
+    d: _DK, be1: FloatArray, be3: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Coefficients ``(a3, a2, a1, a0)`` of ``f(c)`` for slider offsets ``beta_1, beta_3``."""
+    k1, k2, k3 = d.k
+    kap1, kap2, kap3 = d.kap
+    e1 = d.E[0] - be1 * be1
+    e2 = d.E[1]
+    e3 = d.E[2] - be3 * be3
+    b13 = be1 * be3
+    delta4 = 4.0 * (kap1 * be1 + kap3 * be3)  # 4 Delta
+    U0 = (k2 * be3) * e1 + (k3 * be1 - k1 * be3) * e2 - (k2 * be1) * e3
+    V1 = (-2.0 * (k1 - k3)) * b13
+    U1 = -k2 * V1
+    X0 = -(kap1 * e1 + kap2 * e2 + kap3 * e3)
+    X1 = (-2.0 * kap1 * k1) * be1 - (2.0 * kap3 * k3) * be3
+    V0 = -(be3 * e1 + (be1 - be3) * e2 - be1 * e3)
+    q1 = V1 - X0
+    dU0 = delta4 * U0
+    dU1 = delta4 * U1
+    a3 = 2.0 * V1 * X1 - dU1
+    a2 = X0 * X0 - X1 * X1 - dU0 - q1 * q1 + 2.0 * V0 * X1
+    a1 = dU1 - 2.0 * X0 * X1 - 2.0 * V0 * q1
+    a0 = dU0 - X0 * X0 - V0 * V0
+    return a3, a2, a1, a0
+
+
+def _inner_roots(
+    a3: FloatArray, a2: FloatArray, a1: FloatArray, a0: FloatArray
+) -> tuple[FloatArray, FloatArray, NDArray[np.bool_]]:
+    """The roots of ``f`` in ``[-1, 1]`` (left, right; NaN when absent) and a near-double flag.
+
+    A near-double pair (half-gap below ``_NEAR_DOUBLE``) is reported as its two roots when
+    ``f(c_max) > 0`` and as ``c_max`` alone (left slot) when rounding made it complex.
     """
-    scale = np.maximum.reduce([np.abs(a3), np.abs(a2), np.abs(a1), np.abs(a0)])
-    scale = np.where(scale > 0, scale, 1.0)
-    a3, a2, a1, a0 = a3 / scale, a2 / scale, a1 / scale, a0 / scale
-    out = np.full(a3.shape + (3,), np.nan)
-    cubic = np.abs(a3) > 1e-9
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        # -- genuine cubics: depressed form c = t - A/3
-        A = a2 / a3
-        B = a1 / a3
-        C = a0 / a3
-        p = B - A * A / 3.0
-        q = 2.0 * A**3 / 27.0 - A * B / 3.0 + C
-        disc = (q / 2.0) ** 2 + (p / 3.0) ** 3
-        shift = -A / 3.0
-        three = cubic & (disc <= 0.0)
-        m = 2.0 * np.sqrt(np.maximum(-p / 3.0, 0.0))
-        arg = np.where(m > 0, 3.0 * q / (np.where(p != 0, p, 1.0) * np.where(m > 0, m, 1.0)), 0.0)
-        phi = np.arccos(np.clip(arg, -1.0, 1.0)) / 3.0
-        for j in range(3):
-            tj = m * np.cos(phi - 2.0 * np.pi * j / 3.0) + shift
-            out[..., j] = np.where(three, tj, out[..., j])
-        one = cubic & (disc > 0.0)
-        sq = np.sqrt(np.maximum(disc, 0.0))
-        w = np.cbrt(-q / 2.0 - np.copysign(sq, q))
-        w_nz = np.where(w != 0, w, 1.0)
-        t_real = np.where(w != 0, w - p / (3.0 * w_nz), 0.0)
-        t_pair = np.where(w != 0, -(w - p / (3.0 * w_nz)) / 2.0, 0.0)
-        out[..., 0] = np.where(one, t_real + shift, out[..., 0])
-        out[..., 1] = np.where(one, t_pair + shift, out[..., 1])
-        # -- (nearly) quadratic or linear
-        quad = ~cubic & (np.abs(a2) > 1e-12)
-        qd = a1 * a1 - 4.0 * a2 * a0
-        qs = np.sqrt(np.maximum(qd, 0.0))
-        qq = -0.5 * (a1 + np.copysign(qs, a1))
-        r1 = qq / np.where(quad, a2, 1.0)
-        r2 = a0 / np.where(qq != 0, qq, np.nan)
-        out[..., 0] = np.where(quad, r1, out[..., 0])
-        out[..., 1] = np.where(quad, r2, out[..., 1])
-        lin = ~cubic & ~quad & (np.abs(a1) > 1e-12)
-        out[..., 0] = np.where(lin, -a0 / np.where(lin, a1, 1.0), out[..., 0])
-        # Newton polish on the cubic itself.
-        for _ in range(2):
-            x = out
-            f = ((a3[..., None] * x + a2[..., None]) * x + a1[..., None]) * x + a0[..., None]
-            df = (3.0 * a3[..., None] * x + 2.0 * a2[..., None]) * x + a1[..., None]
-            step = np.where(np.abs(df) > 1e-14, f / df, 0.0)
-            out = np.where(np.abs(step) < 0.1, x - step, x)
+        s = np.maximum(np.maximum(np.abs(a3), np.abs(a2)), np.maximum(np.abs(a1), np.abs(a0)))
+        inv = np.where(s > 0.0, 1.0 / s, 0.0)
+        a3, a2, a1, a0 = a3 * inv, a2 * inv, a1 * inv, a0 * inv
+        A = 3.0 * a3
+        B = 2.0 * a2
+        disc = B * B - 4.0 * A * a1
+        sq = np.sqrt(disc)  # NaN where there is no critical point
+        sgn = np.where(B >= 0.0, 1.0, -1.0)
+        q = -0.5 * (B + sgn * sq)
+        r1 = q / A
+        r2 = a1 / q
+        c_max = np.where(sgn > 0.0, r1, r2)
+        c_min = np.where(sgn > 0.0, r2, r1)
+        f_max = ((a3 * c_max + a2) * c_max + a1) * c_max + a0
+        half = np.sqrt(2.0 * np.abs(f_max) / sq)  # half-gap of the pair (quadratic model)
+        exists = (sq > 0.0) & (np.abs(c_max) <= 1.0 + _EDGE)
+        # a pair that rounding may have made complex; a real near-double pair is left to the
+        # fast path, whose self-check (every root must give its own pose) catches failures
+        near = exists & (f_max <= 0.0) & (half < _NEAR_DOUBLE)
+        # (nearly) coincident critical points: a triple root, e.g. theta = 0 with three equal
+        # legs (the architecture singularity of the fig7 design); report the inflection point
+        c_infl = -B / (2.0 * A)
+        triple = (
+            ~exists
+            & (np.abs(disc) <= 1e-10 * (B * B + np.abs(4.0 * A * a1)))
+            & (np.abs(c_infl) <= 1.0 + _EDGE)
+        )
+        two = exists & (f_max > 0.0)
+        lo_l = np.maximum(np.where(c_min < c_max, c_min, -np.inf), -1.0 - _EDGE)
+        hi_r = np.minimum(np.where(c_min > c_max, c_min, np.inf), 1.0 + _EDGE)
+    n = a3.shape[0]
+    left = np.full(n, np.nan)
+    right = np.full(n, np.nan)
+    idx = np.nonzero(two)[0]
+    if idx.size:
+        cm, hf = c_max[idx], half[idx]
+        lo = np.concatenate([lo_l[idx], cm])
+        hi = np.concatenate([cm, hi_r[idx]])
+        x0 = np.concatenate([cm - hf, cm + hf])
+        direction = np.concatenate([np.ones(idx.size), -np.ones(idx.size)])
+        ii = np.concatenate([idx, idx])
+        roots = _bracketed_newton(a3[ii], a2[ii], a1[ii], a0[ii], x0, lo, hi, direction)
+        left[idx] = roots[: idx.size]
+        right[idx] = roots[idx.size :]
+    left[near] = c_max[near]
+    left[triple] = c_infl[triple]
+    return left, right, near | triple
+
+
+def _bracketed_newton(
+    a3: FloatArray,
+    a2: FloatArray,
+    a1: FloatArray,
+    a0: FloatArray,
+    x: FloatArray,
+    lo: FloatArray,
+    hi: FloatArray,
+    direction: FloatArray,
+) -> FloatArray:
+    """Newton on the cubic, falling back to bisection whenever a step leaves ``(lo, hi)``;
+    ``direction`` is +1 where ``f`` increases through the root, -1 where it decreases."""
+    x = np.clip(x, lo, hi)
+    out = x.copy()
+    act = np.arange(x.size)
+    for _ in range(60):
+        f = ((a3 * x + a2) * x + a1) * x + a0
+        fp = (3.0 * a3 * x + 2.0 * a2) * x + a1
+        right_of_root = direction * f > 0.0
+        hi = np.where(right_of_root, x, hi)
+        lo = np.where(right_of_root, lo, x)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            step = f / fp
+        xn = x - step
+        inside = (xn >= lo) & (xn <= hi)
+        tiny = np.abs(step) <= 1e-14 * (1.0 + np.abs(x))
+        ax = np.abs(x)
+        noise = 4e-16 * (((np.abs(a3) * ax + np.abs(a2)) * ax + np.abs(a1)) * ax + np.abs(a0))
+        done = (np.abs(f) <= noise) | (tiny & inside) | (hi - lo <= 1e-14 * (1.0 + ax))
+        xn = np.where(np.abs(f) <= noise, x, np.where(inside, xn, 0.5 * (lo + hi)))
+        out[act] = xn
+        if done.all():
+            break
+        keep = ~done
+        act, x, lo, hi, direction = act[keep], xn[keep], lo[keep], hi[keep], direction[keep]
+        a3, a2, a1, a0 = a3[keep], a2[keep], a1[keep], a0[keep]
     return out
 
+
+def _legs_F(
+    d: _DK, X: FloatArray, Y: FloatArray, T: FloatArray, be1: FloatArray, be3: FloatArray
+) -> tuple[FloatArray, ...]:
+    """Leg vectors and ``F_i = (|u_i|^2 - L_i^2) / 2`` in slider-2-relative coordinates."""
+    k1, k2, k3 = d.k
+    ct, st = np.cos(T), np.sin(T)
+    ux1 = X + k1 * ct - be1
+    ux2 = X + k2 * ct
+    ux3 = X + k3 * ct - be3
+    uy1 = Y + k1 * st
+    uy2 = Y + k2 * st
+    uy3 = Y + k3 * st
+    F1 = 0.5 * (ux1 * ux1 + uy1 * uy1 - d.Lsq[0])
+    F2 = 0.5 * (ux2 * ux2 + uy2 * uy2 - d.Lsq[1])
+    F3 = 0.5 * (ux3 * ux3 + uy3 * uy3 - d.Lsq[2])
+    return ct, st, ux1, ux2, ux3, uy1, uy2, uy3, F1, F2, F3
+
+
+def _newton_step(
+    d: _DK,
+    X: FloatArray,
+    Y: FloatArray,
+    be1: FloatArray,
+    be3: FloatArray,
+    legs: tuple[FloatArray, ...],
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Newton step ``A dp = -F`` (Cramer) and ``det A``; zero step where ``A`` is singular."""
+    k1, k2, k3 = d.k
+    ct, st, ux1, ux2, ux3, uy1, uy2, uy3, F1, F2, F3 = legs
+    base = Y * ct - X * st  # w_i = k_i (Y c - (X - beta_i) s)
+    w1 = k1 * (base + be1 * st)
+    w2 = k2 * base
+    w3 = k3 * (base + be3 * st)
+    m1 = uy2 * w3 - uy3 * w2
+    m2 = uy3 * w1 - uy1 * w3
+    m3 = uy1 * w2 - uy2 * w1
+    det = ux1 * m1 + ux2 * m2 + ux3 * m3
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = np.where(det != 0.0, -1.0 / det, 0.0)
+    dX = (F1 * m1 + F2 * m2 + F3 * m3) * inv
+    # columns 2 and 3 by Cramer with the rhs in place of a column
+    n1 = F2 * w3 - F3 * w2
+    n2 = F3 * w1 - F1 * w3
+    n3 = F1 * w2 - F2 * w1
+    dY = (ux1 * n1 + ux2 * n2 + ux3 * n3) * inv
+    o1 = uy2 * F3 - uy3 * F2
+    o2 = uy3 * F1 - uy1 * F3
+    o3 = uy1 * F2 - uy2 * F1
+    dT = (ux1 * o1 + ux2 * o2 + ux3 * o3) * inv
+    return dX, dY, dT, det
+
+
+def _det_from_legs(
+    d: _DK, X: FloatArray, Y: FloatArray, be1: FloatArray, be3: FloatArray, legs: tuple
+) -> FloatArray:
+    """``det A`` from :func:`_legs_F` output."""
+    k1, k2, k3 = d.k
+    ct, st, ux1, ux2, ux3, uy1, uy2, uy3 = legs[:8]
+    base = Y * ct - X * st
+    w1 = k1 * (base + be1 * st)
+    w2 = k2 * base
+    w3 = k3 * (base + be3 * st)
+    return ux1 * (uy2 * w3 - uy3 * w2) + ux2 * (uy3 * w1 - uy1 * w3) + ux3 * (uy1 * w2 - uy2 * w1)
+
+
+def _fast_newton(
+    d: _DK, X: FloatArray, Y: FloatArray, T: FloatArray, be1: FloatArray, be3: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Plain Newton with early exit on the active set.  Returns the final iterates, their
+    residual ``max_i | |u_i| - L_i |`` (m) and ``det A`` (NaN propagates to both)."""
+    n = X.size
+    outX, outY, outT, outR, outD = (np.empty(n) for _ in range(5))
+    act = np.arange(n)
+    L1, L2, L3 = d.L
+    for it in range(_FAST_NEWTON + 1):
+        legs = _legs_F(d, X, Y, T, be1, be3)
+        F1, F2, F3 = legs[8:]
+        err = np.maximum(np.maximum(np.abs(F1), np.abs(F2)), np.abs(F3))
+        done = ~(err > d.tol_f)  # NaN counts as done (and fails the acceptance test)
+        if it == _FAST_NEWTON:
+            done[:] = True
+        if done.any():
+            idx = act[done] if not done.all() else act
+            sub = legs if done.all() else tuple(a[done] for a in legs)
+            Xd, Yd = (X, Y) if done.all() else (X[done], Y[done])
+            b1d, b3d = (be1, be3) if done.all() else (be1[done], be3[done])
+            ux1, ux2, ux3, uy1, uy2, uy3 = sub[2:8]
+            outR[idx] = np.maximum(
+                np.maximum(np.abs(np.hypot(ux1, uy1) - L1), np.abs(np.hypot(ux2, uy2) - L2)),
+                np.abs(np.hypot(ux3, uy3) - L3),
+            )
+            outD[idx] = _det_from_legs(d, Xd, Yd, b1d, b3d, sub)
+            outX[idx], outY[idx] = Xd, Yd
+            outT[idx] = T if done.all() else T[done]
+            if done.all():
+                break
+            keep = ~done
+            act, X, Y, T, be1, be3 = act[keep], X[keep], Y[keep], T[keep], be1[keep], be3[keep]
+            legs = tuple(a[keep] for a in legs)
+        dX, dY, dT, _ = _newton_step(d, X, Y, be1, be3, legs)
+        X, Y, T = X + dX, Y + dY, T + dT
+    return outX, outY, outT, outR, outD
+
+
+def _residual(
+    d: _DK, X: FloatArray, Y: FloatArray, T: FloatArray, be1: FloatArray, be3: FloatArray
+) -> FloatArray:
+    """Largest ``| |C_i - B_i| - L_i |`` (m); NaN propagates."""
+    k1, k2, k3 = d.k
+    ct, st = np.cos(T), np.sin(T)
+    r1 = np.abs(np.hypot(X + k1 * ct - be1, Y + k1 * st) - d.L[0])
+    r2 = np.abs(np.hypot(X + k2 * ct, Y + k2 * st) - d.L[1])
+    r3 = np.abs(np.hypot(X + k3 * ct - be3, Y + k3 * st) - d.L[2])
+    return np.maximum(np.maximum(r1, r2), r3)
+
+
+def _pair_geometry(
+    d: _DK, be1: FloatArray, be3: FloatArray, c: FloatArray, s: FloatArray, pair: NDArray | None
+) -> tuple[FloatArray, ...]:
+    """Circle centres ``O_i = B_i - k_i e`` of the pair (i, j) and the third leg m.
+
+    ``pair`` (0: legs 1-2, 1: legs 1-3, 2: legs 2-3) is chosen here as the best-separated pair
+    when None.  Returns ``(pair, xi, yi, xj, yj, xm, ym, Li, Lj, Lm)``."""
+    k1, k2, k3 = d.k
+    ox1, ox2, ox3 = be1 - k1 * c, -k2 * c, be3 - k3 * c
+    oy1, oy2, oy3 = -k1 * s, -k2 * s, -k3 * s
+    if pair is None:
+        d12 = (ox2 - ox1) ** 2 + ((k1 - k2) * s) ** 2
+        d13 = (ox3 - ox1) ** 2 + ((k1 - k3) * s) ** 2
+        d23 = (ox3 - ox2) ** 2 + ((k2 - k3) * s) ** 2
+        pair = np.where(d13 >= d12, np.where(d13 >= d23, 1, 2), np.where(d12 >= d23, 0, 2))
+    p0, p2 = pair == 0, pair == 2
+    xi = np.where(p2, ox2, ox1)
+    yi = np.where(p2, oy2, oy1)
+    xj = np.where(p0, ox2, ox3)
+    yj = np.where(p0, oy2, oy3)
+    xm = np.where(p0, ox3, np.where(p2, ox1, ox2))
+    ym = np.where(p0, oy3, np.where(p2, oy1, oy2))
+    L1, L2, L3 = d.L
+    Li = np.where(p2, L2, L1)
+    Lj = np.where(p0, L2, L3)
+    Lm = np.where(p0, L3, np.where(p2, L1, L2))
+    return pair, xi, yi, xj, yj, xm, ym, Li, Lj, Lm
+
+
+def _intersections(
+    geo: tuple[FloatArray, ...],
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Both intersections of circles i, j and the third leg's residual at each:
+    ``(xa, ya, ra, xb, yb, rb, h2)`` (``h2 < 0``: the circles do not meet)."""
+    _, xi, yi, xj, yj, xm, ym, Li, Lj, Lm = geo
+    dx, dy = xj - xi, yj - yi
+    dd = dx * dx + dy * dy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / np.sqrt(dd)
+        along = 0.5 * (dd + Li * Li - Lj * Lj) * inv
+        h2 = Li * Li - along * along
+        h = np.sqrt(np.maximum(h2, 0.0))
+        ex, ey = dx * inv, dy * inv
+    mx, my = xi + along * ex, yi + along * ey
+    xa, ya = mx - h * ey, my + h * ex
+    xb, yb = mx + h * ey, my - h * ex
+    ra = np.hypot(xa - xm, ya - ym) - Lm
+    rb = np.hypot(xb - xm, yb - ym) - Lm
+    return xa, ya, ra, xb, yb, rb, h2
+
+
+def _canonical(
+    X: FloatArray, Y: FloatArray, T: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Fold poses to ``theta in [0, pi]`` by the rail-line mirror ``(x, -y, -theta)``."""
+    T = np.pi - np.mod(np.pi - T, 2.0 * np.pi)  # (-pi, pi]
+    flip = T < 0.0
+    return X, np.where(flip, -Y, Y), np.where(flip, -T, T)
+
+
+def _forward_flat(d: _DK, b: FloatArray) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """DK of ``n`` rows of slider positions ``b`` (n, 3).  Returns canonical poses
+    ``Q (5, n, 2)`` = ``X, Y, T, residual, det A`` (X relative to slider 2) and ``V (n, 2)``."""
+    n = b.shape[0]
+    be1 = b[:, 0] - b[:, 1]
+    be3 = b[:, 2] - b[:, 1]
+    left, right, hard = _inner_roots(*_cubic_coefficients(d, be1, be3))
+
+    # ---- candidate poses: 2 roots x (best branch, other branch) = 4 slots per row
+    roots = np.stack([left, right], axis=1).ravel()  # row-major: row r -> 2r, 2r + 1
+    rid = np.nonzero(~np.isnan(roots))[0]
+    rows = rid >> 1
+    c = np.clip(roots[rid], -1.0, 1.0)
+    s = np.sqrt((1.0 - c) * (1.0 + c))
+    geo = _pair_geometry(d, be1[rows], be3[rows], c, s, None)
+    xa, ya, ra, xb, yb, rb, h2 = _intersections(geo)
+    ra, rb = np.abs(ra), np.abs(rb)
+    a_best = ~(rb < ra)
+    r_best = np.where(a_best, ra, rb)
+    r_other = np.where(a_best, rb, ra)
+    ok = (h2 > -1e-4 * d.scale * d.scale) & (r_best < 2e-2 * d.scale)
+    other = ok & (r_other < _BOTH_BRANCHES * d.scale + 10.0 * r_best)
+    th = np.arctan2(s, c)
+    if other.any():
+        cand_slot = np.concatenate([2 * rid[ok], 2 * rid[other] + 1])
+        cX = np.concatenate([np.where(a_best, xa, xb)[ok], np.where(a_best, xb, xa)[other]])
+        cY = np.concatenate([np.where(a_best, ya, yb)[ok], np.where(a_best, yb, ya)[other]])
+        cT = np.concatenate([th[ok], th[other]])
+    else:
+        cand_slot = 2 * rid[ok]
+        cX = np.where(a_best, xa, xb)[ok]
+        cY = np.where(a_best, ya, yb)[ok]
+        cT = th[ok]
+    crow = cand_slot >> 2
+    cX, cY, cT, cR, cD = _fast_newton(d, cX, cY, cT, be1[crow], be3[crow])
+    good = cR < d.accept
+    cX, cY, cT = _canonical(cX, cY, cT)  # det A is the same for a pose and its mirror
+
+    Q = np.zeros((5, 4 * n))
+    Q[3] = np.inf
+    V = np.zeros(4 * n, dtype=bool)
+    gs = cand_slot[good]
+    Q[:, gs] = np.stack([cX, cY, cT, cR, cD])[:, good]
+    V[gs] = True
+    Q = Q.reshape(5, n, 4)
+    V = _dedupe(d, Q, V.reshape(n, 4), d.same)
+    n_roots = (~np.isnan(left)).astype(np.int64) + (~np.isnan(right))
+    hard |= V.sum(axis=1) < n_roots  # a root without its own pose: re-solve the row
+
+    hidx = np.nonzero(hard)[0]
+    Q2, V2 = _first_two(d, Q, V)
+    if hidx.size:
+        sQ, sV = _scan_rows(d, be1[hidx], be3[hidx], left[hidx], right[hidx])
+        mQ = np.concatenate([Q[:, hidx], sQ], axis=2)
+        # a hard row is ill-conditioned: poses that agree to the precision a near-double root
+        # allows (about sqrt(residual x leg)) are one solution
+        mV = _dedupe(d, mQ, np.concatenate([V[hidx], sV], axis=1), d.merge)
+        Q2[:, hidx], V2[hidx] = _first_two(d, mQ, mV)
+    return Q2, V2
+
+
+def _dedupe(d: _DK, Q: FloatArray, V: NDArray[np.bool_], tol: float) -> NDArray[np.bool_]:
+    """Drop duplicates (closer than ``tol``, m) among canonical (``sin theta >= 0``) slots
+    ``Q (5, m, S)``; two poses are the same if they agree directly or as mirror images
+    (possible near theta = 0, pi).  Of two duplicates the one with the smaller residual
+    survives."""
+    V = V.copy()
+    S = V.shape[1]
+    tol_t = tol / d.ref
+    for a in range(S):
+        for b in range(a + 1, S):
+            idx = np.nonzero(V[:, a] & V[:, b])[0]
+            if not idx.size:
+                continue
+            Xa, Ya, Ta, Ra = Q[:4, idx, a]
+            Xb, Yb, Tb, Rb = Q[:4, idx, b]
+            direct = (np.abs(Ya - Yb) < tol) & (np.abs(Ta - Tb) < tol_t)
+            mirror = (np.abs(Ya + Yb) < tol) & (
+                np.minimum(Ta + Tb, 2.0 * np.pi - Ta - Tb) < tol_t
+            )
+            dup = (np.abs(Xa - Xb) < tol) & (direct | mirror)
+            if dup.any():
+                b_better = Rb < Ra
+                V[idx[dup & b_better], a] = False
+                V[idx[dup & ~b_better], b] = False
+    return V
+
+
+def _first_two(d: _DK, Q: FloatArray, V: NDArray[np.bool_]) -> tuple[FloatArray, NDArray]:
+    """Compact valid slots ``(m, S)`` to two.  More than two distinct canonical poses cannot
+    be (the cubic has at most two roots in [-1, 1]); near a double root polishing may leave a
+    cluster of nearly equal poses, which is merged closest pair first."""
+    m, S = V.shape
+    many = np.nonzero(V.sum(axis=1) > 2)[0]
+    if many.size:
+        V = V.copy()
+        for r in many:
+            while V[r].sum() > 2:
+                idx = np.nonzero(V[r])[0]
+                best = (np.inf, -1, -1)
+                for ia, a in enumerate(idx):
+                    for b in idx[ia + 1 :]:
+                        Xa, Ya, Ta = Q[:3, r, a]
+                        Xb, Yb, Tb = Q[:3, r, b]
+                        dist = max(
+                            abs(Xa - Xb),
+                            min(abs(Ya - Yb), abs(Ya + Yb)),
+                            d.ref * min(abs(Ta - Tb), abs(Ta + Tb)),
+                        )
+                        if dist < best[0]:
+                            best = (dist, a, b)
+                _, a, b = best
+                V[r, b if Q[3, r, b] >= Q[3, r, a] else a] = False
+    i0 = np.argmax(V, axis=1)
+    base = np.arange(m) * S
+    V1 = V.copy()
+    V1.ravel()[base + i0] = False
+    i1 = np.argmax(V1, axis=1)
+    flat = np.stack([base + i0, base + i1], axis=1)
+    return Q.reshape(5, -1)[:, flat], np.stack([V.any(axis=1), V1.any(axis=1)], axis=1)
+
+
+class _Branch(NamedTuple):
+    """Per-start constants of one intersection branch: circle pair (i, j), third leg m."""
+
+    bi: FloatArray
+    bj: FloatArray
+    bm: FloatArray
+    ki: FloatArray
+    kj: FloatArray
+    km: FloatArray
+    Li: FloatArray
+    dL: FloatArray  # L_i^2 - L_j^2
+    Lm: FloatArray
+    sgn: FloatArray  # +1: branch a, -1: branch b
+
+    def take(self, idx: NDArray) -> _Branch:
+        return _Branch(*(a[idx] for a in self))
+
+
+def _make_branch(
+    d: _DK, be1: FloatArray, be3: FloatArray, pair: NDArray, sgn: FloatArray
+) -> _Branch:
+    k1, k2, k3 = d.k
+    L1, L2, L3 = d.L
+    zero = np.zeros_like(be1)
+    p0, p2 = pair == 0, pair == 2
+    bi = np.where(p2, zero, be1)
+    bj = np.where(p0, zero, be3)
+    bm = np.where(p0, be3, np.where(p2, be1, zero))
+    ki = np.where(p2, k2, k1)
+    kj = np.where(p0, k2, k3)
+    km = np.where(p0, k3, np.where(p2, k1, k2))
+    Li = np.where(p2, L2, L1)
+    Lj = np.where(p0, L2, L3)
+    Lm = np.where(p0, L3, np.where(p2, L1, L2))
+    return _Branch(bi, bj, bm, ki, kj, km, Li, Li * Li - Lj * Lj, Lm, sgn)
+
+
+def _branch_eval(
+    g: _Branch, th: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Gripper on the branch at ``th`` (the point of closest approach where the circles miss),
+    the third leg's residual there, the pair's miss ``max(-h^2, 0) / (2 L_i)`` and ``h^2``."""
+    c, s = np.cos(th), np.sin(th)
+    xi = g.bi - g.ki * c
+    yi = -g.ki * s
+    dx = (g.bj - g.bi) - (g.kj - g.ki) * c
+    dy = (g.ki - g.kj) * s
+    dd = dx * dx + dy * dy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / np.sqrt(dd)
+    along = 0.5 * (dd + g.dL) * inv
+    h2 = g.Li * g.Li - along * along
+    sh = g.sgn * np.sqrt(np.maximum(h2, 0.0)) * inv
+    gx = xi + along * dx * inv - sh * dy
+    gy = yi + along * dy * inv + sh * dx
+    r = np.hypot(gx - (g.bm - g.km * c), gy + g.km * s) - g.Lm
+    gap = np.maximum(-h2, 0.0) / (2.0 * g.Li)
+    return gx, gy, r, gap, h2
+
+
+def _scan_rows(
+    d: _DK, be1: FloatArray, be3: FloatArray, left: FloatArray, right: FloatArray
+) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """Slow, robust path for hard rows: scan the third leg's residual along both intersection
+    branches of the best pair over a window of ``theta`` around each root estimate.
+
+    Returns canonical slots ``Q (5, h, S)`` and ``V (h, S)`` as :func:`_forward_flat`."""
+    h = be1.size
+    centres = np.stack([left, right], axis=1)  # (h, 2)
+    valid_c = ~np.isnan(centres)
+    th_c = np.arccos(np.clip(np.where(valid_c, centres, 1.0), -1.0, 1.0))
+    # both estimates of a row share a window wide enough to cover the pair (and then some)
+    spread = np.where(valid_c.all(axis=1), np.abs(th_c[:, 0] - th_c[:, 1]), 0.0)
+    half = np.maximum(_SCAN_HALF_WIDTH, 2.0 * spread)
+    wrow, wslot = np.nonzero(valid_c)
+    w_th = th_c[wrow, wslot]
+    # windows x branches: both branches of the pair that is best separated at the centre
+    pair = _pair_geometry(d, be1[wrow], be3[wrow], np.cos(w_th), np.sin(w_th), None)[0]
+    nw = wrow.size
+    srow = np.concatenate([wrow, wrow])
+    sgn = np.concatenate([np.ones(nw), -np.ones(nw)])
+    g = _make_branch(d, be1[srow], be3[srow], np.concatenate([pair, pair]), sgn)
+    M = _SCAN_POINTS
+    grid = np.concatenate([w_th, w_th])[:, None] + np.concatenate(
+        [half[wrow], half[wrow]]
+    )[:, None] * np.linspace(-1.0, 1.0, M)
+    _, _, r, gap, h2 = _branch_eval(_Branch(*(a[:, None] for a in g)), grid)
+    # Where the two circles miss each other (h2 < 0) the branches merge at the point of closest
+    # approach; at a parallel singularity with parallel legs the circles are tangent at the
+    # solution, so a zero of the miss without a sign change of r counts too.
+    meets = h2 >= 0.0
+    r0, r1 = r[:, :-1], r[:, 1:]
+    change = (np.sign(r0) != np.sign(r1)) & meets[:, :-1] & meets[:, 1:]
+    miss = np.maximum(np.abs(r), gap)
+    mid = miss[:, 1:-1]
+    touch = (
+        (mid <= miss[:, :-2]) & (mid <= miss[:, 2:]) & (mid < 1e-3 * d.scale)
+        & ~change[:, :-1] & ~change[:, 1:]
+    )
+    parts = []
+    wi, ti = np.nonzero(change)
+    if wi.size:
+        tX, tY, tT = _illinois(g.take(wi), grid[wi, ti], grid[wi, ti + 1], r0[wi, ti], r1[wi, ti])
+        parts.append((tX, tY, tT, srow[wi]))
+    wi, ti = np.nonzero(touch)
+    if wi.size:
+        tX, tY, tT, m = _golden(g.take(wi), grid[wi, ti], grid[wi, ti + 2])
+        near_root = m < 1e-8 * d.scale
+        parts.append((tX[near_root], tY[near_root], tT[near_root], srow[wi][near_root]))
+    if not parts:
+        return np.zeros((5, h, 1)), np.zeros((h, 1), dtype=bool)
+    cX, cY, cT, crow = (np.concatenate(a) for a in zip(*parts, strict=True))
+    cb1, cb3 = be1[crow], be3[crow]
+    cX, cY, cT = _guarded_newton(d, cX, cY, cT, cb1, cb3)
+    legs = _legs_F(d, cX, cY, cT, cb1, cb3)
+    cR = _residual(d, cX, cY, cT, cb1, cb3)
+    cD = _det_from_legs(d, cX, cY, cb1, cb3, legs)
+    good = cR < d.accept
+    cX, cY, cT = _canonical(cX[good], cY[good], cT[good])
+    cR, cD, crow = cR[good], cD[good], crow[good]
+    # scatter into (h, S) slots, S = most poses of one row
+    order = np.argsort(crow, kind="stable")
+    crow = crow[order]
+    counts = np.bincount(crow, minlength=h)
+    S = max(int(counts.max()) if counts.size else 0, 1)
+    first = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    rank = np.arange(crow.size) - first[crow]
+    Q = np.zeros((5, h, S))
+    Q[3] = np.inf
+    Q[:, crow, rank] = np.stack([cX, cY, cT, cR, cD])[:, order]
+    V = np.zeros((h, S), dtype=bool)
+    V[crow, rank] = True
+    return Q, V
+
+
+def _golden(
+    g: _Branch, a: FloatArray, b: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Golden-section minimum of the miss ``max(|r|, gap)`` over ``theta in [a, b]``: a double
+    root of the branch (it touches zero without a sign change).  Returns the gripper, theta
+    and the miss there."""
+    gr = 0.5 * (math.sqrt(5.0) - 1.0)
+
+    def merit(t: FloatArray) -> FloatArray:
+        _, _, r, gap, _ = _branch_eval(g, t)
+        return np.maximum(np.abs(r), gap)
+
+    c = b - gr * (b - a)
+    e = a + gr * (b - a)
+    fc, fe = merit(c), merit(e)
+    for _ in range(_GOLDEN_STEPS):
+        left = fc < fe  # the minimum is in [a, e]
+        b = np.where(left, e, b)
+        a = np.where(left, a, c)
+        x = np.where(left, b - gr * (b - a), a + gr * (b - a))
+        fx = merit(x)
+        e, fe, c, fc = (
+            np.where(left, c, x),
+            np.where(left, fc, fx),
+            np.where(left, x, e),
+            np.where(left, fx, fe),
+        )
+        if (b - a).max(initial=0.0) <= 1e-13:
+            break
+    th = np.where(fc < fe, c, e)
+    gx, gy, _, _, _ = _branch_eval(g, th)
+    return gx, gy, th, np.minimum(fc, fe)
+
+
+def _illinois(
+    g: _Branch, lo: FloatArray, hi: FloatArray, flo: FloatArray, fhi: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Regula falsi (Illinois variant) on a branch's third-leg residual in ``theta``."""
+    side = np.zeros(lo.shape)
+    for _ in range(_ILLINOIS_STEPS):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x = (lo * fhi - hi * flo) / (fhi - flo)
+        bad = ~((x > lo) & (x < hi))
+        x = np.where(bad, 0.5 * (lo + hi), x)
+        fx = _branch_eval(g, x)[2]
+        same_lo = np.sign(fx) == np.sign(flo)
+        # Illinois: halve the retained end's value when the same end is kept twice
+        fhi = np.where(same_lo & (side == -1), 0.5 * fhi, fhi)
+        flo = np.where(~same_lo & (side == 1), 0.5 * flo, flo)
+        lo, flo = np.where(same_lo, x, lo), np.where(same_lo, fx, flo)
+        hi, fhi = np.where(same_lo, hi, x), np.where(same_lo, fhi, fx)
+        side = np.where(same_lo, -1, 1)
+        # the guarded Newton that follows polishes to full accuracy
+        if ((hi - lo <= 1e-10) | (fx == 0.0)).all():
+            break
+    th = np.where(np.abs(flo) <= np.abs(fhi), lo, hi)
+    gx, gy, _, _, _ = _branch_eval(g, th)
+    return gx, gy, th
+
+
+def _guarded_newton(
+    d: _DK, X: FloatArray, Y: FloatArray, T: FloatArray, be1: FloatArray, be3: FloatArray
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Damped Gauss-Newton (Levenberg-Marquardt flavoured) that only takes steps reducing
+    ``max |F_i|``; for the few starts of the slow path, near singular Jacobians included."""
+    k = np.array(d.k)
+    bb = np.stack([be1, np.zeros_like(be1), be3], axis=1)
+    Lsq = np.array(d.Lsq)
+    P = np.stack([X, Y, T], axis=1)
+
+    def evaluate(P: FloatArray, bb: FloatArray) -> tuple[FloatArray, FloatArray]:
+        ct, st = np.cos(P[:, 2:3]), np.sin(P[:, 2:3])
+        ux = P[:, 0:1] + k * ct - bb
+        uy = P[:, 1:2] + k * st
+        F = 0.5 * (ux * ux + uy * uy - Lsq)
+        J = np.stack([ux, uy, k * (uy * ct - ux * st)], axis=-1)
+        return F, J
+
+    F, J = evaluate(P, bb)
+    err = np.abs(F).max(axis=1)
+    lam = np.full(P.shape[0], 1e-12)
+    eye = np.eye(3)
+    stalled = np.zeros(P.shape[0], dtype=bool)
+    for _ in range(_GUARDED_STEPS):
+        act = (err > d.tol_f) & ~stalled
+        if not act.any():
+            break
+        Ja, Fa = J[act], F[act]
+        JtJ = np.einsum("nki,nkj->nij", Ja, Ja)
+        g = np.einsum("nki,nk->ni", Ja, Fa)
+        tr = np.trace(JtJ, axis1=1, axis2=2)
+        reg = (lam[act] * tr + 1e-300)[:, None, None] * eye
+        step = -np.linalg.solve(JtJ + reg, g[..., None])[..., 0]
+        Pn = P[act] + step
+        Fn, Jn = evaluate(Pn, bb[act])
+        en = np.abs(Fn).max(axis=1)
+        better = en < err[act]
+        ia = np.nonzero(act)[0]
+        ib = ia[better]
+        P[ib], F[ib], J[ib], err[ib] = Pn[better], Fn[better], Jn[better], en[better]
+        lam[ib] = np.maximum(lam[ib] * 0.1, 1e-16)
+        iw = ia[~better]
+        lam[iw] *= 100.0
+        stalled[iw[lam[iw] > 1e2]] = True
+    return P[:, 0], P[:, 1], P[:, 2]
 
 
 def forward_batch(design: Design, rho: ArrayLike) -> ForwardSolutions:
     """Every real pose for travels ``rho`` of shape ``(..., 3)`` (m); see :class:`ForwardSolutions`.
 
-    Method: eliminating ``|G|^2``, ``G . e`` and ``G_x`` from the three loop equations leaves a
-    cubic in ``c = cos theta`` (no division by the elimination determinant, so two sliders at the
-    same place are fine).  For each real root (with ``sin theta >= 0``) the gripper lies on the
-    intersection of two circles; the best-separated pair is intersected, the third leg checks
-    the candidates, a few Newton steps on the loop equations polish them, the mirror images
-    about the rail line are added and duplicates (double roots) removed.
+    Method (details in the comments above): a cubic in ``c = cos theta`` from a division-free
+    linear elimination, its (at most two) roots in ``[-1, 1]`` by bracketed Newton, the gripper
+    from the intersection of two leg circles, Newton polish on the three loop equations, the
+    mirror images about the rail line, and a direct scan in ``theta`` for the rows where the
+    polynomial is ill-conditioned (near-double roots, ``theta`` near 0 or pi, two sliders at the
+    same place).  Every returned pose has a loop residual below ``1e-11`` times the longest leg.
     """
-    c = _consts(_check_design(design))
+    d = _dk_consts(_check_design(design))
     r = _as_triples("rho", rho)
     lead = r.shape[:-1]
-    b = (c.origins + r).reshape(-1, 3)
-    k, L = c.k, c.legs
-    scale = c.scale
-
-    # Rows m_i = [1, 2 k_i, -2 b_i] of the elimination matrix; rhs_i = -r_i + c * (2 b_i k_i).
-    m = np.stack([np.ones_like(b), np.broadcast_to(2.0 * k, b.shape), -2.0 * b], axis=-1)
-    rhs0 = -(k * k + b * b - L * L)
-    rhs1 = 2.0 * b * k
-    m0, m1, m2 = m[:, 0], m[:, 1], m[:, 2]
-    adj_cols = (np.cross(m1, m2), np.cross(m2, m0), np.cross(m0, m1))  # columns of adj(M)
-    det = np.einsum("ij,ij->i", m0, adj_cols[0])
-    z0 = sum(adj_cols[i] * rhs0[:, i : i + 1] for i in range(3))  # D * (u, v, X) at c = 0
-    z1 = sum(adj_cols[i] * rhs1[:, i : i + 1] for i in range(3))  # D * d(u, v, X)/dc
-    U0, V0, X0 = z0[:, 0], z0[:, 1], z0[:, 2]
-    U1, V1, X1 = z1[:, 0], z1[:, 1], z1[:, 2]
-    p0 = det * U0 - X0 * X0
-    p1 = det * U1 - 2.0 * X0 * X1
-    p2 = -X1 * X1
-    q0, q1, q2 = V0, V1 - X0, -X1
-    roots = _cubic_candidates(
-        -p1 - 2.0 * q1 * q2, p2 - p0 - q1 * q1 - 2.0 * q0 * q2, p1 - 2.0 * q0 * q1, p0 - q0 * q0
-    )  # (n, 3)
-    # Near |c| = 1 the parametrisation by cos(theta) is ill-conditioned (roots cluster), so
-    # roots slightly outside [-1, 1] are kept, clipped, and left to the Newton polish.
-    roots = np.where(np.abs(roots) <= 1.05, np.clip(roots, -1.0, 1.0), np.nan)
-    # A repeated root (exact elimination degeneracy) stands for two poses with the same theta:
-    # the second copy takes the other circle intersection.
-    dup = np.zeros(roots.shape, dtype=bool)
-    dup[:, 1] = np.abs(roots[:, 1] - roots[:, 0]) < 1e-7
-    dup[:, 2] = (np.abs(roots[:, 2] - roots[:, 0]) < 1e-7) | (
-        np.abs(roots[:, 2] - roots[:, 1]) < 1e-7
+    b = (_consts(design).origins + r).reshape(-1, 3)
+    n = b.shape[0]
+    with np.errstate(all="ignore"):  # NaN and inf are handled explicitly inside
+        Q, V = _forward_flat(d, b)  # canonical (5, n, 2), X relative to slider 2
+    X, Y, T, R, D = Q
+    X = X + b[:, 1:2]
+    asm = np.where(V, np.sign(D), 0.0)
+    # each canonical pose and its mirror (x, -y, -theta); the mirror has the same det A
+    tol = d.same
+    self_mirror = (np.abs(Y) < tol) & (np.minimum(T, np.pi - T) * d.ref < tol)
+    O = np.stack(
+        [
+            np.concatenate([X, X], axis=1),
+            np.concatenate([Y, -Y], axis=1),
+            np.concatenate([T, np.where(T == np.pi, T, -T)], axis=1),
+            np.concatenate([R, R], axis=1),
+            np.concatenate([asm, asm], axis=1),
+        ]
     )
-    gx, gy, th, keep = _circle_candidates(b, roots, dup, k, L, scale)
-    X, Y, T, res, keep = _polish(b, gx, gy, th, keep, k, L)
-    keep &= res < _ACCEPT * scale
-
-    # Mirror images about the rail line, then de-duplicate.
-    X = np.concatenate([X, X], axis=1)
-    Y = np.concatenate([Y, -Y], axis=1)
-    T = np.concatenate([T, np.where(T == np.pi, T, -T)], axis=1)
-    res = np.concatenate([res, res], axis=1)
-    keep = np.concatenate([keep, keep], axis=1)
-    tol = _SAME * scale
-    dth = np.abs(np.mod(T[:, :, None] - T[:, None, :] + np.pi, 2.0 * np.pi) - np.pi)
-    same = (
-        (np.abs(X[:, :, None] - X[:, None, :]) < tol)
-        & (np.abs(Y[:, :, None] - Y[:, None, :]) < tol)
-        & (dth * c.ref < tol)
-        & keep[:, :, None]
-        & keep[:, None, :]
-    )
-    ncand = X.shape[1]
-    earlier = np.tril(np.ones((ncand, ncand), dtype=bool), k=-1)  # [a, b]: b < a
-    keep &= ~(same & earlier).any(axis=2)
-
-    # Labels and ordering.
-    ct, st = np.cos(T)[..., None], np.sin(T)[..., None]
-    bb = b[:, None, :]
-    ux = X[..., None] + k * ct - bb
-    uy = Y[..., None] + k * st
-    detA = _det3(ux, uy, k * (uy * ct - ux * st))
-    assembly = np.where(keep, np.sign(detA), 0).astype(np.int8)
-    side = np.where(keep, np.sign(np.where(np.abs(Y) < tol, 0.0, Y)), 0).astype(np.int8)
-    theta_key = np.where(keep, T, np.inf)
-    order = np.lexsort((theta_key, -assembly, -side, ~keep), axis=-1)[:, :4]
-
-    def sel(arr: NDArray) -> NDArray:
-        return np.take_along_axis(arr, order, axis=1)
-
-    valid = sel(keep)
-    poses = np.stack([sel(X), sel(Y), sel(T)], axis=-1)
-    poses = np.where(valid[..., None], poses, np.nan)
+    oV = np.concatenate([V, V & ~self_mirror], axis=1)
+    O[4] = np.where(oV, O[4], 0.0)
+    oY, oT, oA = O[1], O[2], O[4]
+    oS = np.where(oV, np.where(np.abs(oY) < tol, 0.0, np.sign(oY)), 0.0)
+    # order: valid, side desc, assembly desc, theta asc -- one float key, 4-element network
+    key = np.where(oV, (1.0 - oS) * 64.0 + (1.0 - oA) * 16.0 + (oT + np.pi), np.inf)
+    ks = list(key.T)
+    ix = [np.full(n, j) for j in range(4)]
+    for i, j in ((0, 1), (2, 3), (0, 2), (1, 3), (1, 2)):  # a sorting network for 4 keys
+        sw = ks[j] < ks[i]
+        ks[i], ks[j] = np.where(sw, ks[j], ks[i]), np.where(sw, ks[i], ks[j])
+        ix[i], ix[j] = np.where(sw, ix[j], ix[i]), np.where(sw, ix[i], ix[j])
+    flat = np.stack(ix, axis=1) + 4 * np.arange(n)[:, None]
+    Os = O.reshape(5, -1)[:, flat]  # (5, n, 4)
+    valid = oV.ravel()[flat]
+    side = oS.ravel()[flat]
+    poses = np.stack([Os[0], Os[1], Os[2]], axis=-1)
+    poses[~valid] = np.nan
     return ForwardSolutions(
         poses.reshape(lead + (4, 3)),
         valid.reshape(lead + (4,)),
-        sel(assembly).reshape(lead + (4,)),
-        sel(side).reshape(lead + (4,)),
+        Os[4].astype(np.int8).reshape(lead + (4,)),
+        side.astype(np.int8).reshape(lead + (4,)),
         valid.sum(axis=1).reshape(lead),
-        np.where(valid, sel(res), np.nan).reshape(lead + (4,)),
+        np.where(valid, Os[3], np.nan).reshape(lead + (4,)),
     )
-
-
-_NEWTON_STEPS = 8
-_ACCEPT = 1e-11  # accepted loop residual, relative to the longest leg
-_SAME = 1e-7  # poses closer than this (relative to the longest leg) are one solution
-_PAIR_I = np.array([0, 0, 1])
-_PAIR_J = np.array([1, 2, 2])
-_THIRD = np.array([2, 1, 0])
-
-
-def _circle_candidates(
-    b: FloatArray,
-    roots: FloatArray,
-    dup: NDArray[np.bool_],
-    k: FloatArray,
-    L: FloatArray,
-    scale: float,
-) -> tuple[FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
-    """One starting pose per root ``c`` (with ``sin theta >= 0``): ``G`` on the circles
-    ``|G - O_i| = L_i``, ``O_i = (b_i - k_i c, -k_i s)``, of the best-separated pair, taking
-    the intersection point the third circle agrees with best (the other one for ``dup``)."""
-    cr = roots[:, :, None]
-    sr = np.sqrt(np.maximum(1.0 - cr * cr, 0.0))
-    ox = b[:, None, :] - k * cr  # (n, roots, legs)
-    oy = -k * sr
-    sep2 = (ox[..., _PAIR_J] - ox[..., _PAIR_I]) ** 2 + (oy[..., _PAIR_J] - oy[..., _PAIR_I]) ** 2
-    best = np.nan_to_num(sep2, nan=-1.0).argmax(axis=-1)[..., None]
-    ii, jj, mm = _PAIR_I[best], _PAIR_J[best], _THIRD[best]
-
-    def pick(arr: FloatArray, idx: NDArray[np.int64]) -> FloatArray:
-        return np.take_along_axis(arr, idx, axis=-1)[..., 0]
-
-    xi, yi = pick(ox, ii), pick(oy, ii)
-    dx, dy = pick(ox, jj) - xi, pick(oy, jj) - yi
-    li, lj, lm = L[ii[..., 0]], L[jj[..., 0]], L[mm[..., 0]]
-    d = np.sqrt(pick(sep2, best))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        along = (d * d + li * li - lj * lj) / (2.0 * d)
-        h2 = li * li - along * along
-        ok = (d > 1e-12 * scale) & (h2 > -1e-4 * scale * scale)
-        h = np.sqrt(np.maximum(h2, 0.0))
-        ex, ey = dx / d, dy / d
-    mx, my = xi + along * ex, yi + along * ey
-    xm, ym = pick(ox, mm), pick(oy, mm)
-    res_a = np.abs(np.hypot(mx - h * ey - xm, my + h * ex - ym) - lm)
-    res_b = np.abs(np.hypot(mx + h * ey - xm, my - h * ex - ym) - lm)
-    use_b = (res_b < res_a) ^ dup
-    sign = np.where(use_b, 1.0, -1.0)
-    gx = mx + sign * h * ey
-    gy = my - sign * h * ex
-    res = np.where(use_b, res_b, res_a)
-    keep = ok & (res < 2e-2 * scale) & np.isfinite(gx)
-    th = np.arctan2(sr[..., 0], roots)
-    return gx, gy, th, keep
-
-
-def _polish(
-    b: FloatArray,
-    gx: FloatArray,
-    gy: FloatArray,
-    th: FloatArray,
-    keep: NDArray[np.bool_],
-    k: FloatArray,
-    L: FloatArray,
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray, NDArray[np.bool_]]:
-    """Newton steps on ``F_i = (|C_i - B_i|^2 - L_i^2) / 2`` (Jacobian ``A``) for the kept
-    candidates only; returns the polished poses (theta in ``(-pi, pi]``) and residuals (m)."""
-    rows, cols = np.nonzero(keep)
-    X, Y, T = gx[rows, cols], gy[rows, cols], th[rows, cols]
-    bb = b[rows]
-    scale = float(L.max())
-    tiny = 1e-15 * scale**3 * float(k.max())  # det A is of order L^3 * L_1G
-    for _ in range(_NEWTON_STEPS):
-        ct, st = np.cos(T)[:, None], np.sin(T)[:, None]
-        ux = X[:, None] + k * ct - bb
-        uy = Y[:, None] + k * st
-        F = 0.5 * (ux * ux + uy * uy - L * L)
-        dX, dY, dT = _solve3(ux, uy, k * (uy * ct - ux * st), -F, tiny)
-        X, Y, T = X + dX, Y + dY, T + dT
-        if dX.size == 0 or max(np.abs(dX).max(), np.abs(dY).max()) < 1e-16 * scale:
-            break
-    T = np.pi - np.mod(np.pi - T, 2.0 * np.pi)  # (-pi, pi]
-    ux = X[:, None] + k * np.cos(T)[:, None] - bb
-    uy = Y[:, None] + k * np.sin(T)[:, None]
-    r = np.abs(np.hypot(ux, uy) - L).max(axis=-1)
-    shape = keep.shape
-    outX, outY, outT = np.zeros(shape), np.zeros(shape), np.zeros(shape)
-    outR = np.full(shape, np.inf)
-    outX[rows, cols], outY[rows, cols], outT[rows, cols], outR[rows, cols] = X, Y, T, r
-    return outX, outY, outT, outR, keep & np.isfinite(outR)
-
-
-def _det3(c0: FloatArray, c1: FloatArray, c2: FloatArray) -> FloatArray:
-    """Determinant of 3x3 matrices given by their columns ``(..., 3)``."""
-    return (
-        c0[..., 0] * (c1[..., 1] * c2[..., 2] - c1[..., 2] * c2[..., 1])
-        - c0[..., 1] * (c1[..., 0] * c2[..., 2] - c1[..., 2] * c2[..., 0])
-        + c0[..., 2] * (c1[..., 0] * c2[..., 1] - c1[..., 1] * c2[..., 0])
-    )
-
-
-def _solve3(
-    c0: FloatArray, c1: FloatArray, c2: FloatArray, rhs: FloatArray, tiny: float
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Cramer solve of 3x3 systems given by columns; zero step where ``|det| <= tiny``."""
-    det = _det3(c0, c1, c2)
-    good = np.abs(det) > tiny
-    inv = np.where(good, 1.0 / np.where(good, det, 1.0), 0.0)
-    return (_det3(rhs, c1, c2) * inv, _det3(c0, rhs, c2) * inv, _det3(c0, c1, rhs) * inv)

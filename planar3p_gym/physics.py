@@ -5,10 +5,13 @@ gravity along ``-y``.  Joints: each slider rides a groove along its rail whose e
 hard stops of the stroke; revolute (pivot) joints at every ``B_i`` and ``C_i``.  There are no
 collision shapes: the mechanism's parts sit in different planes and never collide.
 
-Actuation: each slider is driven by a force-limited velocity servo, a velocity-only
-constraint (no position correction) between the slider and a kinematic "drive" body moving at
-the commanded speed, whose impulse is clamped to ``design.max_force``.  Near a parallel
-singularity the servos saturate as a real machine's would.
+Actuation: each slider is driven by a force-limited velocity servo: a constraint between the
+slider and a kinematic "drive" body moving along the rail at the commanded speed, whose
+impulse is clamped to ``design.max_force``.  Like a servo drive's velocity loop with position
+hold, it also removes a following error (the slider lagging its integrated command) at no more
+than :data:`SERVO_CORRECTION_SPEED`, and the following error is capped at
+:data:`FOLLOWING_ERROR_LIMIT` (after saturation the drive does not try to catch up more).  Near a
+parallel singularity the servos saturate as a real machine's would.
 
 A model is built from a pose and working mode with the exact inverse kinematics; building a
 new :class:`Planar3PSim` is how a simulation is reset (spaces are never copied).
@@ -40,17 +43,24 @@ try:  # Direct Chipmunk calls skip pymunk's per-call Python bookkeeping (the hot
             "cpBodyGetAngle",
             "cpBodyGetAngularVelocity",
             "cpConstraintGetImpulse",
+            "cpBodySetVelocity",
         )
     )
 except ImportError:  # pragma: no cover - other pymunk builds
     _FAST = False
 
-#: Physics substeps per control step used by the environment by default.
-DEFAULT_SUBSTEPS = 4
+#: Physics substeps per control step used by the environment by default (2.5 ms at 50 Hz).
+DEFAULT_SUBSTEPS = 8
 #: Constraint-solver iterations per substep used by default.
 DEFAULT_ITERATIONS = 20
+#: Solver iterations of the warm-start step at construction.
+WARM_START_ITERATIONS = 500
 #: pymunk's ``error_bias`` of the joints: fraction of a joint error left after one second.
-DEFAULT_ERROR_BIAS = 1e-12
+DEFAULT_ERROR_BIAS = 1e-20
+#: Largest speed at which a servo removes a following error (m/s).
+SERVO_CORRECTION_SPEED = 0.02
+#: Largest following error a servo keeps (m); beyond it the setpoint is pulled along.
+FOLLOWING_ERROR_LIMIT = 0.001
 
 
 class SimState(NamedTuple):
@@ -174,7 +184,7 @@ class Planar3PSim:
         platform.position = (x + 0.5 * k1 * c, y + 0.5 * k1 * s)
         platform.angle = th
         space.add(platform)
-        sliders, drives, servos, legs = [], [], [], []
+        sliders, drives, servos, legs, joints = [], [], [], [], []
         for i in range(3):
             a, L, k = self._origins[i], self._legs[i], self._k[i]
             b = a + float(rho[i])
@@ -190,34 +200,61 @@ class Planar3PSim:
                 space.static_body, slider, (a, 0.0), (a + d.stroke, 0.0), (0, 0)
             )
             servo = pymunk.GrooveJoint(drive, slider, (0.0, -1.0), (0.0, 1.0), (0.0, 0.0))
-            servo.max_bias = 0.0
+            servo.max_bias = SERVO_CORRECTION_SPEED
             servo.max_force = d.max_force
+            servo.error_bias = error_bias
             pin_b = pymunk.PivotJoint(slider, leg, (b, 0.0))
             pin_c = pymunk.PivotJoint(leg, platform, (cx, cy))
             for joint in (rail, pin_b, pin_c):
                 joint.error_bias = error_bias
-            space.add(slider, drive, leg, rail, pin_b, pin_c, servo)
+            space.add(slider, drive, leg)
+            joints.append((rail, pin_b, pin_c))
             sliders.append(slider)
             drives.append(drive)
             servos.append(servo)
             legs.append(leg)
+        # The iterative solver visits constraints in the order they were added; with the
+        # servos last, an unsaturated servo's slider ends each iteration at exactly the
+        # commanded velocity.
+        for group in joints:
+            space.add(*group)
+        space.add(*servos)
         self.space = space
         self.platform = platform
         self.sliders = tuple(sliders)
         self.drives = tuple(drives)
         self.servos = tuple(servos)
         self.legs = tuple(legs)
-        # One public step of zero length lets pymunk validate the bodies; later steps may then
-        # go straight to Chipmunk (same calls, without pymunk's per-step bookkeeping).
-        space.step(0.0)
+        self._warm_start(space, (platform, *sliders, *legs))
         self._fast: tuple | None = None
         if _FAST and self.use_fast_path:
             self._fast = (
                 space._space,
                 tuple(sv._constraint for sv in servos),
                 tuple(b._body for b in (platform, *sliders, *legs)),
+                tuple(b._body for b in drives),
             )
         self._state = self._read()
+
+    def _warm_start(self, space: pymunk.Space, bodies: tuple[pymunk.Body, ...]) -> None:
+        """Solve the joint loads of the initial (resting) state before the first step.
+
+        One physics step with many solver iterations caches every constraint's impulse (the
+        solver warm-starts from it); the bodies are then put back exactly where and as they
+        were (at rest).  Without it, the first steps under gravity start from zero joint forces
+        and an ill-conditioned configuration sags before the solver catches up.  This first
+        step also goes through pymunk's public API, which validates the bodies, so later steps
+        may call Chipmunk directly.
+        """
+        saved = [(b.position, b.angle) for b in bodies]
+        space.iterations = WARM_START_ITERATIONS
+        space.step(self._h)
+        for body, (position, angle) in zip(bodies, saved, strict=True):
+            body.position = position
+            body.angle = angle
+            body.velocity = (0.0, 0.0)
+            body.angular_velocity = 0.0
+        space.iterations = self.iterations
 
     # ------------------------------------------------------------------ stepping
     def step(self, velocity_command: ArrayLike) -> SimState:
@@ -233,10 +270,16 @@ class Planar3PSim:
 
     def step_unchecked(self, v0: float, v1: float, v2: float) -> SimState:
         """:meth:`step` without input validation, for callers that validated already."""
-        d0, d1, d2 = self.drives
-        d0.velocity = (v0, 0.0)
-        d1.velocity = (v1, 0.0)
-        d2.velocity = (v2, 0.0)
+        self._limit_following_error()
+        if self._fast is None:
+            for drive, v in zip(self.drives, (v0, v1, v2), strict=True):
+                drive.velocity = (v, 0.0)
+        else:
+            set_velocity = _cp.cpBodySetVelocity
+            d0, d1, d2 = self._fast[3]
+            set_velocity(d0, (v0, 0.0))
+            set_velocity(d1, (v1, 0.0))
+            set_velocity(d2, (v2, 0.0))
         h = self._h
         f0 = f1 = f2 = 0.0
         m0 = m1 = m2 = 0.0
@@ -262,6 +305,25 @@ class Planar3PSim:
         self._saturated = (m0 >= limit, m1 >= limit, m2 >= limit)
         self._state = self._read()
         return self._state
+
+    def _limit_following_error(self) -> None:
+        """Pull each drive's setpoint to within :data:`FOLLOWING_ERROR_LIMIT` of its slider."""
+        rho = self._state.rho
+        get = _cp.cpBodyGetPosition if self._fast is not None else None
+        for i, drive in enumerate(self.drives):
+            slider_x = self._origins[i] + rho[i]
+            setpoint = get(self._fast[3][i]).x if get is not None else drive.position.x
+            if setpoint - slider_x > FOLLOWING_ERROR_LIMIT:
+                drive.position = (slider_x + FOLLOWING_ERROR_LIMIT, 0.0)
+            elif slider_x - setpoint > FOLLOWING_ERROR_LIMIT:
+                drive.position = (slider_x - FOLLOWING_ERROR_LIMIT, 0.0)
+
+    def following_errors(self) -> tuple[float, float, float]:
+        """Each servo's setpoint minus its slider position (m)."""
+        rho = self._state.rho
+        return tuple(  # type: ignore[return-value]
+            d.position.x - (a + r) for d, a, r in zip(self.drives, self._origins, rho, strict=True)
+        )
 
     # ------------------------------------------------------------------ readout
     @property

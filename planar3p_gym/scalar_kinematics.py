@@ -75,8 +75,8 @@ def _det(m: list[tuple[float, float, float]]) -> float:
 def _inverse_condition(m: list[tuple[float, float, float]], det: float) -> float:
     """``sigma_min / sigma_max`` of a 3x3 matrix from the eigenvalues of ``M^T M``.
 
-    The two largest eigenvalues come from the closed-form trigonometric solution; the smallest
-    is recovered as ``det(M)^2 / (lambda_1 lambda_2)``, which stays accurate near zero.
+    The largest eigenvalue comes from the closed-form trigonometric solution; the smallest from
+    the sum and product of the other two, which stays accurate near zero.
     """
     (a, b, c), (d, e, f), (g, h, i) = m
     s00 = a * a + d * d + g * g
@@ -100,10 +100,14 @@ def _inverse_condition(m: list[tuple[float, float, float]], det: float) -> float
     )
     phi = math.acos(max(-1.0, min(1.0, r))) / 3.0
     lam1 = q + 2.0 * p * math.cos(phi)
-    lam3 = q + 2.0 * p * math.cos(phi + 2.0 * math.pi / 3.0)
-    lam2 = 3.0 * q - lam1 - lam3
     if lam1 <= 0.0:
         return 0.0
-    if lam2 > 0.0:
-        lam3 = det * det / (lam1 * lam2)
+    # lambda_2 + lambda_3 and lambda_2 * lambda_3 = det^2 / lambda_1 are both accurate, so the
+    # smaller root of t^2 - sum t + prod (in its cancellation-free form) is too, even when
+    # lambda_2 and lambda_3 are both tiny (A_bar of rank about 1).
+    total = max(3.0 * q - lam1, 0.0)
+    prod = det * det / lam1
+    disc = math.sqrt(max(total * total - 4.0 * prod, 0.0))
+    denom = total + disc
+    lam3 = 2.0 * prod / denom if denom > 0.0 else 0.0
     return math.sqrt(max(lam3, 0.0) / lam1)
