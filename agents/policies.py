@@ -1,0 +1,379 @@
+"""Policy registry and loader: a policy name or a model path -> an object with SB3's ``predict``.
+
+Accepted specifications (:func:`load_policy`):
+
+* built-in names: ``analytic-simultaneous``, ``analytic-sequential`` (:mod:`agents.analytic`),
+  ``random``, ``zero`` (:mod:`agents.baselines`);
+* ``pretrained:<name>``: the model ``agents/pretrained/<name>.zip`` shipped with the package
+  (:func:`list_pretrained` lists them);
+* a path to a Stable-Baselines3 model (``.zip``) saved by PPO, SAC, TD3, A2C or DDPG; the
+  algorithm is read from the file, or forced with a prefix ``ppo:``, ``sac:``, ``td3:``,
+  ``a2c:``, ``ddpg:`` (e.g. ``sac:runs/x/model.zip``).
+
+Observation normalisation: if a ``VecNormalize`` statistics file sits beside a model, the
+loaded policy normalises observations with it (frozen, as at evaluation time).  For a model
+``dir/name.zip`` the file is ``dir/name_vecnormalize.pkl``, the training run's naming
+(``best_model.zip`` -> ``best_vecnormalize.pkl``, checkpoint ``rl_model_<n>_steps.zip`` ->
+``rl_model_vecnormalize_<n>_steps.pkl``), or else ``dir/vecnormalize.pkl`` (see
+:func:`vecnormalize_candidates`).  A shipped pretrained model ``<name>.zip`` brings
+``<name>_vecnormalize.pkl``.
+
+Every failure to resolve or load a specification raises :class:`PolicyError` (a
+``ValueError``) with a message that says what was wrong.
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+import re
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from planar3p_gym.design import Design
+
+from .analytic import AnalyticController
+from .baselines import RandomPolicy, ZeroPolicy
+
+__all__ = [
+    "BUILTIN_POLICIES",
+    "PRETRAINED_DIR",
+    "SB3_ALGORITHMS",
+    "PolicyError",
+    "PolicySpec",
+    "SB3Policy",
+    "list_pretrained",
+    "load_policy",
+    "load_sb3_model",
+    "parse_policy_spec",
+    "policy_label",
+    "run_env_kwargs",
+    "vecnormalize_candidates",
+]
+
+#: Built-in policies and what they are.
+BUILTIN_POLICIES: dict[str, str] = {
+    "analytic-simultaneous": "simple motions superposed (resolved-rate control)",
+    "analytic-sequential": "simple motions one at a time: rotation, vertical, horizontal",
+    "random": "uniformly random actions (seeded)",
+    "zero": "zero slider velocity",
+}
+#: Where ``pretrained:<name>`` models live.
+PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
+#: Stable-Baselines3 algorithms a model file may come from (prefix -> class name).
+SB3_ALGORITHMS: dict[str, str] = {
+    "ppo": "PPO",
+    "sac": "SAC",
+    "td3": "TD3",
+    "a2c": "A2C",
+    "ddpg": "DDPG",
+}
+PRETRAINED_PREFIX = "pretrained:"
+
+
+class PolicyError(ValueError):
+    """A policy specification that cannot be resolved or loaded."""
+
+
+@dataclass(frozen=True)
+class PolicySpec:
+    """A parsed policy specification.
+
+    Attributes:
+        text: the specification as given.
+        kind: ``"builtin"`` or ``"model"``.
+        name: the built-in name, or the model's label (``pretrained:<name>`` or file stem).
+        path: the model file (``kind == "model"``).
+        algo: the forced SB3 algorithm key (``ppo``, ...), or ``None`` to detect it.
+    """
+
+    text: str
+    kind: str
+    name: str
+    path: Path | None = None
+    algo: str | None = None
+
+
+def list_pretrained(directory: Path | None = None) -> list[str]:
+    """Names of the shipped pretrained models (``pretrained:<name>``)."""
+    d = directory or PRETRAINED_DIR
+    if not d.is_dir():
+        return []
+    return sorted(p.stem for p in d.glob("*.zip"))
+
+
+def _known() -> str:
+    names = list(BUILTIN_POLICIES) + [PRETRAINED_PREFIX + n for n in list_pretrained()]
+    return ", ".join(names) + ", or a path to an SB3 model .zip"
+
+
+def parse_policy_spec(text: str) -> PolicySpec:
+    """Resolve a specification without loading anything (files must exist)."""
+    spec = str(text).strip()
+    if not spec:
+        raise PolicyError(f"empty policy name; known: {_known()}")
+    if spec in BUILTIN_POLICIES:
+        return PolicySpec(spec, "builtin", spec)
+    if spec.startswith(PRETRAINED_PREFIX):
+        name = spec[len(PRETRAINED_PREFIX) :]
+        if not name or "/" in name or "\\" in name or name.startswith("."):
+            raise PolicyError(f"invalid pretrained model name {name!r}")
+        path = PRETRAINED_DIR / f"{name}.zip"
+        if not path.is_file():
+            have = list_pretrained()
+            raise PolicyError(
+                f"unknown pretrained model {name!r}: {path} does not exist; "
+                f"available: {', '.join(have) if have else 'none shipped yet'}"
+            )
+        return PolicySpec(spec, "model", spec, path, None)
+    algo = None
+    head, sep, rest = spec.partition(":")
+    if sep and head.lower() in SB3_ALGORITHMS and rest:
+        algo, spec_path = head.lower(), rest
+    else:
+        spec_path = spec
+    path = Path(spec_path).expanduser()
+    looks_like_path = path.suffix == ".zip" or "/" in spec_path or path.exists()
+    if not looks_like_path and algo is None:
+        raise PolicyError(f"unknown policy {spec!r}; known: {_known()}")
+    if not path.exists() and path.suffix != ".zip" and path.with_suffix(".zip").exists():
+        path = path.with_suffix(".zip")
+    if not path.exists():
+        raise PolicyError(f"model file not found: {path}")
+    if not path.is_file():
+        raise PolicyError(f"model path is not a file: {path}")
+    return PolicySpec(text, "model", path.stem, path, algo)
+
+
+def policy_label(text: str) -> str:
+    """Short name of a specification for tables and plots (built-in name, ``pretrained:x``,
+    or the model file's stem)."""
+    spec = str(text).strip()
+    if spec in BUILTIN_POLICIES or spec.startswith(PRETRAINED_PREFIX):
+        return spec
+    head, sep, rest = spec.partition(":")
+    if sep and head.lower() in SB3_ALGORITHMS and rest:
+        spec = rest
+    p = Path(spec)
+    parent = p.parent.name
+    return f"{parent}/{p.stem}" if parent and p.stem in ("model", "best_model") else p.stem
+
+
+# ------------------------------------------------------------------ SB3 models
+def _detect_algorithm(path: Path) -> str:
+    """The SB3 algorithm a model zip was saved by, from its ``data`` JSON."""
+    try:
+        with zipfile.ZipFile(path) as zf:
+            names = set(zf.namelist())
+            if "data" not in names or "policy.pth" not in names:
+                raise PolicyError(
+                    f"{path} is not a Stable-Baselines3 model (missing 'data' or 'policy.pth')"
+                )
+            data = json.loads(zf.read("data"))
+    except zipfile.BadZipFile as exc:
+        raise PolicyError(f"corrupt model file {path}: not a zip archive ({exc})") from exc
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise PolicyError(f"corrupt model file {path}: unreadable 'data' ({exc})") from exc
+    except OSError as exc:
+        raise PolicyError(f"cannot read model file {path}: {exc}") from exc
+    if not isinstance(data, dict):
+        raise PolicyError(f"corrupt model file {path}: 'data' is not a mapping")
+    module = str(data.get("policy_class", {}).get("__module__", ""))
+    if "clip_range" in data:
+        return "ppo"
+    if "policy_delay" in data or "target_policy_noise" in data:
+        return "td3"
+    if ("ent_coef" in data and "target_entropy" in data) or ".sac." in module:
+        return "sac"
+    if "vf_coef" in data:
+        return "a2c"
+    raise PolicyError(
+        f"cannot tell which SB3 algorithm saved {path}; prefix the path with one of "
+        f"{', '.join(k + ':' for k in SB3_ALGORITHMS)}"
+    )
+
+
+def vecnormalize_candidates(path: Path) -> list[Path]:
+    """Where the ``VecNormalize`` statistics of the model ``path`` may be, in order.
+
+    Matches ``scripts/train.py``'s run directory (``model.zip`` + ``vecnormalize.pkl``,
+    ``best_model.zip`` + ``best_vecnormalize.pkl``, ``checkpoints/rl_model_<n>_steps.zip`` +
+    ``rl_model_vecnormalize_<n>_steps.pkl``) and the pretrained layout (``<name>.zip`` +
+    ``<name>_vecnormalize.pkl``).
+    """
+    stem = path.stem
+    out = [path.with_name(f"{stem}_vecnormalize.pkl")]
+    if stem.endswith("_model"):
+        out.append(path.with_name(f"{stem[: -len('_model')]}_vecnormalize.pkl"))
+    m = re.fullmatch(r"(.*)_(\d+)_steps", stem)
+    if m:
+        out.append(path.with_name(f"{m.group(1)}_vecnormalize_{m.group(2)}_steps.pkl"))
+    out.append(path.parent / "vecnormalize.pkl")
+    return out
+
+
+def _vecnormalize_file(path: Path) -> Path | None:
+    for cand in vecnormalize_candidates(path):
+        if cand.is_file():
+            return cand
+    return None
+
+
+def run_env_kwargs(path: Path) -> dict[str, Any] | None:
+    """The environment keyword arguments a model was trained with, if its run directory
+    (``scripts/train.py``) has a ``config.json`` that records them; else ``None``."""
+    for cand in (path.parent / "config.json", path.parent.parent / "config.json"):
+        if cand.is_file():
+            try:
+                data = json.loads(cand.read_text())
+                kwargs = data.get("config", data).get("env_kwargs")
+            except (OSError, ValueError, AttributeError):
+                return None
+            return dict(kwargs) if isinstance(kwargs, dict) else None
+    return None
+
+
+def _load_vecnormalize(path: Path) -> Any:
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    try:
+        with path.open("rb") as f:
+            vn = pickle.load(f)
+    except Exception as exc:  # unpickling can raise nearly anything on a corrupt file
+        raise PolicyError(f"corrupt VecNormalize statistics {path}: {exc}") from exc
+    if not isinstance(vn, VecNormalize):
+        raise PolicyError(f"{path} does not hold VecNormalize statistics")
+    vn.training = False
+    vn.norm_reward = False
+    return vn
+
+
+class SB3Policy:
+    """A loaded Stable-Baselines3 model, with its frozen ``VecNormalize`` statistics if any.
+
+    :meth:`predict` normalises the observation (if statistics were found) and calls the
+    model's ``predict``; deterministic by default.
+    """
+
+    def __init__(
+        self,
+        model: Any,
+        vecnormalize: Any = None,
+        name: str = "model",
+        env_kwargs: dict[str, Any] | None = None,
+        vecnormalize_path: Path | None = None,
+    ) -> None:
+        self.model = model
+        self.vecnormalize = vecnormalize
+        self.name = name
+        #: Environment keyword arguments recorded by the training run (``None`` if unknown).
+        self.env_kwargs = env_kwargs
+        self.vecnormalize_path = vecnormalize_path
+
+    @property
+    def observation_space(self) -> Any:
+        return self.model.observation_space
+
+    @property
+    def action_space(self) -> Any:
+        return self.model.action_space
+
+    def reset(self, seed: Any = None) -> None:
+        """Nothing to reset (kept for the benchmark's uniform calling convention)."""
+
+    def predict(
+        self,
+        observation: ArrayLike,
+        state: Any = None,
+        episode_start: ArrayLike | None = None,
+        deterministic: bool = True,
+    ) -> tuple[np.ndarray, Any]:
+        obs = np.asarray(observation, dtype=np.float32)
+        if self.vecnormalize is not None:
+            obs = self.vecnormalize.normalize_obs(obs).astype(np.float32)
+        return self.model.predict(
+            obs, state=state, episode_start=episode_start, deterministic=deterministic
+        )
+
+
+def load_sb3_model(
+    path: str | Path,
+    algo: str | None = None,
+    device: str = "cpu",
+    name: str | None = None,
+    check_env: Any = None,
+) -> SB3Policy:
+    """Load an SB3 model file (and ``VecNormalize`` statistics beside it, if present).
+
+    ``check_env``: an environment whose observation and action spaces the model must match.
+    Raises :class:`PolicyError` for a missing, corrupt or mismatched model.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise PolicyError(f"model file not found: {p}")
+    key = algo or _detect_algorithm(p)
+    if key not in SB3_ALGORITHMS:
+        raise PolicyError(f"unknown SB3 algorithm {key!r}; known: {', '.join(SB3_ALGORITHMS)}")
+    import stable_baselines3
+
+    cls = getattr(stable_baselines3, SB3_ALGORITHMS[key])
+    try:
+        model = cls.load(p, device=device)
+    except Exception as exc:  # SB3/torch raise many types on corrupt or foreign files
+        raise PolicyError(
+            f"cannot load {p} as a {SB3_ALGORITHMS[key]} model: {type(exc).__name__}: {exc}"
+        ) from exc
+    vn_path = _vecnormalize_file(p)
+    vn = _load_vecnormalize(vn_path) if vn_path is not None else None
+    if check_env is not None:
+        obs_space = check_env.observation_space
+        act_space = check_env.action_space
+        if model.observation_space.shape != obs_space.shape:
+            raise PolicyError(
+                f"model {p} expects observations of shape {model.observation_space.shape}, "
+                f"the environment gives {obs_space.shape}"
+            )
+        if model.action_space.shape != act_space.shape:
+            raise PolicyError(
+                f"model {p} outputs actions of shape {model.action_space.shape}, "
+                f"the environment takes {act_space.shape}"
+            )
+        if vn is not None and vn.obs_rms.mean.shape != obs_space.shape:
+            raise PolicyError(
+                f"VecNormalize statistics {vn_path} are for observations of shape "
+                f"{vn.obs_rms.mean.shape}, the environment gives {obs_space.shape}"
+            )
+    return SB3Policy(model, vn, name or p.stem, run_env_kwargs(p), vn_path)
+
+
+def load_policy(
+    spec: str | PolicySpec,
+    *,
+    env: Any = None,
+    design: Design | None = None,
+    seed: int | None = None,
+    device: str = "cpu",
+) -> Any:
+    """The policy named by ``spec`` (see the module docstring), ready to ``predict``.
+
+    ``env`` (optional) supplies the design of the analytic controllers and the spaces a
+    model must match; ``design`` can be given instead.  ``seed`` seeds the random policy.
+    """
+    ps = spec if isinstance(spec, PolicySpec) else parse_policy_spec(spec)
+    if design is None and env is not None:
+        design = env.unwrapped.design
+    if ps.kind == "builtin":
+        if ps.name == "analytic-simultaneous":
+            return AnalyticController(design, "simultaneous")
+        if ps.name == "analytic-sequential":
+            return AnalyticController(design, "sequential")
+        if ps.name == "random":
+            return RandomPolicy(env.action_space if env is not None else None, seed=seed)
+        return ZeroPolicy()
+    assert ps.path is not None
+    return load_sb3_model(ps.path, ps.algo, device=device, name=ps.name, check_env=env)
