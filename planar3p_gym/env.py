@@ -126,7 +126,9 @@ class Planar3PEnv(gym.Env):
     ``orientation_tolerance`` of the target with every slider slower than ``rest_speed``
     (``"success"``), when ``sign det A`` changes (``"singularity_crossing"``), or when the
     loop-closure error exceeds ``breakdown_threshold`` or the state is not finite
-    (``"physics_breakdown"``); ``info["termination_reason"]`` says which.  ``truncated`` only
+    (``"physics_breakdown"``); ``info["termination_reason"]`` says which.  A leg swinging past
+    the perpendicular to its rail (a serial singularity) changes the working mode without ending
+    the episode; ``info["working_mode_changed"]`` reports it.  ``truncated`` only
     by the registered time limit (``max_episode_steps=250``, 5 s at 50 Hz).
 
     ## Arguments
@@ -473,6 +475,10 @@ class Planar3PEnv(gym.Env):
             "serial_margin": measures.serial_margin,
             "assembly_mode": measures.det_sign,
             "working_mode": self._mode,
+            "working_mode_changed": any(
+                (math.cos(a) >= 0.0) != (m > 0)
+                for a, m in zip(measures.leg_angles, self._mode, strict=True)
+            ),
             "actuator_forces": state.actuator_forces,
             "actuator_saturated": state.saturated,
             "closure_error": state.closure_error,

@@ -653,3 +653,27 @@ def test_reset_starts_at_rest_on_a_valid_task():
         assert info["serial_margin"] >= cfg.min_serial_margin
         assert info["closure_error"] <= 1e-12
         assert info["reward_terms"] == {}
+
+
+def test_working_mode_change_is_reported_not_terminal():
+    """Driving one slider until its leg passes the perpendicular flips that leg's working-mode
+    sign: info says so, and the episode goes on (a serial singularity is crossable)."""
+    env = gym.make("Planar3P-v0")
+    obs, info = env.reset(seed=0)
+    assert info["working_mode_changed"] is False
+    mode = info["working_mode"]
+    seen_flip = False
+    for _ in range(200):
+        # Move every slider so that its leg's horizontal component shrinks (towards the
+        # perpendicular): sigma_i = +1 means C_i is right of B_i, so push the slider right.
+        action = np.array([0.5 * m for m in mode], dtype=np.float32)
+        obs, _reward, terminated, truncated, info = env.step(action)
+        legs = obs[SLICES["legs"]].reshape(3, 2)
+        flipped = any((c >= 0) != (m > 0) for (c, _), m in zip(legs, mode, strict=True))
+        assert info["working_mode_changed"] == flipped
+        seen_flip |= flipped
+        if flipped:
+            assert not terminated  # a working-mode change alone does not end the episode
+            break
+        assert not (terminated or truncated)
+    assert seen_flip  # with seed 0 leg 1 passes the perpendicular after 68 steps
