@@ -27,7 +27,7 @@ Rates vanish with the errors, which lets the environment's "at rest" success tes
 
 Only the observation is used: leg angles and platform orientation (as ``cos``/``sin``), and the
 position and orientation errors (``planar3p_gym.observation.SLICES``).  The calling convention
-is Stable-Baselines3's ``predict``, for single observations ``(28,)`` or batches ``(n, 28)``.
+is Stable-Baselines3's ``predict``, for single observations ``(31,)`` or batches ``(n, 31)``.
 """
 
 from __future__ import annotations
@@ -188,7 +188,7 @@ class AnalyticController:
         episode_start: ArrayLike | None = None,
         deterministic: bool = True,
     ) -> tuple[np.ndarray, Any]:
-        """Action(s) for observation(s) ``(28,)`` or ``(n, 28)``.
+        """Action(s) for observation(s) ``(31,)`` or ``(n, 31)``.
 
         ``state`` is the phase index per environment (sequential mode; ``None`` for the
         simultaneous mode, like an SB3 feed-forward policy).  If ``state`` is ``None`` the

@@ -236,12 +236,14 @@ _MODES = np.array(
 def _spreads(
     L: np.ndarray, k: np.ndarray, a: np.ndarray, th: np.ndarray, u: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Spread of the ``v_i`` per working mode ``(..., 8)`` at ``theta`` and the relative height
-    ``u in [0, 1]`` within the interval of ``y`` where all three legs reach the rail line
-    (inf where that interval is empty); also ``y`` and the ``v_i`` ``(..., 8, 3)``."""
+    """Spread of the ``v_i`` per working mode ``(..., 8)`` at ``theta`` and the parameter
+    ``u in [0, 1]`` of the interval of ``y`` where all three legs reach the rail line (inf
+    where that interval is empty); also ``y`` and the ``v_i`` ``(..., 8, 3)``.  ``y`` runs
+    over the interval as ``(1 - cos(pi u)) / 2``, so that the ``w_i``, which behave like the
+    square root of the distance to the interval's ends, vary smoothly with ``u`` there."""
     s, c = np.sin(th)[..., None], np.cos(th)[..., None]
     lo, hi = (-L - k * s).max(axis=-1), (L - k * s).min(axis=-1)
-    y = lo + np.clip(u, 0.0, 1.0) * (hi - lo)
+    y = lo + 0.5 * (1.0 - np.cos(np.pi * np.clip(u, 0.0, 1.0))) * (hi - lo)
     cy = y[..., None] + k * s
     w = np.sqrt(np.maximum(L * L - cy * cy, 0.0))
     v = (a - k * c)[..., None, :] + _MODES * w[..., None, :]

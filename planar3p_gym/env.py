@@ -99,10 +99,11 @@ class Planar3PEnv(gym.Env):
     raise ``ValueError`` and leave the state unchanged.
 
     ## Observation Space
-    ``Box(low, high, (28,), float32)``, SI units, documented index by index in
+    ``Box(low, high, (31,), float32)``, SI units, documented index by index in
     :mod:`planar3p_gym.observation`: slider travels and rates, gripper position,
     ``cos/sin theta``, gripper twist, ``cos/sin`` of each leg angle, target position and
-    ``cos/sin`` of its angle, position and orientation errors, parallel and serial margins.
+    ``cos/sin`` of its angle, position and orientation errors, parallel and serial margins,
+    and the pose error again on a millimetre scale (``tanh(error / 1 cm)``).
 
     ## Rewards
     ``-w_pose * e - w_precision * (1 - exp(-d / s)) - w_singularity * barrier
@@ -455,6 +456,7 @@ class Planar3PEnv(gym.Env):
             measures.serial_margin,
             self._obs_low,
             self._obs_high,
+            self._length,
         )
 
     def _info(

@@ -135,7 +135,7 @@ def test_registration_and_spaces():
     env = make()
     assert env.spec.max_episode_steps == MAX_EPISODE_STEPS
     assert env.action_space == gym.spaces.Box(-1.0, 1.0, (3,), np.float32)
-    assert env.observation_space.shape == (OBS_SIZE,) == (28,)
+    assert env.observation_space.shape == (OBS_SIZE,) == (31,)
     assert env.observation_space.dtype == np.float32
     assert np.isfinite(env.observation_space.low).all()
     assert np.isfinite(env.observation_space.high).all()
@@ -677,3 +677,21 @@ def test_working_mode_change_is_reported_not_terminal():
             break
         assert not (terminated or truncated)
     assert seen_flip  # with seed 0 leg 1 passes the perpendicular after 68 steps
+
+
+def test_fine_error_block_is_the_pose_error_on_a_millimetre_scale():
+    from planar3p_gym.observation import FINE_ERROR_SCALE
+
+    env = gym.make("Planar3P-v0")
+    obs, info = env.reset(seed=3)
+    length = env.unwrapped.design.characteristic_length
+    for _ in range(20):
+        fine = obs[SLICES["fine_error"]].astype(float)
+        dx, dy = obs[SLICES["position_error"]].astype(float)
+        dth = float(obs[SLICES["orientation_error"]][0])
+        expected = np.tanh(np.array([dx, dy, length * dth]) / FINE_ERROR_SCALE)
+        np.testing.assert_allclose(fine, expected, atol=1e-5)
+        assert np.all(np.abs(fine) <= 1.0)
+        obs, *_ = env.step(env.action_space.sample())
+    # Within a few millimetres the block is nearly linear: 1 mm reads as about 0.1.
+    assert math.tanh(0.001 / FINE_ERROR_SCALE) == pytest.approx(0.0997, abs=1e-4)
