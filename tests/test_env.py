@@ -683,7 +683,7 @@ def test_fine_error_block_is_the_pose_error_on_a_millimetre_scale():
     from planar3p_gym.observation import FINE_ERROR_SCALE
 
     env = gym.make("Planar3P-v0")
-    obs, info = env.reset(seed=3)
+    obs, _info = env.reset(seed=3)
     length = env.unwrapped.design.characteristic_length
     for _ in range(20):
         fine = obs[SLICES["fine_error"]].astype(float)
