@@ -285,9 +285,7 @@ def margins(design: Design, pose: ArrayLike, rho: ArrayLike) -> Margins:
     A_bar[..., 2] /= c.ref
     sv = np.linalg.svd(A_bar, compute_uv=False)
     serial = np.min(np.abs(u[..., 0]) / np.hypot(u[..., 0], u[..., 1]), axis=-1)
-    return Margins(
-        sv[..., -1] / sv[..., 0], serial, np.sign(np.linalg.det(A)).astype(np.int8)
-    )
+    return Margins(sv[..., -1] / sv[..., 0], serial, np.sign(np.linalg.det(A)).astype(np.int8))
 
 
 @dataclass(frozen=True)
@@ -405,8 +403,11 @@ def simple_motion_rates(
 class ForwardSolutions(NamedTuple):
     """All real poses for a batch of travels, from :func:`forward_batch`.
 
-    Solutions are sorted: valid ones first; above the rails (``y >= 0``) before below; then
-    ``sign det A = +1`` before ``-1``; then by ``theta``.
+    Solutions are sorted: valid ones first; above the rails (``side`` +1), then on the rail
+    line (0), then below (-1); then ``sign det A = +1`` before ``-1``; then by ``theta``.  The
+    mirror image ``(x, -y, -theta)`` of a solution is a solution with the same ``det A``, so
+    away from singularities the answer is two mirror pairs (or none), and the two poses above
+    the rails have opposite ``sign det A``.
 
     Attributes:
         poses: ``(..., 4, 3)`` poses ``(x, y, theta)`` (m, m, rad; ``theta`` in ``(-pi, pi]``),
@@ -415,7 +416,8 @@ class ForwardSolutions(NamedTuple):
         assembly: ``(..., 4)`` int8, ``sign(det A)`` of each solution (0 where invalid or
             exactly singular).
         side: ``(..., 4)`` int8, +1 above the rails, -1 below, 0 on the rail line or invalid.
-        count: ``(...)`` number of distinct real poses (0 to 4).
+        count: ``(...)`` number of distinct real poses (0 to 4).  At (or within rounding of)
+            a parallel singularity two coalescing poses may be reported once or twice.
         residual: ``(..., 4)`` largest loop residual ``| |C_i - B_i| - L_i |`` (m).
     """
 
@@ -489,20 +491,24 @@ def forward(design: Design, rho: ArrayLike) -> list[PoseSolution]:
 # 2. Roots.  ``f(+-1) = -Q(+-1)^2 <= 0``, so ``[-1, 1]`` holds an even number of roots: none or
 #    the pair on either side of the local maximum ``c_max`` of ``f`` (the third root is outside,
 #    hence at most 4 poses).  The pair is bracketed by ``c_max`` and the other critical point
-#    (or +-1) and found by safeguarded Newton; a near-double root (``f(c_max)`` close to 0, a
-#    parallel singularity or the clustering of roots at ``|c| -> 1``) marks the row *hard*.
+#    (or +-1) and found by safeguarded Newton.  A pair that rounding may have turned complex
+#    (``f(c_max) <= 0`` with a half-gap below ``_NEAR_DOUBLE``) or a triple root marks the row
+#    *hard*.  (Coefficient rounding limits a near-double pair to ~sqrt(eps) accuracy; near
+#    ``|c| = 1``, where ``dc = -sin(theta) dtheta``, poses far apart can share ``c`` to 1e-8.)
 # 3. Poses.  For a root ``c`` (``sin theta >= 0``) the gripper lies on the circles
 #    ``|G - O_i| = L_i``, ``O_i = B_i - L_iG e``; the best-separated pair is intersected and the
 #    third circle picks the branch (both are kept when it cannot tell them apart).
 # 4. Newton on the three loop equations polishes every candidate (compressed active set, early
 #    exit); poses are folded to ``sin theta >= 0`` (the mirror ``(x, -y, -theta)`` of a solution
-#    is a solution), de-duplicated, and rows where a root gave no pose or two roots gave the
-#    same pose are also marked hard.
-# 5. Hard rows are re-solved directly in the pose space: the residual of the third leg along
-#    each intersection branch of the other two is scanned on a grid of ``theta`` around every
-#    root estimate, sign changes are refined by the Illinois method (full floating-point
-#    accuracy: the polynomial is no longer involved) and touching minima by a guarded
-#    Gauss-Newton; the results are merged with the fast path's.
+#    is a solution, with the same ``det A``) and de-duplicated.  A row where some root gave no
+#    pose of its own (failed polish, or two roots converging to one pose) is marked hard too.
+# 5. Hard rows (well under 1% of random reachable poses) are re-solved in the pose space, where
+#    the floating-point accuracy is not limited by the polynomial: the residual of the third
+#    leg along both intersection branches of the best pair is sampled on a grid of ``theta``
+#    around every root estimate; sign changes are refined by the Illinois method, touching
+#    zeros (a double root, or the tangent circles of three parallel legs) by a golden-section
+#    search on the miss; a guarded Gauss-Newton polishes both.  The results are merged with the
+#    fast path's, poses that agree to ``_MERGE`` being one (the limit of a near-double root).
 
 _ACCEPT = 1e-11  # accepted loop residual, relative to the longest leg
 _SAME = 1e-7  # poses closer than this (relative to the longest leg) are one solution
@@ -516,6 +522,7 @@ _SCAN_HALF_WIDTH = 2.5e-3  # rad, least half-width of a scan window
 _ILLINOIS_STEPS = 40
 _GUARDED_STEPS = 40
 _GOLDEN_STEPS = 60
+_SUB_POINTS = 65  # samples of a cell with a touching zero, searched for a second zero
 
 
 class _DK(NamedTuple):
@@ -929,9 +936,7 @@ def _dedupe(d: _DK, Q: FloatArray, V: NDArray[np.bool_], tol: float) -> NDArray[
             Xa, Ya, Ta, Ra = Q[:4, idx, a]
             Xb, Yb, Tb, Rb = Q[:4, idx, b]
             direct = (np.abs(Ya - Yb) < tol) & (np.abs(Ta - Tb) < tol_t)
-            mirror = (np.abs(Ya + Yb) < tol) & (
-                np.minimum(Ta + Tb, 2.0 * np.pi - Ta - Tb) < tol_t
-            )
+            mirror = (np.abs(Ya + Yb) < tol) & (np.minimum(Ta + Tb, 2.0 * np.pi - Ta - Tb) < tol_t)
             dup = (np.abs(Xa - Xb) < tol) & (direct | mirror)
             if dup.any():
                 b_better = Rb < Ra
@@ -1049,6 +1054,8 @@ def _scan_rows(
     spread = np.where(valid_c.all(axis=1), np.abs(th_c[:, 0] - th_c[:, 1]), 0.0)
     half = np.maximum(_SCAN_HALF_WIDTH, 2.0 * spread)
     wrow, wslot = np.nonzero(valid_c)
+    if not wrow.size:
+        return np.zeros((5, h, 1)), np.zeros((h, 1), dtype=bool)
     w_th = th_c[wrow, wslot]
     # windows x branches: both branches of the pair that is best separated at the centre
     pair = _pair_geometry(d, be1[wrow], be3[wrow], np.cos(w_th), np.sin(w_th), None)[0]
@@ -1057,9 +1064,9 @@ def _scan_rows(
     sgn = np.concatenate([np.ones(nw), -np.ones(nw)])
     g = _make_branch(d, be1[srow], be3[srow], np.concatenate([pair, pair]), sgn)
     M = _SCAN_POINTS
-    grid = np.concatenate([w_th, w_th])[:, None] + np.concatenate(
-        [half[wrow], half[wrow]]
-    )[:, None] * np.linspace(-1.0, 1.0, M)
+    centre = np.concatenate([w_th, w_th])[:, None]
+    width = np.concatenate([half[wrow], half[wrow]])[:, None]
+    grid = centre + width * np.linspace(-1.0, 1.0, M)
     _, _, r, gap, h2 = _branch_eval(_Branch(*(a[:, None] for a in g)), grid)
     # Where the two circles miss each other (h2 < 0) the branches merge at the point of closest
     # approach; at a parallel singularity with parallel legs the circles are tangent at the
@@ -1070,8 +1077,11 @@ def _scan_rows(
     miss = np.maximum(np.abs(r), gap)
     mid = miss[:, 1:-1]
     touch = (
-        (mid <= miss[:, :-2]) & (mid <= miss[:, 2:]) & (mid < 1e-3 * d.scale)
-        & ~change[:, :-1] & ~change[:, 1:]
+        (mid <= miss[:, :-2])
+        & (mid <= miss[:, 2:])
+        & (mid < 1e-3 * d.scale)
+        & ~change[:, :-1]
+        & ~change[:, 1:]
     )
     parts = []
     wi, ti = np.nonzero(change)
@@ -1080,9 +1090,25 @@ def _scan_rows(
         parts.append((tX, tY, tT, srow[wi]))
     wi, ti = np.nonzero(touch)
     if wi.size:
-        tX, tY, tT, m = _golden(g.take(wi), grid[wi, ti], grid[wi, ti + 2])
+        gt = g.take(wi)
+        lo, hi = grid[wi, ti], grid[wi, ti + 2]
+        tX, tY, tT, m = _golden(gt, lo, hi)
         near_root = m < 1e-8 * d.scale
         parts.append((tX[near_root], tY[near_root], tT[near_root], srow[wi][near_root]))
+        # Two zeros closer than the grid spacing hide in one cell (near a fold, and along the
+        # default design's parallel-leg singularities poses some 1e-5 m apart differ in theta
+        # by less than that).  Deflate the zero just found: r / (theta - theta_a) changes sign
+        # at the other one.
+        sub = lo[:, None] + (hi - lo)[:, None] * np.linspace(0.0, 1.0, _SUB_POINTS)
+        rs = _branch_eval(_Branch(*(a[:, None] for a in gt)), sub)[2]
+        q = rs / (sub - tT[:, None])
+        q0, q1 = q[:, :-1], q[:, 1:]
+        sj, sk = np.nonzero((np.sign(q0) != np.sign(q1)) & np.isfinite(q0) & np.isfinite(q1))
+        if sj.size:
+            fX, fY, fT = _illinois(
+                gt.take(sj), sub[sj, sk], sub[sj, sk + 1], q0[sj, sk], q1[sj, sk], tT[sj]
+            )
+            parts.append((fX, fY, fT, srow[wi][sj]))
     if not parts:
         return np.zeros((5, h, 1)), np.zeros((h, 1), dtype=bool)
     cX, cY, cT, crow = (np.concatenate(a) for a in zip(*parts, strict=True))
@@ -1144,28 +1170,47 @@ def _golden(
 
 
 def _illinois(
-    g: _Branch, lo: FloatArray, hi: FloatArray, flo: FloatArray, fhi: FloatArray
+    g: _Branch,
+    lo: FloatArray,
+    hi: FloatArray,
+    flo: FloatArray,
+    fhi: FloatArray,
+    pole: FloatArray | None = None,
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Regula falsi (Illinois variant) on a branch's third-leg residual in ``theta``."""
+    """Regula falsi (Illinois variant) on a branch's third-leg residual in ``theta`` (divided
+    by ``theta - pole`` when a deflation pole is given); converged brackets leave the active
+    set.  Returns the gripper and ``theta`` of the better end of each final bracket."""
+    g_all = g
+    th = np.empty(lo.shape)
+    act = np.arange(lo.size)
     side = np.zeros(lo.shape)
-    for _ in range(_ILLINOIS_STEPS):
+    for it in range(_ILLINOIS_STEPS):
         with np.errstate(divide="ignore", invalid="ignore"):
             x = (lo * fhi - hi * flo) / (fhi - flo)
         bad = ~((x > lo) & (x < hi))
         x = np.where(bad, 0.5 * (lo + hi), x)
         fx = _branch_eval(g, x)[2]
+        if pole is not None:
+            fx = fx / (x - pole)
         same_lo = np.sign(fx) == np.sign(flo)
         # Illinois: halve the retained end's value when the same end is kept twice
         fhi = np.where(same_lo & (side == -1), 0.5 * fhi, fhi)
         flo = np.where(~same_lo & (side == 1), 0.5 * flo, flo)
         lo, flo = np.where(same_lo, x, lo), np.where(same_lo, fx, flo)
         hi, fhi = np.where(same_lo, hi, x), np.where(same_lo, fhi, fx)
-        side = np.where(same_lo, -1, 1)
+        side = np.where(same_lo, -1.0, 1.0)
         # the guarded Newton that follows polishes to full accuracy
-        if ((hi - lo <= 1e-10) | (fx == 0.0)).all():
-            break
-    th = np.where(np.abs(flo) <= np.abs(fhi), lo, hi)
-    gx, gy, _, _, _ = _branch_eval(g, th)
+        done = (hi - lo <= 1e-12) | (fx == 0.0) | (it == _ILLINOIS_STEPS - 1)
+        if done.any():
+            th[act[done]] = np.where(np.abs(flo) <= np.abs(fhi), lo, hi)[done]
+            keep = ~done
+            if not keep.any():
+                break
+            act, lo, hi, flo, fhi, side = (a[keep] for a in (act, lo, hi, flo, fhi, side))
+            g = g.take(keep)
+            if pole is not None:
+                pole = pole[keep]
+    gx, gy, _, _, _ = _branch_eval(g_all, th)
     return gx, gy, th
 
 
@@ -1225,6 +1270,13 @@ def forward_batch(design: Design, rho: ArrayLike) -> ForwardSolutions:
     mirror images about the rail line, and a direct scan in ``theta`` for the rows where the
     polynomial is ill-conditioned (near-double roots, ``theta`` near 0 or pi, two sliders at the
     same place).  Every returned pose has a loop residual below ``1e-11`` times the longest leg.
+
+    Accuracy: poses are exact to rounding (~1e-12 m) where the parallel margin is not small;
+    near a parallel singularity the problem itself is ill-conditioned (pose error about the
+    residual divided by the margin, and at a double root set by the square root of the
+    residual).  With three equal legs (``Design.fig7``) the platform parallel to the rails and
+    the legs parallel has a self-motion (infinitely many poses); there the answer may be
+    empty or hold any of them.
     """
     d = _dk_consts(_check_design(design))
     r = _as_triples("rho", rho)
