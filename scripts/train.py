@@ -21,6 +21,7 @@ import re
 import shlex
 import sys
 import time
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
@@ -69,6 +70,14 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--threads", type=int, default=1, help="torch threads")
     p.add_argument("--no-progress-bar", action="store_true")
     p.add_argument("--verbose", type=int, default=0)
+    p.add_argument(
+        "--kickstart",
+        default=None,
+        metavar="POLICY",
+        help="PPO only: behaviour-clone this teacher (e.g. analytic-simultaneous) before RL",
+    )
+    p.add_argument("--kickstart-steps", type=int, default=20_000, help="teacher env steps")
+    p.add_argument("--kickstart-epochs", type=int, default=40)
     return p.parse_args(argv)
 
 
@@ -103,6 +112,17 @@ def prepare(args: argparse.Namespace) -> tuple[TrainConfig, Path]:
     algo = args.algo.lower()
     if algo not in ALGORITHMS:
         raise UsageError(f"unknown algorithm {args.algo!r}; choose one of {', '.join(ALGORITHMS)}")
+    if args.kickstart is not None:
+        if algo != "ppo":
+            raise UsageError("--kickstart is implemented for PPO only")
+        if args.resume:
+            raise UsageError("--kickstart applies to a new run, not to --resume")
+        from agents.policies import PolicyError, parse_policy_spec
+
+        try:
+            parse_policy_spec(args.kickstart)
+        except PolicyError as exc:
+            raise UsageError(f"--kickstart: {exc}") from exc
     _check_env_id(args.env)
     run_dir = Path(args.run_dir or ROOT / "runs" / f"{algo}-{args.env}-s{args.seed}")
     if args.resume:
@@ -222,6 +242,7 @@ def train(args: argparse.Namespace, cfg: TrainConfig, run_dir: Path) -> dict[str
     algo_cls = {"ppo": PPO, "sac": SAC, "td3": TD3}[cfg.algo]
     off_policy = cfg.algo in ("sac", "td3")
     checkpoint, done_steps, stats = None, 0, None
+    kick_report, kick_eval = None, None
     if args.resume:
         checkpoint, done_steps = _latest_checkpoint(run_dir)
         candidate = run_dir / "checkpoints" / f"rl_model_vecnormalize_{done_steps}_steps.pkl"
@@ -247,8 +268,32 @@ def train(args: argparse.Namespace, cfg: TrainConfig, run_dir: Path) -> dict[str
             tensorboard_log=str(run_dir / "tb"),
             **kwargs,
         )
+        if args.kickstart is not None:
+            from agents.kickstart import kickstart_ppo
+            from agents.policies import load_policy
+
+            teacher_env = EnvFactory(cfg.env_id, cfg.env_kwargs)()
+            teacher = load_policy(args.kickstart, env=teacher_env, seed=cfg.seed)
+            teacher_env.close()
+            kick_report = kickstart_ppo(
+                model,
+                teacher,
+                args.kickstart,
+                args.kickstart_steps,
+                epochs=args.kickstart_epochs,
+                seed=cfg.seed,
+            )
+            # The kick-started policy before any RL, saved and evaluated like the final one.
+            model.save(str(run_dir / "kickstart_model.zip"))
+            if isinstance(venv, VecNormalize):
+                venv.save(str(run_dir / "kickstart_vecnormalize.pkl"))
+                eval_env.obs_rms = venv.obs_rms
+            kick_eval = _evaluate(model, eval_env, args.eval_episodes)
         record = {
             "config": to_jsonable(cfg.to_json()),
+            "kickstart": to_jsonable({**asdict(kick_report), "evaluation": kick_eval})
+            if kick_report is not None
+            else None,
             "entry": to_jsonable(cfg.entry),
             "command": " ".join(shlex.quote(a) for a in sys.argv),
         }
