@@ -164,3 +164,52 @@ def test_zoo_strings_are_parsed_safely() -> None:
         training._literal("__import__('os').system('true')", "t")
     schedule = training._schedule("lin_3e-4", "learning_rate")
     assert schedule(1.0) == pytest.approx(3e-4) and schedule(0.5) == pytest.approx(1.5e-4)
+
+
+def test_kickstart_clones_the_teacher_before_rl(tmp_path: Path) -> None:
+    """A tiny kick-start: the run records the teacher and its evaluation, saves the cloned
+    policy, and the clone imitates the teacher far better than the untrained network."""
+    from stable_baselines3 import PPO
+
+    from agents.kickstart import collect_teacher_data
+    from agents.policies import load_policy
+
+    run = tmp_path / "ks"
+    args = _smoke_args("ppo", run, steps=128)
+    args += ["--kickstart", "analytic-simultaneous", "--kickstart-steps", "1500"]
+    args += ["--kickstart-epochs", "20"]
+    assert train_script.main(args) == 0
+    record = json.loads((run / "config.json").read_text())["kickstart"]
+    assert record["teacher"] == "analytic-simultaneous"
+    assert record["steps"] >= 1500 and record["teacher_success_rate"] > 0.9
+    assert 0.0 <= record["evaluation"]["success_rate"] <= 1.0
+    assert (run / "kickstart_model.zip").is_file() and (
+        run / "kickstart_vecnormalize.pkl"
+    ).is_file()
+
+    # Imitation error of the cloned policy vs a fresh network, on teacher-visited states.
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    venv = VecNormalize.load(
+        str(run / "kickstart_vecnormalize.pkl"), DummyVecEnv([training.EnvFactory("Planar3P-v0")])
+    )
+    venv.training = False
+    teacher = load_policy("analytic-simultaneous", env=venv.envs[0])
+    data = collect_teacher_data(venv, teacher, 200, gamma=0.99)
+    clone = PPO.load(str(run / "kickstart_model.zip"), device="cpu")
+    fresh = PPO("MlpPolicy", venv, seed=0, device="cpu")
+    err_clone = np.mean((clone.predict(data["obs"], deterministic=True)[0] - data["actions"]) ** 2)
+    err_fresh = np.mean((fresh.predict(data["obs"], deterministic=True)[0] - data["actions"]) ** 2)
+    assert err_clone < 0.5 * err_fresh
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--algo", "sac", "--kickstart", "analytic-simultaneous"], "PPO only"),
+        (["--algo", "ppo", "--kickstart", "no-such-teacher"], "--kickstart"),
+    ],
+)
+def test_kickstart_bad_input(extra, message, tmp_path: Path, capsys) -> None:
+    assert train_script.main([*extra, "--run-dir", str(tmp_path / "r")]) == 2
+    assert message in capsys.readouterr().err
