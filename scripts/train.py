@@ -78,6 +78,12 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     )
     p.add_argument("--kickstart-steps", type=int, default=20_000, help="teacher env steps")
     p.add_argument("--kickstart-epochs", type=int, default=40)
+    p.add_argument(
+        "--kickstart-log-std",
+        type=float,
+        default=-1.5,
+        help="log standard deviation of the exploration noise after kick-starting",
+    )
     return p.parse_args(argv)
 
 
@@ -281,6 +287,7 @@ def train(args: argparse.Namespace, cfg: TrainConfig, run_dir: Path) -> dict[str
                 args.kickstart,
                 args.kickstart_steps,
                 epochs=args.kickstart_epochs,
+                log_std=args.kickstart_log_std,
                 seed=cfg.seed,
             )
             # The kick-started policy before any RL, saved and evaluated like the final one.
