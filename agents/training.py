@@ -273,9 +273,15 @@ def parse_overrides(items: list[str] | None) -> dict[str, Any]:
             raise ValueError(f"hyperparameter override {item!r} is not of the form key=value")
         key, text = item.split("=", 1)
         try:
-            out[key] = yaml.safe_load(text)
+            value = yaml.safe_load(text)
         except yaml.YAMLError as exc:
             raise ValueError(f"hyperparameter override {item!r}: {exc}") from exc
+        if isinstance(value, str):  # YAML 1.1 reads "2e-5" (no dot) as a string
+            try:
+                value = float(value)
+            except ValueError:
+                pass
+        out[key] = value
     return out
 
 

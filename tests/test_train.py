@@ -213,3 +213,10 @@ def test_kickstart_clones_the_teacher_before_rl(tmp_path: Path) -> None:
 def test_kickstart_bad_input(extra, message, tmp_path: Path, capsys) -> None:
     assert train_script.main([*extra, "--run-dir", str(tmp_path / "r")]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_overrides_read_exponent_floats() -> None:
+    out = training.parse_overrides(["learning_rate=2e-5", "n_epochs=5", "ent_coef=auto"])
+    assert out == {"learning_rate": 2e-5, "n_epochs": 5, "ent_coef": "auto"}
+    with pytest.raises(ValueError, match="key=value"):
+        training.parse_overrides(["no_equals_sign"])
