@@ -161,7 +161,8 @@ def policy_label(text: str) -> str:
         spec = rest
     p = Path(spec)
     parent = p.parent.name
-    return f"{parent}/{p.stem}" if parent and p.stem in ("model", "best_model") else p.stem
+    generic = p.stem in ("model", "best_model") or p.stem.endswith("_model")
+    return f"{parent}/{p.stem}" if parent and generic else p.stem
 
 
 # ------------------------------------------------------------------ SB3 models
