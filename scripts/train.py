@@ -232,6 +232,19 @@ def _evaluate(model: Any, eval_env: Any, episodes: int) -> dict[str, Any]:
     }
 
 
+def _restore_learning_curve(evaluator: Any, path: Path, up_to: int) -> None:
+    """Continue the learning curve of a resumed run: evaluations up to the checkpoint."""
+    if not path.is_file():
+        return
+    with np.load(path) as data:
+        keep = data["timesteps"] <= up_to
+        evaluator.evaluations_timesteps = data["timesteps"][keep].tolist()
+        evaluator.evaluations_results = data["results"][keep].tolist()
+        evaluator.evaluations_length = data["ep_lengths"][keep].tolist()
+        if "successes" in data:
+            evaluator.evaluations_successes = data["successes"][keep].tolist()
+
+
 def train(args: argparse.Namespace, cfg: TrainConfig, run_dir: Path) -> dict[str, Any]:
     import torch
     from stable_baselines3 import PPO, SAC, TD3
@@ -314,18 +327,21 @@ def train(args: argparse.Namespace, cfg: TrainConfig, run_dir: Path) -> dict[str
             return True
 
     per_env = max(1, cfg.n_envs)
+    evaluator = EvalCallback(
+        eval_env,
+        callback_on_new_best=SaveStatsOnBest(),
+        n_eval_episodes=args.eval_episodes,
+        eval_freq=max(1, args.eval_freq // per_env),
+        log_path=str(run_dir),
+        best_model_save_path=str(run_dir),
+        deterministic=True,
+        verbose=args.verbose,
+    )
+    if checkpoint is not None:
+        _restore_learning_curve(evaluator, run_dir / "evaluations.npz", done_steps)
     callbacks = CallbackList(
         [
-            EvalCallback(
-                eval_env,
-                callback_on_new_best=SaveStatsOnBest(),
-                n_eval_episodes=args.eval_episodes,
-                eval_freq=max(1, args.eval_freq // per_env),
-                log_path=str(run_dir),
-                best_model_save_path=str(run_dir),
-                deterministic=True,
-                verbose=args.verbose,
-            ),
+            evaluator,
             CheckpointCallback(
                 save_freq=max(1, args.checkpoint_freq // per_env),
                 save_path=str(run_dir / "checkpoints"),

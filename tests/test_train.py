@@ -97,8 +97,11 @@ def test_smoke_training_writes_complete_loadable_run(algo: str, tmp_path: Path) 
 def test_resume_continues_from_last_checkpoint(tmp_path: Path) -> None:
     run = tmp_path / "ppo"
     assert train_script.main(_smoke_args("ppo", run, steps=256)) == 0
+    first = np.load(run / "evaluations.npz")["timesteps"].tolist()
     args = _smoke_args("ppo", run, steps=512) + ["--resume"]
     assert train_script.main(args) == 0
+    curve = np.load(run / "evaluations.npz")["timesteps"].tolist()
+    assert curve[: len(first)] == first and curve[-1] > first[-1]  # the curve continues
     metrics = json.loads((run / "metrics.json").read_text())
     assert metrics["resumed_from"] == 256
     assert metrics["timesteps"] >= 512
