@@ -54,6 +54,7 @@ from planar3p_gym import kinematics, task
 from planar3p_gym.design import Design
 from planar3p_gym.env import DEFAULT_WORKING_MODE
 from planar3p_gym.observation import SLICES
+from planar3p_gym.workspace import merge_labels
 
 __all__ = [
     "DEFAULT_SUITE_MODES",
@@ -354,22 +355,7 @@ def _label(mask: NDArray[np.bool_], wrap_last: bool) -> NDArray[np.int64]:
         for p, q, ok in pairs:
             ea.append(p[ok])
             eb.append(q[ok])
-    a_, b_ = np.concatenate(ea), np.concatenate(eb)
-    lab = np.arange(mask.size)
-    while True:
-        la, lb = lab[a_], lab[b_]
-        differ = la != lb
-        if not differ.any():
-            break
-        la, lb = la[differ], lb[differ]
-        low = np.minimum(la, lb)
-        np.minimum.at(lab, la, low)
-        np.minimum.at(lab, lb, low)
-        while True:
-            nxt = lab[lab]
-            if np.array_equal(nxt, lab):
-                break
-            lab = nxt
+    lab = merge_labels(mask.size, np.concatenate(ea), np.concatenate(eb))
     out = np.where(mask.ravel(), lab, -1)
     return out.reshape(shape)
 

@@ -66,6 +66,7 @@ __all__ = [
     "in_constant_orientation_workspace",
     "label_components",
     "margin_levels",
+    "merge_labels",
     "orientations",
     "parallel_singularity_points",
     "reachable_exact",
@@ -563,6 +564,32 @@ def margin_levels(
 
 
 # =============================================================================== dead zones
+def merge_labels(n: int, edges_a: IntArray, edges_b: IntArray) -> IntArray:
+    """Connected components of a graph on nodes ``0 .. n-1`` with edges ``(edges_a[k],
+    edges_b[k])``: each node's label is the smallest node index of its component.
+
+    Vectorised min-label propagation (hooking) with pointer jumping: a handful of sweeps,
+    no per-node Python loop.
+    """
+    lab = np.arange(n)  # every label points at a node of the same component, never higher
+    while True:
+        la, lb = lab[edges_a], lab[edges_b]
+        differ = la != lb
+        if not differ.any():
+            return lab
+        la, lb = la[differ], lb[differ]
+        low = np.minimum(la, lb)
+        # hook: each (root) label adopts the smallest label it is joined to
+        np.minimum.at(lab, la, low)
+        np.minimum.at(lab, lb, low)
+        # pointer jumping until every node points at a root
+        while True:
+            nxt = lab[lab]
+            if np.array_equal(nxt, lab):
+                break
+            lab = nxt
+
+
 def label_components(mask: ArrayLike) -> tuple[IntArray, int]:
     """4-connected components of the True cells of a 2-D mask.
 
@@ -582,23 +609,7 @@ def label_components(mask: ArrayLike) -> tuple[IntArray, int]:
     v_a = np.arange((ny - 1) * nx)[(m[:-1, :] & m[1:, :]).ravel()]
     ea = np.concatenate([h_a, v_a])
     eb = np.concatenate([h_a + 1, v_a + nx])
-    lab = np.arange(n)  # every label points at a cell of the same component, never higher
-    while True:
-        la, lb = lab[ea], lab[eb]
-        differ = la != lb
-        if not differ.any():
-            break
-        la, lb = la[differ], lb[differ]
-        low = np.minimum(la, lb)
-        # hook: each (root) label adopts the smallest label it is joined to
-        np.minimum.at(lab, la, low)
-        np.minimum.at(lab, lb, low)
-        # pointer jumping until every cell points at a root
-        while True:
-            nxt = lab[lab]
-            if np.array_equal(nxt, lab):
-                break
-            lab = nxt
+    lab = merge_labels(n, ea, eb)
     roots, labels = np.unique(lab[flat], return_inverse=True)
     out = np.full(n, -1, dtype=np.int64)
     out[flat] = labels
