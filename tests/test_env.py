@@ -695,3 +695,17 @@ def test_fine_error_block_is_the_pose_error_on_a_millimetre_scale():
         obs, *_ = env.step(env.action_space.sample())
     # Within a few millimetres the block is nearly linear: 1 mm reads as about 0.1.
     assert math.tanh(0.001 / FINE_ERROR_SCALE) == pytest.approx(0.0997, abs=1e-4)
+
+
+def test_core_package_imports_without_torch_or_sb3():
+    """The environment must be usable with the core dependencies only."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "import gymnasium as gym, planar3p_gym, planar3p_gym.workspace, planar3p_gym.render\n"
+        "env = gym.make('Planar3P-v0'); env.reset(seed=0); env.step(env.action_space.sample())\n"
+        "assert 'torch' not in sys.modules and 'stable_baselines3' not in sys.modules\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
