@@ -329,7 +329,7 @@ class Planar3PEnv(gym.Env):
         self._measures = self._kin.measures(state.pose, state.rho)
         self._assembly = self._measures.det_sign
         self._obs = self._observe(state, self._measures)
-        info = self._info(state, self._measures, None, {}, False)
+        info = self._info(state, self._measures, None, {}, False, self._errors(state.pose))
         self._last_info = info
         if self.render_mode == "human":
             self.render()
@@ -353,27 +353,27 @@ class Planar3PEnv(gym.Env):
         state = sim.step_unchecked(a0 * vmax, a1 * vmax, a2 * vmax)
 
         reason = None
+        success = False
         if not state.finite or state.closure_error > self.breakdown_distance:
+            # The new state is not trustworthy: keep the last good observation and errors.
             reason = "physics_breakdown"
             measures = self._measures
+            pos_err, ang_err = self._errors(self._last_info["pose"])
         else:
             measures = self._kin.measures(state.pose, state.rho)
-            if measures.det_sign == -self._assembly:
-                reason = "singularity_crossing"
-        success = False
-        if reason is None:
             self._obs = self._observe(state, measures)
             pos_err, ang_err = self._errors(state.pose)
-            rest = max(abs(v) for v in state.rho_dot) <= self.task_config.rest_speed
-            success = (
-                pos_err <= self.task_config.position_tolerance
-                and abs(ang_err) <= self.task_config.orientation_tolerance
-                and rest
-            )
-            if success:
-                reason = "success"
-        else:
-            pos_err, ang_err = self._errors(self._last_info["pose"])
+            if measures.det_sign == -self._assembly:
+                reason = "singularity_crossing"
+            else:
+                rest = max(abs(v) for v in state.rho_dot) <= self.task_config.rest_speed
+                success = (
+                    pos_err <= self.task_config.position_tolerance
+                    and abs(ang_err) <= self.task_config.orientation_tolerance
+                    and rest
+                )
+                if success:
+                    reason = "success"
         failure = reason in ("singularity_crossing", "physics_breakdown")
         assert measures is not None
         terms = reward_terms(
@@ -400,7 +400,7 @@ class Planar3PEnv(gym.Env):
                 else math.inf,
             )
         else:
-            info = self._info(state, measures, reason, terms, success)
+            info = self._info(state, measures, reason, terms, success, (pos_err, ang_err))
             self._measures = measures
         self._last_info = info
         if self.render_mode == "human":
@@ -466,8 +466,9 @@ class Planar3PEnv(gym.Env):
         reason: str | None,
         terms: dict[str, float],
         success: bool,
+        errors: tuple[float, float],
     ) -> dict[str, Any]:
-        pos_err, ang_err = self._errors(state.pose)
+        pos_err, ang_err = errors
         return {
             "is_success": success,
             "termination_reason": reason,

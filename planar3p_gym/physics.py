@@ -318,13 +318,6 @@ class Planar3PSim:
             elif slider_x - setpoint > FOLLOWING_ERROR_LIMIT:
                 drive.position = (slider_x - FOLLOWING_ERROR_LIMIT, 0.0)
 
-    def following_errors(self) -> tuple[float, float, float]:
-        """Each servo's setpoint minus its slider position (m)."""
-        rho = self._state.rho
-        return tuple(  # type: ignore[return-value]
-            d.position.x - (a + r) for d, a, r in zip(self.drives, self._origins, rho, strict=True)
-        )
-
     # ------------------------------------------------------------------ readout
     @property
     def state(self) -> SimState:

@@ -87,16 +87,6 @@ class TaskConfig:
             )
 
 
-def _margins(design: Design, pose: np.ndarray, rho: np.ndarray) -> tuple[np.ndarray, ...]:
-    A = kinematics.normalised_A(design, pose, rho)
-    sv = np.linalg.svd(A, compute_uv=False)
-    pm = sv[..., -1] / sv[..., 0]
-    u = kinematics.leg_vectors(design, pose, rho)
-    sm = np.min(np.abs(u[..., 0]) / np.hypot(u[..., 0], u[..., 1]), axis=-1)
-    det = np.sign(np.linalg.det(A))
-    return pm, sm, det
-
-
 def _acceptable(
     design: Design, poses: np.ndarray, mode: np.ndarray, cfg: TaskConfig
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -107,7 +97,7 @@ def _acceptable(
     ok = np.zeros(len(poses), dtype=bool)
     det = np.zeros(len(poses))
     if inside.any():
-        pm, sm, d = _margins(design, poses[inside], rho[inside])
+        pm, sm, d = kinematics.margins(design, poses[inside], rho[inside])
         ok[inside] = (pm >= cfg.min_parallel_margin) & (sm >= cfg.min_serial_margin)
         det[inside] = d
     return ok, det
@@ -166,7 +156,7 @@ def path_is_clear(
     rho, reachable = kinematics.inverse(design, path, np.asarray(mode, dtype=np.float64))
     ok = reachable.all(axis=-1)
     if ok.any():
-        pm, sm, det = _margins(design, path[ok], rho[ok])
+        pm, sm, det = kinematics.margins(design, path[ok], rho[ok])
         ok[ok] = (
             (pm >= cfg.path_parallel_margin).all(-1)
             & (sm >= cfg.path_serial_margin).all(-1)

@@ -294,7 +294,7 @@ def profile_components(n_steps: int, seed: int, passes: int = 3) -> dict[str, fl
                 comp.reward_weights, **_reward_kwargs(comp, pos_err, ang_err, measures, action)
             )
             sum(terms.values())
-            comp._info(state, measures, None, terms, False)
+            comp._info(state, measures, None, terms, False, (pos_err, ang_err))
             t7 = clock()
             if p > 0:
                 samples[p - 1, n] = (

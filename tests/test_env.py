@@ -184,6 +184,16 @@ def test_singularity_crossing_is_detected(crossing_episode):
     assert records[0][4]["assembly_mode"] == env.unwrapped.assembly_mode
     if info["termination_reason"] == "singularity_crossing":
         assert info["assembly_mode"] == -env.unwrapped.assembly_mode
+        # The terminal observation and the reward describe the state after the step.
+        obs = records[-1][0]
+        np.testing.assert_allclose(obs[SLICES["position"]], info["pose"][:2], atol=1e-6)
+        length = env.unwrapped.design.characteristic_length
+        expected = (
+            -env.unwrapped.reward_weights.pose
+            * (info["position_error"] + length * abs(info["orientation_error"]))
+            / length
+        )
+        assert info["reward_terms"]["pose"] == pytest.approx(expected, rel=1e-12)
     # The approach is visible in the margin before the episode ends.
     assert min(r[4]["parallel_margin"] for r in records) < 0.01
     assert info["reward_terms"]["failure"] == -env.unwrapped.reward_weights.failure
