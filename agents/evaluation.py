@@ -54,6 +54,7 @@ from planar3p_gym import kinematics, task
 from planar3p_gym.design import Design
 from planar3p_gym.env import DEFAULT_WORKING_MODE
 from planar3p_gym.observation import SLICES
+from planar3p_gym.statics import holding_forces
 from planar3p_gym.workspace import merge_labels
 
 __all__ = [
@@ -75,7 +76,6 @@ __all__ = [
     "run_episode",
     "save_suites",
     "sequential_path_profiles",
-    "static_forces",
     "summarize",
     "ytheta_fields",
 ]
@@ -423,29 +423,6 @@ class RegionMap:
         return best
 
 
-def static_forces(design: Design, poses: ArrayLike, mode: ArrayLike) -> FloatArray:
-    """Actuator forces (N, signed, along the rails) that hold poses ``(..., 3)`` at rest
-    against gravity, shape ``(..., 3)``.
-
-    By virtual work with ``p_dot = A^-1 B rho_dot``: ``F = g B A^-T c``, where ``c`` maps the
-    platform twist to the rate of change of ``sum m_k y_k`` (the platform, a uniform rod from
-    ``G`` to ``C_1``, and the legs, uniform rods from ``B_i`` to ``C_i``; sliders do not
-    rise).  They grow like ``1 / parallel margin`` near a parallel singularity: a pose whose
-    forces exceed ``design.max_force`` cannot be held, whatever its margin.
-    """
-    p = np.asarray(poses, dtype=np.float64)
-    rho, _ = kinematics.inverse(design, p, np.asarray(mode, dtype=np.float64))
-    A, B = kinematics.jacobians(design, p, np.nan_to_num(rho))
-    k = np.asarray(design.joint_offsets)
-    ct = np.cos(p[..., 2])
-    c = np.zeros(p.shape)
-    c[..., 1] = design.platform_mass + 1.5 * design.leg_mass
-    c[..., 2] = (0.5 * design.platform_mass * k[0] + 0.5 * design.leg_mass * k.sum()) * ct
-    z = np.linalg.solve(np.swapaxes(A, -1, -2), c[..., None])[..., 0]
-    f = design.gravity * np.diagonal(B, axis1=-2, axis2=-1) * z
-    return np.where(np.isfinite(rho).all(axis=-1, keepdims=True), f, np.nan)
-
-
 def _pose_pool(
     design: Design,
     mode: tuple[int, int, int],
@@ -460,7 +437,7 @@ def _pose_pool(
         p, d = task.sample_poses(design, mode, rng, cfg)
         if max_force is not None:
             with np.errstate(invalid="ignore"):
-                ok = np.abs(static_forces(design, p, mode)).max(axis=-1) <= max_force
+                ok = np.abs(holding_forces(design, p, mode)).max(axis=-1) <= max_force
             p, d = p[ok], d[ok]
         poses.append(p)
         dets.append(d)
@@ -546,7 +523,8 @@ def make_suite(
     environment demands of its start poses).  ``far_quantile``: the ``far`` pairs have
     a pose distance above this quantile of same-assembly pairs.  ``hold_force_fraction``: the
     ends of ``hard`` and ``far`` pairs need at most this fraction of ``max_force`` to be held
-    against gravity (:func:`static_forces`), so a policy that does nothing stays put.
+    against gravity (:func:`planar3p_gym.statics.holding_forces`), so a policy that does
+    nothing stays put.
     """
     if name not in _SUITE_IDS:
         raise ValueError(f"unknown suite {name!r}; known: {', '.join(SUITE_NAMES)}")

@@ -117,7 +117,8 @@ class Planar3PEnv(gym.Env):
     ## Starting State
     Start and target are drawn from ``self.np_random``: reachable in the episode's working
     mode within the stroke (away from the end stops), with parallel and serial margins above
-    thresholds, in the same assembly mode, and by default joined by a straight path in pose
+    thresholds, holdable at rest with at most 75 % of the actuator force, in the same assembly
+    mode, and by default joined by a straight path in pose
     space that stays clear of singularities (:class:`planar3p_gym.task.TaskConfig`).  The
     mechanism starts at rest.  ``reset(options={"start": pose, "target": pose,
     "working_mode": (s1, s2, s3)})`` sets any of them (validated; ``ValueError`` if invalid).
@@ -138,8 +139,8 @@ class Planar3PEnv(gym.Env):
     - ``working_mode``: ``(s1, s2, s3)`` of +-1 (default ``(1, 1, -1)``) or ``"random"``
       (one of the modes with a usable workspace, drawn per episode).
     - ``control_frequency``: control rate (Hz), default 50; also the render fps.
-    - ``substeps``: physics steps per control step (default 4); ``solver_iterations``: pymunk
-      constraint iterations per physics step (default 20).
+    - ``substeps``: physics steps per control step (default 8: 2.5 ms at 50 Hz);
+      ``solver_iterations``: pymunk constraint iterations per physics step (default 16).
     - ``reward_weights``: :class:`RewardWeights` or a dict of its fields.
     - ``task_config``: :class:`TaskConfig` or a dict of its fields (tolerances, sampling
       margins).
@@ -478,10 +479,7 @@ class Planar3PEnv(gym.Env):
             "serial_margin": measures.serial_margin,
             "assembly_mode": measures.det_sign,
             "working_mode": self._mode,
-            "working_mode_changed": any(
-                (math.cos(a) >= 0.0) != (m > 0)
-                for a, m in zip(measures.leg_angles, self._mode, strict=True)
-            ),
+            "working_mode_changed": _mode_changed(measures.leg_angles, self._mode),
             "actuator_forces": state.actuator_forces,
             "actuator_saturated": state.saturated,
             "closure_error": state.closure_error,
@@ -504,3 +502,14 @@ class Planar3PEnv(gym.Env):
             "task_config": asdict(self.task_config),
             "breakdown_threshold": self.breakdown_distance / self.design.shortest_leg,
         }
+
+
+def _mode_changed(leg_angles: tuple[float, float, float], mode: tuple[int, int, int]) -> bool:
+    """Whether a leg's ``sign(cos alpha_i)`` differs from the working mode's ``sigma_i``."""
+    a1, a2, a3 = leg_angles
+    m1, m2, m3 = mode
+    return (
+        (math.cos(a1) >= 0.0) != (m1 > 0)
+        or (math.cos(a2) >= 0.0) != (m2 > 0)
+        or (math.cos(a3) >= 0.0) != (m3 > 0)
+    )

@@ -15,6 +15,8 @@ Public functions:
 * :func:`simple_motion_rates` -- the paper's three simple-motion formulas superposed.
 * :func:`parallel_margin`, :func:`serial_margin`, :func:`assembly_mode` (all three at once:
   :func:`margins`), :func:`classify_singularity` -- singularity measures.
+* :func:`screen_poses` / :func:`screen_paths` -- thresholds on travels and margins, decided as
+  :func:`inverse` and :func:`margins` would, but cheaply (the task sampler's filter).
 """
 
 from __future__ import annotations
@@ -35,6 +37,7 @@ __all__ = [
     "IKResult",
     "Margins",
     "PoseSolution",
+    "Screening",
     "SingularityReport",
     "assembly_mode",
     "classify_singularity",
@@ -47,6 +50,8 @@ __all__ = [
     "margins",
     "normalised_A",
     "parallel_margin",
+    "screen_paths",
+    "screen_poses",
     "serial_margin",
     "simple_motion_rates",
     "simple_motion_rates_from_angles",
@@ -120,7 +125,7 @@ def _as_modes(mode: ArrayLike) -> FloatArray:
         raise ValueError(f"mode must be +-1 with shape (..., 3): {exc}") from exc
     if arr.ndim == 0 or arr.shape[-1] != 3:
         raise ValueError(f"mode must have shape (..., 3), got shape {arr.shape}")
-    if arr.dtype.kind not in "fiu" or not np.isin(arr, (1, -1)).all():
+    if arr.dtype.kind not in "fiu" or not (np.abs(arr) == 1).all():
         raise ValueError("mode entries must be +1 or -1 (sign of cos alpha_i)")
     return arr.astype(np.float64)
 
@@ -159,8 +164,8 @@ def inverse(design: Design, pose: ArrayLike, mode: ArrayLike = (1, 1, 1)) -> IKR
     p = _as_triples("pose", pose)
     sigma = _as_modes(mode)
     _check_broadcast("pose", p, "mode", sigma)
-    # NB: planar3p_gym.workspace reproduces this floating-point expression bit for bit
-    # (``((x + k cos) - a) - sigma w``); keep the order of the operations.
+    # NB: planar3p_gym.workspace and _screen (legs first) reproduce this floating-point
+    # expression bit for bit (``((x + k cos) - a) - sigma w``); keep the order of the operations.
     th = p[..., 2:3]
     cx = p[..., 0:1] + c.k * np.cos(th)
     cy = p[..., 1:2] + c.k * np.sin(th)
@@ -277,6 +282,8 @@ class Margins(NamedTuple):
 def margins(design: Design, pose: ArrayLike, rho: ArrayLike) -> Margins:
     """Parallel margin, serial margin and ``sign(det A)`` together, from one evaluation of the
     leg vectors (the same values as the three separate functions)."""
+    # NB: _screen reproduces these floating-point values bit for bit (and so _leg_vectors and
+    # _jacobian_A); keep them in step.
     c = _consts(_check_design(design))
     p = _as_triples("pose", pose)
     u = _leg_vectors(c, p, _as_triples("rho", rho))
@@ -286,6 +293,189 @@ def margins(design: Design, pose: ArrayLike, rho: ArrayLike) -> Margins:
     sv = np.linalg.svd(A_bar, compute_uv=False)
     serial = np.min(np.abs(u[..., 0]) / np.hypot(u[..., 0], u[..., 1]), axis=-1)
     return Margins(sv[..., -1] / sv[..., 0], serial, np.sign(np.linalg.det(A)).astype(np.int8))
+
+
+# ---------------------------------------------------------------------------- screening
+#: A margin bound decides a threshold test only when it clears the threshold by this much (the
+#: bounds and the SVD's margin are both within ~1e-11 of the exact values where they are used).
+_BOUND_SLACK = 1e-8
+#: ... and only where ``|cof A_bar|_F > _BOUND_TRUST |A_bar|_F^2`` (``s_2 / s_1`` not tiny), so
+#: that rounding in ``det`` and the cofactors cannot make the bounds wrong by more than ~1e-11.
+_BOUND_TRUST = 1e-4
+_CYCLIC = np.array([0, 1, 2, 0, 1])
+
+
+def _margin_tests(
+    x: FloatArray, threshold: float
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_], FloatArray]:
+    """What closed-form bounds prove about the inverse condition numbers of 3x3 matrices
+    ``x[:, :, j]`` (shape (3, 3, m)) against ``threshold``: ``(above, below, det)``, where
+    ``above`` (``below``) means the SVD's ratio is certainly ``>=`` (``<``) the threshold.
+
+    With singular values ``s1 >= s2 >= s3``: ``|det| = s1 s2 s3``, the squared cofactors sum to
+    ``s1^2 s2^2 + s1^2 s3^2 + s2^2 s3^2`` (between ``s1^2 s2^2`` and ``3 s1^2 s2^2``) and
+    ``s1^2 <= |x|_F^2 <= 3 s1^2``, so ``|det| / (|cof|_F |x|_F) <= s3 / s1`` and
+    ``s3 / s1 <= 3 |det| / (|cof|_F |x|_F)``.  The bounds are used where
+    ``|cof|_F > _BOUND_TRUST |x|_F^2``, and only when they clear the threshold by
+    ``_BOUND_SLACK``, far more than their rounding error and the SVD's.
+    """
+    e = x[_CYCLIC][:, _CYCLIC]  # cyclic extension: rows and columns i, i + 1, i + 2
+    nxt, prv = e[1:4], e[2:5]
+    cof = nxt[:, 1:4] * prv[:, 2:5] - nxt[:, 2:5] * prv[:, 1:4]
+    det = (x[0] * cof[0]).sum(axis=0)
+    f2 = (x * x).sum(axis=(0, 1))
+    g2 = (cof * cof).sum(axis=(0, 1))
+    gf = np.sqrt(g2 * f2)
+    ad = np.abs(det)
+    trusted = g2 > _BOUND_TRUST**2 * (f2 * f2)
+    above = trusted & (ad >= (threshold + _BOUND_SLACK) * gf)
+    below = trusted & (3.0 * ad <= (threshold - _BOUND_SLACK) * gf)
+    return above, below, det
+
+
+class Screening(NamedTuple):
+    """Result of :func:`screen_poses`.
+
+    Attributes:
+        ok: ``(...)`` bool, the pose passes every test.
+        rho: slider travels (m), shape ``(..., 3)``, as :func:`inverse` gives them.
+        assembly: ``sign(det A)`` (int8) where ``ok``, else 0; shape ``(...)``.
+    """
+
+    ok: NDArray[np.bool_]
+    rho: FloatArray
+    assembly: NDArray[np.int8]
+
+
+def _screen(
+    c: _Consts,
+    p: FloatArray,
+    sigma: FloatArray,
+    row: int,
+    travel: tuple[float, float] | None,
+    min_parallel: float,
+    min_serial: float,
+    assembly: float | None,
+) -> tuple[NDArray[np.bool_], FloatArray, NDArray[np.int8]]:
+    """Screen poses ``p`` (M, 3) in modes ``sigma`` ((3,) or (M, 3)), grouped in rows of ``row``
+    consecutive poses: per-pose ``ok`` (M,), False on the whole of a row as soon as one pose of
+    it fails (the rest of a failed row is not examined), travels (3, M) (legs first) and
+    assembly modes (M,) (0 where not ok).
+
+    Every decision is the one :func:`inverse` and :func:`margins` lead to: the values compared
+    are computed by the same floating-point operations (laid out legs first, so that the
+    elementwise loops run along the poses), and the parallel margin's SVD is skipped only where
+    rigorous bounds (:func:`_margin_tests`) clear the threshold by ``_BOUND_SLACK``.  The tests
+    run cheapest first, each on the poses still in play.
+    """
+    lo, hi = (0.0, c.stroke) if travel is None else (float(travel[0]), float(travel[1]))
+    sig = sigma[:, None] if sigma.ndim == 1 else sigma.T
+    k, origins = c.k[:, None], c.origins[:, None]
+    # inverse, legs first
+    th = p[:, 2]
+    cos, sin = np.cos(th), np.sin(th)
+    cx = p[:, 0] + k * cos
+    cy = p[:, 1] + k * sin
+    disc = (c.legs**2)[:, None] - cy**2
+    closable = disc >= 0.0
+    w = np.sqrt(np.where(closable, disc, np.nan))
+    w *= sig
+    rho = cx - origins
+    rho -= w
+    ok = np.all((rho >= lo) & (rho <= hi), axis=0)  # NaN compares False
+    rows = ok.reshape(-1, row) if ok.size else ok.reshape(0, 1)
+    rows &= rows.all(axis=1, keepdims=True)
+    asm = np.zeros(ok.shape, dtype=np.int8)
+    idx = np.flatnonzero(ok)
+    if not idx.size:
+        return ok, rho, asm
+    # leg vectors and A as _leg_vectors and _jacobian_A compute them, legs first
+    ux = cx[:, idx] - (origins + rho[:, idx])
+    uy = cy[:, idx]
+    serial = np.min(np.abs(ux) / np.hypot(ux, uy), axis=0)
+    third = k * (uy * cos[idx] - ux * sin[idx])
+    X = np.stack([ux, uy, third])  # A transposed, (3, 3, m)
+    X_bar = X / c.legs[:, None]
+    X_bar[2] /= c.ref
+    A, A_bar = X.transpose(2, 1, 0), X_bar.transpose(2, 1, 0)  # (m, 3, 3)
+    sure, below, det = _margin_tests(X_bar, min_parallel)
+    # where the bound clears _BOUND_SLACK, |det| is far above its rounding error: sign exact
+    sign = np.sign(det).astype(np.int8)
+    fail = ~(serial >= min_serial) | below
+    if assembly is not None:
+        fail |= sure & (sign != assembly)
+    ok[idx] = ~fail
+    rows &= rows.all(axis=1, keepdims=True)
+    todo = ~sure & ok[idx]  # undecided poses of rows still in play
+    if todo.any():
+        sv = np.linalg.svd(A_bar[todo], compute_uv=False)
+        sign[todo] = np.sign(np.linalg.det(A[todo])).astype(np.int8)
+        good = sv[..., -1] / sv[..., 0] >= min_parallel
+        if assembly is not None:
+            good &= sign[todo] == assembly
+        ok[idx[todo]] = good
+        rows &= rows.all(axis=1, keepdims=True)
+    asm[idx] = np.where(ok[idx], sign, 0)
+    return ok, rho, asm
+
+
+def screen_poses(
+    design: Design,
+    pose: ArrayLike,
+    mode: ArrayLike = (1, 1, 1),
+    travel: tuple[float, float] | None = None,
+    min_parallel: float = 0.0,
+    min_serial: float = 0.0,
+    assembly: float | None = None,
+) -> Screening:
+    """Which poses ``(..., 3)`` (m, m, rad) are reachable in working modes ``mode`` (``(..., 3)``
+    of +-1, broadcast against the poses) with every travel in ``travel = (lo, hi)`` (m, default
+    ``(0, stroke)``), a parallel margin of at least ``min_parallel``, a serial margin of at least
+    ``min_serial`` and, if ``assembly`` is given, ``sign(det A) == assembly``.
+
+    The same decisions as :func:`inverse` followed by :func:`margins` (bit for bit: the same
+    floating-point values are compared), at a fraction of the cost: the tests run cheapest
+    first, and the SVD behind the parallel margin only where closed-form bounds on it do not
+    decide the test.
+    """
+    c = _consts(_check_design(design))
+    shape, p, sigma = _flat_poses("pose", _as_triples("pose", pose), _as_modes(mode))
+    ok, rho, asm = _screen(c, p, sigma, 1, travel, min_parallel, min_serial, assembly)
+    return Screening(ok.reshape(shape[:-1]), rho.T.reshape(shape), asm.reshape(shape[:-1]))
+
+
+def screen_paths(
+    design: Design,
+    paths: ArrayLike,
+    mode: ArrayLike = (1, 1, 1),
+    travel: tuple[float, float] | None = None,
+    min_parallel: float = 0.0,
+    min_serial: float = 0.0,
+    assembly: float | None = None,
+) -> NDArray[np.bool_]:
+    """Mask ``(...)``: every pose of each path ``(..., P, 3)`` passes the tests of
+    :func:`screen_poses` (same arguments; ``mode`` broadcasts against ``paths``).  A path is
+    dropped at its first failing test, so this is cheaper than screening all its poses."""
+    c = _consts(_check_design(design))
+    p = _as_triples("paths", paths)
+    if p.ndim < 2:
+        raise ValueError(f"paths must have shape (..., P, 3), got shape {p.shape}")
+    shape, p, sigma = _flat_poses("paths", p, _as_modes(mode))
+    ok, _, _ = _screen(c, p, sigma, shape[-2], travel, min_parallel, min_serial, assembly)
+    return ok.reshape(shape[:-1]).all(axis=-1)
+
+
+def _flat_poses(
+    name: str, p: FloatArray, sigma: FloatArray
+) -> tuple[tuple[int, ...], FloatArray, FloatArray]:
+    """Validated poses and modes broadcast together: the common shape ``(..., 3)``, the poses
+    flattened to (M, 3) and the modes, (3,) if one mode, else flattened to (M, 3)."""
+    if sigma.ndim == 1:
+        return p.shape, p.reshape(-1, 3), sigma
+    _check_broadcast(name, p, "mode", sigma)
+    shape = np.broadcast_shapes(p.shape, sigma.shape)
+    flat = np.broadcast_to(p, shape).reshape(-1, 3)
+    return shape, flat, np.broadcast_to(sigma, shape).reshape(-1, 3)
 
 
 @dataclass(frozen=True)

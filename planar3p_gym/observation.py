@@ -168,4 +168,6 @@ def build_observation(
         math.tanh(length * dth / FINE_ERROR_SCALE),
     ]
     obs = np.array(values, dtype=np.float32)
-    return np.clip(obs, low, high, out=obs)
+    # Same result as np.clip, at half its call overhead.
+    np.minimum(obs, high, out=obs)
+    return np.maximum(obs, low, out=obs)

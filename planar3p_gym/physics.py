@@ -20,7 +20,7 @@ new :class:`Planar3PSim` is how a simulation is reset (spaces are never copied).
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import ClassVar, NamedTuple
 
 import numpy as np
 import pymunk
@@ -32,31 +32,36 @@ from .design import Design
 __all__ = ["DEFAULT_ITERATIONS", "DEFAULT_SUBSTEPS", "Planar3PSim", "SimState"]
 
 try:  # Direct Chipmunk calls skip pymunk's per-call Python bookkeeping (the hot loop's cost).
+    from pymunk._chipmunk_cffi import ffi as _ffi
     from pymunk._chipmunk_cffi import lib as _cp
 
     _FAST = all(
         hasattr(_cp, name)
         for name in (
             "cpSpaceStep",
-            "cpBodyGetPosition",
-            "cpBodyGetVelocity",
-            "cpBodyGetAngle",
-            "cpBodyGetAngularVelocity",
+            "cpSpaceEachBody",
             "cpConstraintGetImpulse",
             "cpBodySetVelocity",
+            "pmSpaceBodyGetIteratorFuncBatched",
+            "pmFloatArrayNew",
+            "pmIntArrayNew",
         )
     )
 except ImportError:  # pragma: no cover - other pymunk builds
     _FAST = False
 
+#: Numbers per body in a readout: ``x, y, angle, vx, vy, angular velocity`` (pymunk's batch
+#: layout for these fields).
+_BODY_FIELDS = 6
+
 #: Physics substeps per control step used by the environment by default (2.5 ms at 50 Hz).
 DEFAULT_SUBSTEPS = 8
 #: Constraint-solver iterations per substep used by default.
-DEFAULT_ITERATIONS = 20
+DEFAULT_ITERATIONS = 16
 #: Solver iterations of the warm-start step at construction.
 WARM_START_ITERATIONS = 500
 #: pymunk's ``error_bias`` of the joints: fraction of a joint error left after one second.
-DEFAULT_ERROR_BIAS = 1e-20
+DEFAULT_ERROR_BIAS = 1e-15
 #: Largest speed at which a servo removes a following error (m/s).
 SERVO_CORRECTION_SPEED = 0.02
 #: Largest following error a servo keeps (m); beyond it the setpoint is pulled along.
@@ -127,6 +132,9 @@ class Planar3PSim:
     """
 
     use_fast_path: bool = True
+    #: Whether pymunk's batch readout lists the bodies as :meth:`_public_values` does (checked
+    #: on the first build).
+    _batch_layout_ok: ClassVar[bool | None] = None
 
     def __init__(
         self,
@@ -225,16 +233,44 @@ class Planar3PSim:
         self.drives = tuple(drives)
         self.servos = tuple(servos)
         self.legs = tuple(legs)
+        # Readout order: platform, then slider, drive and leg of each leg in turn (the order in
+        # which the bodies were added, which is the order Chipmunk iterates them in).
+        self._bodies = (platform, *(b for i in range(3) for b in (sliders[i], drives[i], legs[i])))
         self._warm_start(space, (platform, *sliders, *legs))
-        self._fast: tuple | None = None
-        if _FAST and self.use_fast_path:
-            self._fast = (
-                space._space,
-                tuple(sv._constraint for sv in servos),
-                tuple(b._body for b in (platform, *sliders, *legs)),
-                tuple(b._body for b in drives),
-            )
+        self._fast = self._fast_path(space, drives, servos) if self.use_fast_path else None
         self._state = self._read()
+
+    def _fast_path(
+        self,
+        space: pymunk.Space,
+        drives: list[pymunk.Body],
+        servos: list[pymunk.GrooveJoint],
+    ) -> tuple | None:
+        """Handles for calling Chipmunk directly: one call reads every body (pymunk's batch
+        iterator into a reused array); ``None`` if unavailable or if its layout does not match
+        the public API's readout here."""
+        if not _FAST:
+            return None
+        # The C arrays are freed when these handles are garbage collected.
+        array = _ffi.gc(
+            _cp.pmFloatArrayNew(_BODY_FIELDS * (len(self._bodies) + 1)), _cp.pmFloatArrayFree
+        )
+        unused = _ffi.gc(_cp.pmIntArrayNew(0), _cp.pmIntArrayFree)
+        request = _ffi.new("pmBatchedData *")
+        request.fields = _cp.POSITION | _cp.ANGLE | _cp.VELOCITY | _cp.ANGULAR_VELOCITY
+        request.floatArray = array
+        request.intArray = unused
+        fast = (
+            space._space,
+            tuple(sv._constraint for sv in servos),
+            (array, request, _ffi.addressof(_cp, "pmSpaceBodyGetIteratorFuncBatched")),
+            tuple(b._body for b in drives),
+            unused,
+        )
+        if Planar3PSim._batch_layout_ok is None:  # checked once per process
+            public = self._public_values()
+            Planar3PSim._batch_layout_ok = self._batch_values(fast)[: len(public)] == public
+        return fast if Planar3PSim._batch_layout_ok else None
 
     def _warm_start(self, space: pymunk.Space, bodies: tuple[pymunk.Body, ...]) -> None:
         """Solve the joint loads of the initial (resting) state before the first step.
@@ -297,7 +333,13 @@ class Planar3PSim:
                 cp_step(space_ptr, h)
                 j0, j1, j2 = impulse(s0), impulse(s1), impulse(s2)
                 f0, f1, f2 = f0 + j0, f1 + j1, f2 + j2
-                m0, m1, m2 = max(m0, j0), max(m1, j1), max(m2, j2)
+                # (comparisons instead of max(): this loop is the hot path)
+                if j0 > m0:
+                    m0 = j0
+                if j1 > m1:
+                    m1 = j1
+                if j2 > m2:
+                    m2 = j2
         self._time += self.dt
         scale = 1.0 / (self.substeps * h)
         self._forces = (f0 * scale, f1 * scale, f2 * scale)
@@ -308,14 +350,12 @@ class Planar3PSim:
 
     def _limit_following_error(self) -> None:
         """Pull each drive's setpoint to within :data:`FOLLOWING_ERROR_LIMIT` of its slider."""
-        rho = self._state.rho
-        get = _cp.cpBodyGetPosition if self._fast is not None else None
+        rho, setpoints = self._state.rho, self._setpoints
         for i, drive in enumerate(self.drives):
             slider_x = self._origins[i] + rho[i]
-            setpoint = get(self._fast[3][i]).x if get is not None else drive.position.x
-            if setpoint - slider_x > FOLLOWING_ERROR_LIMIT:
+            if setpoints[i] - slider_x > FOLLOWING_ERROR_LIMIT:
                 drive.position = (slider_x + FOLLOWING_ERROR_LIMIT, 0.0)
-            elif slider_x - setpoint > FOLLOWING_ERROR_LIMIT:
+            elif slider_x - setpoints[i] > FOLLOWING_ERROR_LIMIT:
                 drive.position = (slider_x - FOLLOWING_ERROR_LIMIT, 0.0)
 
     # ------------------------------------------------------------------ readout
@@ -324,52 +364,56 @@ class Planar3PSim:
         """The state after the last step (or at construction)."""
         return self._state
 
-    def _body_values(self) -> list[tuple[float, ...]]:
-        """``(x, y, vx, vy, angle, angular velocity)`` of platform, sliders, legs."""
-        bodies = (self.platform, *self.sliders, *self.legs)
-        if self._fast is None:
-            out = []
-            for b in bodies:
-                p, v = b.position, b.velocity
-                out.append((p.x, p.y, v.x, v.y, b.angle, b.angular_velocity))
-            return out
-        pos, vel = _cp.cpBodyGetPosition, _cp.cpBodyGetVelocity
-        ang, angv = _cp.cpBodyGetAngle, _cp.cpBodyGetAngularVelocity
-        out = []
-        for ptr in self._fast[2]:
-            p, v = pos(ptr), vel(ptr)
-            out.append((p.x, p.y, v.x, v.y, ang(ptr), angv(ptr)))
+    def _public_values(self) -> list[float]:
+        """``x, y, angle, vx, vy, angular velocity`` of every body in readout order, through
+        pymunk's public API."""
+        out: list[float] = []
+        for b in self._bodies:
+            p, v = b.position, b.velocity
+            out += (p.x, p.y, b.angle, v.x, v.y, b.angular_velocity)
         return out
+
+    @staticmethod
+    def _batch_values(fast: tuple) -> list[float]:
+        """The same numbers as :meth:`_public_values`, read by one Chipmunk call."""
+        array, request, iterator = fast[2]
+        array.num = 0
+        _cp.cpSpaceEachBody(fast[0], iterator, request)
+        return _ffi.unpack(array.arr, array.num)
 
     def _read(self) -> SimState:
         k, legs_len, origins = self._k, self._legs, self._origins
-        bodies = self._body_values()
-        px, py, pvx, pvy, th, w = bodies[0]
+        v = self._public_values() if self._fast is None else self._batch_values(self._fast)
+        px, py, th, pvx, pvy, w = v[:6]
         c, s = math.cos(th), math.sin(th)
         half = 0.5 * k[0]
         gx, gy = px - half * c, py - half * s
-        twist = (pvx + w * half * s, pvy - w * half * c, w)
-        rho, rho_dot, alphas = [], [], []
-        err = 0.0
+        err2 = 0.0  # largest squared joint separation (m^2)
+        rho, rho_dot, alphas, setpoints = [], [], [], []
         for i in range(3):
-            sx, sy, svx = bodies[1 + i][:3]
-            lx, ly, _, _, phi, _ = bodies[4 + i]
+            # Slider, drive and leg of leg i: 18 numbers from offset 6 + 18 i.
+            o = 6 + 18 * i
+            sx, sy, svx = v[o], v[o + 1], v[o + 3]
+            lx, ly, phi = v[o + 12], v[o + 13], v[o + 14]
             rho.append(sx - origins[i])
             rho_dot.append(svx)
+            setpoints.append(v[o + 6])
             hl = 0.5 * legs_len[i]
             lc, ls = hl * math.cos(phi), hl * math.sin(phi)
             # Pivot at B_i: slider centre vs the leg's lower end; at C_i: the leg's upper end
-            # vs the platform point at distance k_i from G.
-            eb = math.hypot(lx - lc - sx, ly - ls - sy)
-            ec = math.hypot(lx + lc - (gx + k[i] * c), ly + ls - (gy + k[i] * s))
-            err = max(err, eb, ec, abs(sy))
+            # vs the platform point at distance k_i from G; and the slider's offset from its rail.
+            bx, by = lx - lc - sx, ly - ls - sy
+            cx, cy = lx + lc - (gx + k[i] * c), ly + ls - (gy + k[i] * s)
+            err2 = max(err2, bx * bx + by * by, cx * cx + cy * cy, sy * sy)
             alphas.append(_wrap(phi))
+        err = math.sqrt(err2)
+        self._setpoints = setpoints
         return SimState(
             self._time,
             (rho[0], rho[1], rho[2]),
             (rho_dot[0], rho_dot[1], rho_dot[2]),
             (gx, gy, _wrap(th)),
-            twist,
+            (pvx + w * half * s, pvy - w * half * c, w),
             (alphas[0], alphas[1], alphas[2]),
             self._forces,
             self._saturated,

@@ -47,23 +47,34 @@ class ScalarKinematics:
         """Margins, assembly mode and leg angles at ``pose`` (m, m, rad) and ``rho`` (m)."""
         x, y, th = pose
         c, s = math.cos(th), math.sin(th)
-        rows = []
-        serial = 1.0
-        angles = []
-        for i in range(3):
-            k, L = self._k[i], self._legs[i]
-            ux = x + k * c - self._origins[i] - rho[i]
-            uy = y + k * s
-            norm = math.hypot(ux, uy)
-            serial = min(serial, abs(ux) / norm if norm > 0.0 else 0.0)
-            angles.append(math.atan2(uy, ux))
-            rows.append((ux / L, uy / L, k * (uy * c - ux * s) / (L * self._ref)))
+        (k1, k2, k3), (l1, l2, l3), (o1, o2, o3), ref = (
+            self._k,
+            self._legs,
+            self._origins,
+            self._ref,
+        )
+        # Leg vectors u_i = C_i - B_i (m), unrolled: this runs once per control step.
+        ux1, uy1 = x + k1 * c - o1 - rho[0], y + k1 * s
+        ux2, uy2 = x + k2 * c - o2 - rho[1], y + k2 * s
+        ux3, uy3 = x + k3 * c - o3 - rho[2], y + k3 * s
+        rows = [
+            (ux1 / l1, uy1 / l1, k1 * (uy1 * c - ux1 * s) / (l1 * ref)),
+            (ux2 / l2, uy2 / l2, k2 * (uy2 * c - ux2 * s) / (l2 * ref)),
+            (ux3 / l3, uy3 / l3, k3 * (uy3 * c - ux3 * s) / (l3 * ref)),
+        ]
         det = _det(rows)
+        n1, n2, n3 = math.hypot(ux1, uy1), math.hypot(ux2, uy2), math.hypot(ux3, uy3)
+        serial = min(
+            1.0,
+            abs(ux1) / n1 if n1 > 0.0 else 0.0,
+            abs(ux2) / n2 if n2 > 0.0 else 0.0,
+            abs(ux3) / n3 if n3 > 0.0 else 0.0,
+        )
         return ConfigurationMeasures(
             _inverse_condition(rows, det),
             serial,
             int(det > 0.0) - int(det < 0.0),
-            (angles[0], angles[1], angles[2]),
+            (math.atan2(uy1, ux1), math.atan2(uy2, ux2), math.atan2(uy3, ux3)),
         )
 
 

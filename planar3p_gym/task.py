@@ -2,7 +2,8 @@
 
 Poses are drawn by rejection from the search rectangle (uniform ``x``, ``y >= 0``,
 ``theta``) and kept when they are reachable in the episode's working mode with every travel
-away from the end stops and both singularity margins above thresholds.  A target is paired with
+away from the end stops, both singularity margins above thresholds, and holding forces well
+within the actuators' limit (so that a machine told to stand still can).  A target is paired with
 a start only if it has the same assembly mode (``sign det A``) and, by default, the straight
 path between them in pose space stays reachable, in that assembly mode, with margins: every
 task the environment samples can be solved without crossing a singularity.
@@ -11,13 +12,16 @@ task the environment samples can be solved without crossing a singularity.
 from __future__ import annotations
 
 import math
+import operator
 from dataclasses import asdict, dataclass
+from functools import lru_cache
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from . import kinematics
 from .design import Design
+from .statics import holding_forces
 
 __all__ = [
     "PoseSampler",
@@ -39,6 +43,8 @@ class TaskConfig:
         rest_speed: ... and every slider slower than this (m/s): "nearly at rest".
         min_parallel_margin: sampled poses have at least this parallel margin.
         min_serial_margin: sampled poses have at least this serial margin.
+        max_holding_force: sampled poses need at most this fraction of ``design.max_force`` to
+            be held at rest against gravity (:func:`planar3p_gym.statics.holding_forces`).
         travel_margin: sampled poses keep this fraction of the stroke free at both ends.
         min_distance: start and target differ by at least this pose distance
             ``|dp| + L_ref |dtheta|`` (m).
@@ -53,6 +59,7 @@ class TaskConfig:
     rest_speed: float = 0.01
     min_parallel_margin: float = 0.04
     min_serial_margin: float = 0.2
+    max_holding_force: float = 0.75
     travel_margin: float = 0.03
     min_distance: float = 0.03
     clear_path: bool = True
@@ -79,6 +86,10 @@ class TaskConfig:
         ):
             if getattr(self, name) >= 1:
                 raise ValueError(f"TaskConfig.{name} must be < 1, got {getattr(self, name)!r}")
+        if not 0 < self.max_holding_force <= 1:
+            raise ValueError(
+                f"TaskConfig.max_holding_force must be in (0, 1], got {self.max_holding_force!r}"
+            )
         if self.travel_margin >= 0.5:
             raise ValueError(f"TaskConfig.travel_margin must be < 0.5, got {self.travel_margin!r}")
         if not isinstance(self.path_points, int) or self.path_points < 2:
@@ -90,16 +101,20 @@ class TaskConfig:
 def _acceptable(
     design: Design, poses: np.ndarray, mode: np.ndarray, cfg: TaskConfig
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Mask of acceptable poses ``(N,)`` and their assembly modes."""
-    rho, _ = kinematics.inverse(design, poses, mode)
+    """Mask of acceptable poses ``(N,)`` and their assembly modes (0 where not acceptable)."""
     lo, hi = cfg.travel_margin * design.stroke, (1.0 - cfg.travel_margin) * design.stroke
-    inside = np.all((rho >= lo) & (rho <= hi), axis=-1)  # NaN compares False
-    ok = np.zeros(len(poses), dtype=bool)
-    det = np.zeros(len(poses))
-    if inside.any():
-        pm, sm, d = kinematics.margins(design, poses[inside], rho[inside])
-        ok[inside] = (pm >= cfg.min_parallel_margin) & (sm >= cfg.min_serial_margin)
-        det[inside] = d
+    ok, _, asm = kinematics.screen_poses(
+        design,
+        poses,
+        mode,
+        travel=(lo, hi),
+        min_parallel=cfg.min_parallel_margin,
+        min_serial=cfg.min_serial_margin,
+    )
+    det = asm.astype(np.float64)
+    if ok.any():
+        forces = holding_forces(design, poses[ok], mode)
+        ok[ok] = np.abs(forces).max(axis=-1) <= cfg.max_holding_force * design.max_force
     return ok, det
 
 
@@ -127,19 +142,28 @@ def sample_poses(
             return poses[ok], det[ok]
     raise ValueError(
         f"no pose of working mode {tuple(int(m) for m in mode)} meets the task's margins "
-        f"(parallel >= {cfg.min_parallel_margin}, serial >= {cfg.min_serial_margin}) on this design"
+        f"(parallel >= {cfg.min_parallel_margin}, serial >= {cfg.min_serial_margin}, holding "
+        f"force <= {cfg.max_holding_force} max_force) on this design"
     )
 
 
 def interpolate(start: np.ndarray, target: np.ndarray, n: int) -> np.ndarray:
     """``n`` poses on the straight path from ``start`` to ``target`` (shortest rotation);
     shapes ``(..., 3)`` -> ``(..., n, 3)``."""
-    t = np.linspace(0.0, 1.0, n)[:, None]
+    t = _steps(operator.index(n))
     delta = target - start
     delta = np.concatenate(
         [delta[..., :2], (delta[..., 2:] + math.pi) % (2.0 * math.pi) - math.pi], axis=-1
     )
     return start[..., None, :] + t * delta[..., None, :]
+
+
+@lru_cache(maxsize=16)
+def _steps(n: int) -> np.ndarray:
+    """``linspace(0, 1, n)`` as a read-only column (n, 1)."""
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    t.setflags(write=False)
+    return t
 
 
 def path_is_clear(
@@ -152,17 +176,14 @@ def path_is_clear(
 ) -> np.ndarray:
     """Mask ``(N,)``: the straight path from ``start`` to each target stays reachable within
     the stroke, with the path margins, in the assembly mode ``assembly``."""
-    path = interpolate(start[None, :], targets, cfg.path_points)  # (N, P, 3)
-    rho, reachable = kinematics.inverse(design, path, np.asarray(mode, dtype=np.float64))
-    ok = reachable.all(axis=-1)
-    if ok.any():
-        pm, sm, det = kinematics.margins(design, path[ok], rho[ok])
-        ok[ok] = (
-            (pm >= cfg.path_parallel_margin).all(-1)
-            & (sm >= cfg.path_serial_margin).all(-1)
-            & (det == assembly).all(-1)
-        )
-    return ok
+    return kinematics.screen_paths(
+        design,
+        interpolate(start[None, :], targets, cfg.path_points),  # (N, P, 3)
+        np.asarray(mode, dtype=np.float64),
+        min_parallel=cfg.path_parallel_margin,
+        min_serial=cfg.path_serial_margin,
+        assembly=assembly,
+    )
 
 
 def pose_distance(a: np.ndarray, b: np.ndarray, length: float) -> np.ndarray:
@@ -238,15 +259,15 @@ def sample_pair(
             rho = kinematics.inverse(design, s, mode).rho
             det = float(kinematics.assembly_mode(design, s, rho))
         if target is not None:
-            if _pair_ok(design, s, target[None, :], mode, det, cfg)[0]:
+            if _first_ok(design, s, target[None, :], mode, det, cfg) == 0:
                 return s, target
             if start is not None:
                 break
             continue
         cands = sampler.draw_many(rng, det, 8)
-        ok = _pair_ok(design, s, cands, mode, det, cfg)
-        if ok.any():
-            return s, cands[int(np.argmax(ok))]
+        first = _first_ok(design, s, cands, mode, det, cfg)
+        if first is not None:
+            return s, cands[first]
         if start is None:
             continue
     raise ValueError(
@@ -255,20 +276,29 @@ def sample_pair(
     )
 
 
-def _pair_ok(
+def _first_ok(
     design: Design,
     start: np.ndarray,
     targets: np.ndarray,
     mode: ArrayLike,
     assembly: float,
     cfg: TaskConfig,
-) -> np.ndarray:
+) -> int | None:
+    """Index of the first of ``targets`` (N, 3) that may be paired with ``start``, or None.
+
+    The paths are checked lazily: the first far-enough target alone (it usually passes), then
+    the others together.
+    """
     far = pose_distance(start[None, :], targets, design.characteristic_length) >= cfg.min_distance
-    if not cfg.clear_path or not far.any():
-        return far
-    ok = far.copy()
-    ok[far] = path_is_clear(design, start, targets[far], mode, assembly, cfg)
-    return ok
+    idx = np.flatnonzero(far)
+    if not cfg.clear_path or not idx.size:
+        return int(idx[0]) if idx.size else None
+    for chunk in (idx[:1], idx[1:]):
+        if chunk.size:
+            clear = path_is_clear(design, start, targets[chunk], mode, assembly, cfg)
+            if clear.any():
+                return int(chunk[int(np.argmax(clear))])
+    return None
 
 
 def check_pose(design: Design, pose: ArrayLike, mode: ArrayLike, name: str) -> np.ndarray:

@@ -24,6 +24,7 @@ from agents.policies import (
     policy_label,
 )
 from planar3p_gym import Design, kinematics
+from planar3p_gym.statics import holding_forces
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = Design.fig8()
@@ -104,7 +105,7 @@ def test_suite_kinds(suites):
         assert p["reachable"] and p["min_serial_margin"] >= 0.1
         assert p["crosses"] or p["min_parallel_margin"] <= hard.params["hard_margin"]
         for pose in (spec.start, spec.target):
-            f = ev.static_forces(DESIGN, np.array(pose), spec.working_mode)
+            f = holding_forces(DESIGN, np.array(pose), spec.working_mode)
             assert np.abs(f).max() <= 0.25 * DESIGN.max_force
     far = suites["far"]
     for spec in far.episodes:
@@ -136,12 +137,12 @@ def test_unknown_suite():
         ev.make_suites(["standard", "easy"], 3, 0)
 
 
-def test_static_forces_match_the_simulation(env, suites):
+def test_holding_forces_match_the_simulation(env, suites):
     spec = suites["standard"].episodes[0]
     env.reset(options=spec.reset_options())
     for _ in range(5):
         _, _, _, _, info = env.step(np.zeros(3))
-    f = np.abs(ev.static_forces(DESIGN, np.array(info["pose"]), spec.working_mode))
+    f = np.abs(holding_forces(DESIGN, np.array(info["pose"]), spec.working_mode))
     np.testing.assert_allclose(f, info["actuator_forces"], rtol=0.05, atol=0.05)
 
 

@@ -833,3 +833,200 @@ def test_bad_design_and_other_arguments():
         kinematics.simple_motion_rates(FIG8, GOOD_POSE, GOOD_RHO, [np.nan, 0, 0])
     with pytest.raises(ValueError, match="alpha must have shape"):
         kinematics.simple_motion_rates_from_angles(FIG8, [1.0, 1.0], 0.0, [1, 0, 0])
+
+
+# ------------------------------------------------------------------------------ screening
+def reference_screen(design, poses, mode, travel, min_parallel, min_serial, assembly):
+    """What :func:`kinematics.screen_poses` must decide: inverse, then margins on the poses with
+    every travel in the window."""
+    rho = kinematics.inverse(design, poses, mode).rho
+    p = np.broadcast_to(poses, rho.shape)
+    lo, hi = (0.0, design.stroke) if travel is None else travel
+    inside = np.all((rho >= lo) & (rho <= hi), axis=-1)
+    ok = np.zeros(inside.shape, dtype=bool)
+    asm = np.zeros(inside.shape, dtype=np.int8)
+    if inside.any():
+        pm, sm, det = kinematics.margins(design, p[inside], rho[inside])
+        good = (pm >= min_parallel) & (sm >= min_serial)
+        if assembly is not None:
+            good &= det == assembly
+        ok[inside] = good
+        asm[inside] = np.where(good, det, 0)
+    return ok, rho, asm
+
+
+def assert_screen_matches(design, poses, mode, travel, min_parallel, min_serial, assembly):
+    got = kinematics.screen_poses(
+        design, poses, mode, travel, min_parallel, min_serial, assembly=assembly
+    )
+    ok, rho, asm = reference_screen(design, poses, mode, travel, min_parallel, min_serial, assembly)
+    np.testing.assert_array_equal(got.ok, ok)
+    np.testing.assert_array_equal(got.rho, rho)  # bit for bit, NaN where a leg cannot close
+    np.testing.assert_array_equal(got.assembly, asm)
+    return ok
+
+
+def exact_margins(design, poses, mode):
+    """Parallel margins (NaN where unreachable) of poses in one working mode."""
+    rho, ok = kinematics.inverse(design, poses, mode)
+    pm = np.full(len(poses), np.nan)
+    if ok.any():
+        pm[ok] = kinematics.margins(design, poses[ok], rho[ok]).parallel
+    return pm
+
+
+@settings(max_examples=60)
+@given(
+    name=st.sampled_from(DESIGN_NAMES),
+    mode=st.sampled_from([tuple(m) for m in ALL_MODES.tolist()]),
+    seed=st.integers(0, 2**32 - 1),
+    min_parallel=st.floats(0.0, 0.5),
+    min_serial=st.floats(0.0, 0.9),
+    margin=st.floats(0.0, 0.2),
+    assembly=st.sampled_from([None, 1, -1, 1.0]),
+)
+def test_screen_poses_decides_as_inverse_and_margins(
+    name, mode, seed, min_parallel, min_serial, margin, assembly
+):
+    design = DESIGNS[name]
+    poses = random_poses(design, 300, np.random.default_rng(seed))
+    travel = (margin * design.stroke, (1.0 - margin) * design.stroke)
+    assert_screen_matches(design, poses, mode, travel, min_parallel, min_serial, assembly)
+
+
+@pytest.mark.parametrize("name", DESIGN_NAMES)
+def test_screen_poses_is_exact_at_the_threshold(name):
+    """Thresholds equal to (or one ulp beside) a pose's margin: the bounds cannot decide, and
+    the answer is the SVD's."""
+    design = DESIGNS[name]
+    rng = np.random.default_rng(7)
+    poses = random_poses(design, 2000, rng)
+    for mode in ALL_MODES:
+        pm = exact_margins(design, poses, mode)
+        finite = pm[np.isfinite(pm)]
+        for t in rng.choice(finite, size=min(4, finite.size), replace=False):
+            for thr in (t, np.nextafter(t, 1.0), np.nextafter(t, 0.0), t + 5e-9, t - 5e-9):
+                ok = assert_screen_matches(design, poses, mode, None, thr, 0.0, None)
+                assert ok[pm == t].all() == (thr <= t)
+
+
+def test_screen_poses_defaults_broadcasting_and_near_singular_poses():
+    # broadcast poses (N, 1, 3) against all modes (8, 3)
+    poses = random_poses(FIG8, 200, np.random.default_rng(3))[:, None, :]
+    got = kinematics.screen_poses(FIG8, poses, ALL_MODES)
+    assert got.ok.shape == (200, 8) and got.rho.shape == (200, 8, 3)
+    ok, rho, asm = reference_screen(FIG8, poses, ALL_MODES, None, 0.0, 0.0, None)
+    np.testing.assert_array_equal(got.ok, ok)
+    np.testing.assert_array_equal(got.rho, rho)
+    np.testing.assert_array_equal(got.assembly, asm)
+    assert (got.assembly[got.ok] != 0).all() or not got.ok.any()
+    # poses along a path through a parallel singularity (det A changes sign in mode
+    # (1, 1, 1), margins down to 7e-6), at thresholds of the order of their margins
+    start = np.array([0.20891875, 0.2787513, -1.65693655])
+    end = np.array([0.25793576, 0.17352912, -1.38718248])
+    path = start + np.linspace(0.0, 1.0, 4001)[:, None] * (end - start)
+    for mode in ALL_MODES:
+        pm = exact_margins(FIG8, path, mode)
+        for thr in (
+            0.0,
+            1e-9,
+            1e-6,
+            1e-3,
+            float(np.nanmedian(pm)) if np.isfinite(pm).any() else 0.1,
+        ):
+            for assembly in (None, 1, -1):
+                assert_screen_matches(FIG8, path, mode, None, thr, 0.0, assembly)
+
+
+def reference_paths(design, paths, mode, min_parallel, min_serial, assembly):
+    rho, reachable = kinematics.inverse(design, paths, mode)
+    ok = reachable.all(axis=-1)
+    if ok.any():
+        pm, sm, det = kinematics.margins(design, paths[ok], rho[ok])
+        ok[ok] = (
+            (pm >= min_parallel).all(-1) & (sm >= min_serial).all(-1) & (det == assembly).all(-1)
+        )
+    return ok
+
+
+@settings(max_examples=60)
+@given(
+    name=st.sampled_from(DESIGN_NAMES),
+    mode=st.sampled_from([tuple(m) for m in ALL_MODES.tolist()]),
+    seed=st.integers(0, 2**32 - 1),
+    min_parallel=st.floats(0.0, 0.2),
+    min_serial=st.floats(0.0, 0.5),
+    assembly=st.sampled_from([1, -1]),
+    points=st.integers(2, 30),
+)
+def test_screen_paths_decides_as_inverse_and_margins(
+    name, mode, seed, min_parallel, min_serial, assembly, points
+):
+    design = DESIGNS[name]
+    rng = np.random.default_rng(seed)
+    # short paths from reachable poses, so that many of them are reachable all along
+    poses = random_poses(design, 1000, rng)
+    starts = poses[kinematics.inverse(design, poses, mode).reachable][:60]
+    ends = starts + rng.normal(scale=(0.02, 0.02, 0.3), size=starts.shape)
+    paths = starts[:, None] + np.linspace(0.0, 1.0, points)[:, None] * (ends - starts)[:, None]
+    got = kinematics.screen_paths(
+        design, paths, mode, min_parallel=min_parallel, min_serial=min_serial, assembly=assembly
+    )
+    want = reference_paths(design, paths, mode, min_parallel, min_serial, assembly)
+    np.testing.assert_array_equal(got, want)
+
+
+def test_screen_paths_shapes_and_bad_input():
+    path = np.array([[0.25, 0.12, -0.6], [0.26, 0.13, -0.5]])
+    assert kinematics.screen_paths(FIG8, path).shape == ()
+    assert kinematics.screen_paths(FIG8, np.zeros((2, 0, 3))).tolist() == [True, True]
+    assert kinematics.screen_paths(FIG8, np.zeros((0, 4, 3))).shape == (0,)
+    # modes broadcast against paths
+    got = kinematics.screen_paths(FIG8, np.broadcast_to(path, (8, 2, 3)), ALL_MODES[:, None, :])
+    want = [bool(kinematics.screen_paths(FIG8, path, m)) for m in ALL_MODES]
+    assert got.tolist() == want
+    with pytest.raises(ValueError, match=r"paths must have shape \(\.\.\., P, 3\)"):
+        kinematics.screen_paths(FIG8, [0.2, 0.1, 0.0])
+    with pytest.raises(ValueError, match="paths contains NaN"):
+        kinematics.screen_paths(FIG8, [[0.2, np.nan, 0.0]])
+    with pytest.raises(ValueError, match="mode"):
+        kinematics.screen_poses(FIG8, GOOD_POSE, (1, 0, 1))
+    with pytest.raises(ValueError, match="do not broadcast"):
+        kinematics.screen_poses(FIG8, np.zeros((2, 3)), ALL_MODES[:3])
+
+
+def rotation(rng: np.random.Generator) -> np.ndarray:
+    q, r = np.linalg.qr(rng.normal(size=(3, 3)))
+    return q * np.sign(np.diag(r))
+
+
+@settings(max_examples=200)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    log_s2=st.floats(-16.0, 0.0),
+    log_s3=st.floats(-16.0, 0.0),
+    scale=st.sampled_from([1e-3, 1.0, 1e3]),
+    rel=st.sampled_from([0.0, 1.0, -1.0, 1e-9, -1e-9, 1e-3, -1e-3, 0.5, -0.5, -0.8, 3.0]),
+)
+def test_margin_tests_never_contradict_the_svd(seed, log_s2, log_s3, scale, rel):
+    """``above`` / ``below`` imply the SVD's ratio is >= / < the threshold, for matrices of
+    any conditioning (singular values 1 >= s2 >= s3 down to 1e-16, times a scale), at
+    thresholds on, next to and away from the exact ratio; and they decide well-conditioned
+    matrices against thresholds outside the bounds' factor of 3."""
+    rng = np.random.default_rng(seed)
+    s = np.array([1.0, 10.0**log_s2, 10.0 ** min(log_s2, log_s3)])
+    m = scale * rotation(rng) @ np.diag(s) @ rotation(rng).T
+    sv = np.linalg.svd(m, compute_uv=False)
+    pm = sv[-1] / sv[0]
+    for thr in {pm * (1.0 + rel), pm + rel * 1e-8, max(pm + rel, 0.0), 0.0}:
+        # the (3, 3, m) layout: x[:, :, j] is a matrix (or its transpose: same tests)
+        above, below, det = kinematics._margin_tests(m[:, :, None], thr)
+        assert not (above[0] and below[0])
+        if above[0]:
+            assert pm >= thr
+            assert np.sign(det[0]) == np.sign(np.linalg.det(m))
+        if below[0]:
+            assert pm < thr
+    if s[2] >= 1e-3 and rel in (-0.8, 3.0):
+        above, below, _ = kinematics._margin_tests(m[:, :, None], pm * (1.0 + rel))
+        assert above[0] == (rel < 0) and below[0] == (rel > 0)

@@ -289,7 +289,7 @@ def test_closure_error_below_spec_bound_along_smooth_motions(resolved_rate_runs)
 
 
 # ---------------------------------------------------------------------------- holding
-@pytest.mark.parametrize("mode", [DEFAULT_MODE, (1, 1, 1)])
+@pytest.mark.parametrize("mode", [DEFAULT_MODE, (1, 1, 1), (-1, -1, -1)])
 def test_zero_commands_hold_the_mechanism_under_gravity(mode):
     """Servos at zero speed hold the sliders (within the fidelity bound ``1e-4 L_min``: the
     solver is iterative, and the servos' position hold removes what it lets slip); the platform

@@ -1,0 +1,165 @@
+"""Task sampling: the fast filters decide as the reference computation (inverse, margins, the
+holding forces), so that a seed gives the same episodes."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from planar3p_gym import Design, kinematics, task
+from planar3p_gym.statics import holding_forces
+
+DESIGN = Design.fig8()
+CFG = task.TaskConfig()
+MODES = [tuple(m) for m in kinematics.ALL_MODES.tolist()]
+CONFIGS = {
+    "default": CFG,
+    "tight": replace(CFG, min_parallel_margin=0.1, min_serial_margin=0.4, travel_margin=0.1),
+    "loose": replace(CFG, min_parallel_margin=0.0, min_serial_margin=0.0, travel_margin=0.0),
+}
+
+
+def rectangle_poses(design: Design, n: int, rng: np.random.Generator) -> np.ndarray:
+    x0, x1, _, h = design.search_rectangle
+    u = rng.random((n, 3))
+    return np.column_stack([x0 + (x1 - x0) * u[:, 0], h * u[:, 1], np.pi * (2 * u[:, 2] - 1)])
+
+
+def reference_acceptable(design, poses, mode, cfg):
+    """The filter as written before the fast path: inverse, margins, holding forces."""
+    rho, _ = kinematics.inverse(design, poses, mode)
+    lo, hi = cfg.travel_margin * design.stroke, (1.0 - cfg.travel_margin) * design.stroke
+    inside = np.all((rho >= lo) & (rho <= hi), axis=-1)
+    ok = np.zeros(len(poses), dtype=bool)
+    det = np.zeros(len(poses))
+    if inside.any():
+        pm, sm, d = kinematics.margins(design, poses[inside], rho[inside])
+        ok[inside] = (pm >= cfg.min_parallel_margin) & (sm >= cfg.min_serial_margin)
+        det[inside] = d
+    if ok.any():
+        forces = holding_forces(design, poses[ok], mode)
+        ok[ok] = np.abs(forces).max(axis=-1) <= cfg.max_holding_force * design.max_force
+    return ok, det
+
+
+def reference_path_is_clear(design, start, targets, mode, assembly, cfg):
+    path = task.interpolate(start[None, :], targets, cfg.path_points)
+    rho, reachable = kinematics.inverse(design, path, np.asarray(mode, dtype=np.float64))
+    ok = reachable.all(axis=-1)
+    if ok.any():
+        pm, sm, det = kinematics.margins(design, path[ok], rho[ok])
+        ok[ok] = (
+            (pm >= cfg.path_parallel_margin).all(-1)
+            & (sm >= cfg.path_serial_margin).all(-1)
+            & (det == assembly).all(-1)
+        )
+    return ok
+
+
+def reference_pair_ok(design, start, targets, mode, assembly, cfg):
+    far = task.pose_distance(start[None, :], targets, design.characteristic_length)
+    far = far >= cfg.min_distance
+    if not cfg.clear_path or not far.any():
+        return far
+    ok = far.copy()
+    ok[far] = reference_path_is_clear(design, start, targets[far], mode, assembly, cfg)
+    return ok
+
+
+def reference_sample_pair(design, mode, rng, cfg, sampler, max_tries=100):
+    """``sample_pair`` without a given start or target, checking every candidate."""
+    for _ in range(max_tries):
+        s, det = sampler.draw(rng)
+        cands = sampler.draw_many(rng, det, 8)
+        ok = reference_pair_ok(design, s, cands, mode, det, cfg)
+        if ok.any():
+            return s, cands[int(np.argmax(ok))]
+    raise ValueError("no pair")
+
+
+@pytest.mark.parametrize("cfg_name", sorted(CONFIGS))
+@pytest.mark.parametrize("mode", MODES, ids=str)
+def test_acceptable_matches_the_reference(mode, cfg_name):
+    cfg = CONFIGS[cfg_name]
+    poses = rectangle_poses(DESIGN, 4096, np.random.default_rng(11))
+    ok, det = task._acceptable(DESIGN, poses, np.asarray(mode, dtype=np.float64), cfg)
+    want_ok, want_det = reference_acceptable(DESIGN, poses, mode, cfg)
+    np.testing.assert_array_equal(ok, want_ok)
+    np.testing.assert_array_equal(det[ok], want_det[ok])
+    assert det.dtype == np.float64
+
+
+@settings(max_examples=40)
+@given(
+    mode=st.sampled_from(MODES),
+    seed=st.integers(0, 2**32 - 1),
+    path_parallel=st.floats(0.0, 0.2),
+    path_serial=st.floats(0.0, 0.5),
+    clear_path=st.booleans(),
+)
+def test_first_ok_is_the_first_candidate_the_reference_accepts(
+    mode, seed, path_parallel, path_serial, clear_path
+):
+    cfg = replace(
+        CFG,
+        path_parallel_margin=path_parallel,
+        path_serial_margin=path_serial,
+        clear_path=clear_path,
+    )
+    rng = np.random.default_rng(seed)
+    sampler = task.PoseSampler(DESIGN, mode, CFG)
+    for _ in range(5):
+        start, det = sampler.draw(rng)
+        cands = sampler.draw_many(rng, det, 8)
+        # sometimes the other assembly mode, or a candidate next to the start
+        assembly = -det if rng.random() < 0.2 else det
+        cands[0] = start + 0.01 * rng.random(3) if rng.random() < 0.3 else cands[0]
+        want = reference_pair_ok(DESIGN, start, cands, mode, assembly, cfg)
+        got = task._first_ok(DESIGN, start, cands, mode, assembly, cfg)
+        assert got == (int(np.argmax(want)) if want.any() else None)
+        if cfg.clear_path:
+            np.testing.assert_array_equal(
+                task.path_is_clear(DESIGN, start, cands, mode, assembly, cfg),
+                reference_path_is_clear(DESIGN, start, cands, mode, assembly, cfg),
+            )
+
+
+@pytest.mark.parametrize("mode", MODES, ids=str)
+def test_sample_pair_gives_the_reference_pairs_and_random_stream(mode):
+    got_rng, want_rng = np.random.default_rng(5), np.random.default_rng(5)
+    got_sampler = task.PoseSampler(DESIGN, mode, CFG)
+    want_sampler = task.PoseSampler(DESIGN, mode, CFG)
+    for _ in range(40):
+        s, t = task.sample_pair(DESIGN, mode, got_rng, CFG, sampler=got_sampler)
+        ws, wt = reference_sample_pair(DESIGN, mode, want_rng, CFG, want_sampler)
+        np.testing.assert_array_equal(s, ws)
+        np.testing.assert_array_equal(t, wt)
+    assert got_rng.bit_generator.state == want_rng.bit_generator.state
+
+
+def test_sample_pair_with_a_given_start_or_target():
+    mode = (1, 1, -1)
+    rng = np.random.default_rng(2)
+    start, target = task.sample_pair(DESIGN, mode, rng, CFG)
+    asm = float(
+        kinematics.assembly_mode(DESIGN, start, kinematics.inverse(DESIGN, start, mode).rho)
+    )
+    s, t = task.sample_pair(DESIGN, mode, rng, CFG, start=start)
+    assert s is start
+    assert reference_pair_ok(DESIGN, s, t[None], mode, asm, CFG)[0]
+    s, t = task.sample_pair(DESIGN, mode, rng, CFG, target=target)
+    assert t is target
+    assert reference_pair_ok(DESIGN, s, t[None], mode, asm, CFG)[0]
+
+
+def test_interpolate_steps():
+    a, b = np.array([0.1, 0.2, 3.0]), np.array([[0.2, 0.1, -3.0]])
+    path = task.interpolate(a[None], b, 5)
+    assert path.shape == (1, 5, 3) and path.flags.writeable
+    np.testing.assert_array_equal(path[0, :, 0], a[0] + np.linspace(0, 1, 5) * (b[0, 0] - a[0]))
+    with pytest.raises(TypeError):
+        task.interpolate(a[None], b, 5.0)  # type: ignore[arg-type]
