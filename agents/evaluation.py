@@ -433,6 +433,8 @@ def _pose_pool(
 ) -> tuple[FloatArray, FloatArray]:
     poses, dets = [], []
     total = 0
+    if max_force is not None:  # the suite's own limit replaces the task's holding-force limit
+        cfg = replace(cfg, max_holding_force=1.0)
     for _ in range(400):
         p, d = task.sample_poses(design, mode, rng, cfg)
         if max_force is not None:
@@ -662,8 +664,9 @@ def load_suites(path: str | Path) -> tuple[dict[str, Suite], Design]:
 class EpisodeResult:
     """Outcome and measurements of one episode (SI units unless the name says otherwise).
 
-    ``cause`` is one of :data:`FAILURE_CAUSES`.  ``trajectory`` (poses, ``(steps + 1, 3)``)
-    is kept only when asked for and is not part of :meth:`row`.
+    ``cause`` is one of :data:`FAILURE_CAUSES`.  ``max_closure_error`` is the largest
+    loop-closure error of the simulation during the episode (m).  ``trajectory`` (poses,
+    ``(steps + 1, 3)``) is kept only when asked for and is not part of :meth:`row`.
     """
 
     policy: str
@@ -683,6 +686,7 @@ class EpisodeResult:
     saturation_fraction: float
     energy: float
     end_stop_fraction: float
+    max_closure_error: float
     working_mode_changed: bool
     path_crosses: bool
     path_clear: bool
@@ -753,6 +757,7 @@ def run_episode(
     energy = 0.0
     saturated = 0
     end_stop = 0
+    closure = float(info["closure_error"])
     steps = 0
     min_pm = float(info["parallel_margin"])
     min_sm = float(info["serial_margin"])
@@ -778,6 +783,7 @@ def run_episode(
         saturated += bool(any(info["actuator_saturated"]))
         rho = info["rho"]
         end_stop += bool(min(rho) <= 0.001 or max(rho) >= stroke - 0.001)
+        closure = max(closure, float(info["closure_error"]))
         min_pm = min(min_pm, float(info["parallel_margin"]))
         min_sm = min(min_sm, float(info["serial_margin"]))
         if poses is not None:
@@ -812,6 +818,7 @@ def run_episode(
         saturation_fraction=saturated / steps,
         energy=energy,
         end_stop_fraction=end_stop / steps,
+        max_closure_error=closure,
         working_mode_changed=mode_changed,
         path_crosses=bool(spec.path.get("crosses", False)),
         path_clear=bool(spec.path.get("clear", False)),

@@ -5,16 +5,24 @@ gravity along ``-y``.  Joints: each slider rides a groove along its rail whose e
 hard stops of the stroke; revolute (pivot) joints at every ``B_i`` and ``C_i``.  There are no
 collision shapes: the mechanism's parts sit in different planes and never collide.
 
-Actuation: each slider is driven by a force-limited velocity servo: a constraint between the
-slider and a kinematic "drive" body moving along the rail at the commanded speed, whose
-impulse is clamped to ``design.max_force``.  Like a servo drive's velocity loop with position
-hold, it also removes a following error (the slider lagging its integrated command) at no more
-than :data:`SERVO_CORRECTION_SPEED`, and the following error is capped at
+Actuation: each slider is driven by a force-limited velocity servo: a constraint along the rail
+between the slider and a kinematic "drive" body moving at the commanded speed (a pin joint of
+length :data:`SERVO_ARM` lying along the rail), whose impulse is clamped to
+``design.max_force``.  Like a servo drive's velocity loop with position hold, it also removes a
+following error (the slider lagging its integrated command) at no more than
+:data:`SERVO_CORRECTION_SPEED`, and the following error is capped at
 :data:`FOLLOWING_ERROR_LIMIT` (after saturation the drive does not try to catch up more).  Near a
 parallel singularity the servos saturate as a real machine's would.
 
 A model is built from a pose and working mode with the exact inverse kinematics; building a
 new :class:`Planar3PSim` is how a simulation is reset (spaces are never copied).
+
+Solver settings: joints drift apart when their bodies rotate (pymunk integrates positions to
+first order), by about ``h^2 omega^2 r / 2`` per physics step ``h``, and each step removes a
+share of the error (``error_bias``).  The platform's pivots ``C_i`` join two turning bodies and
+drift most, so they get a stronger correction (``platform_error_bias``); a stronger one
+everywhere would need more solver iterations to stay stable where holding the mechanism takes
+large forces.  ``tests/test_physics.py`` checks the defaults against the fidelity bound.
 """
 
 from __future__ import annotations
@@ -57,11 +65,16 @@ _BODY_FIELDS = 6
 #: Physics substeps per control step used by the environment by default (2.5 ms at 50 Hz).
 DEFAULT_SUBSTEPS = 8
 #: Constraint-solver iterations per substep used by default.
-DEFAULT_ITERATIONS = 16
+DEFAULT_ITERATIONS = 18
 #: Solver iterations of the warm-start step at construction.
 WARM_START_ITERATIONS = 500
-#: pymunk's ``error_bias`` of the joints: fraction of a joint error left after one second.
+#: pymunk's ``error_bias`` of the rails, the servos and the pivots ``B_i``: fraction of a joint
+#: error left after one second.
 DEFAULT_ERROR_BIAS = 1e-15
+#: ``error_bias`` of the platform's pivots ``C_i``.
+DEFAULT_PLATFORM_ERROR_BIAS = 1e-25
+#: Length of the pin joint by which a drive body pulls its slider along the rail (m).
+SERVO_ARM = 1.0
 #: Largest speed at which a servo removes a following error (m/s).
 SERVO_CORRECTION_SPEED = 0.02
 #: Largest following error a servo keeps (m); beyond it the setpoint is pulled along.
@@ -128,7 +141,9 @@ class Planar3PSim:
         dt: control period (s): one :meth:`step` advances the simulation by ``dt``.
         substeps: physics steps per control period.
         iterations: constraint-solver iterations per physics step.
-        error_bias: joints' position-error correction (fraction of error left after 1 s).
+        error_bias: position-error correction of the rails, servos and pivots ``B_i``
+            (fraction of an error left after 1 s).
+        platform_error_bias: the same for the platform's pivots ``C_i``.
     """
 
     use_fast_path: bool = True
@@ -146,6 +161,7 @@ class Planar3PSim:
         substeps: int = DEFAULT_SUBSTEPS,
         iterations: int = DEFAULT_ITERATIONS,
         error_bias: float = DEFAULT_ERROR_BIAS,
+        platform_error_bias: float = DEFAULT_PLATFORM_ERROR_BIAS,
     ) -> None:
         if not isinstance(design, Design):
             raise ValueError(f"design must be a Design, got {type(design).__name__}")
@@ -155,8 +171,12 @@ class Planar3PSim:
             raise ValueError(f"substeps must be an integer >= 1, got {substeps!r}")
         if not (isinstance(iterations, (int, np.integer)) and iterations >= 1):
             raise ValueError(f"iterations must be an integer >= 1, got {iterations!r}")
-        if not (math.isfinite(error_bias) and 0.0 <= error_bias <= 1.0):
-            raise ValueError(f"error_bias must be in [0, 1], got {error_bias!r}")
+        for name, bias in (
+            ("error_bias", error_bias),
+            ("platform_error_bias", platform_error_bias),
+        ):
+            if not (isinstance(bias, (int, float)) and math.isfinite(bias) and 0.0 <= bias <= 1.0):
+                raise ValueError(f"{name} must be in [0, 1], got {bias!r}")
         p = np.asarray(pose, dtype=np.float64)
         if p.shape != (3,) or not np.isfinite(p).all():
             raise ValueError(f"pose must be 3 finite numbers (x, y, theta), got {pose!r}")
@@ -177,10 +197,12 @@ class Planar3PSim:
         self._time = 0.0
         self._forces = (0.0, 0.0, 0.0)
         self._saturated = (False, False, False)
-        self._build(p, rho, error_bias)
+        self._build(p, rho, error_bias, platform_error_bias)
 
     # ------------------------------------------------------------------ construction
-    def _build(self, pose: np.ndarray, rho: np.ndarray, error_bias: float) -> None:
+    def _build(
+        self, pose: np.ndarray, rho: np.ndarray, error_bias: float, platform_error_bias: float
+    ) -> None:
         d = self.design
         space = pymunk.Space()
         space.iterations = self.iterations
@@ -207,14 +229,14 @@ class Planar3PSim:
             rail = pymunk.GrooveJoint(
                 space.static_body, slider, (a, 0.0), (a + d.stroke, 0.0), (0, 0)
             )
-            servo = pymunk.GrooveJoint(drive, slider, (0.0, -1.0), (0.0, 1.0), (0.0, 0.0))
+            servo = pymunk.PinJoint(drive, slider, (-SERVO_ARM, 0.0), (0.0, 0.0))
             servo.max_bias = SERVO_CORRECTION_SPEED
             servo.max_force = d.max_force
             servo.error_bias = error_bias
             pin_b = pymunk.PivotJoint(slider, leg, (b, 0.0))
             pin_c = pymunk.PivotJoint(leg, platform, (cx, cy))
-            for joint in (rail, pin_b, pin_c):
-                joint.error_bias = error_bias
+            rail.error_bias = pin_b.error_bias = error_bias
+            pin_c.error_bias = platform_error_bias
             space.add(slider, drive, leg)
             joints.append((rail, pin_b, pin_c))
             sliders.append(slider)
@@ -244,7 +266,7 @@ class Planar3PSim:
         self,
         space: pymunk.Space,
         drives: list[pymunk.Body],
-        servos: list[pymunk.GrooveJoint],
+        servos: list[pymunk.PinJoint],
     ) -> tuple | None:
         """Handles for calling Chipmunk directly: one call reads every body (pymunk's batch
         iterator into a reused array); ``None`` if unavailable or if its layout does not match

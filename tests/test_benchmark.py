@@ -212,6 +212,7 @@ def _result(success, ret, cause="success", steps=50, **kw):
         saturation_fraction=0.0,
         energy=1.0,
         end_stop_fraction=0.0,
+        max_closure_error=0.0,
         working_mode_changed=False,
         path_crosses=False,
         path_clear=True,

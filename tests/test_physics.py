@@ -13,12 +13,13 @@ third column over ``L_ref``), so leg-length residuals ``r`` move the pose by at 
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
 import pytest
 
-from planar3p_gym import Design, kinematics, task
+from planar3p_gym import Design, kinematics, motions, task
 from planar3p_gym.physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PSim
 
 DESIGN = Design.fig8()
@@ -32,14 +33,7 @@ DT = 0.02
 #: Largest slider command used by the smooth motions: below the design's max speed.
 PEAK = 0.8 * DESIGN.max_speed
 #: Well-conditioned poses and paths: margins well above the task's defaults.
-WELL_CONDITIONED = task.TaskConfig(
-    min_parallel_margin=0.08,
-    min_serial_margin=0.3,
-    path_parallel_margin=0.06,
-    path_serial_margin=0.25,
-    min_distance=0.08,
-    travel_margin=0.05,
-)
+WELL_CONDITIONED = motions.WELL_CONDITIONED
 
 
 # ---------------------------------------------------------------------------- helpers
@@ -73,38 +67,13 @@ def nearest_dk(design: Design, rho, pose) -> tuple[np.ndarray, int]:
 
 
 def min_jerk_commands(design, mode, start, target, dt=DT, peak=PEAK) -> np.ndarray:
-    """Open-loop resolved-rate slider commands (m/s) moving the platform along the straight
-    pose path ``start -> target`` with a minimum-jerk time law (zero speed and acceleration at
-    both ends), from the paper's simple-motion rates (``kinematics.simple_motion_rates``) at the
-    middle of each control period; the duration makes the largest command ``<= peak``."""
-    start, target = np.asarray(start, float), np.asarray(target, float)
-    delta = target - start
-    delta[2] = wrap(delta[2])
-
-    def commands(duration: float) -> np.ndarray:
-        out = []
-        for k in range(int(math.ceil(duration / dt))):
-            u = min((k + 0.5) * dt / duration, 1.0)
-            s = u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
-            s_dot = 30.0 * u * u * (1.0 - u) ** 2 / duration
-            p = start + s * delta
-            rho = kinematics.inverse(design, p, mode).rho
-            out.append(kinematics.simple_motion_rates(design, p, rho, s_dot * delta))
-        return np.array(out)
-
-    # Rates scale as 1/duration along a fixed path: one probe fixes the duration.
-    probe = np.abs(commands(1.0)).max()
-    cmds = commands(max(1.02 * probe / peak, 5 * dt))
+    cmds = motions.min_jerk_commands(design, mode, start, target, dt, peak)
     assert np.abs(cmds).max() <= design.max_speed
     return cmds
 
 
 def well_conditioned_pairs(n: int, mode=DEFAULT_MODE, seed: int = 0):
-    rng = np.random.default_rng(seed)
-    sampler = task.PoseSampler(DESIGN, mode, WELL_CONDITIONED)
-    return [
-        task.sample_pair(DESIGN, mode, rng, WELL_CONDITIONED, sampler=sampler) for _ in range(n)
-    ]
+    return motions.well_conditioned_pairs(DESIGN, mode, n, seed)
 
 
 def sampled_starts(mode, n: int, seed: int = 1) -> np.ndarray:
@@ -144,6 +113,8 @@ def test_built_state_is_the_exact_inverse_kinematics():
         {"iterations": 0},
         {"error_bias": 1.5},
         {"error_bias": float("nan")},
+        {"platform_error_bias": -0.1},
+        {"platform_error_bias": "1e-30"},
     ],
 )
 def test_constructor_rejects_bad_settings(kwargs):
@@ -446,3 +417,27 @@ def test_time_and_forces_bookkeeping():
         assert st.time == pytest.approx(0.01 * k, abs=1e-12)
     assert sim.closure_error() == st.closure_error
     assert len(st.saturated) == 3 and all(isinstance(s, bool) for s in st.saturated)
+
+
+# ---------------------------------------------------------------------------- fidelity script
+def test_fidelity_script_reports_closure_and_dk_gap(tmp_path, capsys):
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "scripts" / "fidelity.py"
+    spec = importlib.util.spec_from_file_location("fidelity_script", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    out = tmp_path / "fidelity.json"
+    args = ["--pairs", "2", "--episodes", "1", "--suites", "standard", "--json", str(out)]
+    assert mod.main(args) == 0
+    report = json.loads(out.read_text())
+    assert (report["substeps"], report["iterations"]) == (DEFAULT_SUBSTEPS, DEFAULT_ITERATIONS)
+    closure, gap = np.array(report["smooth"]["closure"]), np.array(report["smooth"]["dk_gap"])
+    assert closure.shape == gap.shape == (2,)
+    assert (closure > 0).all() and (closure <= 1e-4).all()  # the first pairs of the test set
+    assert (gap > 0).all() and np.isfinite(gap).all()
+    assert len(report["episodes"]["standard"]) == 1
+    assert "closure error" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        mod.main(["--suites", "nonsense"])
