@@ -122,9 +122,12 @@ class SimState(NamedTuple):
         )
 
 
+_TWO_PI = 2.0 * math.pi
+
+
 def _wrap(angle: float) -> float:
     """Angle wrapped into ``(-pi, pi]``."""
-    return math.pi - (math.pi - angle) % (2.0 * math.pi)
+    return math.pi - (math.pi - angle) % _TWO_PI
 
 
 class Planar3PSim:
@@ -412,21 +415,21 @@ class Planar3PSim:
         gx, gy = px - half * c, py - half * s
         err2 = 0.0  # largest squared joint separation (m^2)
         rho, rho_dot, alphas, setpoints = [], [], [], []
-        for i in range(3):
-            # Slider, drive and leg of leg i: 18 numbers from offset 6 + 18 i.
-            o = 6 + 18 * i
-            sx, sy, svx = v[o], v[o + 1], v[o + 3]
-            lx, ly, phi = v[o + 12], v[o + 13], v[o + 14]
+        for i, o in enumerate((6, 24, 42)):
+            # Slider, drive and leg of leg i: 18 numbers from offset o (x, y, angle, vx, vy, w).
+            sx, sy, _, svx, _, _, drive_x, _, _, _, _, _, lx, ly, phi, _, _, _ = v[o : o + 18]
             rho.append(sx - origins[i])
             rho_dot.append(svx)
-            setpoints.append(v[o + 6])
+            setpoints.append(drive_x)
             hl = 0.5 * legs_len[i]
             lc, ls = hl * math.cos(phi), hl * math.sin(phi)
             # Pivot at B_i: slider centre vs the leg's lower end; at C_i: the leg's upper end
             # vs the platform point at distance k_i from G; and the slider's offset from its rail.
             bx, by = lx - lc - sx, ly - ls - sy
             cx, cy = lx + lc - (gx + k[i] * c), ly + ls - (gy + k[i] * s)
-            err2 = max(err2, bx * bx + by * by, cx * cx + cy * cy, sy * sy)
+            e2 = max(bx * bx + by * by, cx * cx + cy * cy, sy * sy)
+            if e2 > err2:
+                err2 = e2
             alphas.append(_wrap(phi))
         err = math.sqrt(err2)
         self._setpoints = setpoints

@@ -130,6 +130,24 @@ def test_suite_file_roundtrip(tmp_path, suites):
         ev.load_suites(tmp_path / "missing.json")
 
 
+def test_suite_hold_force_fraction_replaces_the_task_limit():
+    """A suite's ``hold_force_fraction`` decides how hard its ends may be to hold, above the
+    environment's own sampling limit (0.75 of max_force) too: the crossing stress suite."""
+    mode = (1, 1, 1)
+    loose = ev.make_suite(
+        "hard", 20, 0, working_mode=mode, end_parallel_margin=0.02, hold_force_fraction=1.0
+    )
+    ends = np.array([p for e in loose.episodes for p in (e.start, e.target)])
+    forces = np.abs(holding_forces(DESIGN, ends, mode)).max(axis=-1)
+    assert (forces <= DESIGN.max_force).all()
+    assert (forces > 0.75 * DESIGN.max_force).any()
+    strict = ev.make_suite(
+        "hard", 5, 0, working_mode=mode, end_parallel_margin=0.02, hold_force_fraction=0.5
+    )
+    ends = np.array([p for e in strict.episodes for p in (e.start, e.target)])
+    assert (np.abs(holding_forces(DESIGN, ends, mode)).max(axis=-1) <= 0.5 * DESIGN.max_force).all()
+
+
 def test_unknown_suite():
     with pytest.raises(ValueError, match="unknown suite"):
         ev.make_suite("easy", 3, 0)
