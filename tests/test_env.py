@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import planar3p_gym
-from planar3p_gym import ENV_ID, MAX_EPISODE_STEPS, kinematics, task
+from planar3p_gym import ENV_ID, MAX_EPISODE_STEPS, kinematics, motions, task
 from planar3p_gym.env import TERMINATION_REASONS
 from planar3p_gym.observation import OBS_FIELDS, OBS_SIZE, SLICES
 from planar3p_gym.rewards import BARRIER_CAP, RewardWeights, singularity_penalty
@@ -59,24 +59,10 @@ def min_jerk_actions(env: gym.Env, peak: float = 0.8) -> np.ndarray:
     straight pose path (minimum-jerk time law, resolved rates from the simple motions), peak
     ``peak`` of the max speed."""
     u = env.unwrapped
-    d, mode = u.design, u.working_mode
-    start, target = np.array(u.sim.state.pose), np.array(u.target)
-    delta = target - start
-    delta[2] = wrap(delta[2])
-
-    def commands(duration: float) -> np.ndarray:
-        out = []
-        for k in range(int(math.ceil(duration / u.dt))):
-            s_ = min((k + 0.5) * u.dt / duration, 1.0)
-            s = s_**3 * (10.0 - 15.0 * s_ + 6.0 * s_ * s_)
-            s_dot = 30.0 * s_ * s_ * (1.0 - s_) ** 2 / duration
-            p = start + s * delta
-            rho = kinematics.inverse(d, p, mode).rho
-            out.append(kinematics.simple_motion_rates(d, p, rho, s_dot * delta))
-        return np.array(out)
-
-    probe = np.abs(commands(1.0)).max()
-    cmds = commands(max(1.02 * probe / (peak * d.max_speed), 5 * u.dt))
+    d = u.design
+    cmds = motions.min_jerk_commands(
+        d, u.working_mode, u.sim.state.pose, u.target, u.dt, peak * d.max_speed
+    )
     return (cmds / d.max_speed).astype(np.float32)
 
 
