@@ -259,6 +259,22 @@ def test_closure_error_below_spec_bound_along_smooth_motions(resolved_rate_runs)
     )
 
 
+def test_closure_error_distribution_over_more_smooth_motions():
+    """Beyond the specification's check: over 20 more smooth motions the bound holds for most
+    (the error grows with the square of the links' angular speed, and a few fast rotations pass
+    it slightly).  Guards the documented distribution (README, ``scripts/fidelity.py``):
+    measured median 3.6e-5 L_min, 2 of 20 above 1e-4, worst 1.08e-4."""
+    worst = []
+    for start, target in well_conditioned_pairs(20, seed=1):
+        sim = Planar3PSim(DESIGN, start, DEFAULT_MODE)
+        cmds = [*min_jerk_commands(DESIGN, DEFAULT_MODE, start, target), *np.zeros((5, 3))]
+        worst.append(max(sim.step(c).closure_error for c in cmds) / L_MIN)
+    worst = np.array(worst)
+    assert np.median(worst) < 5e-5
+    assert (worst > 1e-4).sum() <= 3
+    assert worst.max() < 1.5e-4
+
+
 # ---------------------------------------------------------------------------- holding
 @pytest.mark.parametrize("mode", [DEFAULT_MODE, (1, 1, 1), (-1, -1, -1)])
 def test_zero_commands_hold_the_mechanism_under_gravity(mode):
