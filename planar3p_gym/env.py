@@ -140,7 +140,7 @@ class Planar3PEnv(gym.Env):
       (one of the modes with a usable workspace, drawn per episode).
     - ``control_frequency``: control rate (Hz), default 50; also the render fps.
     - ``substeps``: physics steps per control step (default 8: 2.5 ms at 50 Hz);
-      ``solver_iterations``: pymunk constraint iterations per physics step (default 16).
+      ``solver_iterations``: pymunk constraint iterations per physics step (default 18).
     - ``reward_weights``: :class:`RewardWeights` or a dict of its fields.
     - ``task_config``: :class:`TaskConfig` or a dict of its fields (tolerances, sampling
       margins).

@@ -1,4 +1,5 @@
-"""Smooth reference motions: open-loop slider commands along straight pose paths.
+"""Smooth reference motions (open-loop slider commands along straight pose paths), and the
+gap between a simulated pose and the exact direct kinematics of its travels.
 
 Used to measure the physics model's fidelity (``tests/test_physics.py``,
 ``scripts/fidelity.py``): the commands follow the paper's simple-motion rates
@@ -16,7 +17,7 @@ from numpy.typing import ArrayLike, NDArray
 from . import kinematics, task
 from .design import Design
 
-__all__ = ["WELL_CONDITIONED", "min_jerk_commands", "well_conditioned_pairs"]
+__all__ = ["WELL_CONDITIONED", "min_jerk_commands", "nearest_dk", "well_conditioned_pairs"]
 
 #: Task margins of well-conditioned poses and paths (above the environment's defaults): the
 #: domain on which the fidelity bound is stated.
@@ -72,3 +73,20 @@ def well_conditioned_pairs(
     rng = np.random.default_rng(seed)
     sampler = task.PoseSampler(design, mode, cfg)
     return [task.sample_pair(design, mode, rng, cfg, sampler=sampler) for _ in range(n)]
+
+
+def nearest_dk(
+    design: Design, rho: ArrayLike, pose: ArrayLike
+) -> tuple[NDArray[np.float64], int, float]:
+    """The exact direct-kinematics solution of travels ``rho`` (m) nearest ``pose`` (m, m, rad):
+    ``(its pose, its assembly mode, its distance |(dx, dy, L_ref dtheta)|)`` (m); ``ValueError``
+    if the travels have no solution."""
+    sol = kinematics.forward_batch(design, np.asarray(rho, dtype=np.float64))
+    if int(sol.count) < 1:
+        raise ValueError(f"no direct-kinematics solution for travels {rho!r}")
+    p = np.asarray(pose, dtype=np.float64)
+    d = sol.poses - p
+    d[:, 2] = ((d[:, 2] + math.pi) % (2.0 * math.pi) - math.pi) * design.characteristic_length
+    dist = np.where(sol.valid, np.linalg.norm(d, axis=-1), np.inf)
+    j = int(np.argmin(dist))
+    return sol.poses[j], int(sol.assembly[j]), float(dist[j])

@@ -122,12 +122,9 @@ class SimState(NamedTuple):
         )
 
 
-_TWO_PI = 2.0 * math.pi
-
-
 def _wrap(angle: float) -> float:
     """Angle wrapped into ``(-pi, pi]``."""
-    return math.pi - (math.pi - angle) % _TWO_PI
+    return math.pi - (math.pi - angle) % (2.0 * math.pi)
 
 
 class Planar3PSim:

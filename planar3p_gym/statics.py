@@ -16,7 +16,7 @@ from numpy.typing import ArrayLike, NDArray
 from . import kinematics
 from .design import Design
 
-__all__ = ["holding_forces"]
+__all__ = ["holding_forces", "holding_forces_at"]
 
 
 def holding_forces(design: Design, poses: ArrayLike, mode: ArrayLike) -> NDArray[np.float64]:
@@ -24,6 +24,14 @@ def holding_forces(design: Design, poses: ArrayLike, mode: ArrayLike) -> NDArray
     rest in working mode ``mode``, shape ``(..., 3)``; NaN where a pose is unreachable."""
     p = np.asarray(poses, dtype=np.float64)
     rho, _ = kinematics.inverse(design, p, np.asarray(mode, dtype=np.float64))
+    return holding_forces_at(design, p, rho)
+
+
+def holding_forces_at(design: Design, poses: ArrayLike, rho: ArrayLike) -> NDArray[np.float64]:
+    """:func:`holding_forces` of configurations given by their poses ``(..., 3)`` and slider
+    travels ``rho`` (m, ``(..., 3)``, NaN rows for unreachable poses give NaN forces)."""
+    p = np.asarray(poses, dtype=np.float64)
+    rho = np.asarray(rho, dtype=np.float64)
     A, B = kinematics.jacobians(design, p, np.nan_to_num(rho))
     k = np.asarray(design.joint_offsets)
     c = np.zeros(p.shape)

@@ -21,7 +21,7 @@ from numpy.typing import ArrayLike
 
 from . import kinematics
 from .design import Design
-from .statics import holding_forces
+from .statics import holding_forces_at
 
 __all__ = [
     "PoseSampler",
@@ -103,7 +103,7 @@ def _acceptable(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Mask of acceptable poses ``(N,)`` and their assembly modes (0 where not acceptable)."""
     lo, hi = cfg.travel_margin * design.stroke, (1.0 - cfg.travel_margin) * design.stroke
-    ok, _, asm = kinematics.screen_poses(
+    ok, rho, asm = kinematics.screen_poses(
         design,
         poses,
         mode,
@@ -113,7 +113,7 @@ def _acceptable(
     )
     det = asm.astype(np.float64)
     if ok.any():
-        forces = holding_forces(design, poses[ok], mode)
+        forces = holding_forces_at(design, poses[ok], rho[ok])
         ok[ok] = np.abs(forces).max(axis=-1) <= cfg.max_holding_force * design.max_force
     return ok, det
 

@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import time
 from pathlib import Path
 from typing import Any
@@ -34,7 +33,7 @@ import numpy as np
 import planar3p_gym  # noqa: F401  (registers Planar3P-v0)
 from agents import evaluation
 from agents.analytic import AnalyticController
-from planar3p_gym import Design, kinematics, motions
+from planar3p_gym import Design, motions
 from planar3p_gym.env import DEFAULT_WORKING_MODE
 from planar3p_gym.physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PSim
 
@@ -42,20 +41,6 @@ from planar3p_gym.physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PS
 CLOSURE_BOUND = 1e-4
 #: Control period of the smooth motions (s) and their largest command (fraction of max speed).
 DT, PEAK_FRACTION = 0.02, 0.8
-
-
-def dk_gap(design: Design, rho: tuple, pose: tuple) -> float:
-    """Pose distance ``|(dx, dy, L_ref dtheta)|`` (m) from ``pose`` to the nearest exact DK
-    solution of the travels ``rho``."""
-    sol = kinematics.forward_batch(design, np.asarray(rho, dtype=float))
-    best = math.inf
-    for j in range(4):
-        if sol.valid[j]:
-            q = sol.poses[j]
-            dth = (q[2] - pose[2] + math.pi) % (2.0 * math.pi) - math.pi
-            dx, dy = q[0] - pose[0], q[1] - pose[1]
-            best = min(best, math.hypot(dx, dy, design.characteristic_length * dth))
-    return best
 
 
 def smooth_motions(
@@ -76,7 +61,7 @@ def smooth_motions(
             st = sim.step(c)
             step_us.append(1e6 * (time.perf_counter() - t0))
             worst_c = max(worst_c, st.closure_error)
-            worst_g = max(worst_g, dk_gap(design, st.rho, st.pose))
+            worst_g = max(worst_g, motions.nearest_dk(design, st.rho, st.pose)[2])
         closure.append(worst_c / design.shortest_leg)
         gap.append(worst_g)
     return {"closure": closure, "dk_gap": gap, "step_us": float(np.median(step_us))}

@@ -56,14 +56,8 @@ def normalised_distance(design: Design, p, q) -> float:
 def nearest_dk(design: Design, rho, pose) -> tuple[np.ndarray, int]:
     """The exact direct-kinematics solution for travels ``rho`` nearest ``pose``, with its
     assembly mode."""
-    sol = kinematics.forward_batch(design, np.asarray(rho, dtype=float))
-    assert int(sol.count) >= 1, f"no DK solution for travels {rho}"
-    dist = [
-        normalised_distance(design, sol.poses[j], pose) if sol.valid[j] else math.inf
-        for j in range(4)
-    ]
-    j = int(np.argmin(dist))
-    return sol.poses[j], int(sol.assembly[j])
+    dk_pose, assembly, _ = motions.nearest_dk(design, rho, pose)
+    return dk_pose, assembly
 
 
 def min_jerk_commands(design, mode, start, target, dt=DT, peak=PEAK) -> np.ndarray:
@@ -457,3 +451,15 @@ def test_fidelity_script_reports_closure_and_dk_gap(tmp_path, capsys):
     assert "closure error" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         mod.main(["--suites", "nonsense"])
+
+
+def test_nearest_dk_finds_the_configuration_and_rejects_impossible_travels():
+    for p in sampled_starts(DEFAULT_MODE, 3):
+        rho = kinematics.inverse(DESIGN, p, DEFAULT_MODE).rho
+        dk_pose, assembly, gap = motions.nearest_dk(DESIGN, rho, p)
+        assert gap < 1e-9 and normalised_distance(DESIGN, dk_pose, p) == pytest.approx(
+            gap, abs=1e-12
+        )
+        assert assembly == int(kinematics.assembly_mode(DESIGN, p, rho))
+    with pytest.raises(ValueError, match="no direct-kinematics solution"):
+        motions.nearest_dk(DESIGN, (0.0, 5.0, 0.0), p)  # slider 2 too far from the others

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from planar3p_gym import Design, kinematics, task
 from planar3p_gym.physics import Planar3PSim
-from planar3p_gym.statics import holding_forces
+from planar3p_gym.statics import holding_forces, holding_forces_at
 
 DESIGN = Design.fig8()
 ALL_MODES = list(itertools.product((1, -1), repeat=3))
@@ -67,6 +67,15 @@ def test_holding_forces_broadcast_and_mark_unreachable_poses():
         np.testing.assert_array_equal(holding_forces(DESIGN, p, (1, 1, -1)), f)
     far = np.array([10.0, 10.0, 0.0])  # no leg closes
     assert np.isnan(holding_forces(DESIGN, far, (1, 1, -1))).all()
+
+
+def test_holding_forces_at_given_travels_are_the_same():
+    mode = (1, 1, 1)
+    poses = holdable_poses(mode, 5)
+    rho = kinematics.inverse(DESIGN, poses, mode).rho
+    np.testing.assert_array_equal(
+        holding_forces_at(DESIGN, poses, rho), holding_forces(DESIGN, poses, mode)
+    )
 
 
 @pytest.mark.parametrize("mode", ALL_MODES)
