@@ -265,6 +265,21 @@ def verify(args) -> dict:
 
 
 # ------------------------------------------------------------------------------ tables
+def _stroke_table(rows: list[dict], paper_range: str) -> list[str]:
+    """Markdown table lines of the study rows whose ``paper_range`` is ``"yes"`` or ``"no"``."""
+    lines = [
+        "| stroke L (m) | S | usable S | dead zones | dead-zone area (cm^2) |",
+        "|---:|---:|---:|---:|---:|",
+    ]
+    for r in rows:
+        if r["paper_range"] == paper_range:
+            lines.append(
+                f"| {r['stroke_m']} | {r['S']} | {r['S_usable']} | {r['dead_zones']} | "
+                f"{r['dead_zone_area_cm2']} |"
+            )
+    return lines
+
+
 def write_tables(out: Path, res: dict, args) -> str | None:
     study: StrokeStudy = res["study"]
     ext: StrokeStudy = res["ext"]
@@ -299,29 +314,13 @@ def write_tables(out: Path, res: dict, args) -> str | None:
         "image), unreachable grid points re-tested over the continuum of orientations; "
         "area is a grid estimate.",
         "",
-        "| stroke L (m) | S | usable S | dead zones | dead-zone area (cm^2) |",
-        "|---:|---:|---:|---:|---:|",
-    ]
-    for r in rows:
-        if r["paper_range"] == "yes":
-            lines.append(
-                f"| {r['stroke_m']} | {r['S']} | {r['S_usable']} | {r['dead_zones']} | "
-                f"{r['dead_zone_area_cm2']} |"
-            )
-    lines += [
+        *_stroke_table(rows, paper_range="yes"),
         "",
         "Beyond the paper's range (same settings):",
         "",
-        "| stroke L (m) | S | usable S | dead zones | dead-zone area (cm^2) |",
-        "|---:|---:|---:|---:|---:|",
+        *_stroke_table(rows, paper_range="no"),
+        "",
     ]
-    for r in rows:
-        if r["paper_range"] == "no":
-            lines.append(
-                f"| {r['stroke_m']} | {r['S']} | {r['S_usable']} | {r['dead_zones']} | "
-                f"{r['dead_zone_area_cm2']} |"
-            )
-    lines.append("")
     if rec["in_study"] is not None:
         rec_text = (
             f"**Recommended stroke: L = {rec['final']:.2f} m**, the shortest without dead zones "
