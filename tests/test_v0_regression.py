@@ -1,0 +1,67 @@
+"""Regression guard: ``Planar3P-v0`` stays bit-identical.
+
+Every seeded episode of the released id must replay exactly as it did when the hashes below
+were recorded (observations, rewards, episode ends and the physical quantities in ``info``).
+A change to the physics, the task sampler, the reward or the observation of ``Planar3P-v0``
+fails here; such a change belongs in a new version of the id (Gymnasium's convention).
+"""
+
+from __future__ import annotations
+
+import hashlib
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import planar3p_gym  # noqa: F401  (registers the ids)
+from agents.analytic import AnalyticController
+
+#: sha256 of the replayed streams, recorded on the released ``Planar3P-v0``.
+EXPECTED = {
+    ("random", 0, "default"): "a6d57aa47d93b6f1baf32401d0ba818917792607ebfdb37f1cba3b6034030793",
+    ("random", 1, "random_mode"): (
+        "b8753a490749c1980d63e6f1faffabdd79105f500173f68d177b1a6649f08db7"
+    ),
+    ("analytic", 2, "default"): "fcce27e5dad1eeaf8b234cb4975330b84fd956ae3343d1815e1ffc9fc619651b",
+    ("analytic", 3, "random_mode"): (
+        "f3223bc9301a525720cfd524da8355e0308edb6fdea08e903717103fee7f2560"
+    ),
+}
+
+INFO_KEYS = ("pose", "rho", "rho_dot", "actuator_forces", "closure_error", "parallel_margin")
+
+
+def episode_digest(policy: str, seed: int, variant: str, steps: int = 300) -> str:
+    """Hash of ``steps`` steps (resetting as episodes end) of ``policy`` from ``seed``."""
+    kwargs = {"working_mode": "random"} if variant == "random_mode" else {}
+    env = gym.make("Planar3P-v0", **kwargs)
+    h = hashlib.sha256()
+    obs, info = env.reset(seed=seed)
+    h.update(obs.tobytes())
+    actions = np.random.default_rng(seed).uniform(-1.0, 1.0, size=(steps, 3)).astype(np.float32)
+    ctrl = AnalyticController.from_env(env, mode="simultaneous") if policy == "analytic" else None
+    start = True
+    for a in actions:
+        if ctrl is not None:
+            a, _ = ctrl.predict(obs, episode_start=np.array([start]))
+        start = False
+        obs, reward, terminated, truncated, info = env.step(a)
+        h.update(obs.tobytes())
+        h.update(np.float64(reward).tobytes())
+        h.update(bytes([terminated, truncated]))
+        h.update(str(info["termination_reason"]).encode())
+        for key in INFO_KEYS:
+            h.update(np.asarray(info[key], dtype=np.float64).tobytes())
+        if terminated or truncated:
+            obs, info = env.reset()
+            h.update(obs.tobytes())
+            start = True
+    env.close()
+    return h.hexdigest()
+
+
+@pytest.mark.parametrize("key", sorted(EXPECTED))
+def test_planar3p_v0_episodes_are_bit_identical(key):
+    policy, seed, variant = key
+    assert episode_digest(policy, seed, variant) == EXPECTED[key]
