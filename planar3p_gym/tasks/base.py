@@ -1,0 +1,213 @@
+"""The task interface: what an environment id asks of the machine.
+
+:class:`planar3p_gym.env.Planar3PEnv` owns the physics (a :class:`~planar3p_gym.physics.
+Planar3PSim`), the action parsing, the configuration measures and the physics-breakdown test;
+a :class:`Task` owns everything that makes an episode a particular problem.  The environment
+calls, in this order:
+
+1. :meth:`Task.bind` once, at the end of ``Planar3PEnv.__init__``.
+2. On ``reset(seed, options)``: :meth:`Task.check_options` (before the environment is seeded:
+   a rejected reset changes nothing), then :meth:`Task.reseed` if a seed was given, then
+   :meth:`Task.episode_spec` (draws everything random from ``env.np_random``), then
+   :meth:`Task.begin` with that spec, which returns the start pose and the working mode the
+   simulation is built from.
+3. On every ``step``: :meth:`Task.reference` for the pose the observation and errors refer to
+   at the new step, :meth:`Task.termination`, :meth:`Task.reward_terms` and
+   :meth:`Task.step_info` (metrics merged into ``info``).
+
+Contract every task must meet (the fixed benchmark suites and the tests rely on it):
+
+* **Episode spec.**  :meth:`Task.episode_spec` returns a JSON-serialisable ``dict`` (only
+  ``str``, ``int``, ``float``, ``bool``, ``None``, lists and dicts; poses as lists of floats in
+  m, m, rad) that fully describes the episode: it always has ``"task"`` (the task's
+  :attr:`Task.name`), ``"working_mode"`` (three ints) and ``"start"`` (the start pose), plus
+  the task's own keys (e.g. ``"target"`` or a reference trajectory).  The environment puts it
+  in ``info["episode_spec"]`` at reset.  ``reset(options=spec)`` with such a spec (also after a
+  ``json.dumps``/``json.loads`` round trip) replays exactly that episode: same start, same
+  targets or reference, so the same actions give bit-identical observations and rewards.  The
+  keys of a spec are therefore all accepted by :meth:`Task.check_options`, and
+  :attr:`Task.option_keys` lists them (``"task"`` is accepted by every task and must equal
+  :attr:`Task.name`).
+* **Requested episodes are validated.**  An infeasible requested start, target or reference
+  (unreachable, at a singularity, in the wrong assembly mode for the task, ...) raises
+  ``ValueError`` with a message naming the option and the reason.
+* **Sampling never raises.**  ``reset()`` without options never raises on valid settings: when a
+  draw fails a constraint the task draws again (all from ``env.np_random``); a setting under
+  which no episode exists is rejected in the constructor (``ValueError``) instead.
+* **Determinism.**  Every random number comes from the generator passed to
+  :meth:`Task.episode_spec`; caches are dropped in :meth:`Task.reseed`.
+* **Metrics.**  Per-step and episode metrics are in ``info`` under the keys of
+  :attr:`Task.metric_keys`, documented in the task's docstring (e.g. ``tracking_rms_error``,
+  running over the steps so far, so the value in the last ``info`` of an episode is the
+  episode's).  ``info["is_success"]`` and ``info["termination_reason"]`` keep their meaning
+  for every task (``termination_reason`` is one of :attr:`Task.termination_reasons` or None).
+* **Reward.**  :meth:`Task.reward_terms` returns the weighted terms; the reward is their sum
+  and they are reported in ``info["reward_terms"]``.  Every value is finite.
+* **Observation.**  The flat observation is the 31 entries of
+  :mod:`planar3p_gym.observation`, computed against the current reference pose (the target of
+  a reach), followed by :meth:`Task.observation_extra` (bounds from
+  :meth:`Task.observation_bounds`); tasks with nothing extra keep exactly 31 entries.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any, ClassVar
+
+import numpy as np
+
+from ..physics import SimState
+from ..rewards import pose_error, precision_penalty, reward_terms
+from ..scalar_kinematics import ConfigurationMeasures
+
+if TYPE_CHECKING:
+    from ..env import Planar3PEnv
+
+__all__ = ["Pose", "Task", "pose_list"]
+
+#: A pose ``(x, y, theta)`` (m, m, rad).
+Pose = tuple[float, float, float]
+
+
+def pose_list(pose: Any) -> list[float]:
+    """A pose as a JSON-friendly list of three Python floats (exact: float64 round-trips)."""
+    return [float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3).tolist()]
+
+
+class Task:
+    """Base class of the tasks; see the module docstring for the contract.
+
+    Subclasses set :attr:`name` and :attr:`option_keys` and implement :meth:`episode_spec`,
+    :meth:`begin` and :meth:`reference`; the defaults of the other hooks give the reach task's
+    behaviour (success at the reference pose at rest, a parallel-singularity crossing is a
+    failure, the reward of :mod:`planar3p_gym.rewards`).
+    """
+
+    #: Value of ``spec["task"]``.
+    name: ClassVar[str] = ""
+    #: Keys ``reset(options=...)`` accepts besides ``"task"`` (a superset of the spec's keys).
+    option_keys: ClassVar[tuple[str, ...]] = ()
+    #: Possible values of ``info["termination_reason"]`` (``None`` while the episode runs).
+    termination_reasons: ClassVar[tuple[str, ...]] = (
+        "success",
+        "singularity_crossing",
+        "physics_breakdown",
+    )
+    #: Termination reasons that count as failures (the failure penalty applies).
+    failure_reasons: ClassVar[tuple[str, ...]] = ("singularity_crossing", "physics_breakdown")
+    #: Task-specific ``info`` keys (metrics) added by :meth:`step_info`.
+    metric_keys: ClassVar[tuple[str, ...]] = ()
+
+    env: Planar3PEnv
+
+    # ------------------------------------------------------------------ set-up
+    def bind(self, env: Planar3PEnv) -> None:
+        """Attach to ``env`` (its design, working modes, task config, reward weights, ``dt``).
+        Raise ``ValueError`` here if no episode can exist under the env's settings."""
+        self.env = env
+
+    def reseed(self) -> None:
+        """The environment was re-seeded: drop anything cached from the old random stream."""
+
+    def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
+        """Validate ``reset`` options that need no randomness (``ValueError`` if invalid);
+        return them, parsed.  Called before seeding.  Keys are already restricted to
+        :attr:`option_keys` and ``"task"`` is already checked and removed."""
+        return options
+
+    def episode_spec(self, rng: np.random.Generator, options: dict[str, Any]) -> dict[str, Any]:
+        """The spec of the next episode: what ``options`` fixes, the rest drawn from ``rng``
+        (the environment's ``np_random``).  Must not raise without options."""
+        raise NotImplementedError
+
+    def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
+        """Install the episode ``spec``; return its start pose (m, m, rad) and working mode."""
+        raise NotImplementedError
+
+    # ------------------------------------------------------------------ per step
+    def reference(self, step: int) -> Pose:
+        """The pose the observation and the errors refer to after ``step`` control steps
+        (the target of a reach, the moving reference of a tracking task)."""
+        raise NotImplementedError
+
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(low, high)`` of the entries :meth:`observation_extra` appends (default none)."""
+        empty = np.zeros(0, dtype=np.float32)
+        return empty, empty.copy()
+
+    def observation_extra(self, step: int) -> list[float]:
+        """Task entries appended to the 31-entry observation after ``step`` steps."""
+        return []
+
+    def is_success(self, state: SimState, errors: tuple[float, float]) -> bool:
+        """Default success test: within ``position_tolerance`` (m) and
+        ``orientation_tolerance`` (rad) of the reference with every slider slower than
+        ``rest_speed`` (m/s).  ``errors`` are (position error (m), orientation error (rad))."""
+        cfg = self.env.task_config
+        pos_err, ang_err = errors
+        return (
+            pos_err <= cfg.position_tolerance
+            and abs(ang_err) <= cfg.orientation_tolerance
+            and max(abs(v) for v in state.rho_dot) <= cfg.rest_speed
+        )
+
+    def termination(
+        self,
+        state: SimState,
+        measures: ConfigurationMeasures,
+        errors: tuple[float, float],
+        assembly: int,
+    ) -> str | None:
+        """The reason the episode ends after this step, or ``None`` (physics breakdown is the
+        environment's test and comes first).  Default: ``"singularity_crossing"`` when
+        ``sign det A`` is opposite to the start's ``assembly``, else ``"success"`` when
+        :meth:`is_success`."""
+        if measures.det_sign == -assembly:
+            return "singularity_crossing"
+        if self.is_success(state, errors):
+            return "success"
+        return None
+
+    def reward_terms(
+        self,
+        *,
+        errors: tuple[float, float],
+        measures: ConfigurationMeasures,
+        action: tuple[float, float, float],
+        success: bool,
+        failure: bool,
+    ) -> dict[str, float]:
+        """Weighted reward terms (their sum is the reward); default
+        :func:`planar3p_gym.rewards.reward_terms` on the errors to the reference."""
+        env = self.env
+        pos_err, ang_err = errors
+        length = env.design.characteristic_length
+        return reward_terms(
+            env.reward_weights,
+            pose_err=pose_error(pos_err, ang_err, length),
+            precision_err=precision_penalty(
+                pos_err, ang_err, length, env.reward_weights.precision_scale
+            ),
+            parallel_margin=measures.parallel_margin,
+            serial_margin=measures.serial_margin,
+            action=action,
+            success=success,
+            failure=failure,
+        )
+
+    def step_info(self, step: int, state: SimState, errors: tuple[float, float]) -> dict[str, Any]:
+        """Task metrics for ``info`` after ``step`` steps (``step == 0`` at reset); keys are
+        :attr:`metric_keys`.  Called once per step, also on the step that ends the episode."""
+        return {}
+
+    # ------------------------------------------------------------------ helpers
+    @staticmethod
+    def finite_pose(pose: Any, name: str) -> np.ndarray:
+        """``pose`` as a float64 array of 3 finite numbers, or ``ValueError`` naming ``name``."""
+        try:
+            p = np.asarray(pose, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{name} must be 3 numbers (x, y, theta), got {pose!r}") from exc
+        if p.shape != (3,) or not all(math.isfinite(v) for v in p.tolist()):
+            raise ValueError(f"{name} must be 3 finite numbers (x, y, theta), got {pose!r}")
+        return p

@@ -1,0 +1,103 @@
+"""The reach task of ``Planar3P-v0``: bring the gripper to a fixed target pose and stop there.
+
+Start and target are drawn by :func:`planar3p_gym.task.sample_pair` (reachable in the episode's
+working mode with margins, holdable, same assembly mode, straight path clear of singularities by
+default).  Success: within the task's tolerances of the target with every slider nearly at rest.
+
+Episode spec: ``{"task": "reach", "working_mode": [s1, s2, s3], "start": [x, y, theta],
+"target": [x, y, theta]}`` (m, m, rad).  Reset options: ``start``, ``target``,
+``working_mode`` (any subset; the rest is drawn).  No task metrics beyond the environment's
+``position_error`` / ``orientation_error``.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .. import kinematics, task
+from .base import Pose, Task, pose_list
+
+__all__ = ["ReachTask"]
+
+
+class ReachTask(Task):
+    """Reach a target pose (see the module docstring)."""
+
+    name: ClassVar[str] = "reach"
+    option_keys: ClassVar[tuple[str, ...]] = ("start", "target", "working_mode")
+
+    def bind(self, env: Any) -> None:
+        super().bind(env)
+        self._samplers: dict[tuple[int, int, int], task.PoseSampler] = {}
+        self._target: Pose = (0.0, 0.0, 0.0)
+
+    def reseed(self) -> None:
+        for sampler in self._samplers.values():
+            sampler.clear()
+
+    def _known_mode(self, options: dict[str, Any]) -> tuple[int, int, int] | None:
+        """The working mode fixed without drawing: the requested one, or the env's only one."""
+        if options.get("working_mode") is not None:
+            return options["working_mode"]
+        modes = self.env.modes
+        return modes[0] if len(modes) == 1 else None
+
+    def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
+        mode = self._known_mode(options)
+        if mode is not None:  # checked before seeding: a rejected reset changes nothing
+            for name in ("start", "target"):
+                if options.get(name) is not None:
+                    options[name] = task.check_pose(self.env.design, options[name], mode, name)
+        return options
+
+    def episode_spec(self, rng: np.random.Generator, options: dict[str, Any]) -> dict[str, Any]:
+        design = self.env.design
+        mode = self._known_mode(options)
+        start = options.get("start")
+        target = options.get("target")
+        if mode is None:
+            modes = self.env.modes
+            mode = modes[int(rng.integers(len(modes)))]
+            if start is not None:
+                start = task.check_pose(design, start, mode, "start")
+            if target is not None:
+                target = task.check_pose(design, target, mode, "target")
+        if start is not None and target is not None:
+            assemblies = [
+                int(kinematics.assembly_mode(design, p, kinematics.inverse(design, p, mode).rho))
+                for p in (start, target)
+            ]
+            if assemblies[0] != assemblies[1]:
+                raise ValueError(
+                    "start and target are in different assembly modes (sign det A "
+                    f"{assemblies[0]} vs {assemblies[1]}): no motion joins them without "
+                    "crossing a parallel singularity"
+                )
+        if mode not in self._samplers:
+            self._samplers[mode] = task.PoseSampler(design, mode, self.env.task_config)
+        start, target = task.sample_pair(
+            design,
+            mode,
+            rng,
+            self.env.task_config,
+            start=start,
+            target=target,
+            sampler=self._samplers[mode],
+        )
+        return {
+            "task": self.name,
+            "working_mode": [int(m) for m in mode],
+            "start": pose_list(start),
+            "target": pose_list(target),
+        }
+
+    def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
+        tx, ty, tth = spec["target"]
+        self._target = (float(tx), float(ty), float(tth))
+        mode = tuple(int(m) for m in spec["working_mode"])
+        return np.asarray(spec["start"], dtype=np.float64), mode  # type: ignore[return-value]
+
+    def reference(self, step: int) -> Pose:
+        return self._target
