@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import itertools
 import math
+from collections.abc import Mapping
 from dataclasses import asdict, fields
 from typing import Any
 
@@ -17,7 +19,14 @@ from .physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PSim, SimState
 from .rewards import RewardWeights, pose_error, precision_penalty, reward_terms
 from .scalar_kinematics import ConfigurationMeasures, ScalarKinematics
 
-__all__ = ["DEFAULT_WORKING_MODE", "TERMINATION_REASONS", "Planar3PEnv"]
+__all__ = [
+    "DEFAULT_WORKING_MODE",
+    "RESET_OPTIONS",
+    "TERMINATION_REASONS",
+    "Planar3PEnv",
+    "check_reset_options",
+    "parse_action",
+]
 
 #: The working mode used unless another is asked for: the mode of the default design with the
 #: largest well-conditioned workspace.
@@ -68,6 +77,86 @@ def _config_from(arg: Any, cls: type, name: str) -> Any:
             raise ValueError(f"unknown {name} fields {sorted(unknown)}; known: {sorted(known)}")
         return cls(**arg)
     raise ValueError(f"{name} must be a {cls.__name__} or a dict of its fields, got {arg!r}")
+
+
+def parse_action(action: Any) -> tuple[float, float, float]:
+    """An action as three finite floats clipped to ``[-1, 1]``, or ``ValueError``.
+
+    Accepts a sequence or array of 3 real numbers (Python or NumPy ints and floats); rejects
+    strings, booleans, complex numbers, wrong shapes, NaN/inf and values too large for a float.
+    """
+    if isinstance(action, (list, tuple)) and any(
+        isinstance(v, (bool, np.bool_, str, bytes)) for v in action
+    ):  # NumPy would turn [True, 0, 0] into integers and keep "1" as a string
+        raise ValueError(f"action must be 3 real numbers in [-1, 1], got {_short(action)}")
+    try:
+        arr = np.asarray(action)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ValueError(f"action must be 3 real numbers in [-1, 1], got {_short(action)}") from exc
+    if arr.dtype.kind == "O" and arr.shape == (3,):  # e.g. Python ints beyond int64
+        arr = np.array([_real_to_float(v) for v in arr.tolist()])
+    if arr.dtype.kind not in "fiu":
+        raise ValueError(f"action must be 3 real numbers in [-1, 1], got {_short(action)}")
+    if arr.shape != (3,):
+        raise ValueError(f"action must have shape (3,), got shape {arr.shape}")
+    a0, a1, a2 = arr.astype(np.float64).tolist()
+    if not (math.isfinite(a0) and math.isfinite(a1) and math.isfinite(a2)):
+        raise ValueError(f"action must be finite, got {_short(action)}")
+    a0 = -1.0 if a0 < -1.0 else (1.0 if a0 > 1.0 else a0)
+    a1 = -1.0 if a1 < -1.0 else (1.0 if a1 > 1.0 else a1)
+    a2 = -1.0 if a2 < -1.0 else (1.0 if a2 > 1.0 else a2)
+    return a0, a1, a2
+
+
+def _real_to_float(value: Any) -> Any:
+    """A real number as a float (``inf`` if too large); anything else unchanged (rejected)."""
+    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, (bool, np.bool_)
+    ):
+        try:
+            return float(value)
+        except OverflowError:
+            return math.inf if value > 0 else -math.inf
+    return value
+
+
+def _short(value: Any, limit: int = 80) -> str:
+    """``repr(value)`` cut to ``limit`` characters (for error messages)."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+#: Keys of :meth:`Planar3PEnv.get_keys_to_action`: (+x, -x) for sliders 1, 2, 3.
+KEYBOARD_KEYS = (("q", "a"), ("w", "s"), ("e", "d"))
+#: Speed commanded by a pressed key, as a fraction of ``max_speed``.
+KEYBOARD_SPEED = 0.5
+
+#: Keys ``reset(options=...)`` understands.
+RESET_OPTIONS = ("start", "target", "working_mode")
+
+
+def check_reset_options(options: Any) -> dict[str, Any]:
+    """``reset``'s ``options`` as a plain dict with only known keys, or ``ValueError``.
+
+    Checks the container and keys and parses ``working_mode``; the poses are checked later
+    against the episode's working mode.  Called before the environment is seeded, so a
+    rejected reset leaves the random stream untouched.
+    """
+    if options is None:
+        return {}
+    if not isinstance(options, Mapping):
+        raise ValueError(
+            f"reset options must be a dict (keys: {', '.join(RESET_OPTIONS)}), got {options!r}"
+        )
+    out = dict(options)
+    unknown = [k for k in out if k not in RESET_OPTIONS]
+    if unknown:
+        raise ValueError(
+            f"unknown reset options {sorted(map(str, unknown))}; known: {', '.join(RESET_OPTIONS)}"
+        )
+    if out.get("working_mode") is not None:
+        out["working_mode"] = _mode_from(out["working_mode"])
+    return out
 
 
 def _mode_from(arg: Any) -> tuple[int, int, int]:
@@ -268,28 +357,29 @@ class Planar3PEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
+        options = check_reset_options(options)
+        known_mode = options.get("working_mode") or (
+            self._modes[0] if len(self._modes) == 1 else None
+        )
+        start = options.get("start")
+        target = options.get("target")
+        if known_mode is not None:  # checked before seeding: a rejected reset changes nothing
+            if start is not None:
+                start = task.check_pose(self.design, start, known_mode, "start")
+            if target is not None:
+                target = task.check_pose(self.design, target, known_mode, "target")
         super().reset(seed=seed)
         if seed is not None:
             for sampler in self._samplers.values():
                 sampler.clear()
-        options = dict(options or {})
-        unknown = set(options) - {"start", "target", "working_mode"}
-        if unknown:
-            raise ValueError(
-                f"unknown reset options {sorted(unknown)}; known: start, target, working_mode"
-            )
-        if "working_mode" in options and options["working_mode"] is not None:
-            mode = _mode_from(options["working_mode"])
-        elif len(self._modes) == 1:
-            mode = self._modes[0]
+        if known_mode is not None:
+            mode = known_mode
         else:
             mode = self._modes[int(self.np_random.integers(len(self._modes)))]
-        start = options.get("start")
-        target = options.get("target")
-        if start is not None:
-            start = task.check_pose(self.design, start, mode, "start")
-        if target is not None:
-            target = task.check_pose(self.design, target, mode, "target")
+            if start is not None:
+                start = task.check_pose(self.design, start, mode, "start")
+            if target is not None:
+                target = task.check_pose(self.design, target, mode, "target")
         if start is not None and target is not None:
             assemblies = [
                 int(
@@ -338,18 +428,7 @@ class Planar3PEnv(gym.Env):
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         sim = self.sim
-        try:
-            a = np.asarray(action, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"action must be 3 numbers in [-1, 1], got {action!r}") from exc
-        if a.shape != (3,):
-            raise ValueError(f"action must have shape (3,), got shape {a.shape}")
-        a0, a1, a2 = a.tolist()
-        if not (math.isfinite(a0) and math.isfinite(a1) and math.isfinite(a2)):
-            raise ValueError(f"action must be finite, got {action!r}")
-        a0 = -1.0 if a0 < -1.0 else (1.0 if a0 > 1.0 else a0)
-        a1 = -1.0 if a1 < -1.0 else (1.0 if a1 > 1.0 else a1)
-        a2 = -1.0 if a2 < -1.0 else (1.0 if a2 > 1.0 else a2)
+        a0, a1, a2 = parse_action(action)
         vmax = self.design.max_speed
         state = sim.step_unchecked(a0 * vmax, a1 * vmax, a2 * vmax)
 
@@ -407,6 +486,24 @@ class Planar3PEnv(gym.Env):
         if self.render_mode == "human":
             self.render()
         return self._obs.copy(), reward, reason is not None, False, info
+
+    def get_keys_to_action(self) -> dict[tuple[str, ...], np.ndarray]:
+        """Keyboard mapping for :func:`gymnasium.utils.play.play`: ``q``/``a`` drive slider 1
+        towards +x/-x, ``w``/``s`` slider 2, ``e``/``d`` slider 3, at ``KEYBOARD_SPEED`` of
+        ``max_speed``; keys of different sliders combine.  Use with
+        ``play(env, noop=np.zeros(3, np.float32))`` (the default ``noop=0`` is not an action)."""
+        mapping: dict[tuple[str, ...], np.ndarray] = {}
+        for signs in itertools.product((0, 1, -1), repeat=3):
+            keys = tuple(
+                sorted(
+                    up if sg > 0 else down
+                    for (up, down), sg in zip(KEYBOARD_KEYS, signs, strict=True)
+                    if sg
+                )
+            )
+            if keys:
+                mapping[keys] = KEYBOARD_SPEED * np.array(signs, dtype=np.float32)
+        return mapping
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
