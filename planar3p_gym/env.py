@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 from collections.abc import Mapping
@@ -12,12 +13,15 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from . import kinematics, task
+from . import kinematics
+from . import task as task_module
 from .design import Design
 from .observation import bounds, build_observation, wrap_angle
 from .physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PSim, SimState
-from .rewards import RewardWeights, pose_error, precision_penalty, reward_terms
+from .rewards import RewardWeights
 from .scalar_kinematics import ConfigurationMeasures, ScalarKinematics
+from .task import TaskConfig
+from .tasks import ReachTask, Task
 
 __all__ = [
     "DEFAULT_WORKING_MODE",
@@ -135,8 +139,8 @@ KEYBOARD_SPEED = 0.5
 RESET_OPTIONS = ("start", "target", "working_mode")
 
 
-def check_reset_options(options: Any) -> dict[str, Any]:
-    """``reset``'s ``options`` as a plain dict with only known keys, or ``ValueError``.
+def check_reset_options(options: Any, keys: tuple[str, ...] = RESET_OPTIONS) -> dict[str, Any]:
+    """``reset``'s ``options`` as a plain dict with only ``keys``, or ``ValueError``.
 
     Checks the container and keys and parses ``working_mode``; the poses are checked later
     against the episode's working mode.  Called before the environment is seeded, so a
@@ -145,14 +149,12 @@ def check_reset_options(options: Any) -> dict[str, Any]:
     if options is None:
         return {}
     if not isinstance(options, Mapping):
-        raise ValueError(
-            f"reset options must be a dict (keys: {', '.join(RESET_OPTIONS)}), got {options!r}"
-        )
+        raise ValueError(f"reset options must be a dict (keys: {', '.join(keys)}), got {options!r}")
     out = dict(options)
-    unknown = [k for k in out if k not in RESET_OPTIONS]
+    unknown = [k for k in out if k not in keys]
     if unknown:
         raise ValueError(
-            f"unknown reset options {sorted(map(str, unknown))}; known: {', '.join(RESET_OPTIONS)}"
+            f"unknown reset options {sorted(map(str, unknown))}; known: {', '.join(keys)}"
         )
     if out.get("working_mode") is not None:
         out["working_mode"] = _mode_from(out["working_mode"])
@@ -236,6 +238,11 @@ class Planar3PEnv(gym.Env):
     - ``breakdown_threshold``: loop-closure error ending the episode, as a fraction of the
       shortest leg (default 0.01).
     - ``render_mode``: ``None``, ``"rgb_array"`` or ``"human"``; ``render_size`` in pixels.
+    - ``task``: a :class:`planar3p_gym.tasks.Task` (default :class:`~planar3p_gym.tasks.
+      ReachTask`, this docstring's task); other registered ids pass theirs.
+
+    ``info["episode_spec"]`` (at reset) is a JSON-serialisable dict describing the episode;
+    ``reset(options=spec)`` replays it exactly (:mod:`planar3p_gym.tasks.base`).
 
     ## Version History
     - v0: initial release.
@@ -252,11 +259,17 @@ class Planar3PEnv(gym.Env):
         substeps: int = DEFAULT_SUBSTEPS,
         solver_iterations: int = DEFAULT_ITERATIONS,
         reward_weights: RewardWeights | dict | None = None,
-        task_config: task.TaskConfig | dict | None = None,
+        task_config: TaskConfig | dict | None = None,
         breakdown_threshold: float = 0.01,
         render_mode: str | None = None,
         render_size: tuple[int, int] = (640, 480),
+        task: Task | None = None,
     ) -> None:
+        if task is None:
+            task = ReachTask()
+        if not isinstance(task, Task):
+            raise ValueError(f"task must be a planar3p_gym.tasks.Task, got {task!r}")
+        self.task = task
         self.design = _design_from(design)
         if isinstance(working_mode, str):
             if working_mode != "random":
@@ -281,7 +294,7 @@ class Planar3PEnv(gym.Env):
                 f"got {render_mode!r}"
             )
         self.reward_weights = _config_from(reward_weights, RewardWeights, "reward_weights")
-        self.task_config = _config_from(task_config, task.TaskConfig, "task_config")
+        self.task_config = _config_from(task_config, TaskConfig, "task_config")
         if not (
             isinstance(render_size, (tuple, list))
             and len(render_size) == 2
@@ -301,14 +314,23 @@ class Planar3PEnv(gym.Env):
 
         self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
         self._obs_low, self._obs_high = bounds(self.design)
-        self.observation_space = spaces.Box(self._obs_low, self._obs_high, dtype=np.float32)
         self._kin = ScalarKinematics(self.design)
         self._length = self.design.characteristic_length
         self._renderer = None
         self._modes = [self._fixed_mode] if self._fixed_mode else self._usable_modes()
+        self.task.bind(self)
+        extra_low, extra_high = self.task.observation_bounds()
+        self._extra_low = np.asarray(extra_low, dtype=np.float32)
+        self._extra_high = np.asarray(extra_high, dtype=np.float32)
+        self.observation_space = spaces.Box(
+            np.concatenate([self._obs_low, self._extra_low]),
+            np.concatenate([self._obs_high, self._extra_high]),
+            dtype=np.float32,
+        )
         self._sim: Planar3PSim | None = None
-        self._samplers: dict[tuple[int, int, int], task.PoseSampler] = {}
         self._target = (0.0, 0.0, 0.0)
+        self._steps = 0
+        self._spec: dict[str, Any] = {}
         self._mode = self._modes[0]
         self._assembly = 0
         self._obs = np.zeros(self.observation_space.shape, dtype=np.float32)
@@ -323,7 +345,7 @@ class Planar3PEnv(gym.Env):
         usable = []
         for m in kinematics.ALL_MODES.tolist():
             try:
-                task.sample_poses(self.design, m, rng, self.task_config, max_batches=20)
+                task_module.sample_poses(self.design, m, rng, self.task_config, max_batches=20)
             except ValueError:
                 continue
             usable.append(tuple(m))
@@ -344,6 +366,17 @@ class Planar3PEnv(gym.Env):
         return self._target
 
     @property
+    def modes(self) -> list[tuple[int, int, int]]:
+        """The working modes episodes are drawn from (one when ``working_mode`` is fixed)."""
+        return list(self._modes)
+
+    @property
+    def episode_spec(self) -> dict[str, Any]:
+        """The JSON-serialisable spec of the current episode (``reset(options=spec)``
+        replays it; see :mod:`planar3p_gym.tasks.base`)."""
+        return copy.deepcopy(self._spec)
+
+    @property
     def working_mode(self) -> tuple[int, int, int]:
         """Working mode of the episode."""
         return self._mode
@@ -357,57 +390,23 @@ class Planar3PEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        options = check_reset_options(options)
-        known_mode = options.get("working_mode") or (
-            self._modes[0] if len(self._modes) == 1 else None
-        )
-        start = options.get("start")
-        target = options.get("target")
-        if known_mode is not None:  # checked before seeding: a rejected reset changes nothing
-            if start is not None:
-                start = task.check_pose(self.design, start, known_mode, "start")
-            if target is not None:
-                target = task.check_pose(self.design, target, known_mode, "target")
+        options = check_reset_options(options, (*self.task.option_keys, "task"))
+        requested = options.pop("task", None)
+        if requested is not None and requested != self.task.name:
+            raise ValueError(
+                f"options are for task {requested!r}, but this environment's task is "
+                f"{self.task.name!r}"
+            )
+        options = self.task.check_options(options)  # before seeding: a rejection changes nothing
         super().reset(seed=seed)
         if seed is not None:
-            for sampler in self._samplers.values():
-                sampler.clear()
-        if known_mode is not None:
-            mode = known_mode
-        else:
-            mode = self._modes[int(self.np_random.integers(len(self._modes)))]
-            if start is not None:
-                start = task.check_pose(self.design, start, mode, "start")
-            if target is not None:
-                target = task.check_pose(self.design, target, mode, "target")
-        if start is not None and target is not None:
-            assemblies = [
-                int(
-                    kinematics.assembly_mode(
-                        self.design, p, kinematics.inverse(self.design, p, mode).rho
-                    )
-                )
-                for p in (start, target)
-            ]
-            if assemblies[0] != assemblies[1]:
-                raise ValueError(
-                    "start and target are in different assembly modes (sign det A "
-                    f"{assemblies[0]} vs {assemblies[1]}): no motion joins them without "
-                    "crossing a parallel singularity"
-                )
-        if mode not in self._samplers:
-            self._samplers[mode] = task.PoseSampler(self.design, mode, self.task_config)
-        start, target = task.sample_pair(
-            self.design,
-            mode,
-            self.np_random,
-            self.task_config,
-            start=start,
-            target=target,
-            sampler=self._samplers[mode],
-        )
+            self.task.reseed()
+        spec = self.task.episode_spec(self.np_random, options)
+        start, mode = self.task.begin(spec)
+        self._spec = spec
+        self._steps = 0
         self._mode = mode
-        self._target = (float(target[0]), float(target[1]), float(target[2]))
+        self._target = self.task.reference(0)
         self._sim = Planar3PSim(
             self.design,
             start,
@@ -420,7 +419,10 @@ class Planar3PEnv(gym.Env):
         self._measures = self._kin.measures(state.pose, state.rho)
         self._assembly = self._measures.det_sign
         self._obs = self._observe(state, self._measures)
-        info = self._info(state, self._measures, None, {}, False, self._errors(state.pose))
+        errors = self._errors(state.pose)
+        info = self._info(state, self._measures, None, {}, False, errors)
+        info.update(self.task.step_info(0, state, errors))
+        info["episode_spec"] = copy.deepcopy(spec)
         self._last_info = info
         if self.render_mode == "human":
             self.render()
@@ -431,6 +433,8 @@ class Planar3PEnv(gym.Env):
         a0, a1, a2 = parse_action(action)
         vmax = self.design.max_speed
         state = sim.step_unchecked(a0 * vmax, a1 * vmax, a2 * vmax)
+        self._steps += 1
+        self._target = self.task.reference(self._steps)
 
         reason = None
         success = False
@@ -443,27 +447,13 @@ class Planar3PEnv(gym.Env):
             measures = self._kin.measures(state.pose, state.rho)
             self._obs = self._observe(state, measures)
             pos_err, ang_err = self._errors(state.pose)
-            if measures.det_sign == -self._assembly:
-                reason = "singularity_crossing"
-            else:
-                rest = max(abs(v) for v in state.rho_dot) <= self.task_config.rest_speed
-                success = (
-                    pos_err <= self.task_config.position_tolerance
-                    and abs(ang_err) <= self.task_config.orientation_tolerance
-                    and rest
-                )
-                if success:
-                    reason = "success"
-        failure = reason in ("singularity_crossing", "physics_breakdown")
+            reason = self.task.termination(state, measures, (pos_err, ang_err), self._assembly)
+            success = reason == "success"
+        failure = reason in self.task.failure_reasons
         assert measures is not None
-        terms = reward_terms(
-            self.reward_weights,
-            pose_err=pose_error(pos_err, ang_err, self._length),
-            precision_err=precision_penalty(
-                pos_err, ang_err, self._length, self.reward_weights.precision_scale
-            ),
-            parallel_margin=measures.parallel_margin,
-            serial_margin=measures.serial_margin,
+        terms = self.task.reward_terms(
+            errors=(pos_err, ang_err),
+            measures=measures,
             action=(a0, a1, a2),
             success=success,
             failure=failure,
@@ -482,6 +472,7 @@ class Planar3PEnv(gym.Env):
         else:
             info = self._info(state, measures, reason, terms, success, (pos_err, ang_err))
             self._measures = measures
+        info.update(self.task.step_info(self._steps, state, (pos_err, ang_err)))
         self._last_info = info
         if self.render_mode == "human":
             self.render()
@@ -543,6 +534,17 @@ class Planar3PEnv(gym.Env):
         return math.hypot(tx - pose[0], ty - pose[1]), wrap_angle(tth - pose[2])
 
     def _observe(self, state: SimState, measures: ConfigurationMeasures) -> np.ndarray:
+        obs = self._observe_base(state, measures)
+        extra = self.task.observation_extra(self._steps)
+        if not extra:
+            return obs
+        tail = np.array(extra, dtype=np.float32)
+        np.minimum(tail, self._extra_high, out=tail)
+        np.maximum(tail, self._extra_low, out=tail)
+        return np.concatenate([obs, tail])
+
+    def _observe_base(self, state: SimState, measures: ConfigurationMeasures) -> np.ndarray:
+        """The 31 entries of :mod:`planar3p_gym.observation` against the current reference."""
         return build_observation(
             state.rho,
             state.rho_dot,
@@ -598,6 +600,7 @@ class Planar3PEnv(gym.Env):
             "reward_weights": asdict(self.reward_weights),
             "task_config": asdict(self.task_config),
             "breakdown_threshold": self.breakdown_distance / self.design.shortest_leg,
+            "task": self.task.name,
         }
 
 
