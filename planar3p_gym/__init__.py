@@ -21,3 +21,16 @@ if ENV_ID not in registry:
         entry_point="planar3p_gym.env:Planar3PEnv",
         max_episode_steps=MAX_EPISODE_STEPS,
     )
+
+# H2 (issue 10): goal-conditioned reach and trajectory tracking.
+#: Goal-conditioned reach ids (sparse and dense reward) and their time limit (control steps).
+GOAL_ENV_ID = "Planar3PGoal-v0"
+GOAL_DENSE_ENV_ID = "Planar3PGoalDense-v0"
+for _id, _reward in ((GOAL_ENV_ID, "sparse"), (GOAL_DENSE_ENV_ID, "dense")):
+    if _id not in registry:
+        register(
+            id=_id,
+            entry_point="planar3p_gym.goal_env:Planar3PGoalEnv",
+            max_episode_steps=MAX_EPISODE_STEPS,
+            kwargs={"reward_type": _reward},
+        )

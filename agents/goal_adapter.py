@@ -1,0 +1,61 @@
+"""Run policies written for the flat observation of ``Planar3P-v0`` (e.g. the analytic
+controller) on the goal-conditioned envs (``Planar3PGoal-v0``, ``Planar3PGoalDense-v0``)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from numpy.typing import ArrayLike
+
+from agents.analytic import AnalyticController
+from planar3p_gym.goal_env import flat_observation
+
+__all__ = ["GoalAdapter"]
+
+
+class GoalAdapter:
+    """SB3-style ``predict`` on ``Dict`` goal observations, by rebuilding the 31-entry flat
+    observation (:func:`planar3p_gym.goal_env.flat_observation`) and calling ``policy``.
+
+    Args:
+        policy: anything with ``predict(observation, state, episode_start, deterministic)``
+            on flat observations.
+        length: the design's characteristic length (m), which scales the ``fine_error``
+            block.
+    """
+
+    def __init__(self, policy: Any, length: float) -> None:
+        if not callable(getattr(policy, "predict", None)):
+            raise ValueError(f"policy must have a predict method, got {policy!r}")
+        if not length > 0:
+            raise ValueError(f"length must be > 0 (m), got {length!r}")
+        self.policy = policy
+        self.length = float(length)
+
+    @classmethod
+    def analytic(cls, env: Any, mode: str = "simultaneous", **kwargs: Any) -> GoalAdapter:
+        """The analytic controller for the design of ``env`` (a goal env, possibly wrapped)."""
+        design = env.unwrapped.design
+        return cls(AnalyticController(design, mode, **kwargs), design.characteristic_length)
+
+    def reset(self) -> None:
+        """Reset the wrapped policy's memory, if it has one."""
+        if callable(getattr(self.policy, "reset", None)):
+            self.policy.reset()
+
+    def predict(
+        self,
+        observation: dict[str, ArrayLike],
+        state: Any = None,
+        episode_start: ArrayLike | None = None,
+        deterministic: bool = True,
+    ) -> tuple[Any, Any]:
+        """Action(s) for a goal observation (single or batched ``Dict`` entries)."""
+        if not isinstance(observation, dict) or not {"observation", "desired_goal"} <= set(
+            observation
+        ):
+            raise ValueError("observation must be a goal env's dict (observation, desired_goal)")
+        flat = flat_observation(observation, self.length)
+        return self.policy.predict(
+            flat, state=state, episode_start=episode_start, deterministic=deterministic
+        )

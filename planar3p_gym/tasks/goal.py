@@ -1,0 +1,254 @@
+"""Goal-conditioned reach: the goal vectors, the vectorised success test and reward.
+
+A goal is the gripper pose as ``(x, y, cos theta, sin theta)`` (m, m, 1, 1), float32.  The
+angle enters through ``cos``/``sin`` so that goals have no wrap-around; the orientation error
+of an achieved goal ``a`` against a desired goal ``d`` is ``atan2(a_c d_s - a_s d_c,
+a_c d_c + a_s d_s)`` (rad, in ``[-pi, pi]``), independent of the vectors' lengths.
+
+Relabelling (hindsight experience replay) must give exactly the reward the environment would
+have returned had the relabelled goal been the episode's goal.  Two parts of the reward do not
+depend on the goal, and are therefore carried by the step's ``info``:
+
+* ``info["at_rest"]``: every slider slower than ``rest_speed`` (m/s) after the step, part of
+  the success test (a property of the achieved state, not of the goal);
+* ``info["goal_free_reward"]``: the weighted goal-independent terms (singularity penalty,
+  action effort and failure penalty for the dense reward; the failure penalty alone for the
+  sparse one), and ``info["failure"]`` (the step ended the episode by a singularity crossing or
+  a physics breakdown).
+
+The environment computes its own reward, success and termination with the functions below on
+the float32 goal vectors it returns, so ``env.compute_reward(obs["achieved_goal"],
+obs["desired_goal"], info)`` equals the returned reward bit for bit, for single goals and
+batches alike.
+
+Episode spec: the reach spec (``task`` is ``"goal"``) plus, when the episode's goal was
+requested as a vector (``reset(options={"desired_goal": g})``), ``"desired_goal"`` (4 floats).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..rewards import RewardWeights
+from ..task import TaskConfig
+from .base import Pose
+from .reach import ReachTask
+
+__all__ = [
+    "GOAL_SIZE",
+    "REWARD_TYPES",
+    "GoalTask",
+    "goal_errors",
+    "goal_free_reward",
+    "goal_of_pose",
+    "goal_reward",
+    "goal_success",
+    "pose_of_goal",
+]
+
+#: Length of a goal vector ``(x, y, cos theta, sin theta)``.
+GOAL_SIZE = 4
+#: Reward variants: ``"sparse"`` (0 on success, -1 otherwise) or ``"dense"`` (the reach
+#: reward's shaping terms).
+REWARD_TYPES = ("sparse", "dense")
+
+
+def goal_of_pose(pose: ArrayLike) -> NDArray[np.float32]:
+    """The goal vector (float32, shape ``(4,)``) of a pose ``(x, y, theta)`` (m, m, rad)."""
+    x, y, th = (float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3))
+    return np.array([x, y, math.cos(th), math.sin(th)], dtype=np.float32)
+
+
+def pose_of_goal(goal: ArrayLike) -> Pose:
+    """The pose ``(x, y, theta)`` (m, m, rad) a goal vector stands for."""
+    g = np.asarray(goal, dtype=np.float64).reshape(GOAL_SIZE)
+    return float(g[0]), float(g[1]), math.atan2(float(g[3]), float(g[2]))
+
+
+def _finite_goal(value: Any, name: str) -> np.ndarray:
+    """``value`` as a float64 array of ``GOAL_SIZE`` finite numbers, or ``ValueError``."""
+    try:
+        g = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be {GOAL_SIZE} numbers, got {value!r}") from exc
+    if g.shape != (GOAL_SIZE,) or not np.isfinite(g).all():
+        raise ValueError(f"{name} must be {GOAL_SIZE} finite numbers, got {value!r}")
+    return g
+
+
+def _goals(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndarray, bool]:
+    """Both goal arrays as float64 ``(n, 4)`` and whether they were single goals; ``ValueError``
+    for wrong shapes, mismatched batches or non-finite values."""
+    try:
+        a = np.asarray(achieved, dtype=np.float64)
+        d = np.asarray(desired, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"goals must be arrays of shape (4,) or (n, 4): {exc}") from exc
+    for name, g in (("achieved_goal", a), ("desired_goal", d)):
+        if g.ndim not in (1, 2) or g.shape[-1] != GOAL_SIZE:
+            raise ValueError(
+                f"{name} must have shape ({GOAL_SIZE},) or (n, {GOAL_SIZE}), got {g.shape}"
+            )
+        if not np.isfinite(g).all():
+            raise ValueError(f"{name} must be finite")
+    if a.shape != d.shape:
+        raise ValueError(
+            f"achieved_goal and desired_goal must have the same shape, got {a.shape} and {d.shape}"
+        )
+    single = a.ndim == 1
+    return a.reshape(-1, GOAL_SIZE), d.reshape(-1, GOAL_SIZE), single
+
+
+def goal_errors(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Position error (m) and signed orientation error desired minus achieved (rad, in
+    ``[-pi, pi]``), each of shape ``(n,)`` (``(1,)`` for single goals)."""
+    a, d, _ = _goals(achieved, desired)
+    pos = np.hypot(d[:, 0] - a[:, 0], d[:, 1] - a[:, 1])
+    ang = np.arctan2(a[:, 2] * d[:, 3] - a[:, 3] * d[:, 2], a[:, 2] * d[:, 2] + a[:, 3] * d[:, 3])
+    return pos, ang
+
+
+def _info_field(info: Any, key: str, n: int) -> np.ndarray:
+    """``info[key]`` from one info dict or a sequence/array of ``n`` of them, shape ``(n,)``."""
+    if isinstance(info, dict):
+        items = [info] * n
+    else:
+        try:
+            items = list(np.asarray(info, dtype=object).reshape(-1))
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"info must be a dict or a sequence of dicts, got {info!r}") from exc
+        if len(items) == 1 and n > 1:
+            items = items * n
+    if len(items) != n or not all(isinstance(i, dict) for i in items):
+        raise ValueError(
+            f"info must be the step's info dict or {n} of them (one per goal); compute_reward "
+            f"needs info[{key!r}], which the environment puts in every step's info"
+        )
+    try:
+        return np.array([i[key] for i in items], dtype=np.float64)
+    except KeyError as exc:
+        raise ValueError(
+            f"info lacks {key!r}: pass the info dicts the environment returned with the goals"
+        ) from exc
+
+
+def goal_success(
+    achieved: ArrayLike, desired: ArrayLike, info: Any, cfg: TaskConfig
+) -> NDArray[np.bool_]:
+    """Success per goal pair, shape ``(n,)``: within ``position_tolerance`` (m) and
+    ``orientation_tolerance`` (rad), with ``info["at_rest"]`` and not ``info["failure"]``."""
+    pos, ang = goal_errors(achieved, desired)
+    n = pos.shape[0]
+    rest = _info_field(info, "at_rest", n) > 0.5
+    failed = _info_field(info, "failure", n) > 0.5
+    close = (pos <= cfg.position_tolerance) & (np.abs(ang) <= cfg.orientation_tolerance)
+    return close & rest & ~failed
+
+
+def goal_reward(
+    achieved: ArrayLike,
+    desired: ArrayLike,
+    info: Any,
+    cfg: TaskConfig,
+    weights: RewardWeights,
+    length: float,
+    reward_type: str,
+) -> NDArray[np.float64]:
+    """The reward per goal pair, shape ``(n,)``: its goal-dependent part plus
+    ``info["goal_free_reward"]``.
+
+    Sparse: ``-1`` unless successful (``0``).  Dense: ``-w_pose e - w_precision (1 -
+    exp(-d / s)) + w_success [success]`` with ``d = |dp| + length |dtheta|`` (m), ``e = d /
+    length`` (the reach reward's goal terms, :mod:`planar3p_gym.rewards`).
+    """
+    pos, ang = goal_errors(achieved, desired)
+    success = goal_success(achieved, desired, info, cfg)
+    free = _info_field(info, "goal_free_reward", pos.shape[0])
+    if reward_type == "sparse":
+        goal = success.astype(np.float64) - 1.0
+    else:
+        dist = pos + length * np.abs(ang)
+        goal = (
+            -weights.pose * (dist / length)
+            - weights.precision * (1.0 - np.exp(-dist / weights.precision_scale))
+            + weights.success * success
+        )
+    return goal + free
+
+
+def goal_free_reward(terms: dict[str, float], reward_type: str) -> float:
+    """The goal-independent part of the reward from the reach reward's weighted terms."""
+    if reward_type == "sparse":
+        return terms["failure"]
+    return terms["singularity"] + terms["action"] + terms["failure"]
+
+
+class GoalTask(ReachTask):
+    """The reach task with a goal vector; success is :func:`goal_success` on the float32 goals.
+
+    Args:
+        reward_type: ``"sparse"`` or ``"dense"`` (see :func:`goal_reward`).
+    """
+
+    name: ClassVar[str] = "goal"
+    option_keys: ClassVar[tuple[str, ...]] = ("start", "target", "working_mode", "desired_goal")
+
+    def __init__(self, reward_type: str = "sparse") -> None:
+        if reward_type not in REWARD_TYPES:
+            raise ValueError(f"reward_type must be one of {REWARD_TYPES}, got {reward_type!r}")
+        self.reward_type = reward_type
+        self.desired = np.zeros(GOAL_SIZE, dtype=np.float32)
+
+    def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
+        goal = options.pop("desired_goal", None)
+        if goal is not None:
+            g = _finite_goal(goal, "desired_goal").astype(np.float32)
+            if not 0.5 <= float(np.hypot(g[2], g[3])) <= 2.0:
+                raise ValueError(
+                    f"desired_goal must be (x, y, cos theta, sin theta) with (cos, sin) near the "
+                    f"unit circle, got {goal!r}"
+                )
+            pose = pose_of_goal(g)
+            if options.get("target") is not None:
+                t = self.finite_pose(options["target"], "target")
+                if tuple(t.tolist()) != pose:
+                    raise ValueError(
+                        f"target {tuple(t.tolist())} disagrees with desired_goal (pose {pose}); "
+                        "give one of them"
+                    )
+            options["target"] = pose
+            options["_goal"] = g
+        goal_vec = options.pop("_goal", None)
+        options = super().check_options(options)
+        if goal_vec is not None:
+            options["_goal"] = goal_vec
+        return options
+
+    def episode_spec(self, rng: np.random.Generator, options: dict[str, Any]) -> dict[str, Any]:
+        goal = options.pop("_goal", None)
+        spec = super().episode_spec(rng, options)
+        if goal is not None:
+            spec["desired_goal"] = [float(v) for v in goal.tolist()]
+        return spec
+
+    def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
+        start, mode = super().begin(spec)
+        if spec.get("desired_goal") is not None:
+            self.desired = np.asarray(spec["desired_goal"], dtype=np.float32)
+        else:
+            self.desired = goal_of_pose(spec["target"])
+        return start, mode
+
+    def is_success(self, state: Any, errors: tuple[float, float]) -> bool:
+        at_rest = max(abs(v) for v in state.rho_dot) <= self.env.task_config.rest_speed
+        info = {"at_rest": at_rest, "failure": False}  # a crossing is tested before this
+        return bool(
+            goal_success(goal_of_pose(state.pose), self.desired, info, self.env.task_config)[0]
+        )
+
+    def step_info(self, step: int, state: Any, errors: tuple[float, float]) -> dict[str, Any]:
+        return {"at_rest": max(abs(v) for v in state.rho_dot) <= self.env.task_config.rest_speed}
