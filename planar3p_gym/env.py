@@ -317,6 +317,8 @@ class Planar3PEnv(gym.Env):
         self._kin = ScalarKinematics(self.design)
         self._length = self.design.characteristic_length
         self._renderer = None
+        if self._fixed_mode:  # rejected here if it has no usable start/target pair
+            task_module.check_mode(self.design, self._fixed_mode, self.task_config)
         self._modes = [self._fixed_mode] if self._fixed_mode else self._usable_modes()
         self.task.bind(self)
         extra_low, extra_high = self.task.observation_bounds()
@@ -339,18 +341,18 @@ class Planar3PEnv(gym.Env):
 
     # ------------------------------------------------------------------ helpers
     def _usable_modes(self) -> list[tuple[int, int, int]]:
-        """Working modes with acceptable start poses (checked with a fixed internal seed, so
-        the list never depends on, or consumes, the episode's random stream)."""
-        rng = np.random.default_rng(0)
-        usable = []
-        for m in kinematics.ALL_MODES.tolist():
-            try:
-                task_module.sample_poses(self.design, m, rng, self.task_config, max_batches=20)
-            except ValueError:
-                continue
-            usable.append(tuple(m))
+        """Working modes with usable start/target pairs (:func:`planar3p_gym.task.check_mode`,
+        a fixed internal seed: the list never depends on, or consumes, the episode's stream)."""
+        usable = [
+            tuple(m)
+            for m in kinematics.ALL_MODES.tolist()
+            if task_module.has_pairs(self.design, m, self.task_config)
+        ]
         if not usable:
-            raise ValueError("no working mode of this design has poses meeting the task's margins")
+            raise ValueError(
+                "no working mode of this design has start/target pairs meeting the task's "
+                "margins; relax the TaskConfig"
+            )
         return usable
 
     @property

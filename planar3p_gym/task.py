@@ -11,6 +11,7 @@ task the environment samples can be solved without crossing a singularity.
 
 from __future__ import annotations
 
+import itertools
 import math
 import operator
 from dataclasses import asdict, dataclass
@@ -26,7 +27,9 @@ from .statics import holding_forces_at
 __all__ = [
     "PoseSampler",
     "TaskConfig",
+    "check_mode",
     "check_pose",
+    "has_pairs",
     "path_is_clear",
     "sample_pair",
     "sample_poses",
@@ -124,15 +127,17 @@ def sample_poses(
     rng: np.random.Generator,
     cfg: TaskConfig,
     batch: int = 4096,
-    max_batches: int = 200,
+    max_batches: int | None = 200,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Acceptable poses drawn by rejection: ``(poses (M, 3), assembly (M,))``, ``M >= 1``.
 
-    Raises ``ValueError`` if the working mode has no acceptable pose (after ``max_batches``).
+    Raises ``ValueError`` if the working mode has no acceptable pose after ``max_batches``
+    batches; ``max_batches=None`` draws until one is found (only for a mode known to have
+    acceptable poses, see :func:`check_mode`).
     """
     x0, x1, _, h = design.search_rectangle
     mode = np.asarray(mode, dtype=np.float64)
-    for _ in range(max_batches):
+    for _ in range(max_batches) if max_batches is not None else itertools.count():
         u = rng.random((batch, 3))
         poses = np.column_stack(
             [x0 + (x1 - x0) * u[:, 0], h * u[:, 1], math.pi * (2.0 * u[:, 2] - 1.0)]
@@ -211,7 +216,13 @@ class PoseSampler:
         self._pool.clear()
 
     def _refill(self, rng: np.random.Generator) -> None:
-        poses, dets = sample_poses(self.design, self.mode, rng, self.cfg)
+        try:
+            poses, dets = sample_poses(self.design, self.mode, rng, self.cfg)
+        except ValueError:
+            # Rare in a mode whose acceptable poses are sparse: if the mode has poses at all
+            # (check_mode raises if not), keep drawing from the same stream until one is found.
+            check_mode(self.design, self.mode, self.cfg)
+            poses, dets = sample_poses(self.design, self.mode, rng, self.cfg, max_batches=None)
         self._pool.extend(zip(poses, dets.tolist(), strict=True))
 
     def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, float]:
@@ -221,7 +232,9 @@ class PoseSampler:
         return self._pool.pop(0)
 
     def draw_many(self, rng: np.random.Generator, assembly: float, n: int) -> np.ndarray:
-        """Up to ``n`` next poses of assembly mode ``assembly`` (at least one), shape (m, 3)."""
+        """Up to ``n`` next poses of assembly mode ``assembly``, shape (m, 3); ``m == 0`` when
+        none turned up in 50 refills (the assembly mode is rare or empty in this working
+        mode: the caller draws another start)."""
         for _ in range(50):
             picked = [i for i, (_, det) in enumerate(self._pool) if det == assembly][:n]
             if picked:
@@ -230,7 +243,7 @@ class PoseSampler:
                     del self._pool[i]
                 return out
             self._refill(rng)
-        raise ValueError(f"no pose of assembly mode {assembly:+.0f} in working mode {self.mode}")
+        return np.empty((0, 3))
 
 
 def sample_pair(
@@ -247,11 +260,20 @@ def sample_pair(
 
     The target has the start's assembly mode, is at least ``min_distance`` away and, with
     ``clear_path``, is joined to the start by a straight path clear of singularities.
+
+    With neither given, draws until a pair is found (after ``max_tries`` failed starts it
+    checks, once, that the working mode has pairs at all: :func:`check_mode`); a given start
+    or target that cannot be paired in ``max_tries`` tries raises ``ValueError``.
     """
     if start is not None and target is not None:
         return start, target
     sampler = sampler or PoseSampler(design, mode, cfg)
-    for _ in range(max_tries):
+    free = start is None and target is None
+    for attempt in itertools.count():
+        if attempt == max_tries:
+            if not free:
+                break
+            check_mode(design, tuple(int(m) for m in np.asarray(mode).tolist()), cfg)
         if start is None:
             s, det = sampler.draw(rng)
         else:
@@ -265,7 +287,7 @@ def sample_pair(
                 break
             continue
         cands = sampler.draw_many(rng, det, 8)
-        first = _first_ok(design, s, cands, mode, det, cfg)
+        first = _first_ok(design, s, cands, mode, det, cfg) if len(cands) else None
         if first is not None:
             return s, cands[first]
         if start is None:
@@ -299,6 +321,57 @@ def _first_ok(
             if clear.any():
                 return int(chunk[int(np.argmax(clear))])
     return None
+
+
+#: Budget of :func:`check_mode`: batches of 4096 uniform poses searched (fixed seed).
+CHECK_BATCHES = 400
+
+
+def check_mode(design: Design, mode: ArrayLike, cfg: TaskConfig) -> None:
+    """Raise ``ValueError`` unless working mode ``mode`` of ``design`` has a start/target pair
+    meeting ``cfg``, found among ``CHECK_BATCHES`` batches of 4096 uniform poses drawn with a
+    fixed internal seed (the episode's random stream is not touched).  The result is cached.
+
+    A mode that passes has pairs with positive probability, so :func:`sample_pair` without a
+    given start or target always ends; one that fails has, at best, a vanishing share.
+    """
+    reason = _mode_problem(design, tuple(int(m) for m in np.asarray(mode).tolist()), cfg)
+    if reason is not None:
+        raise ValueError(reason)
+
+
+def has_pairs(design: Design, mode: ArrayLike, cfg: TaskConfig) -> bool:
+    """Whether :func:`check_mode` accepts ``mode``."""
+    return _mode_problem(design, tuple(int(m) for m in np.asarray(mode).tolist()), cfg) is None
+
+
+@lru_cache(maxsize=256)
+def _mode_problem(design: Design, mode: tuple[int, int, int], cfg: TaskConfig) -> str | None:
+    """Why ``mode`` has no usable pair (see :func:`check_mode`), or ``None``."""
+    rng = np.random.default_rng(0)
+    m = np.asarray(mode, dtype=np.float64)
+    pools: dict[float, list[np.ndarray]] = {1.0: [], -1.0: []}
+    found = 0
+    for _ in range(CHECK_BATCHES):
+        try:
+            poses, dets = sample_poses(design, m, rng, cfg, max_batches=1)
+        except ValueError:
+            continue
+        found += len(poses)
+        for pose, det in zip(poses, dets.tolist(), strict=True):
+            others = pools[det]
+            if others and _first_ok(design, pose, np.array(others[-64:]), m, det, cfg) is not None:
+                return None
+            others.append(pose)
+    what = "pose" if not found else "start/target pair (same assembly mode, min_distance apart"
+    what += "" if not found else (", clear path)" if cfg.clear_path else ")")
+    return (
+        f"working mode {mode} of this design has no {what} meeting the task's margins "
+        f"(parallel >= {cfg.min_parallel_margin}, serial >= {cfg.min_serial_margin}, holding "
+        f"force <= {cfg.max_holding_force} max_force, travel margin {cfg.travel_margin}) in "
+        f"{CHECK_BATCHES * 4096} uniform samples ({found} acceptable poses); choose another "
+        "working mode or relax the TaskConfig"
+    )
 
 
 def check_pose(design: Design, pose: ArrayLike, mode: ArrayLike, name: str) -> np.ndarray:
