@@ -4,19 +4,21 @@ Accepted specifications (:func:`load_policy`):
 
 * built-in names: ``analytic-simultaneous``, ``analytic-sequential`` (:mod:`agents.analytic`),
   ``random``, ``zero`` (:mod:`agents.baselines`);
-* ``pretrained:<name>``: the model ``agents/pretrained/<name>.zip`` shipped with the package
-  (:func:`list_pretrained` lists them);
+* ``pretrained:<name>``: the model ``agents/pretrained/<name>.zip`` shipped with the package,
+  with its statistics ``<name>_vecnormalize.pkl``; both are checked against the SHA-256 sums in
+  ``agents/pretrained/SHA256SUMS`` before anything is loaded (:func:`verify_pretrained`);
 * a path to a Stable-Baselines3 model (``.zip``) saved by PPO, SAC, TD3, A2C or DDPG; the
   algorithm is read from the file, or forced with a prefix ``ppo:``, ``sac:``, ``td3:``,
   ``a2c:``, ``ddpg:`` (e.g. ``sac:runs/x/model.zip``).
 
-Observation normalisation: if a ``VecNormalize`` statistics file sits beside a model, the
-loaded policy normalises observations with it (frozen, as at evaluation time).  For a model
-``dir/name.zip`` the file is ``dir/name_vecnormalize.pkl``, the training run's naming
-(``best_model.zip`` -> ``best_vecnormalize.pkl``, checkpoint ``rl_model_<n>_steps.zip`` ->
-``rl_model_vecnormalize_<n>_steps.pkl``), or else ``dir/vecnormalize.pkl`` (see
-:func:`vecnormalize_candidates`).  A shipped pretrained model ``<name>.zip`` brings
-``<name>_vecnormalize.pkl``.
+Model and statistics files are code (:data:`TRUSTED_FILES_NOTE`): loading one can run arbitrary
+commands, so load only files you trust, and nothing is unpickled that the caller did not name.
+Observation statistics (``VecNormalize``) are loaded only when named, with the suffix
+``:stats=PATH.pkl`` (``runs/x/model.zip:stats=runs/x/vecnormalize.pkl``) or the ``vecnormalize``
+argument of :func:`load_policy`; ``:stats=none`` evaluates the model without them.  A model
+with statistics beside it in a known layout (:func:`vecnormalize_candidates`: this project's
+runs, the pretrained layout, rl-zoo3's ``<run>/<env id>/vecnormalize.pkl``) and no ``stats``
+named is refused, because evaluating it without them would silently measure something else.
 
 Every failure to resolve or load a specification raises :class:`PolicyError` (a
 ``ValueError``) with a message that says what was wrong.
@@ -24,6 +26,7 @@ Every failure to resolve or load a specification raises :class:`PolicyError` (a
 
 from __future__ import annotations
 
+import hashlib
 import json
 import pickle
 import re
@@ -42,11 +45,15 @@ from .baselines import RandomPolicy, ZeroPolicy
 
 __all__ = [
     "BUILTIN_POLICIES",
+    "MANIFEST",
+    "NO_STATS",
     "PRETRAINED_DIR",
     "SB3_ALGORITHMS",
+    "TRUSTED_FILES_NOTE",
     "PolicyError",
     "PolicySpec",
     "SB3Policy",
+    "file_sha256",
     "list_pretrained",
     "load_policy",
     "load_sb3_model",
@@ -54,7 +61,17 @@ __all__ = [
     "policy_label",
     "run_env_kwargs",
     "vecnormalize_candidates",
+    "verify_pretrained",
+    "write_manifest",
 ]
+
+#: Say this wherever a file can be loaded (README, ``--help`` of scripts that load models).
+TRUSTED_FILES_NOTE = (
+    "Model (.zip) and statistics (.pkl) files are code: loading one can run arbitrary "
+    "commands, so load only files you trust. Shipped pretrained:<name> files are checked "
+    "against agents/pretrained/SHA256SUMS first; statistics are loaded only when named "
+    "(MODEL.zip:stats=STATS.pkl, or :stats=none to go without)."
+)
 
 #: Built-in policies and what they are.
 BUILTIN_POLICIES: dict[str, str] = {
@@ -74,6 +91,11 @@ SB3_ALGORITHMS: dict[str, str] = {
     "ddpg": "DDPG",
 }
 PRETRAINED_PREFIX = "pretrained:"
+#: SHA-256 sums of the shipped files, in ``sha256sum`` format (``sha256sum -c SHA256SUMS``).
+MANIFEST = "SHA256SUMS"
+#: ``stats`` value meaning "evaluate without observation statistics".
+NO_STATS = "none"
+STATS_MARK = ":stats="
 
 
 class PolicyError(ValueError):
@@ -90,6 +112,8 @@ class PolicySpec:
         name: the built-in name, or the model's label (``pretrained:<name>`` or file stem).
         path: the model file (``kind == "model"``).
         algo: the forced SB3 algorithm key (``ppo``, ...), or ``None`` to detect it.
+        stats: the named ``VecNormalize`` statistics file, :data:`NO_STATS`, or ``None``
+            (none named).
     """
 
     text: str
@@ -97,6 +121,71 @@ class PolicySpec:
     name: str
     path: Path | None = None
     algo: str | None = None
+    stats: Path | str | None = None
+
+
+def file_sha256(path: Path) -> str:
+    """Hex SHA-256 of a file's bytes."""
+    h = hashlib.sha256()
+    with path.open("rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _read_manifest(directory: Path) -> dict[str, str]:
+    path = directory / MANIFEST
+    try:
+        lines = path.read_text().splitlines()
+    except OSError as exc:
+        raise PolicyError(f"cannot read the checksum manifest {path}: {exc}") from exc
+    sums = {}
+    for line in lines:
+        digest, sep, name = line.strip().partition("  ")
+        if line.strip() and (not sep or not re.fullmatch(r"[0-9a-f]{64}", digest)):
+            raise PolicyError(f"malformed line in {path}: {line!r}")
+        if sep:
+            sums[name.lstrip("*")] = digest
+    return sums
+
+
+def write_manifest(directory: Path | None = None) -> Path:
+    """(Re)write ``SHA256SUMS`` for every ``.zip``, ``.pkl`` and ``.json`` file in the
+    pretrained directory (``scripts/ship_policy.py`` calls this after copying a model)."""
+    d = directory or PRETRAINED_DIR
+    files = sorted(p for p in d.iterdir() if p.is_file() and p.suffix in (".zip", ".pkl", ".json"))
+    out = d / MANIFEST
+    out.write_text("".join(f"{file_sha256(p)}  {p.name}\n" for p in files))
+    return out
+
+
+def verify_pretrained(name: str, directory: Path | None = None) -> list[Path]:
+    """Check the shipped files of ``pretrained:<name>`` against ``SHA256SUMS``; return the
+    verified files (model first, then its statistics if shipped).  Raises :class:`PolicyError`
+    naming the file if one is missing from the manifest or its bytes differ."""
+    d = directory or PRETRAINED_DIR
+    sums = _read_manifest(d)
+    files = [d / f"{name}.zip"]
+    stats = d / f"{name}_vecnormalize.pkl"
+    if stats.is_file() or stats.name in sums:
+        files.append(stats)
+    for path in files:
+        want = sums.get(path.name)
+        if want is None:
+            raise PolicyError(
+                f"{path} is not listed in {d / MANIFEST}; refusing to load an unverified file "
+                "(model and statistics files are code)"
+            )
+        if not path.is_file():
+            raise PolicyError(f"shipped file {path} is missing")
+        got = file_sha256(path)
+        if got != want:
+            raise PolicyError(
+                f"checksum mismatch for shipped file {path}: SHA-256 {got}, expected {want} "
+                f"({MANIFEST}); the file was altered or corrupted, refusing to load it "
+                "(model and statistics files are code)"
+            )
+    return files
 
 
 def list_pretrained(directory: Path | None = None) -> list[str]:
@@ -109,16 +198,42 @@ def list_pretrained(directory: Path | None = None) -> list[str]:
 
 def _known() -> str:
     names = list(BUILTIN_POLICIES) + [PRETRAINED_PREFIX + n for n in list_pretrained()]
-    return ", ".join(names) + ", or a path to an SB3 model .zip"
+    return ", ".join(names) + ", or a path to an SB3 model .zip[:stats=STATS.pkl]"
+
+
+def _stats_value(text: str) -> Path | str:
+    """A named statistics file (must exist) or :data:`NO_STATS`."""
+    value = text.strip()
+    if not value:
+        raise PolicyError(f"empty statistics path after {STATS_MARK!r}")
+    if value.lower() == NO_STATS:
+        return NO_STATS
+    path = Path(value).expanduser()
+    if not path.is_file():
+        raise PolicyError(f"statistics file not found: {path}")
+    return path
 
 
 def parse_policy_spec(text: str) -> PolicySpec:
-    """Resolve a specification without loading anything (files must exist)."""
+    """Resolve a specification without loading anything (files must exist).
+
+    A model path may end with ``:stats=PATH.pkl`` (its ``VecNormalize`` statistics) or
+    ``:stats=none``.
+    """
     spec = str(text).strip()
     if not spec:
         raise PolicyError(f"empty policy name; known: {_known()}")
     if spec in BUILTIN_POLICIES:
         return PolicySpec(spec, "builtin", spec)
+    stats: Path | str | None = None
+    if STATS_MARK in spec:
+        spec, _, stats_text = spec.rpartition(STATS_MARK)
+        if spec in BUILTIN_POLICIES or spec.startswith(PRETRAINED_PREFIX):
+            raise PolicyError(
+                f"{STATS_MARK!r} applies to model paths only (built-in policies need none; "
+                f"pretrained models bring their own): {text!r}"
+            )
+        stats = _stats_value(stats_text)
     if spec.startswith(PRETRAINED_PREFIX):
         name = spec[len(PRETRAINED_PREFIX) :]
         if not name or "/" in name or "\\" in name or name.startswith("."):
@@ -147,7 +262,7 @@ def parse_policy_spec(text: str) -> PolicySpec:
         raise PolicyError(f"model file not found: {path}")
     if not path.is_file():
         raise PolicyError(f"model path is not a file: {path}")
-    return PolicySpec(text, "model", path.stem, path, algo)
+    return PolicySpec(text, "model", path.stem, path, algo, stats)
 
 
 def policy_label(text: str) -> str:
@@ -156,6 +271,8 @@ def policy_label(text: str) -> str:
     spec = str(text).strip()
     if spec in BUILTIN_POLICIES or spec.startswith(PRETRAINED_PREFIX):
         return spec
+    if STATS_MARK in spec:
+        spec = spec.rpartition(STATS_MARK)[0]
     head, sep, rest = spec.partition(":")
     if sep and head.lower() in SB3_ALGORITHMS and rest:
         spec = rest
@@ -204,8 +321,10 @@ def vecnormalize_candidates(path: Path) -> list[Path]:
 
     Matches ``scripts/train.py``'s run directory (``model.zip`` + ``vecnormalize.pkl``,
     ``best_model.zip`` + ``best_vecnormalize.pkl``, ``checkpoints/rl_model_<n>_steps.zip`` +
-    ``rl_model_vecnormalize_<n>_steps.pkl``) and the pretrained layout (``<name>.zip`` +
-    ``<name>_vecnormalize.pkl``).
+    ``rl_model_vecnormalize_<n>_steps.pkl``), the pretrained layout (``<name>.zip`` +
+    ``<name>_vecnormalize.pkl``) and rl-zoo3's (``<run>/<env id>.zip`` or ``best_model.zip``
+    + ``<run>/<env id>/vecnormalize.pkl``).  Nothing is loaded from these places unless named:
+    :func:`load_sb3_model` refuses a model that has statistics there and none named.
     """
     stem = path.stem
     out = [path.with_name(f"{stem}_vecnormalize.pkl")]
@@ -215,6 +334,9 @@ def vecnormalize_candidates(path: Path) -> list[Path]:
     if m:
         out.append(path.with_name(f"{m.group(1)}_vecnormalize_{m.group(2)}_steps.pkl"))
     out.append(path.parent / "vecnormalize.pkl")
+    out.append(path.with_suffix("") / "vecnormalize.pkl")  # rl-zoo3: <run>/<env id>.zip
+    if path.parent.is_dir():  # rl-zoo3: best_model.zip, checkpoints beside <run>/<env id>/
+        out.extend(sorted(c for c in path.parent.glob("*/vecnormalize.pkl") if c not in out))
     return out
 
 
@@ -223,6 +345,15 @@ def _vecnormalize_file(path: Path) -> Path | None:
         if cand.is_file():
             return cand
     return None
+
+
+def _unnamed_stats_error(path: Path, found: Path) -> PolicyError:
+    return PolicyError(
+        f"model {path} has observation statistics beside it ({found}) but none were named; "
+        f"statistics files are code and are loaded only when named: use "
+        f"'{path}{STATS_MARK}{found}' if you trust that file, or '{path}{STATS_MARK}{NO_STATS}' "
+        "to evaluate without them"
+    )
 
 
 def run_env_kwargs(path: Path) -> dict[str, Any] | None:
@@ -308,15 +439,28 @@ def load_sb3_model(
     device: str = "cpu",
     name: str | None = None,
     check_env: Any = None,
+    vecnormalize: str | Path | None = None,
 ) -> SB3Policy:
-    """Load an SB3 model file (and ``VecNormalize`` statistics beside it, if present).
+    """Load an SB3 model file and, if named, its ``VecNormalize`` statistics.
 
+    Both are code (:data:`TRUSTED_FILES_NOTE`).  ``vecnormalize``: the statistics file, or
+    :data:`NO_STATS` to go without; ``None`` refuses a model that has statistics beside it
+    (:func:`vecnormalize_candidates`) rather than load them unasked or silently ignore them.
     ``check_env``: an environment whose observation and action spaces the model must match.
     Raises :class:`PolicyError` for a missing, corrupt or mismatched model.
     """
     p = Path(path)
     if not p.is_file():
         raise PolicyError(f"model file not found: {p}")
+    vn_path: Path | None = None
+    if vecnormalize is None:
+        found = _vecnormalize_file(p)
+        if found is not None:
+            raise _unnamed_stats_error(p, found)
+    elif str(vecnormalize).lower() != NO_STATS:
+        vn_path = Path(vecnormalize).expanduser()
+        if not vn_path.is_file():
+            raise PolicyError(f"statistics file not found: {vn_path}")
     key = algo or _detect_algorithm(p)
     if key not in SB3_ALGORITHMS:
         raise PolicyError(f"unknown SB3 algorithm {key!r}; known: {', '.join(SB3_ALGORITHMS)}")
@@ -329,7 +473,6 @@ def load_sb3_model(
         raise PolicyError(
             f"cannot load {p} as a {SB3_ALGORITHMS[key]} model: {type(exc).__name__}: {exc}"
         ) from exc
-    vn_path = _vecnormalize_file(p)
     vn = _load_vecnormalize(vn_path) if vn_path is not None else None
     if check_env is not None:
         obs_space = check_env.observation_space
@@ -359,13 +502,24 @@ def load_policy(
     design: Design | None = None,
     seed: int | None = None,
     device: str = "cpu",
+    vecnormalize: str | Path | None = None,
 ) -> Any:
     """The policy named by ``spec`` (see the module docstring), ready to ``predict``.
 
     ``env`` (optional) supplies the design of the analytic controllers and the spaces a
     model must match; ``design`` can be given instead.  ``seed`` seeds the random policy.
+    ``vecnormalize``: statistics file of a model path (or :data:`NO_STATS`), like the spec's
+    ``:stats=`` suffix (giving both is an error).  Model and statistics files are code: see
+    :data:`TRUSTED_FILES_NOTE`.
     """
     ps = spec if isinstance(spec, PolicySpec) else parse_policy_spec(spec)
+    stats = ps.stats
+    if vecnormalize is not None:
+        if ps.kind != "model" or ps.text.startswith(PRETRAINED_PREFIX):
+            raise PolicyError(f"statistics apply to model paths only, not {ps.text!r}")
+        if stats is not None:
+            raise PolicyError(f"statistics named twice for {ps.text!r} (spec and argument)")
+        stats = _stats_value(str(vecnormalize))
     if design is None and env is not None:
         design = env.unwrapped.design
     if ps.kind == "builtin":
@@ -377,4 +531,9 @@ def load_policy(
             return RandomPolicy(env.action_space if env is not None else None, seed=seed)
         return ZeroPolicy()
     assert ps.path is not None
-    return load_sb3_model(ps.path, ps.algo, device=device, name=ps.name, check_env=env)
+    if ps.text.startswith(PRETRAINED_PREFIX):
+        files = verify_pretrained(ps.name[len(PRETRAINED_PREFIX) :], ps.path.parent)
+        stats = files[1] if len(files) > 1 else NO_STATS
+    return load_sb3_model(
+        ps.path, ps.algo, device=device, name=ps.name, check_env=env, vecnormalize=stats
+    )
