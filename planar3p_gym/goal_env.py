@@ -18,12 +18,13 @@ from numpy.typing import ArrayLike, NDArray
 
 from .design import Design
 from .env import Planar3PEnv
-from .observation import FINE_ERROR_SCALE, OBS_SIZE, SLICES
+from .observation import FINE_ERROR_SCALE, OBS_SIZE, SLICES, SPEED_BOUND_FACTOR
 from .tasks.goal import (
     GOAL_SIZE,
     GoalTask,
+    _info_field,
+    achieved_goal,
     goal_free_reward,
-    goal_of_pose,
     goal_reward,
     goal_success,
     pose_of_goal,
@@ -53,7 +54,7 @@ def flat_observation(obs: dict[str, ArrayLike], length: float) -> NDArray[np.flo
     observation (single ``(21,)`` or batched ``(n, 21)`` entries), so that policies and
     controllers written for the flat observation act on the goal env.  ``length`` is the
     design's characteristic length (m).  Entries are computed as the flat env computes them
-    (to float32 rounding; not clipped)."""
+    (to float32 rounding; not clipped); the goal's speed entry is not used."""
     robot = np.asarray(obs["observation"], dtype=np.float64)
     goal = np.asarray(obs["desired_goal"], dtype=np.float64)
     single = robot.ndim == 1
@@ -104,9 +105,9 @@ class Planar3PGoalEnv(Planar3PEnv):
       (:data:`ROBOT_FIELDS`: travels (m) and rates (m/s), gripper position (m), ``cos/sin
       theta``, gripper twist (m/s, rad/s), ``cos/sin`` of the leg angles, parallel and serial
       margins); no goal in it;
-    - ``achieved_goal``: ``Box((4,), float32)``, the gripper pose as ``(x, y, cos theta,
-      sin theta)`` (m, m, 1, 1);
-    - ``desired_goal``: the target pose in the same form.
+    - ``achieved_goal``: ``Box((5,), float32)``, the gripper pose and the fastest slider's
+      speed as ``(x, y, cos theta, sin theta, v)`` (m, m, 1, 1, m/s);
+    - ``desired_goal``: the target pose in the same form, with ``v = 0`` ("at rest").
 
     ## Rewards
     ``compute_reward(achieved_goal, desired_goal, info)``, vectorised
@@ -115,14 +116,16 @@ class Planar3PGoalEnv(Planar3PEnv):
     a singularity crossing or a physics breakdown (so ending early never pays).  Dense
     (``Planar3PGoalDense-v0``): the reach reward of ``Planar3P-v0`` (pose error, precision
     term, success bonus, singularity penalty, action effort, failure penalty).  Success: within
-    ``position_tolerance`` (2 mm) and ``orientation_tolerance`` (1 deg) of the goal with every
-    slider slower than ``rest_speed`` (``info["at_rest"]``); the goal-independent terms are in
-    ``info["goal_free_reward"]``, the failure flag in ``info["failure"]``.  ``compute_reward``
-    needs the step's ``info`` (a dict, or one per goal); wrong goal shapes raise
-    ``ValueError``.
+    ``position_tolerance`` (2 mm) and ``orientation_tolerance`` (1 deg) of the goal pose with
+    the achieved speed at most the desired one plus ``rest_speed`` (0.01 m/s) (goal-only, so
+    relabelled successes are exact); the goal-independent terms are in
+    ``info["goal_free_reward"]``, the failure flag in ``info["failure"]``: ``info`` is the
+    step's info dict, one per goal, or empty/None (those terms then count as 0; use
+    ``HerReplayBuffer(copy_info_dict=True)`` for exact relabelled penalties).  Wrong goal
+    shapes raise ``ValueError``.
 
     ## Starting State
-    As ``Planar3P-v0``; ``reset(options=...)`` also accepts ``desired_goal`` (4 numbers; the
+    As ``Planar3P-v0``; ``reset(options=...)`` also accepts ``desired_goal`` (5 numbers; the
     goal pose must be reachable in the episode's working mode).
 
     ## Episode End
@@ -149,8 +152,9 @@ class Planar3PGoalEnv(Planar3PEnv):
         flat = self.observation_space
         assert isinstance(flat, spaces.Box)
         pos = SLICES["position"]
-        g_low = np.concatenate([flat.low[pos], [-1.0, -1.0]]).astype(np.float32)
-        g_high = np.concatenate([flat.high[pos], [1.0, 1.0]]).astype(np.float32)
+        vmax = SPEED_BOUND_FACTOR * self.design.max_speed
+        g_low = np.concatenate([flat.low[pos], [-1.0, -1.0, 0.0]]).astype(np.float32)
+        g_high = np.concatenate([flat.high[pos], [1.0, 1.0, vmax]]).astype(np.float32)
         self._goal_low, self._goal_high = g_low, g_high
         self.observation_space = spaces.Dict(
             {
@@ -182,8 +186,6 @@ class Planar3PGoalEnv(Planar3PEnv):
     ) -> Any:
         """Whether the episode ends: success or failure (bool, or a bool array for batches)."""
         success = goal_success(achieved_goal, desired_goal, info, self.task_config)
-        from .tasks.goal import _info_field  # shared parsing of the info argument
-
         out = success | (_info_field(info, "failure", success.shape[0]) > 0.5)
         return bool(out[0]) if np.ndim(achieved_goal) == 1 else out
 
@@ -213,7 +215,7 @@ class Planar3PGoalEnv(Planar3PEnv):
         return obs, reward, terminated, truncated, info
 
     def _dict_obs(self, flat: np.ndarray, info: dict[str, Any]) -> dict[str, np.ndarray]:
-        achieved = goal_of_pose(info["pose"])
+        achieved = achieved_goal(info["pose"], info["rho_dot"])
         np.minimum(achieved, self._goal_high, out=achieved)
         np.maximum(achieved, self._goal_low, out=achieved)
         return {

@@ -1,28 +1,35 @@
 """Goal-conditioned reach: the goal vectors, the vectorised success test and reward.
 
-A goal is the gripper pose as ``(x, y, cos theta, sin theta)`` (m, m, 1, 1), float32.  The
-angle enters through ``cos``/``sin`` so that goals have no wrap-around; the orientation error
-of an achieved goal ``a`` against a desired goal ``d`` is ``atan2(a_c d_s - a_s d_c,
-a_c d_c + a_s d_s)`` (rad, in ``[-pi, pi]``), independent of the vectors' lengths.
+A goal is ``(x, y, cos theta, sin theta, v)`` (m, m, 1, 1, m/s), float32: the gripper pose,
+with the angle through ``cos``/``sin`` so that goals have no wrap-around, and a slider speed
+``v``.  The achieved goal carries the fastest slider's speed ``max_i |rho_dot_i|``; the
+environment's desired goals carry ``v = 0``.  Success: position error within
+``position_tolerance`` (m), orientation error within ``orientation_tolerance`` (rad) and
+achieved speed at most the desired speed plus ``rest_speed`` (m/s), i.e. "at the pose and at
+rest" for the environment's own goals.  The orientation error of an achieved goal ``a`` against
+a desired goal ``d`` is ``atan2(a_c d_s - a_s d_c, a_c d_c + a_s d_s)`` (rad, in
+``[-pi, pi]``), independent of the vectors' lengths.
 
-Relabelling (hindsight experience replay) must give exactly the reward the environment would
-have returned had the relabelled goal been the episode's goal.  Two parts of the reward do not
-depend on the goal, and are therefore carried by the step's ``info``:
+Why the speed is in the goal: hindsight relabelling (SB3's ``HerReplayBuffer``) recomputes
+rewards from the goals alone (it passes empty ``info`` dicts unless ``copy_info_dict=True``), so
+everything the success test needs must be in the goals; a relabelled goal then means "be at
+that pose no faster than it was passed", and the reward the environment would have returned
+for it is exactly what :func:`goal_reward` gives.
 
-* ``info["at_rest"]``: every slider slower than ``rest_speed`` (m/s) after the step, part of
-  the success test (a property of the achieved state, not of the goal);
-* ``info["goal_free_reward"]``: the weighted goal-independent terms (singularity penalty,
-  action effort and failure penalty for the dense reward; the failure penalty alone for the
-  sparse one), and ``info["failure"]`` (the step ended the episode by a singularity crossing or
-  a physics breakdown).
+The goal-independent part of the reward is a property of the transition, carried by the step's
+``info``: ``info["goal_free_reward"]`` (the weighted singularity penalty, action effort and
+failure penalty for the dense reward; the failure penalty alone for the sparse one) and
+``info["failure"]`` (the step ended the episode by a singularity crossing or a physics
+breakdown).  With those infos (``copy_info_dict=True``) relabelled rewards are exact; with empty
+infos those terms count as 0 and a failure as absent (the goal-dependent part stays exact).
 
-The environment computes its own reward, success and termination with the functions below on
-the float32 goal vectors it returns, so ``env.compute_reward(obs["achieved_goal"],
+The environment computes its own reward, success and termination with these functions on the
+float32 goal vectors it returns, so ``env.compute_reward(obs["achieved_goal"],
 obs["desired_goal"], info)`` equals the returned reward bit for bit, for single goals and
 batches alike.
 
-Episode spec: the reach spec (``task`` is ``"goal"``) plus, when the episode's goal was
-requested as a vector (``reset(options={"desired_goal": g})``), ``"desired_goal"`` (4 floats).
+Episode spec: the reach spec (``task`` is ``"goal"``) plus, when the goal was requested as a
+vector (``reset(options={"desired_goal": g})``), ``"desired_goal"`` (5 floats).
 """
 
 from __future__ import annotations
@@ -42,6 +49,7 @@ __all__ = [
     "GOAL_SIZE",
     "REWARD_TYPES",
     "GoalTask",
+    "achieved_goal",
     "goal_errors",
     "goal_free_reward",
     "goal_of_pose",
@@ -50,22 +58,25 @@ __all__ = [
     "pose_of_goal",
 ]
 
-#: Length of a goal vector ``(x, y, cos theta, sin theta)``.
-GOAL_SIZE = 4
+#: Length of a goal vector ``(x, y, cos theta, sin theta, v)``.
+GOAL_SIZE = 5
 #: Reward variants: ``"sparse"`` (0 on success, -1 otherwise) or ``"dense"`` (the reach
 #: reward's shaping terms).
 REWARD_TYPES = ("sparse", "dense")
 
 
-def goal_of_pose(pose: ArrayLike) -> NDArray[np.float32]:
-    """The goal vector (float32, shape ``(4,)``) of a pose ``(x, y, theta)`` (m, m, rad)."""
+def goal_of_pose(pose: ArrayLike, speed: float = 0.0) -> NDArray[np.float32]:
+    """The goal vector (float32, shape ``(5,)``) of a pose ``(x, y, theta)`` (m, m, rad) and a
+    slider speed (m/s)."""
     x, y, th = (float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3))
-    return np.array([x, y, math.cos(th), math.sin(th)], dtype=np.float32)
+    return np.array([x, y, math.cos(th), math.sin(th), speed], dtype=np.float32)
 
 
 def pose_of_goal(goal: ArrayLike) -> Pose:
     """The pose ``(x, y, theta)`` (m, m, rad) a goal vector stands for."""
-    g = np.asarray(goal, dtype=np.float64).reshape(GOAL_SIZE)
+    g = np.asarray(goal, dtype=np.float64).reshape(-1)
+    if g.size not in (4, GOAL_SIZE):
+        raise ValueError(f"a goal has {GOAL_SIZE} entries (x, y, cos, sin, v), got {g.size}")
     return float(g[0]), float(g[1]), math.atan2(float(g[3]), float(g[2]))
 
 
@@ -113,7 +124,10 @@ def goal_errors(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np
 
 
 def _info_field(info: Any, key: str, n: int) -> np.ndarray:
-    """``info[key]`` from one info dict or a sequence/array of ``n`` of them, shape ``(n,)``."""
+    """``info[key]`` from one info dict or a sequence/array of ``n`` of them, shape ``(n,)``;
+    0 where an info dict lacks the key (SB3's HER passes empty dicts by default)."""
+    if info is None:
+        return np.zeros(n)
     if isinstance(info, dict):
         items = [info] * n
     else:
@@ -125,28 +139,26 @@ def _info_field(info: Any, key: str, n: int) -> np.ndarray:
             items = items * n
     if len(items) != n or not all(isinstance(i, dict) for i in items):
         raise ValueError(
-            f"info must be the step's info dict or {n} of them (one per goal); compute_reward "
-            f"needs info[{key!r}], which the environment puts in every step's info"
+            f"info must be None, the step's info dict or {n} of them (one per goal), got "
+            f"{type(info).__name__} of {len(items)}"
         )
     try:
-        return np.array([i[key] for i in items], dtype=np.float64)
-    except KeyError as exc:
-        raise ValueError(
-            f"info lacks {key!r}: pass the info dicts the environment returned with the goals"
-        ) from exc
+        return np.array([float(i.get(key, 0.0)) for i in items], dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"info[{key!r}] must be a number") from exc
 
 
 def goal_success(
     achieved: ArrayLike, desired: ArrayLike, info: Any, cfg: TaskConfig
 ) -> NDArray[np.bool_]:
     """Success per goal pair, shape ``(n,)``: within ``position_tolerance`` (m) and
-    ``orientation_tolerance`` (rad), with ``info["at_rest"]`` and not ``info["failure"]``."""
-    pos, ang = goal_errors(achieved, desired)
-    n = pos.shape[0]
-    rest = _info_field(info, "at_rest", n) > 0.5
-    failed = _info_field(info, "failure", n) > 0.5
+    ``orientation_tolerance`` (rad), achieved speed at most desired speed plus ``rest_speed``
+    (m/s), and not ``info["failure"]``."""
+    a, d, _ = _goals(achieved, desired)
+    pos, ang = goal_errors(a, d)
+    failed = _info_field(info, "failure", pos.shape[0]) > 0.5
     close = (pos <= cfg.position_tolerance) & (np.abs(ang) <= cfg.orientation_tolerance)
-    return close & rest & ~failed
+    return close & (a[:, 4] <= d[:, 4] + cfg.rest_speed) & ~failed
 
 
 def goal_reward(
@@ -209,9 +221,11 @@ class GoalTask(ReachTask):
             g = _finite_goal(goal, "desired_goal").astype(np.float32)
             if not 0.5 <= float(np.hypot(g[2], g[3])) <= 2.0:
                 raise ValueError(
-                    f"desired_goal must be (x, y, cos theta, sin theta) with (cos, sin) near the "
-                    f"unit circle, got {goal!r}"
+                    "desired_goal must be (x, y, cos theta, sin theta, v) with (cos, sin) near "
+                    f"the unit circle, got {goal!r}"
                 )
+            if g[4] < 0:
+                raise ValueError(f"desired_goal's speed (m/s) must be >= 0, got {goal!r}")
             pose = pose_of_goal(g)
             if options.get("target") is not None:
                 t = self.finite_pose(options["target"], "target")
@@ -244,11 +258,11 @@ class GoalTask(ReachTask):
         return start, mode
 
     def is_success(self, state: Any, errors: tuple[float, float]) -> bool:
-        at_rest = max(abs(v) for v in state.rho_dot) <= self.env.task_config.rest_speed
-        info = {"at_rest": at_rest, "failure": False}  # a crossing is tested before this
-        return bool(
-            goal_success(goal_of_pose(state.pose), self.desired, info, self.env.task_config)[0]
-        )
+        # A crossing is tested before this: no failure here.
+        achieved = achieved_goal(state.pose, state.rho_dot)
+        return bool(goal_success(achieved, self.desired, None, self.env.task_config)[0])
 
-    def step_info(self, step: int, state: Any, errors: tuple[float, float]) -> dict[str, Any]:
-        return {"at_rest": max(abs(v) for v in state.rho_dot) <= self.env.task_config.rest_speed}
+
+def achieved_goal(pose: ArrayLike, rho_dot: ArrayLike) -> NDArray[np.float32]:
+    """The achieved goal of a state: pose (m, m, rad) and fastest slider speed (m/s)."""
+    return goal_of_pose(pose, float(np.max(np.abs(np.asarray(rho_dot, dtype=np.float64)))))

@@ -1,0 +1,274 @@
+"""Tests of the goal-conditioned reach (``Planar3PGoal-v0``, ``Planar3PGoalDense-v0``): API
+conformance, exact relabelling, replay from episode specs, input validation, HER training."""
+
+from __future__ import annotations
+
+import json
+import math
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import planar3p_gym
+from agents.goal_adapter import GoalAdapter
+from planar3p_gym.goal_env import ROBOT_INDEX, flat_observation
+from planar3p_gym.observation import OBS_SIZE, SLICES
+from planar3p_gym.tasks.goal import goal_of_pose, pose_of_goal
+
+IDS = (planar3p_gym.GOAL_ENV_ID, planar3p_gym.GOAL_DENSE_ENV_ID)
+
+
+def analytic_episode(env: gym.Env, seed: int | None = None, options=None):
+    """Run the analytic controller (through the goal adapter) to the end of an episode:
+    ``(actions, [(obs, reward, terminated, truncated, info)])``."""
+    obs, _ = env.reset(seed=seed, options=options)
+    ctrl = GoalAdapter.analytic(env)
+    actions, steps = [], []
+    while True:
+        a, _ = ctrl.predict(obs)
+        obs, reward, terminated, truncated, info = env.step(a)
+        actions.append(a)
+        steps.append((obs, reward, terminated, truncated, info))
+        if terminated or truncated:
+            return actions, steps
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_check_env_gymnasium_and_sb3(env_id):
+    from gymnasium.utils.env_checker import check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    env = gym.make(env_id)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        check_env(env.unwrapped, skip_render_check=True)
+        sb3_check_env(env.unwrapped, warn=False)
+
+
+def test_observation_has_no_goal():
+    """The ``observation`` entry is the robot blocks of the flat observation: the same start
+    with two different goals gives the same ``observation``, different ``desired_goal``."""
+    env = gym.make(IDS[0])
+    obs, info = env.reset(seed=3)
+    spec = info["episode_spec"]
+    other = env.reset(seed=4)[1]["episode_spec"]
+    obs2, info2 = env.reset(options={"start": spec["start"], "target": other["target"]})
+    assert info2["episode_spec"]["target"] == other["target"]
+    assert np.array_equal(obs["observation"], obs2["observation"])
+    assert np.array_equal(obs["achieved_goal"], obs2["achieved_goal"])
+    assert not np.array_equal(obs["desired_goal"], obs2["desired_goal"])
+    assert ROBOT_INDEX.size == obs["observation"].size == 21
+    assert obs["achieved_goal"][4] == 0.0 == obs["desired_goal"][4]  # starts at rest
+    for name in ("target_position", "target_orientation", "position_error", "fine_error"):
+        assert not set(range(OBS_SIZE)[SLICES[name]]) & set(ROBOT_INDEX.tolist())
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_reward_equals_compute_reward_single_and_batched(env_id):
+    env = gym.make(env_id)
+    _, steps = analytic_episode(env, seed=1)
+    assert steps[-1][4]["termination_reason"] == "success"
+    u = env.unwrapped
+    ach = np.array([s[0]["achieved_goal"] for s in steps])
+    des = np.array([s[0]["desired_goal"] for s in steps])
+    infos = np.array([s[4] for s in steps], dtype=object)
+    batch = u.compute_reward(ach, des, infos)
+    assert batch.shape == (len(steps),)
+    for i, (obs, reward, terminated, _, info) in enumerate(steps):
+        assert reward == u.compute_reward(obs["achieved_goal"], obs["desired_goal"], info)
+        assert reward == batch[i]
+        assert terminated == u.compute_terminated(obs["achieved_goal"], obs["desired_goal"], info)
+        assert u.compute_truncated(obs["achieved_goal"], obs["desired_goal"], info) is False
+    if env_id == IDS[0]:
+        assert [s[1] for s in steps] == [-1.0] * (len(steps) - 1) + [0.0]
+
+
+@pytest.mark.parametrize("env_id", IDS)
+@pytest.mark.parametrize("relabel_at", [0.5, 1.0])
+def test_relabelled_rewards_match_a_replay_with_that_goal(env_id, relabel_at):
+    """Hindsight relabelling is exact: the rewards ``compute_reward`` gives for a relabelled
+    goal (an achieved goal of the episode) are bit-identical to those the environment returns
+    when the same actions are replayed with that goal as the episode's goal, and the replay
+    ends where ``compute_terminated`` says."""
+    env = gym.make(env_id)
+    u = env.unwrapped
+    actions, steps = analytic_episode(env, seed=2)
+    spec = env.unwrapped.episode_spec
+    k = int(relabel_at * (len(steps) - 1))
+    new_goal = steps[k][0]["achieved_goal"]
+    relabelled = [u.compute_reward(s[0]["achieved_goal"], new_goal, s[4]) for s in steps]
+    ends = [u.compute_terminated(s[0]["achieved_goal"], new_goal, s[4]) for s in steps]
+    obs, _ = env.reset(
+        options={
+            "start": spec["start"],
+            "working_mode": spec["working_mode"],
+            "desired_goal": new_goal,
+        }
+    )
+    assert np.array_equal(obs["desired_goal"], new_goal)
+    for t, a in enumerate(actions):
+        obs, reward, terminated, _, info = env.step(a)
+        assert np.array_equal(obs["achieved_goal"], steps[t][0]["achieved_goal"])
+        assert reward == relabelled[t]
+        assert terminated == ends[t]
+        if terminated:
+            break
+    if relabel_at == 1.0:
+        assert info["is_success"]  # the last achieved goal was reached at rest
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_deterministic_finite_and_spec_replay(env_id):
+    """Same seed -> same episode; no NaN under random actions; ``reset(options=spec)`` (after
+    a JSON round trip) replays the episode bit for bit."""
+    actions = np.random.default_rng(0).uniform(-1, 1, (120, 3)).astype(np.float32)
+
+    def run(env, **reset_kwargs):
+        obs, info = env.reset(**reset_kwargs)
+        out = [obs]
+        for a in actions:
+            obs, reward, terminated, truncated, info = env.step(a)
+            out.append((obs, reward, terminated))
+            for v in obs.values():
+                assert np.isfinite(v).all()
+            assert math.isfinite(reward)
+            if terminated or truncated:
+                break
+        return out, info
+
+    env = gym.make(env_id)
+    first, _ = run(env, seed=11)
+    spec = json.loads(json.dumps(env.unwrapped.episode_spec))
+    second, _ = run(gym.make(env_id), seed=11)
+    replay, _ = run(env, options=spec)
+    for a, b, c in zip(first, second, replay, strict=True):
+        for x, y in ((a, b), (a, c)):
+            if isinstance(x, dict):
+                assert all(np.array_equal(x[k], y[k]) for k in x)
+            else:
+                assert all(np.array_equal(x[0][k], y[0][k]) for k in x[0])
+                assert x[1:] == y[1:]
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_many_resets_never_raise(env_id):
+    env = gym.make(env_id, working_mode="random")
+    env.reset(seed=0)
+    for _ in range(150):
+        obs, info = env.reset()
+        assert env.observation_space.contains(obs)
+        assert info["episode_spec"]["task"] == "goal"
+
+
+def test_compute_reward_rejects_bad_input():
+    env = gym.make(IDS[0])
+    obs, _ = env.reset(seed=0)
+    _, _, _, _, info = env.step(np.zeros(3, np.float32))
+    u = env.unwrapped
+    g = obs["achieved_goal"]
+    for bad in (g[:4], np.zeros((2, 4)), np.zeros((2, 2, 5)), "abc", [np.nan, 0, 1, 0, 0]):
+        with pytest.raises(ValueError):
+            u.compute_reward(bad, g, info)
+        with pytest.raises(ValueError):
+            u.compute_terminated(g, bad, info)
+    with pytest.raises(ValueError, match="same shape"):
+        u.compute_reward(np.zeros((2, 5)), np.zeros((3, 5)), info)
+    with pytest.raises(ValueError, match="info"):
+        u.compute_reward(np.zeros((3, 5)), np.zeros((3, 5)), [info, info])
+    with pytest.raises(ValueError, match="info"):
+        u.compute_reward(g, g, 3.0)
+    with pytest.raises(ValueError, match="number"):
+        u.compute_reward(g, g, {"goal_free_reward": "x"})
+
+
+def test_empty_infos_keep_the_goal_part_exact():
+    """SB3's HER passes empty info dicts by default: the goal-dependent reward (everything in
+    the sparse env until a failure) is still exact."""
+    env = gym.make(IDS[0])
+    _, steps = analytic_episode(env, seed=4)
+    u = env.unwrapped
+    ach = np.array([s[0]["achieved_goal"] for s in steps])
+    des = np.array([s[0]["desired_goal"] for s in steps])
+    rewards = np.array([s[1] for s in steps])
+    assert np.array_equal(u.compute_reward(ach, des, [{} for _ in steps]), rewards)
+    assert np.array_equal(u.compute_reward(ach, des, None), rewards)
+
+
+def test_reset_rejects_bad_goals():
+    env = gym.make(IDS[0])
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="desired_goal"):
+        env.reset(options={"desired_goal": [0.1, 0.1, 1.0, 0.0]})
+    with pytest.raises(ValueError, match="unit circle"):
+        env.reset(options={"desired_goal": [0.1, 0.1, 0.0, 0.0, 0.0]})
+    with pytest.raises(ValueError, match="speed"):
+        env.reset(options={"desired_goal": [0.1, 0.1, 1.0, 0.0, -1.0]})
+    with pytest.raises(ValueError, match="not reachable"):
+        env.reset(options={"desired_goal": [5.0, 5.0, 1.0, 0.0, 0.0]})
+    with pytest.raises(ValueError, match="task"):
+        env.reset(options={"task": "reach"})
+    with pytest.raises(ValueError):
+        gym.make(IDS[0], reward_type="shaped")
+
+
+def test_goal_pose_round_trip():
+    pose = (0.1, 0.2, -2.5)
+    back = pose_of_goal(goal_of_pose(pose))
+    assert back[:2] == pytest.approx(pose[:2], abs=1e-7)
+    assert back[2] == pytest.approx(pose[2], abs=1e-6)
+
+
+def test_flat_observation_matches_the_flat_env():
+    """The adapter's rebuilt observation matches ``Planar3P-v0``'s on the same episode (to
+    float32 rounding of the inputs), so the analytic controller acts the same on both."""
+    flat_env = gym.make("Planar3P-v0")
+    goal_env = gym.make(IDS[0])
+    f_obs, info = flat_env.reset(seed=5)
+    spec = {k: info["episode_spec"][k] for k in ("start", "target", "working_mode")}
+    g_obs, _ = goal_env.reset(options=spec)
+    length = goal_env.unwrapped.design.characteristic_length
+    np.testing.assert_allclose(flat_observation(g_obs, length), f_obs, atol=2e-6)
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_analytic_controller_through_the_adapter_succeeds(env_id):
+    env = gym.make(env_id)
+    env.reset(seed=100)
+    results = [analytic_episode(env)[1][-1][4]["is_success"] for _ in range(5)]
+    assert all(results)
+
+
+@pytest.mark.parametrize("algo", ["SAC", "TQC"])
+def test_her_trains_out_of_the_box(algo):
+    """SB3's HerReplayBuffer with SAC and sb3-contrib's TQC run on the goal env unchanged."""
+    torch = pytest.importorskip("torch")
+    from stable_baselines3 import SAC, HerReplayBuffer
+
+    torch.set_num_threads(1)
+    if algo == "TQC":
+        cls = pytest.importorskip("sb3_contrib").TQC
+    else:
+        cls = SAC
+    env = gym.make(IDS[0], max_episode_steps=50)
+    # SAC with SB3's defaults (empty infos), TQC with the infos copied (exact penalties).
+    buffer_kwargs = {"n_sampled_goal": 4, "goal_selection_strategy": "future"}
+    if algo == "TQC":
+        buffer_kwargs["copy_info_dict"] = True
+    model = cls(
+        "MultiInputPolicy",
+        env,
+        replay_buffer_class=HerReplayBuffer,
+        replay_buffer_kwargs=buffer_kwargs,
+        learning_starts=100,
+        batch_size=32,
+        policy_kwargs={"net_arch": [32, 32]},
+        seed=0,
+        device="cpu",
+    )
+    model.learn(300)
+    assert model.num_timesteps == 300
+    obs, _ = env.reset(seed=0)
+    action, _ = model.predict(obs, deterministic=True)
+    assert env.action_space.contains(action)
