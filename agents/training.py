@@ -5,14 +5,25 @@ each entry holding the algorithm's keyword arguments plus the zoo's own keys ``n
 ``policy``, ``n_envs``, ``normalize`` (bool, or a dict / string of VecNormalize kwargs),
 ``noise_type``/``noise_std`` (action noise of off-policy algorithms) and ``policy_kwargs``
 (a mapping, or a string such as ``"dict(net_arch=[256, 256])"`` as the zoo writes them).
-A ``lin_`` prefix on ``learning_rate`` or ``clip_range`` means a linear schedule to 0.
+A ``lin_`` prefix on ``learning_rate`` or ``clip_range`` means a linear schedule to 0
+(rl-zoo3's :func:`rl_zoo3.utils.linear_schedule`).
+
+Why this module does not hand the whole job to rl-zoo3's ``ExperimentManager``: the manager
+runs the YAML's ``policy_kwargs`` / ``normalize`` strings and a command line's ``key:value``
+pairs (``StoreDict``) through ``eval``, builds its own environments, callbacks and log folders, and
+has no place for kick-starting (:mod:`agents.kickstart`).  Here the zoo's strings are read by a
+small literal parser that accepts ``dict(...)``, literals and ``nn.<activation>`` only, the
+command line takes ``key=YAML`` / ``key=JSON`` (no code), and the run directory below is the
+project's.  rl-zoo3's schedule and callbacks are used as they are.
 
 Each run writes one self-contained directory:
 
 =========================  ==================================================================
 ``model.zip``              the final model
-``best_model.zip``         the model with the best evaluation return (EvalCallback)
-``vecnormalize.pkl``       normalisation statistics beside each model (when normalising)
+``vecnormalize.pkl``       the final model's normalisation statistics (when normalising)
+``best/best_model.zip``    the model with the best evaluation return (EvalCallback) and its
+                           statistics ``best/vecnormalize.pkl`` (rl-zoo3's
+                           ``SaveVecNormalizeCallback`` on each new best)
 ``config.json``            resolved hyperparameters, env id and kwargs, seed, command line
 ``versions.json``          versions of Python and the libraries
 ``metrics.json``           final evaluation (success rate, returns, errors) and wall time
@@ -26,8 +37,6 @@ from __future__ import annotations
 
 import ast
 import json
-import platform
-import sys
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -41,6 +50,7 @@ __all__ = [
     "HYPERPARAMS_DIR",
     "EnvFactory",
     "TrainConfig",
+    "import_rl_zoo3",
     "load_hyperparams",
     "parse_env_kwargs",
     "parse_overrides",
@@ -151,27 +161,71 @@ def load_hyperparams(path: str | Path, env_id: str, algo: str) -> dict[str, Any]
     return dict(entry)
 
 
+def import_rl_zoo3() -> Any:
+    """Import :mod:`rl_zoo3` and undo the one global change its import makes.
+
+    ``import rl_zoo3`` replaces ``gymnasium.wrappers.TimeLimit`` (and the name ``gym.make``
+    uses) by its ``PatchedTimeLimit``, which reports ``truncated=False`` when an episode
+    terminates on its last allowed step.  Every environment made afterwards in the process
+    would end its episodes differently from ``Planar3P-v0`` as registered (the v0 regression
+    test hashes those flags), so the original wrapper is put back.
+    """
+    import gymnasium
+    import gymnasium.envs.registration as registration
+    import gymnasium.wrappers.common as common
+    import rl_zoo3
+    from rl_zoo3.gym_patches import PatchedTimeLimit
+
+    original = PatchedTimeLimit.__mro__[1]
+    for module in (gymnasium.wrappers, common, registration):
+        if getattr(module, "TimeLimit", None) is PatchedTimeLimit:
+            if module is registration:
+                delattr(module, "TimeLimit")  # gymnasium itself defines no such name there
+            else:
+                module.TimeLimit = original
+    return rl_zoo3
+
+
 def _schedule(value: Any, what: str) -> Any:
-    if isinstance(value, str) and value.startswith("lin_"):
+    """``"lin_<x>"`` -> rl-zoo3's linear schedule from ``x`` to 0; numbers pass through."""
+    if isinstance(value, str):
+        if not value.startswith("lin_"):
+            raise ValueError(f"{what} must be a number or 'lin_<number>', got {value!r}")
         try:
             start = float(value[4:])
         except ValueError as exc:
             raise ValueError(f"{what}: bad linear schedule {value!r}") from exc
-        return _Linear(start)
+        if not np.isfinite(start) or start < 0:
+            raise ValueError(f"{what}: bad linear schedule {value!r}")
+        import_rl_zoo3()
+        from rl_zoo3.utils import linear_schedule
+
+        return linear_schedule(start)
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{what} must be a number or 'lin_<number>', got {value!r}")
+    if not np.isfinite(value):
+        raise ValueError(f"{what} must be finite, got {value!r}")
     return value
 
 
-class _Linear:
-    """Linear schedule from ``start`` to 0 over training (picklable)."""
+#: Largest training seed: SB3 seeds NumPy with ``seed + env index`` (below 2**32) and the
+#: evaluation environment with ``seed + 10_000``.
+MAX_SEED = 2**31 - 1
+#: Largest number of environment steps a run accepts (far beyond any run on one machine).
+MAX_TIMESTEPS = 10**12
 
-    def __init__(self, start: float) -> None:
-        self.start = start
 
-    def __call__(self, progress_remaining: float) -> float:
-        return progress_remaining * self.start
-
-    def __repr__(self) -> str:
-        return f"lin_{self.start}"
+def _count(value: Any, what: str, limit: int = MAX_TIMESTEPS) -> int:
+    """A positive whole number (``1e6`` accepted as a float), at most ``limit``."""
+    if isinstance(value, bool):
+        raise ValueError(f"{what} must be a positive whole number, got {value!r}")
+    try:
+        number = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{what} must be a positive whole number, got {value!r}") from exc
+    if not np.isfinite(number) or number != int(number) or not 1 <= number <= limit:
+        raise ValueError(f"{what} must be a whole number from 1 to {limit:g}, got {value!r}")
+    return int(number)
 
 
 def resolve(
@@ -188,12 +242,15 @@ def resolve(
     if algo not in ALGORITHMS:
         raise ValueError(f"unknown algorithm {algo!r}; choose one of {', '.join(ALGORITHMS)}")
     entry = dict(entry)
-    steps = int(
-        float(n_timesteps if n_timesteps is not None else entry.get("n_timesteps", 100_000))
+    steps = _count(
+        n_timesteps if n_timesteps is not None else entry.get("n_timesteps", 100_000),
+        "n_timesteps",
     )
-    envs = int(n_envs if n_envs is not None else entry.get("n_envs", 1))
-    if steps <= 0 or envs <= 0:
-        raise ValueError(f"n_timesteps and n_envs must be positive (got {steps}, {envs})")
+    envs = _count(n_envs if n_envs is not None else entry.get("n_envs", 1), "n_envs", 1024)
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)):
+        raise ValueError(f"seed must be an integer, got {seed!r}")
+    if not 0 <= seed <= MAX_SEED:
+        raise ValueError(f"seed must be between 0 and {MAX_SEED}, got {seed}")
     norm = entry.get("normalize", False)
     if isinstance(norm, str):
         norm = _literal(norm, "normalize")
@@ -208,6 +265,8 @@ def resolve(
     kwargs = {k: v for k, v in entry.items() if k not in _ZOO_KEYS}
     if isinstance(kwargs.get("policy_kwargs"), str):
         kwargs["policy_kwargs"] = _literal(kwargs["policy_kwargs"], "policy_kwargs")
+    if "policy_kwargs" in kwargs and not isinstance(kwargs["policy_kwargs"], Mapping):
+        raise ValueError(f"policy_kwargs must be a mapping, got {kwargs['policy_kwargs']!r}")
     for key in ("learning_rate", "clip_range"):
         if key in kwargs:
             kwargs[key] = _schedule(kwargs[key], key)
@@ -286,14 +345,18 @@ def parse_overrides(items: list[str] | None) -> dict[str, Any]:
 
 
 def versions() -> dict[str, str]:
-    """Versions of Python and the libraries a run depends on."""
-    out = {"python": sys.version.split()[0], "platform": platform.platform()}
-    for name in ("numpy", "gymnasium", "pymunk", "stable_baselines3", "torch", "planar3p_gym"):
+    """SB3's :func:`~stable_baselines3.common.utils.get_system_info` (OS, Python, SB3, PyTorch,
+    NumPy, Gymnasium, ...) plus the versions of pymunk, rl-zoo3 and this package."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    from stable_baselines3.common.utils import get_system_info
+
+    out, _ = get_system_info(print_info=False)
+    for dist in ("pymunk", "rl_zoo3", "planar3p-gym"):
         try:
-            module = __import__(name)
-            out[name] = str(getattr(module, "__version__", "unknown"))
-        except ImportError:  # pragma: no cover - all are dependencies of the train extra
-            out[name] = "not installed"
+            out[dist] = version(dist)
+        except PackageNotFoundError:
+            out[dist] = "not installed"
     return out
 
 
