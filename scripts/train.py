@@ -26,13 +26,16 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
+from agents.policies import TRUSTED_FILES_NOTE  # noqa: E402
 from agents.train_run import VEC_ENVS, RunOptions, execute, plan_run  # noqa: E402
 from agents.training import ALGORITHMS  # noqa: E402
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+        description=__doc__,
+        epilog=f"--kickstart and --resume load model and statistics files: {TRUSTED_FILES_NOTE}",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("--algo", required=True, help=f"one of {', '.join(ALGORITHMS)}")
     p.add_argument("--env", default="Planar3P-v0", help="registered environment id")
