@@ -18,7 +18,10 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
+from .checks import as_finite_float
+
 __all__ = [
+    "MAX_WEIGHT",
     "RewardWeights",
     "action_effort",
     "pose_error",
@@ -29,6 +32,14 @@ __all__ = [
 
 #: The singularity penalty of one margin is capped at this value (it stays finite at 0).
 BARRIER_CAP = 100.0
+#: Largest allowed weight.  Per step ``|reward| <= MAX_WEIGHT * (e + 1 + 2 BARRIER_CAP + 3)``
+#: (pose error ``e``, precision term < 1, two capped barriers, effort <= 1, one success or
+#: failure flag); ``e = |dp| / L_ref + |dtheta| <= span / L_ref + pi`` is bounded by the
+#: design's size, so rewards stay far inside even float32's range (SB3 stores float32), and so
+#: do returns over millions of steps.
+MAX_WEIGHT = 1e6
+#: The fields of :class:`RewardWeights` that are weights (the others are scales and margins).
+WEIGHT_NAMES = ("pose", "precision", "singularity", "action", "success", "failure")
 
 
 @dataclass(frozen=True)
@@ -61,8 +72,17 @@ class RewardWeights:
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"reward weight {name} must be finite and >= 0, got {value!r}")
+            number = as_finite_float(value)
+            if number is None or number < 0:
+                raise ValueError(
+                    f"reward weight {name} must be a finite number >= 0, got {value!r}"
+                )
+            if name in WEIGHT_NAMES and number > MAX_WEIGHT:
+                raise ValueError(
+                    f"reward weight {name} must be <= {MAX_WEIGHT:g} (larger weights can make "
+                    f"rewards overflow to -inf), got {value!r}"
+                )
+            object.__setattr__(self, name, number)  # plain floats (NumPy scalars accepted)
         if self.precision_scale <= 0:
             raise ValueError(f"precision_scale must be > 0 (m), got {self.precision_scale!r}")
         for name in ("parallel_margin_ref", "serial_margin_ref"):

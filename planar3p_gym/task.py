@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from . import kinematics
+from .checks import as_finite_float, as_int
 from .design import Design
 from .statics import holding_forces_at
 
@@ -34,6 +35,11 @@ __all__ = [
     "sample_pair",
     "sample_poses",
 ]
+
+
+#: Upper bound of ``TaskConfig.path_points``: 1000 poses put checks well under a millimetre
+#: apart on any path across the workspace, and keep a candidate batch's check small in memory.
+MAX_PATH_POINTS = 1000
 
 
 @dataclass(frozen=True)
@@ -54,7 +60,7 @@ class TaskConfig:
         clear_path: require the straight start-target path to stay clear of singularities.
         path_parallel_margin: parallel margin required along that path.
         path_serial_margin: serial margin required along that path.
-        path_points: number of poses at which the path is checked.
+        path_points: number of poses at which the path is checked (2 to 1000).
     """
 
     position_tolerance: float = 0.002
@@ -73,11 +79,23 @@ class TaskConfig:
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
             if name == "clear_path":
-                if not isinstance(value, bool):
+                if not isinstance(value, (bool, np.bool_)):
                     raise ValueError(f"TaskConfig.clear_path must be a bool, got {value!r}")
+                object.__setattr__(self, name, bool(value))
                 continue
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"TaskConfig.{name} must be finite and >= 0, got {value!r}")
+            if name == "path_points":
+                count = as_int(value)
+                if count is None or not 2 <= count <= MAX_PATH_POINTS:
+                    raise ValueError(
+                        f"TaskConfig.path_points must be an integer in [2, {MAX_PATH_POINTS}], "
+                        f"got {value!r}"
+                    )
+                object.__setattr__(self, name, count)
+                continue
+            number = as_finite_float(value)
+            if number is None or number < 0:
+                raise ValueError(f"TaskConfig.{name} must be a finite number >= 0, got {value!r}")
+            object.__setattr__(self, name, number)  # plain floats (NumPy scalars accepted)
         for name in ("position_tolerance", "orientation_tolerance", "rest_speed"):
             if getattr(self, name) <= 0:
                 raise ValueError(f"TaskConfig.{name} must be > 0, got {getattr(self, name)!r}")
@@ -95,10 +113,6 @@ class TaskConfig:
             )
         if self.travel_margin >= 0.5:
             raise ValueError(f"TaskConfig.travel_margin must be < 0.5, got {self.travel_margin!r}")
-        if not isinstance(self.path_points, int) or self.path_points < 2:
-            raise ValueError(
-                f"TaskConfig.path_points must be an int >= 2, got {self.path_points!r}"
-            )
 
 
 def _acceptable(
