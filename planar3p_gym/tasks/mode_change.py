@@ -1,0 +1,384 @@
+"""Working-mode change: reach a target pose in another working mode (``Planar3PModeChange-v0``).
+
+The start is in working mode ``sigma_s`` and the target in ``sigma_t``, which differ in at least
+one leg (``sign cos alpha_i``); such a leg must swing through the perpendicular to its rail (a
+serial singularity) on the way.  That is allowed here; a parallel-singularity crossing (a change
+of ``sign det A``) and a physics breakdown still end the episode as failures.
+
+**Feasibility (how the sampler checks it).**  Start and target are drawn like the reach task's
+poses (reachable, in stroke away from the end stops, both margins above thresholds, holdable
+with at most 75 % of the actuator force; :mod:`planar3p_gym.task`), the target in ``sigma_t``
+with the start's assembly mode.  The pair is kept only with a certificate from
+:func:`planar3p_gym.tasks.joint_paths.find_joint_path`: a piecewise-straight path of the
+slider travels (the straight line, or two lines through an intermediate pose with every
+flipping leg upright) along which the direct-kinematics branch that starts at the start pose
+(followed by continuity at ``PathLimits.points`` points per line) stays unambiguous, keeps a
+parallel margin of at least ``PathLimits.min_parallel_margin`` (0.02), needs at most
+``PathLimits.max_holding_force`` (90 %) of the actuator force to be held at rest at every
+point, stays in the stroke, and ends exactly (within 1e-6 m) at the target pose, i.e. in the
+target working mode.  A slow enough motion along that path is a sequence of holdable,
+well-conditioned equilibria through the leg's upright position: the episode is solvable within
+the actuator limits.  (``agents.planner.JointPathPlanner`` follows the same certificate.)
+
+Working-mode pairs: the start mode is drawn from the environment's modes; the target mode from
+the modes that differ in ``flips`` legs (default: exactly one) and for which the task found a
+certified pair at construction (a fixed internal seed, so the list never consumes the episode's
+random stream).  On the default design from the default mode ``(+1, +1, -1)`` these are
+``(+1, +1, +1)`` (leg 3 flips) and ``(-1, +1, -1)`` (leg 1 flips); flipping two or three legs
+at once needs a parallel-singularity crossing for the sampled poses (the certificate search
+fails).
+
+Episode spec: ``{"task": "mode_change", "working_mode": sigma_s, "start": pose, "target": pose,
+"target_working_mode": sigma_t}``.  Reset options: the same keys (any subset).
+
+Observation: the 31 reach entries (errors against the target pose) followed by
+``target_travels`` (the target's slider travels, m, 3 entries) and ``target_working_mode``
+(``sigma_t``, 3 entries of +-1).
+
+Metrics in ``info``: ``target_working_mode`` (tuple), ``in_target_mode`` (every leg's
+``sign cos alpha_i`` equals ``sigma_t``), ``legs_to_flip`` (number of legs not yet in their
+target mode).  Success: the reach test (pose within tolerances, at rest) and ``in_target_mode``.
+
+Reward: the reach reward's terms (:mod:`planar3p_gym.rewards`) except that the serial-margin
+barrier is left out (the task requires passing a serial singularity; the parallel-margin
+barrier stays).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .. import kinematics, task
+from ..physics import SimState
+from ..rewards import pose_error, precision_penalty, reward_terms
+from ..scalar_kinematics import ConfigurationMeasures
+from .base import Pose, Task, pose_list
+from .joint_paths import JointPath, PathLimits, find_joint_path
+
+__all__ = ["ModeChangeTask", "leg_modes", "single_flip_modes"]
+
+ModeTriple = tuple[int, int, int]
+
+
+def _mode(arg: Any, name: str) -> ModeTriple:
+    """A working mode (three +-1 ints) or ``ValueError`` naming ``name``."""
+    try:
+        vals = list(arg)
+        m = tuple(int(v) for v in vals)
+        ok = len(m) == 3 and all(v in (1, -1) for v in m) and all(float(v) == int(v) for v in vals)
+    except (TypeError, ValueError):
+        ok = False
+    if not ok or any(isinstance(v, (bool, np.bool_)) for v in vals):
+        raise ValueError(f"{name} must be three entries of +1 or -1, got {arg!r}")
+    return m  # type: ignore[return-value]
+
+
+def leg_modes(leg_angles: tuple[float, float, float]) -> ModeTriple:
+    """``sign cos alpha_i`` of each leg (+1 when ``cos alpha_i >= 0``)."""
+    return tuple(1 if math.cos(a) >= 0.0 else -1 for a in leg_angles)  # type: ignore[return-value]
+
+
+def single_flip_modes(mode: ModeTriple, flips: int = 1) -> list[ModeTriple]:
+    """The working modes that differ from ``mode`` in exactly ``flips`` legs (1 to 3)."""
+    out = []
+    for m in kinematics.ALL_MODES.tolist():
+        if sum(a != b for a, b in zip(m, mode, strict=True)) == flips:
+            out.append(tuple(int(v) for v in m))
+    return out  # type: ignore[return-value]
+
+
+@dataclass
+class _Pair:
+    start: np.ndarray
+    target: np.ndarray
+    path: JointPath
+
+
+class ModeChangeTask(Task):
+    """Reach a target pose in another working mode (see the module docstring).
+
+    Args:
+        flips: number of legs whose working mode differs between start and target (1 to 3).
+        limits: :class:`~planar3p_gym.tasks.joint_paths.PathLimits` of the feasibility
+            certificate.
+        pair_tries: certificate attempts per start pose before another start is drawn.
+    """
+
+    name: ClassVar[str] = "mode_change"
+    option_keys: ClassVar[tuple[str, ...]] = (
+        "start",
+        "target",
+        "working_mode",
+        "target_working_mode",
+    )
+    metric_keys: ClassVar[tuple[str, ...]] = (
+        "target_working_mode",
+        "in_target_mode",
+        "legs_to_flip",
+    )
+
+    def __init__(
+        self, flips: int = 1, limits: PathLimits | None = None, pair_tries: int = 8
+    ) -> None:
+        if not (isinstance(flips, int) and not isinstance(flips, bool) and 1 <= flips <= 3):
+            raise ValueError(f"flips must be 1, 2 or 3 (legs to flip), got {flips!r}")
+        if not (isinstance(pair_tries, int) and pair_tries >= 1):
+            raise ValueError(f"pair_tries must be an int >= 1, got {pair_tries!r}")
+        if limits is not None and not isinstance(limits, PathLimits):
+            raise ValueError(f"limits must be a PathLimits, got {limits!r}")
+        self.flips = flips
+        self.limits = limits or PathLimits()
+        self.pair_tries = pair_tries
+
+    # ------------------------------------------------------------------ set-up
+    def bind(self, env: Any) -> None:
+        super().bind(env)
+        self._samplers: dict[ModeTriple, task.PoseSampler] = {}
+        self._target: Pose = (0.0, 0.0, 0.0)
+        self._target_mode: ModeTriple = (1, 1, 1)
+        self._target_rho: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._mode_in = False
+        self.pairs = self._viable_pairs()
+        if not self.pairs:
+            raise ValueError(
+                f"no working-mode pair of this design (start modes {env.modes}, {self.flips} "
+                "leg(s) flipped) has a certified start/target pair under the task's margins"
+            )
+
+    def _sampler(self, mode: ModeTriple) -> task.PoseSampler:
+        if mode not in self._samplers:
+            self._samplers[mode] = task.PoseSampler(self.env.design, mode, self.env.task_config)
+        return self._samplers[mode]
+
+    def _viable_pairs(self) -> dict[ModeTriple, list[ModeTriple]]:
+        """Start mode -> target modes with at least one certified pair among a few drawn with a
+        fixed internal seed (so the list never depends on the episode's random stream)."""
+        design, cfg = self.env.design, self.env.task_config
+        rng = np.random.default_rng(0)
+        out: dict[ModeTriple, list[ModeTriple]] = {}
+        pools: dict[ModeTriple, tuple[np.ndarray, np.ndarray] | None] = {}
+
+        def pool(mode: ModeTriple) -> tuple[np.ndarray, np.ndarray] | None:
+            if mode not in pools:
+                try:
+                    pools[mode] = task.sample_poses(design, mode, rng, cfg, max_batches=20)
+                except ValueError:
+                    pools[mode] = None
+            return pools[mode]
+
+        for ms in self.env.modes:
+            starts = pool(ms)
+            if starts is None:
+                continue
+            for mt in single_flip_modes(ms, self.flips):
+                targets = pool(mt)
+                if targets is None:
+                    continue
+                if self._first_certified(starts, targets, ms, mt, tries=16) is not None:
+                    out.setdefault(ms, []).append(mt)
+        return out
+
+    def _first_certified(
+        self,
+        starts: tuple[np.ndarray, np.ndarray],
+        targets: tuple[np.ndarray, np.ndarray],
+        ms: ModeTriple,
+        mt: ModeTriple,
+        tries: int,
+    ) -> _Pair | None:
+        sp, sa = starts
+        tp, ta = targets
+        n = 0
+        for i in range(len(sp)):
+            same = np.flatnonzero(ta == sa[i])
+            for j in same[:2]:
+                path, _ = find_joint_path(self.env.design, sp[i], ms, tp[j], mt, self.limits)
+                if path is not None:
+                    return _Pair(sp[i], tp[j], path)
+                n += 1
+                if n >= tries:
+                    return None
+        return None
+
+    def reseed(self) -> None:
+        for sampler in self._samplers.values():
+            sampler.clear()
+
+    # ------------------------------------------------------------------ options and sampling
+    def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
+        for key in ("working_mode", "target_working_mode"):
+            if options.get(key) is not None:
+                options[key] = _mode(options[key], key)
+        ms, mt = options.get("working_mode"), options.get("target_working_mode")
+        if ms is not None and mt is not None and ms == mt:
+            raise ValueError(
+                f"target_working_mode {mt} equals working_mode {ms}: a mode change needs at "
+                "least one leg in another working mode"
+            )
+        if ms is None and len(self.pairs) == 1:
+            ms = next(iter(self.pairs))
+        design = self.env.design
+        if ms is not None and options.get("start") is not None:
+            options["start"] = task.check_pose(design, options["start"], ms, "start")
+        if mt is not None and options.get("target") is not None:
+            options["target"] = task.check_pose(design, options["target"], mt, "target")
+        return options
+
+    def episode_spec(self, rng: np.random.Generator, options: dict[str, Any]) -> dict[str, Any]:
+        design = self.env.design
+        ms = options.get("working_mode")
+        mt = options.get("target_working_mode")
+        start, target = options.get("start"), options.get("target")
+        if ms is None:
+            if mt is not None:
+                choices = [m for m in self.pairs if mt in self.pairs[m]] or [
+                    m for m in self.env.modes if m != mt
+                ]
+            else:
+                choices = list(self.pairs)
+            ms = choices[int(rng.integers(len(choices)))] if len(choices) > 1 else choices[0]
+        if mt is None:
+            choices = self.pairs.get(ms) or single_flip_modes(ms, self.flips)
+            mt = choices[int(rng.integers(len(choices)))] if len(choices) > 1 else choices[0]
+        if ms == mt:
+            raise ValueError(f"target_working_mode {mt} equals working_mode {ms}")
+        if start is not None:
+            start = task.check_pose(design, start, ms, "start")
+        if target is not None:
+            target = task.check_pose(design, target, mt, "target")
+        if start is not None and target is not None:
+            self._require_path(start, ms, target, mt)
+        else:
+            start, target = self._draw(rng, ms, mt, start, target)
+        return {
+            "task": self.name,
+            "working_mode": [int(m) for m in ms],
+            "start": pose_list(start),
+            "target": pose_list(target),
+            "target_working_mode": [int(m) for m in mt],
+        }
+
+    def _require_path(
+        self, start: np.ndarray, ms: ModeTriple, target: np.ndarray, mt: ModeTriple
+    ) -> JointPath:
+        design = self.env.design
+        asm = [
+            int(kinematics.assembly_mode(design, p, kinematics.inverse(design, p, m).rho))
+            for p, m in ((start, ms), (target, mt))
+        ]
+        if asm[0] != asm[1]:
+            raise ValueError(
+                f"start and target are in different assembly modes (sign det A {asm[0]} vs "
+                f"{asm[1]}): the mode change would also need a parallel-singularity crossing"
+            )
+        path, reason = find_joint_path(design, start, ms, target, mt, self.limits)
+        if path is None:
+            raise ValueError(
+                f"no certified path from start {tuple(start.tolist())} (mode {ms}) to target "
+                f"{tuple(target.tolist())} (mode {mt}): the straight travel path fails "
+                f"({reason}) and so does every upright-leg waypoint tried"
+            )
+        return path
+
+    def _draw(
+        self,
+        rng: np.random.Generator,
+        ms: ModeTriple,
+        mt: ModeTriple,
+        start: np.ndarray | None,
+        target: np.ndarray | None,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        design, cfg = self.env.design, self.env.task_config
+        length = design.characteristic_length
+        for _ in range(200):
+            if start is None:
+                s, asm = self._sampler(ms).draw(rng)
+            else:
+                s = start
+                asm = float(
+                    kinematics.assembly_mode(design, s, kinematics.inverse(design, s, ms).rho)
+                )
+            if target is None:
+                try:
+                    cands = self._sampler(mt).draw_many(rng, asm, self.pair_tries)
+                except ValueError:
+                    cands = np.zeros((0, 3))
+            else:
+                t_rho = kinematics.inverse(design, target, mt).rho
+                t_asm = float(kinematics.assembly_mode(design, target, t_rho))
+                cands = target[None, :] if t_asm == asm else np.zeros((0, 3))
+            far = task.pose_distance(s[None, :], cands, length) >= cfg.min_distance
+            for t in cands[far]:
+                path, _ = find_joint_path(design, s, ms, t, mt, self.limits)
+                if path is not None:
+                    return s, t
+        fixed = "start" if start is not None else "target"
+        raise ValueError(
+            f"no certified mode change from working mode {ms} to {mt} found for the requested "
+            f"{fixed}; give another {fixed} or leave it to the sampler"
+        )
+
+    def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
+        tx, ty, tth = spec["target"]
+        self._target = (float(tx), float(ty), float(tth))
+        self._target_mode = _mode(spec["target_working_mode"], "target_working_mode")
+        rho = kinematics.inverse(self.env.design, self._target, self._target_mode).rho
+        self._target_rho = (float(rho[0]), float(rho[1]), float(rho[2]))
+        mode = _mode(spec["working_mode"], "working_mode")
+        return np.asarray(spec["start"], dtype=np.float64), mode
+
+    # ------------------------------------------------------------------ per step
+    def reference(self, step: int) -> Pose:
+        return self._target
+
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        stroke = self.env.design.stroke
+        low = np.array([-0.05 * stroke] * 3 + [-1.0] * 3, dtype=np.float32)
+        high = np.array([1.05 * stroke] * 3 + [1.0] * 3, dtype=np.float32)
+        return low, high
+
+    def observation_extra(self, step: int) -> list[float]:
+        return [*self._target_rho, *(float(m) for m in self._target_mode)]
+
+    def is_success(self, state: SimState, errors: tuple[float, float]) -> bool:
+        return super().is_success(state, errors) and leg_modes(state.leg_angles) == (
+            self._target_mode
+        )
+
+    def reward_terms(
+        self,
+        *,
+        errors: tuple[float, float],
+        measures: ConfigurationMeasures,
+        action: tuple[float, float, float],
+        success: bool,
+        failure: bool,
+    ) -> dict[str, float]:
+        env = self.env
+        pos_err, ang_err = errors
+        length = env.design.characteristic_length
+        return reward_terms(
+            env.reward_weights,
+            pose_err=pose_error(pos_err, ang_err, length),
+            precision_err=precision_penalty(
+                pos_err, ang_err, length, env.reward_weights.precision_scale
+            ),
+            parallel_margin=measures.parallel_margin,
+            serial_margin=1.0,  # passing a serial singularity is the task: no serial barrier
+            action=action,
+            success=success,
+            failure=failure,
+        )
+
+    def step_info(self, step: int, state: SimState, errors: tuple[float, float]) -> dict[str, Any]:
+        modes = leg_modes(state.leg_angles)
+        to_flip = sum(a != b for a, b in zip(modes, self._target_mode, strict=True))
+        return {
+            "target_working_mode": self._target_mode,
+            "in_target_mode": to_flip == 0,
+            "legs_to_flip": to_flip,
+        }
