@@ -8,8 +8,13 @@ loader for Stable-Baselines3 models, and the evaluation used by ``scripts/benchm
 * :mod:`agents.policies` -- :func:`~agents.policies.load_policy`: a name
   (``analytic-simultaneous``, ``analytic-sequential``, ``random``, ``zero``,
   ``pretrained:<name>``) or a model path -> a policy.
-* :mod:`agents.evaluation` -- fixed suites (``standard``, ``hard``, ``far``), the episode runner
-  and the statistics (IQM, bootstrap intervals).
+* The benchmark: :mod:`agents.suites` (fixed suites ``standard``, ``hard``, ``far``; saving
+  and loading), :mod:`agents.paths` and :mod:`agents.region_maps` (path diagnostics and
+  singularity-free regions the suites use), :mod:`agents.episodes` (the episode runner),
+  :mod:`agents.statistics` (IQM, bootstrap and Wilson intervals, summaries),
+  :mod:`agents.report` / :mod:`agents.report_plots` (report, CSV, figures) and
+  :mod:`agents.benchmark` (:func:`~agents.benchmark.run_benchmark`, used by
+  ``scripts/benchmark.py``).
 
 Importing this package does not import torch or Stable-Baselines3 (only loading a model does).
 """

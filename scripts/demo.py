@@ -27,7 +27,7 @@ import gymnasium as gym  # noqa: E402
 import numpy as np  # noqa: E402
 
 import planar3p_gym  # noqa: E402
-from agents import evaluation as ev  # noqa: E402
+from agents import suites as su  # noqa: E402
 from agents.policies import PolicyError, list_pretrained, load_policy, policy_label  # noqa: E402
 
 ANALYTIC = "analytic-simultaneous"
@@ -43,7 +43,7 @@ def _benchmark_main():
     return module.main
 
 
-def record_gif(policy_spec: str, episode: ev.EpisodeSpec, path: Path, seed: int) -> dict:
+def record_gif(policy_spec: str, episode: su.EpisodeSpec, path: Path, seed: int) -> dict:
     """Play ``episode`` with the policy, rendering every other frame into an animated GIF."""
     import imageio.v2 as imageio
 
@@ -107,12 +107,13 @@ def main(argv: list[str] | None = None) -> int:
             str(args.seed),
             "--out",
             str(bench_dir),
+            "--force",  # the demo's own directory: a rerun replaces its results
         ]
     )
     if status != 0:
         return status
 
-    episode = ev.make_suite("standard", 1, args.seed).episodes[0]
+    episode = su.make_suite("standard", 1, args.seed).episodes[0]
     gifs = {}
     for spec in policies:
         path = args.out / f"{policy_label(spec).replace(':', '_').replace('/', '_')}.gif"

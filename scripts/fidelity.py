@@ -31,7 +31,8 @@ import gymnasium as gym
 import numpy as np
 
 import planar3p_gym  # noqa: F401  (registers Planar3P-v0)
-from agents import evaluation
+from agents import episodes as agent_episodes
+from agents import suites as agent_suites
 from agents.analytic import AnalyticController
 from planar3p_gym import Design, motions
 from planar3p_gym.env import DEFAULT_WORKING_MODE
@@ -77,8 +78,8 @@ def controller_episodes(
     out: dict[str, list[float]] = {}
     for name in suites:
         worst = []
-        for spec in evaluation.make_suite(name, n, seed).episodes:
-            result = evaluation.run_episode(env, controller, spec, policy_name="analytic")
+        for spec in agent_suites.make_suite(name, n, seed).episodes:
+            result = agent_episodes.run_episode(env, controller, spec, policy_name="analytic")
             worst.append(result.max_closure_error / length)
         out[name] = worst
     env.close()
@@ -106,9 +107,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.substeps < 1 or args.iterations < 1 or args.pairs < 1 or args.episodes < 0:
         ap.error("--substeps, --iterations and --pairs must be >= 1, --episodes >= 0")
     suites = [s for s in args.suites.split(",") if s]
-    unknown = sorted(set(suites) - set(evaluation.SUITE_NAMES))
+    unknown = sorted(set(suites) - set(agent_suites.SUITE_NAMES))
     if unknown:
-        ap.error(f"unknown suites {unknown}; known: {', '.join(evaluation.SUITE_NAMES)}")
+        ap.error(f"unknown suites {unknown}; known: {', '.join(agent_suites.SUITE_NAMES)}")
 
     design = Design.fig8()
     print(

@@ -1,10 +1,12 @@
-"""Evaluation suites, episode runner, statistics, policy loading and the benchmark script."""
+"""Episode runner (agents/episodes.py), policy loading and the benchmark (agents/benchmark.py,
+scripts/benchmark.py)."""
 
 from __future__ import annotations
 
+import csv
 import importlib.util
 import json
-import math
+import pickle
 from pathlib import Path
 
 import gymnasium as gym
@@ -12,10 +14,13 @@ import numpy as np
 import pytest
 
 import planar3p_gym
-from agents import evaluation as ev
+from agents import benchmark as bm
+from agents import episodes as ep
+from agents import suites as su
 from agents.analytic import AnalyticController
 from agents.baselines import RandomPolicy, ZeroPolicy
 from agents.policies import (
+    TRUSTED_FILES_NOTE,
     PolicyError,
     SB3Policy,
     list_pretrained,
@@ -23,8 +28,7 @@ from agents.policies import (
     parse_policy_spec,
     policy_label,
 )
-from planar3p_gym import Design, kinematics
-from planar3p_gym.statics import holding_forces
+from planar3p_gym import Design
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = Design.fig8()
@@ -51,128 +55,18 @@ def env():
 
 @pytest.fixture(scope="module")
 def suites():
-    return {name: ev.make_suite(name, 4, seed=7) for name in ev.SUITE_NAMES}
-
-
-# =============================================================================== suites
-def test_suites_identical_for_the_same_seed(suites):
-    again = {name: ev.make_suite(name, 4, seed=7) for name in ev.SUITE_NAMES}
-    for name in ev.SUITE_NAMES:
-        assert again[name].to_dict() == suites[name].to_dict()
-    other = ev.make_suite("standard", 4, seed=8)
-    assert other.to_dict()["episodes"] != suites["standard"].to_dict()["episodes"]
-
-
-def test_shorter_suite_is_a_prefix(suites):
-    for name in ("standard", "far"):
-        short = ev.make_suite(name, 2, seed=7)
-        assert [e.to_dict() for e in short.episodes] == [
-            e.to_dict() for e in suites[name].episodes[:2]
-        ]
-
-
-def test_suites_do_not_touch_global_random_state():
-    before = np.random.get_state()[1].copy()  # noqa: NPY002
-    ev.make_suite("standard", 2, seed=0)
-    assert np.array_equal(np.random.get_state()[1], before)  # noqa: NPY002
-
-
-def test_suite_episodes_are_valid_reset_options(env, suites):
-    for suite in suites.values():
-        assert len(suite) == 4
-        for spec in suite.episodes:
-            _, info = env.reset(options=spec.reset_options())
-            assert info["working_mode"] == spec.working_mode
-            assert np.allclose(info["pose"][:2], spec.start[:2], atol=1e-6)
-            s, t = np.array(spec.start), np.array(spec.target)
-            dets = [
-                int(
-                    kinematics.assembly_mode(
-                        DESIGN, p, kinematics.inverse(DESIGN, p, spec.working_mode).rho
-                    )
-                )
-                for p in (s, t)
-            ]
-            assert dets[0] == dets[1] != 0
-
-
-def test_suite_kinds(suites):
-    for spec in suites["standard"].episodes:
-        assert spec.path["clear"]
-    hard = suites["hard"]
-    for spec in hard.episodes:
-        p = spec.path
-        assert p["reachable"] and p["min_serial_margin"] >= 0.1
-        assert p["crosses"] or p["min_parallel_margin"] <= hard.params["hard_margin"]
-        for pose in (spec.start, spec.target):
-            f = holding_forces(DESIGN, np.array(pose), spec.working_mode)
-            assert np.abs(f).max() <= 0.25 * DESIGN.max_force
-    far = suites["far"]
-    for spec in far.episodes:
-        assert spec.path["distance"] >= far.params["far_distance"]
-    assert far.params["far_distance"] > np.median(
-        [e.path["distance"] for e in suites["standard"].episodes]
-    )
-
-
-def test_suite_file_roundtrip(tmp_path, suites):
-    path = tmp_path / "suites.json"
-    ev.save_suites(path, suites, DESIGN)
-    loaded, design = ev.load_suites(path)
-    assert design == DESIGN
-    assert {k: v.to_dict() for k, v in loaded.items()} == {
-        k: json.loads(json.dumps(v.to_dict())) for k, v in suites.items()
-    }
-    (tmp_path / "bad.json").write_text("{not json")
-    with pytest.raises(ValueError, match="cannot read"):
-        ev.load_suites(tmp_path / "bad.json")
-    with pytest.raises(ValueError, match="not found"):
-        ev.load_suites(tmp_path / "missing.json")
-
-
-def test_suite_hold_force_fraction_replaces_the_task_limit():
-    """A suite's ``hold_force_fraction`` decides how hard its ends may be to hold, above the
-    environment's own sampling limit (0.75 of max_force) too: the crossing stress suite."""
-    mode = (1, 1, 1)
-    loose = ev.make_suite(
-        "hard", 20, 0, working_mode=mode, end_parallel_margin=0.02, hold_force_fraction=1.0
-    )
-    ends = np.array([p for e in loose.episodes for p in (e.start, e.target)])
-    forces = np.abs(holding_forces(DESIGN, ends, mode)).max(axis=-1)
-    assert (forces <= DESIGN.max_force).all()
-    assert (forces > 0.75 * DESIGN.max_force).any()
-    strict = ev.make_suite(
-        "hard", 5, 0, working_mode=mode, end_parallel_margin=0.02, hold_force_fraction=0.5
-    )
-    ends = np.array([p for e in strict.episodes for p in (e.start, e.target)])
-    assert (np.abs(holding_forces(DESIGN, ends, mode)).max(axis=-1) <= 0.5 * DESIGN.max_force).all()
-
-
-def test_unknown_suite():
-    with pytest.raises(ValueError, match="unknown suite"):
-        ev.make_suite("easy", 3, 0)
-    with pytest.raises(ValueError, match="unknown suite"):
-        ev.make_suites(["standard", "easy"], 3, 0)
-
-
-def test_holding_forces_match_the_simulation(env, suites):
-    spec = suites["standard"].episodes[0]
-    env.reset(options=spec.reset_options())
-    for _ in range(5):
-        _, _, _, _, info = env.step(np.zeros(3))
-    f = np.abs(holding_forces(DESIGN, np.array(info["pose"]), spec.working_mode))
-    np.testing.assert_allclose(f, info["actuator_forces"], rtol=0.05, atol=0.05)
+    return {name: su.make_suite(name, 4, seed=7) for name in su.SUITE_NAMES}
 
 
 # =============================================================================== runner
 def test_run_episode_zero_and_analytic(env, suites):
     spec = suites["standard"].episodes[0]
-    zero = ev.run_episode(env, ZeroPolicy(), spec, policy_name="zero", record=True)
+    zero = ep.run_episode(env, ZeroPolicy(), spec, policy_name="zero", record=True)
     assert not zero.success and zero.termination_reason == "timeout"
     assert zero.steps == planar3p_gym.MAX_EPISODE_STEPS
     assert zero.energy == pytest.approx(0.0, abs=1e-3)
     assert zero.trajectory.shape == (zero.steps + 1, 3)
-    ana = ev.run_episode(env, AnalyticController.from_env(env), spec, policy_name="a")
+    ana = ep.run_episode(env, AnalyticController.from_env(env), spec, policy_name="a")
     assert ana.success and ana.cause == "success"
     assert ana.time_to_success == pytest.approx(ana.steps * env.unwrapped.dt)
     assert ana.energy > 0 and ana.final_position_error <= 0.002
@@ -182,81 +76,12 @@ def test_run_episode_zero_and_analytic(env, suites):
 def test_random_policy_is_reproducible(env, suites):
     spec = suites["far"].episodes[1]
     runs = [
-        ev.run_episode(env, RandomPolicy(seed=1), spec, policy_name="random", seed=5).row()
+        ep.run_episode(env, RandomPolicy(seed=1), spec, policy_name="random", seed=5).row()
         for _ in range(2)
     ]
     assert runs[0] == runs[1]
-    other = ev.run_episode(env, RandomPolicy(), spec, policy_name="random", seed=6).row()
+    other = ep.run_episode(env, RandomPolicy(), spec, policy_name="random", seed=6).row()
     assert other["episode_return"] != runs[0]["episode_return"]
-
-
-# =============================================================================== statistics
-def test_iqm_hand_checked():
-    assert ev.iqm([1, 2, 3, 4, 5, 6, 7, 8]) == pytest.approx(4.5)  # mean of 3, 4, 5, 6
-    assert ev.iqm([4, 1, 3, 2]) == pytest.approx(2.5)  # mean of 2, 3
-    assert ev.iqm([0, 0, 0, 0, 100]) == pytest.approx(0.0)  # 100 trimmed
-    assert ev.iqm([7.0]) == pytest.approx(7.0)
-    assert math.isnan(ev.iqm([]))
-    np.testing.assert_allclose(ev.iqm(np.array([[1, 2, 3, 4], [10, 20, 30, 40]])), [2.5, 25])
-
-
-def test_bootstrap_hand_checked():
-    assert ev.bootstrap_ci([3.0] * 10) == (3.0, 3.0)
-    x = np.array([0.0, 1.0] * 50)  # mean 0.5, standard error 0.05
-    lo, hi = ev.bootstrap_ci(x, n_resamples=4000, seed=1)
-    assert 0.38 <= lo <= 0.42 and 0.58 <= hi <= 0.62
-    assert ev.bootstrap_ci(x, seed=1) == ev.bootstrap_ci(x, seed=1)
-    lo, hi = ev.bootstrap_ci(np.arange(100.0), ev.iqm, seed=0)
-    assert lo < 49.5 < hi
-    assert all(math.isnan(v) for v in ev.bootstrap_ci([]))
-
-
-def _result(success, ret, cause="success", steps=50, **kw):
-    base = dict(
-        policy="p",
-        suite="standard",
-        index=0,
-        success=success,
-        termination_reason=cause if cause in ("success", "singularity_crossing") else "timeout",
-        cause=cause,
-        steps=steps,
-        duration=steps * 0.02,
-        time_to_success=steps * 0.02 if success else math.nan,
-        episode_return=ret,
-        final_position_error=0.001,
-        final_orientation_error=0.01,
-        min_parallel_margin=0.05,
-        min_serial_margin=0.3,
-        saturation_fraction=0.0,
-        energy=1.0,
-        end_stop_fraction=0.0,
-        max_closure_error=0.0,
-        working_mode_changed=False,
-        path_crosses=False,
-        path_clear=True,
-        sequential_path_clear=True,
-    )
-    base.update(kw)
-    return ev.EpisodeResult(**base)
-
-
-def test_summarize_hand_checked():
-    res = [
-        _result(True, 10.0, steps=50, final_position_error=0.001, saturation_fraction=0.5),
-        _result(True, 20.0, steps=100, final_position_error=0.003),
-        _result(False, -5.0, cause="singularity_crossing", steps=10, min_parallel_margin=0.001),
-        _result(False, -1.0, cause="not_converged", steps=250, final_position_error=0.01),
-    ]
-    s = ev.summarize(res, n_resamples=500)
-    assert s["episodes"] == 4 and s["successes"] == 2 and s["success_rate"] == 0.5
-    assert s["return_iqm"] == pytest.approx(4.5)  # mean of -1 and 10
-    assert s["median_position_error_mm"] == pytest.approx(2.0)
-    assert s["median_time_to_success"] == pytest.approx(1.5)  # 1.0 s and 2.0 s
-    assert s["worst_min_parallel_margin"] == pytest.approx(0.001)
-    assert s["singularity_crossings"] == 1 and s["timeouts"] == 1
-    assert s["saturation_fraction"] == pytest.approx(25 / 410)
-    assert s["causes"]["not_converged"] == 1
-    assert 0.0 <= s["success_ci"][0] <= 0.5 <= s["success_ci"][1] <= 1.0
 
 
 # =============================================================================== policies
@@ -301,7 +126,8 @@ def test_loads_sb3_model_with_vecnormalize(tmp_path, env, bench, capsys):
     model.save(tmp_path / "ppo_tiny.zip")
     venv.save(tmp_path / "vecnormalize.pkl")
     (tmp_path / "config.json").write_text(json.dumps({"config": {"env_kwargs": {"a": 1}}}))
-    policy = load_policy(str(tmp_path / "ppo_tiny.zip"), env=env)
+    stats = f":stats={tmp_path / 'vecnormalize.pkl'}"
+    policy = load_policy(f"{tmp_path / 'ppo_tiny.zip'}{stats}", env=env)
     assert isinstance(policy, SB3Policy) and policy.vecnormalize is not None
     assert policy.env_kwargs == {"a": 1}
     assert np.allclose(policy.vecnormalize.obs_rms.mean, 0.1)
@@ -310,14 +136,23 @@ def test_loads_sb3_model_with_vecnormalize(tmp_path, env, bench, capsys):
     assert action.shape == (3,) and np.isfinite(action).all()
     expected, _ = model.predict(venv.normalize_obs(obs), deterministic=True)
     np.testing.assert_allclose(action, expected)
-    # ... and the benchmark runs it given by path.
+    # ... and the benchmark runs it given by path, with its statistics named; unnamed, they
+    # are not loaded and the benchmark refuses the model (exit 2), saying how to name them.
     out = tmp_path / "bench"
     args = ["--policies", f"ppo:{tmp_path / 'ppo_tiny.zip'}", "--suites", "standard"]
+    assert bench.main([*_quick_args(out, *args), "--no-plots", "--episodes", "1"]) == 2
+    assert ":stats=" in capsys.readouterr().err and not out.exists()
+    args[1] += stats
     assert bench.main([*_quick_args(out, *args), "--no-plots", "--episodes", "1"]) == 0
     assert "| ppo_tiny | standard | 1 |" in capsys.readouterr().out
 
 
 # =============================================================================== script
+def _csv(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
 def _quick_args(out, *extra):
     return ["--episodes", "2", "--seed", "3", "--out", str(out), "--no-progress", *extra]
 
@@ -334,8 +169,9 @@ def test_script_end_to_end(tmp_path, bench, capsys):
         assert (out / name).is_file()
     for name in ("success_rate.png", "errors.png", "trajectories.png"):
         assert (out / name).stat().st_size > 1000
-    rows = (out / "episodes.csv").read_text().strip().splitlines()
-    assert len(rows) == 1 + 2 * 2 * 2
+    rows = _csv(out / "episodes.csv")
+    assert len(rows) == 2 * 2 * 2
+    assert all(r["training_seed"] == "" for r in rows)  # built-in policies: no training seed
     summary = json.loads((out / "summary.json").read_text())
     assert len(summary["summaries"]) == 4
     # Replaying the saved suites gives the same episodes and results.
@@ -355,9 +191,8 @@ def test_script_end_to_end(tmp_path, bench, capsys):
         ]
     )
     assert code == 0
-    first = [r for r in rows[1:] if r.startswith("analytic-simultaneous,standard")]
-    second = (out2 / "episodes.csv").read_text().strip().splitlines()[1:]
-    assert first == second
+    first = [r for r in rows if (r["policy"], r["suite"]) == ("analytic-simultaneous", "standard")]
+    assert first == _csv(out2 / "episodes.csv")
 
 
 @pytest.mark.parametrize(
@@ -379,7 +214,7 @@ def test_script_bad_input(tmp_path, bench, capsys, extra, message):
     corrupt = tmp_path / "corrupt.zip"
     corrupt.write_bytes(b"\x00garbage")
     extra = [e.format(missing=tmp_path / "missing.zip", corrupt=corrupt) for e in extra]
-    code = bench.main(_quick_args(out, *extra))
+    code = bench.main(_quick_args(out, "--force", *extra))
     assert code == 2
     err = capsys.readouterr().err
     assert message in err and "error:" in err
@@ -392,18 +227,131 @@ def test_script_keeps_results_when_a_policy_fails(tmp_path, bench, capsys, monke
         def predict(self, obs, state=None, episode_start=None, deterministic=True):
             return np.zeros(5), None  # wrong shape: the environment refuses it
 
-    real = bench.load_policy
+    real = bm.load_policy
 
     def fake(spec, **kw):
         return Broken() if spec.name == "random" else real(spec, **kw)
 
-    monkeypatch.setattr(bench, "load_policy", fake)
+    monkeypatch.setattr(bm, "load_policy", fake)
     out = tmp_path / "partial"
     code = bench.main(
         _quick_args(out, "--suites", "standard", "--policies", "zero,random", "--no-plots")
     )
     assert code == 1
     assert "evaluation failed" in capsys.readouterr().err
-    rows = (out / "episodes.csv").read_text().strip().splitlines()
-    assert len(rows) == 1 + 2 and all(r.startswith("zero,") for r in rows[1:])
+    rows = _csv(out / "episodes.csv")
+    assert len(rows) == 2 and all(r["policy"] == "zero" for r in rows)
     assert "Incomplete run" in (out / "report.md").read_text()
+
+
+def test_script_refuses_to_overwrite_results(tmp_path, bench, capsys):
+    """An --out holding an earlier run's files is refused (exit 2, nothing touched) unless
+    --force; a directory without them, or a new one, is used as is."""
+    out = tmp_path / "earlier"
+    out.mkdir()
+    (out / "summary.json").write_text("earlier results")
+    (out / "notes.txt").write_text("mine")
+    args = _quick_args(out, "--suites", "standard", "--policies", "zero", "--no-plots")
+    assert bench.main([*args, "--episodes", "1"]) == 2
+    err = capsys.readouterr().err
+    assert "already holds benchmark results (summary.json)" in err and "--force" in err
+    assert (out / "summary.json").read_text() == "earlier results"
+    assert sorted(p.name for p in out.iterdir()) == ["notes.txt", "summary.json"]
+    assert bench.main([*args, "--episodes", "1", "--force"]) == 0
+    assert json.loads((out / "summary.json").read_text())["summaries"][0]["policy"] == "zero"
+    assert (out / "notes.txt").read_text() == "mine"
+    a_file = tmp_path / "plain.txt"
+    a_file.write_text("x")
+    assert bench.main(_quick_args(a_file, "--policies", "zero")) == 2
+    assert "not a directory" in capsys.readouterr().err
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "unrelated.txt").write_text("y")
+    bm.check_output_dir(other)  # no results there: accepted
+
+
+class _Marker:
+    """Unpickling this creates a file: proof that a pickle was loaded."""
+
+    def __init__(self, path):
+        self.path = str(path)
+
+    def __reduce__(self):
+        return (Path(self.path).write_text, ("unpickled",))
+
+
+def _zoo_run(tmp_path):
+    """An rl-zoo3 layout: <run>/<env>.zip, <run>/<env>/vecnormalize.pkl and config.yml."""
+    from stable_baselines3 import PPO
+
+    run = tmp_path / "logs" / "ppo" / "Planar3P-v0_1"
+    (run / "Planar3P-v0").mkdir(parents=True)
+    model = PPO("MlpPolicy", gym.make(planar3p_gym.ENV_ID), n_steps=32, batch_size=32, seed=0)
+    model.save(run / "Planar3P-v0.zip")
+    marker = tmp_path / "unpickled.txt"
+    (run / "Planar3P-v0" / "vecnormalize.pkl").write_bytes(pickle.dumps(_Marker(marker)))
+    (run / "Planar3P-v0" / "config.yml").write_text("!!python/object/apply:collections.Ordered\n")
+    return run, marker
+
+
+def test_script_refuses_an_rl_zoo_model_without_its_statistics(tmp_path, bench, capsys):
+    """An rl-zoo3 model keeps its statistics in <run>/<env id>/vecnormalize.pkl: unnamed, the
+    benchmark refuses the model (exit 2, nothing written, the pickle never loaded) and says
+    how to name them; named as absent (:stats=none) it runs, labelled by its run."""
+    run, marker = _zoo_run(tmp_path)
+    model = run / "Planar3P-v0.zip"
+    out = tmp_path / "out"
+    assert bench.main(_quick_args(out, "--policies", str(model))) == 2
+    err = capsys.readouterr().err
+    assert f"{model}:stats={run / 'Planar3P-v0' / 'vecnormalize.pkl'}" in err
+    assert not marker.exists()  # the statistics were never unpickled
+    assert not out.exists()
+    args = _quick_args(out, "--policies", f"{model}:stats=none", "--suites", "standard")
+    assert bench.main([*args, "--no-plots", "--episodes", "1"]) == 0
+    assert not marker.exists()
+
+
+def test_help_says_model_files_are_code(bench, capsys):
+    with pytest.raises(SystemExit) as stop:
+        bench.main(["--help"])
+    assert stop.value.code == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert " ".join(TRUSTED_FILES_NOTE.split()) in text and ":stats=" in text
+
+
+def test_training_seed_from_the_run_record(tmp_path):
+    assert bm.training_seed(None) is None
+    run = tmp_path / "run"
+    (run / "checkpoints").mkdir(parents=True)
+    (run / "config.json").write_text(json.dumps({"config": {"seed": 5, "algo": "ppo"}}))
+    assert bm.training_seed(run / "model.zip") == 5
+    assert bm.training_seed(run / "checkpoints" / "rl_model_100_steps.zip") == 5
+    (tmp_path / "bad").mkdir()
+    (tmp_path / "bad" / "config.json").write_text("{not json")
+    assert bm.training_seed(tmp_path / "bad" / "model.zip") is None
+    (tmp_path / "noseed").mkdir()
+    (tmp_path / "noseed" / "config.json").write_text(json.dumps({"config": {"seed": True}}))
+    assert bm.training_seed(tmp_path / "noseed" / "model.zip") is None
+    shipped = ROOT / "agents" / "pretrained"
+    for name in list_pretrained():
+        record = json.loads((shipped / f"{name}.json").read_text())
+        assert bm.training_seed(shipped / f"{name}.zip") == record["run"]["config"]["seed"]
+
+
+def test_episodes_csv_carries_the_training_seed(tmp_path, bench):
+    from stable_baselines3 import PPO
+
+    run = tmp_path / "run-s4"
+    run.mkdir()
+    PPO("MlpPolicy", gym.make(planar3p_gym.ENV_ID), n_steps=32, batch_size=32, seed=0).save(
+        run / "model.zip"
+    )
+    (run / "config.json").write_text(json.dumps({"config": {"seed": 4}}))
+    out = tmp_path / "out"
+    policies = f"zero,{run / 'model.zip'}"
+    args = _quick_args(out, "--suites", "standard", "--policies", policies, "--no-plots")
+    assert bench.main([*args, "--episodes", "1"]) == 0
+    seeds = {r["policy"]: r["training_seed"] for r in _csv(out / "episodes.csv")}
+    assert seeds == {"zero": "", "run-s4/model": "4"}
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["settings"]["training_seeds"] == {"run-s4/model": 4}

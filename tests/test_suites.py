@@ -1,0 +1,152 @@
+"""Evaluation suites (agents/suites.py, agents/paths.py, agents/region_maps.py): seeded,
+prefix-stable, valid reset options of the kind each suite promises, saved and loaded."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import planar3p_gym
+from agents import suites as su
+from planar3p_gym import Design, kinematics
+from planar3p_gym.statics import holding_forces
+
+ROOT = Path(__file__).resolve().parents[1]
+DESIGN = Design.fig8()
+
+
+@pytest.fixture(scope="module")
+def env():
+    e = gym.make(planar3p_gym.ENV_ID)
+    yield e
+    e.close()
+
+
+@pytest.fixture(scope="module")
+def suites():
+    return {name: su.make_suite(name, 4, seed=7) for name in su.SUITE_NAMES}
+
+
+def test_suites_identical_for_the_same_seed(suites):
+    again = {name: su.make_suite(name, 4, seed=7) for name in su.SUITE_NAMES}
+    for name in su.SUITE_NAMES:
+        assert again[name].to_dict() == suites[name].to_dict()
+    other = su.make_suite("standard", 4, seed=8)
+    assert other.to_dict()["episodes"] != suites["standard"].to_dict()["episodes"]
+
+
+def test_shorter_suite_is_a_prefix(suites):
+    for name in ("standard", "far"):
+        short = su.make_suite(name, 2, seed=7)
+        assert [e.to_dict() for e in short.episodes] == [
+            e.to_dict() for e in suites[name].episodes[:2]
+        ]
+
+
+def test_suites_do_not_touch_global_random_state():
+    before = np.random.get_state()[1].copy()  # noqa: NPY002
+    su.make_suite("standard", 2, seed=0)
+    assert np.array_equal(np.random.get_state()[1], before)  # noqa: NPY002
+
+
+def test_suite_episodes_are_valid_reset_options(env, suites):
+    for suite in suites.values():
+        assert len(suite) == 4
+        for spec in suite.episodes:
+            _, info = env.reset(options=spec.reset_options())
+            assert info["working_mode"] == spec.working_mode
+            assert np.allclose(info["pose"][:2], spec.start[:2], atol=1e-6)
+            s, t = np.array(spec.start), np.array(spec.target)
+            dets = [
+                int(
+                    kinematics.assembly_mode(
+                        DESIGN, p, kinematics.inverse(DESIGN, p, spec.working_mode).rho
+                    )
+                )
+                for p in (s, t)
+            ]
+            assert dets[0] == dets[1] != 0
+
+
+def test_suite_kinds(suites):
+    for spec in suites["standard"].episodes:
+        assert spec.path["clear"]
+    hard = suites["hard"]
+    for spec in hard.episodes:
+        p = spec.path
+        assert p["reachable"] and p["min_serial_margin"] >= 0.1
+        assert p["crosses"] or p["min_parallel_margin"] <= hard.params["hard_margin"]
+        for pose in (spec.start, spec.target):
+            f = holding_forces(DESIGN, np.array(pose), spec.working_mode)
+            assert np.abs(f).max() <= 0.25 * DESIGN.max_force
+    far = suites["far"]
+    for spec in far.episodes:
+        assert spec.path["distance"] >= far.params["far_distance"]
+    assert far.params["far_distance"] > np.median(
+        [e.path["distance"] for e in suites["standard"].episodes]
+    )
+
+
+def test_suite_file_roundtrip(tmp_path, suites):
+    path = tmp_path / "suites.json"
+    su.save_suites(path, suites, DESIGN)
+    loaded, design = su.load_suites(path)
+    assert design == DESIGN
+    assert {k: v.to_dict() for k, v in loaded.items()} == {
+        k: json.loads(json.dumps(v.to_dict())) for k, v in suites.items()
+    }
+    (tmp_path / "bad.json").write_text("{not json")
+    with pytest.raises(ValueError, match="cannot read"):
+        su.load_suites(tmp_path / "bad.json")
+    with pytest.raises(ValueError, match="not found"):
+        su.load_suites(tmp_path / "missing.json")
+
+
+def test_suite_hold_force_fraction_replaces_the_task_limit():
+    """A suite's ``hold_force_fraction`` decides how hard its ends may be to hold, above the
+    environment's own sampling limit (0.75 of max_force) too: the crossing stress suite."""
+    mode = (1, 1, 1)
+    loose = su.make_suite(
+        "hard", 20, 0, working_mode=mode, end_parallel_margin=0.02, hold_force_fraction=1.0
+    )
+    ends = np.array([p for e in loose.episodes for p in (e.start, e.target)])
+    forces = np.abs(holding_forces(DESIGN, ends, mode)).max(axis=-1)
+    assert (forces <= DESIGN.max_force).all()
+    assert (forces > 0.75 * DESIGN.max_force).any()
+    strict = su.make_suite(
+        "hard", 5, 0, working_mode=mode, end_parallel_margin=0.02, hold_force_fraction=0.5
+    )
+    ends = np.array([p for e in strict.episodes for p in (e.start, e.target)])
+    assert (np.abs(holding_forces(DESIGN, ends, mode)).max(axis=-1) <= 0.5 * DESIGN.max_force).all()
+
+
+def test_unknown_suite():
+    with pytest.raises(ValueError, match="unknown suite"):
+        su.make_suite("easy", 3, 0)
+    with pytest.raises(ValueError, match="unknown suite"):
+        su.make_suites(["standard", "easy"], 3, 0)
+
+
+def test_holding_forces_match_the_simulation(env, suites):
+    spec = suites["standard"].episodes[0]
+    env.reset(options=spec.reset_options())
+    for _ in range(5):
+        _, _, _, _, info = env.step(np.zeros(3))
+    f = np.abs(holding_forces(DESIGN, np.array(info["pose"]), spec.working_mode))
+    np.testing.assert_allclose(f, info["actuator_forces"], rtol=0.05, atol=0.05)
+
+
+def test_suites_match_the_published_benchmark():
+    """The suites the benchmark generates from seed 0 are the episodes of
+    docs/benchmark/suites.json (a suite is a prefix of a longer one with the same seed)."""
+    saved, design = su.load_suites(ROOT / "docs" / "benchmark" / "suites.json")
+    assert design == DESIGN
+    for name in ("standard", "far"):
+        fresh = su.make_suite(name, 3, seed=0)
+        assert [e.to_dict() for e in fresh.episodes] == [
+            e.to_dict() for e in saved[name].episodes[:3]
+        ]
