@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import pickle
+import shutil
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -11,7 +14,18 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import planar3p_gym  # noqa: F401
-from agents.policies import PRETRAINED_DIR, list_pretrained, load_policy
+from agents import policies
+from agents.policies import (
+    MANIFEST,
+    PRETRAINED_DIR,
+    TRUSTED_FILES_NOTE,
+    PolicyError,
+    file_sha256,
+    list_pretrained,
+    load_policy,
+    policy_label,
+    verify_pretrained,
+)
 
 SHIPPED = list_pretrained()
 
@@ -48,3 +62,122 @@ def test_pretrained_policy_loads_and_acts(name: str) -> None:
     # It acts, and brings the gripper much closer to the target (random actions do not).
     assert np.abs(np.array(actions)).max() > 0.05
     assert info["position_error"] < 0.2 * start_error
+
+
+# ------------------------------------------------------------------ trusted files (issue 13)
+class _RunsCode:
+    """Unpickling this writes a marker file: stands for any code a pickle can run."""
+
+    def __init__(self, marker) -> None:
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return (Path(self.marker).write_text, ("code ran",))
+
+
+def _shipped_copy(tmp_path: Path) -> Path:
+    copy = tmp_path / "pretrained"
+    shutil.copytree(PRETRAINED_DIR, copy)
+    return copy
+
+
+def test_shipped_files_match_the_manifest() -> None:
+    sums = (PRETRAINED_DIR / MANIFEST).read_text().splitlines()
+    listed = {line.split("  ")[1] for line in sums}
+    for name in SHIPPED:
+        assert {f"{name}.zip", f"{name}_vecnormalize.pkl", f"{name}.json"} <= listed
+        files = verify_pretrained(name)
+        assert [p.name for p in files] == [f"{name}.zip", f"{name}_vecnormalize.pkl"]
+    for line in sums:  # sha256sum format, and the sums are those of the files
+        digest, name = line.split("  ")
+        assert file_sha256(PRETRAINED_DIR / name) == digest
+
+
+@pytest.mark.parametrize("suffix", [".zip", "_vecnormalize.pkl"])
+def test_a_corrupted_shipped_file_is_refused(tmp_path, monkeypatch, suffix) -> None:
+    name = SHIPPED[0]
+    copy = _shipped_copy(tmp_path)
+    target = copy / f"{name}{suffix}"
+    data = bytearray(target.read_bytes())
+    data[len(data) // 2] ^= 0x01  # one flipped bit
+    target.write_bytes(bytes(data))
+    with pytest.raises(PolicyError, match=f"checksum mismatch for shipped file .*{suffix}"):
+        verify_pretrained(name, copy)
+    monkeypatch.setattr(policies, "PRETRAINED_DIR", copy)
+    with pytest.raises(PolicyError, match="checksum mismatch"):
+        load_policy(f"pretrained:{name}", env=gym.make("Planar3P-v0"))
+
+
+def test_a_shipped_file_replaced_by_code_is_never_unpickled(tmp_path, monkeypatch) -> None:
+    name = SHIPPED[0]
+    copy = _shipped_copy(tmp_path)
+    marker = tmp_path / "ran.txt"
+    (copy / f"{name}_vecnormalize.pkl").write_bytes(pickle.dumps(_RunsCode(marker)))
+    monkeypatch.setattr(policies, "PRETRAINED_DIR", copy)
+    with pytest.raises(PolicyError, match="checksum mismatch"):
+        load_policy(f"pretrained:{name}")
+    assert not marker.exists()
+    # A file missing from the manifest is refused too.
+    (copy / MANIFEST).write_text(
+        "".join(
+            line + "\n"
+            for line in (copy / MANIFEST).read_text().splitlines()
+            if not line.endswith(f"{name}.zip")
+        )
+    )
+    with pytest.raises(PolicyError, match="not listed"):
+        verify_pretrained(name, copy)
+
+
+@pytest.mark.parametrize(
+    ("model", "stats"),
+    [
+        ("run/model.zip", "run/vecnormalize.pkl"),  # scripts/train.py
+        ("run/best_model.zip", "run/best_vecnormalize.pkl"),
+        ("zoo/Planar3P-v0_1/Planar3P-v0.zip", "zoo/Planar3P-v0_1/Planar3P-v0/vecnormalize.pkl"),
+        ("zoo/Planar3P-v0_1/best_model.zip", "zoo/Planar3P-v0_1/Planar3P-v0/vecnormalize.pkl"),
+    ],
+)
+def test_statistics_beside_a_model_are_never_loaded_unnamed(tmp_path, model, stats) -> None:
+    """A crafted statistics file beside a user's model would run code if unpickled: the model
+    is refused (not silently evaluated without them) and the file is never opened."""
+    model_path, stats_path = tmp_path / model, tmp_path / stats
+    stats_path.parent.mkdir(parents=True, exist_ok=True)
+    model_path.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(PRETRAINED_DIR / f"{SHIPPED[0]}.zip", model_path)
+    marker = tmp_path / "ran.txt"
+    stats_path.write_bytes(pickle.dumps(_RunsCode(marker)))
+    env = gym.make("Planar3P-v0")
+    with pytest.raises(PolicyError, match="none were named") as err:
+        load_policy(str(model_path), env=env)
+    assert f"{model_path}:stats={stats_path}" in str(err.value)  # says how to name them
+    assert not marker.exists()
+    policy = load_policy(f"{model_path}:stats=none", env=env)  # explicitly without
+    assert policy.vecnormalize is None and not marker.exists()
+
+
+def test_named_statistics_are_loaded(tmp_path) -> None:
+    name = SHIPPED[0]
+    model = tmp_path / "model.zip"
+    stats = tmp_path / "somewhere" / "stats.pkl"
+    stats.parent.mkdir()
+    shutil.copyfile(PRETRAINED_DIR / f"{name}.zip", model)
+    shutil.copyfile(PRETRAINED_DIR / f"{name}_vecnormalize.pkl", stats)
+    env = gym.make("Planar3P-v0")
+    shipped = load_policy(f"pretrained:{name}", env=env)
+    for policy in (
+        load_policy(f"{model}:stats={stats}", env=env),
+        load_policy(str(model), env=env, vecnormalize=stats),
+    ):
+        assert policy.vecnormalize_path == stats
+        np.testing.assert_array_equal(
+            policy.vecnormalize.obs_rms.mean, shipped.vecnormalize.obs_rms.mean
+        )
+    assert policy_label(f"{model}:stats={stats}") == policy_label(str(model))
+    with pytest.raises(PolicyError, match="statistics file not found"):
+        load_policy(f"{model}:stats={tmp_path / 'nope.pkl'}")
+    with pytest.raises(PolicyError, match="named twice"):
+        load_policy(f"{model}:stats={stats}", vecnormalize=stats)
+    with pytest.raises(PolicyError, match="model paths only"):
+        load_policy(f"pretrained:{name}:stats={stats}")
+    assert "code" in TRUSTED_FILES_NOTE and "trust" in TRUSTED_FILES_NOTE
