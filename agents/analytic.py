@@ -165,6 +165,9 @@ class AnalyticController:
         self.vertical_reenter = float(vertical_reenter)
         self._phase: NDArray[np.int64] | None = None
 
+    #: Length of the observations :meth:`predict` accepts (subclasses may append entries).
+    obs_size: int = OBS_SIZE
+
     @classmethod
     def from_env(cls, env: Any, mode: str = "simultaneous", **kwargs: Any) -> AnalyticController:
         """A controller for the design of ``env`` (a ``Planar3PEnv``, possibly wrapped)."""
@@ -200,9 +203,10 @@ class AnalyticController:
         obs = np.asarray(observation, dtype=np.float64)
         single = obs.ndim == 1
         obs2 = obs[None, :] if single else obs
-        if obs2.ndim != 2 or obs2.shape[1] != OBS_SIZE:
+        size = self.obs_size
+        if obs2.ndim != 2 or obs2.shape[1] != size:
             raise ValueError(
-                f"observation must have shape ({OBS_SIZE},) or (n, {OBS_SIZE}), got {obs.shape}"
+                f"observation must have shape ({size},) or (n, {size}), got {obs.shape}"
             )
         n = obs2.shape[0]
         # A non-finite reading (a sensor fault) must not propagate into the command.
@@ -269,6 +273,9 @@ class AnalyticController:
             twist = motions[phase, np.arange(n)]
         else:
             twist = motions.sum(axis=0)
+            feedforward = self._feedforward(obs)
+            if feedforward is not None:
+                twist = twist + feedforward
         rates = _to_rates(twist, basis)
         brake = self._brake(cos_a, orient[:, 1], twist, rates)
         rates = np.where(np.isfinite(rates), rates, 0.0)
@@ -276,6 +283,10 @@ class AnalyticController:
         peak = np.max(np.abs(rates), axis=1, keepdims=True)
         scale = np.where(peak > limit, limit / np.maximum(peak, 1e-300), 1.0)
         return rates * (scale * brake[:, None]), phase
+
+    def _feedforward(self, obs: FloatArray) -> FloatArray | None:
+        """A twist ``(n, 3)`` added to the feedback twist (simultaneous mode); none here."""
+        return None
 
     def _brake(
         self, cos_a: FloatArray, sin_th: FloatArray, twist: FloatArray, rates: FloatArray

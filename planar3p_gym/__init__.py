@@ -7,7 +7,7 @@ from gymnasium.envs.registration import register, registry
 
 from .design import Design
 
-__all__ = ["ENV_ID", "MAX_EPISODE_STEPS", "Design"]
+__all__ = ["ENV_ID", "ENV_ID_V1", "MAX_EPISODE_STEPS", "Design"]
 __version__ = "0.1.0"
 
 #: The registered environment id.
@@ -22,6 +22,23 @@ if ENV_ID not in registry:
         max_episode_steps=MAX_EPISODE_STEPS,
     )
 
+# H1 (issue 12): the same task on the projected physics (exact loop closure, faster).
+#: The reach task with ``projection=True`` and the projected solver settings.
+ENV_ID_V1 = "Planar3P-v1"
+if ENV_ID_V1 not in registry:
+    from .physics import PROJECTED_ITERATIONS, PROJECTED_SUBSTEPS
+
+    register(
+        id=ENV_ID_V1,
+        entry_point="planar3p_gym.env:Planar3PEnv",
+        max_episode_steps=MAX_EPISODE_STEPS,
+        kwargs={
+            "projection": True,
+            "substeps": PROJECTED_SUBSTEPS,
+            "solver_iterations": PROJECTED_ITERATIONS,
+        },
+    )
+
 # H2 (issue 10): goal-conditioned reach and trajectory tracking.
 #: Goal-conditioned reach ids (sparse and dense reward) and their time limit (control steps).
 GOAL_ENV_ID = "Planar3PGoal-v0"
@@ -34,3 +51,12 @@ for _id, _reward in ((GOAL_ENV_ID, "sparse"), (GOAL_DENSE_ENV_ID, "dense")):
             max_episode_steps=MAX_EPISODE_STEPS,
             kwargs={"reward_type": _reward},
         )
+#: Trajectory-tracking id and its time limit (control steps: 10 s at 50 Hz).
+TRACK_ENV_ID = "Planar3PTrack-v0"
+TRACK_MAX_EPISODE_STEPS = 500
+if TRACK_ENV_ID not in registry:
+    register(
+        id=TRACK_ENV_ID,
+        entry_point="planar3p_gym.track_env:Planar3PTrackEnv",
+        max_episode_steps=TRACK_MAX_EPISODE_STEPS,
+    )

@@ -1,0 +1,451 @@
+"""Trajectory tracking: follow a moving reference pose.
+
+Two kinds of reference (constructor argument ``reference``):
+
+* ``"segments"``: smooth random segments.  Waypoints are drawn like reach targets
+  (:func:`planar3p_gym.task.sample_pair`: reachable in the episode's working mode with the
+  task's margins, holdable, same assembly mode, the straight path between consecutive waypoints
+  clear of singularities); each segment follows the straight pose path with the minimum-jerk
+  time law ``s(u) = 10 u^3 - 15 u^4 + 6 u^5`` (velocity and acceleration zero at the
+  waypoints), with a duration making the largest slider rate the exact kinematics needs
+  ``speed_fraction * max_speed``.  Segments are added until they last ``duration`` seconds;
+  the reference then stays at the last waypoint.
+* ``"figure_eight"``: ``x = cx + ax sin phi``, ``y = cy + ay sin 2 phi``,
+  ``theta = ctheta + atheta sin phi`` around an acceptable centre pose; amplitudes are drawn
+  from :data:`EIGHT_AMPLITUDES` (scaled down by :data:`EIGHT_SCALES` until it fits) and the
+  whole closed curve is checked like a reach path (within the stroke with ``travel_margin``,
+  path margins, same assembly mode); the phase advances at
+  ``2 pi / period`` after a smooth ramp of ``ramp`` seconds from rest, and the period makes the
+  largest slider rate ``speed_fraction * max_speed`` at full speed.
+
+The episode starts at rest at the reference's initial pose.  Observation: the 31 entries of
+``Planar3P-v0`` against the current reference pose (target position/orientation = reference,
+errors to it), then the reference velocity ``(x_dot, y_dot, theta_dot)`` (m/s, m/s, rad/s).
+Reward: the reach reward's per-step terms against the reference (pose error, precision term,
+singularity penalty, action effort, failure penalty), no success bonus; the episode ends only by
+failure (singularity crossing, physics breakdown) or the time limit.
+
+Metrics in ``info`` (running over the steps so far; the last ``info`` of an episode holds the
+episode's values; 0 at reset):
+
+* ``tracking_error``: this step's ``|dp| + L_ref |dtheta|`` to the reference (m);
+* ``tracking_rms_error``, ``tracking_max_error``: RMS and maximum of it (m);
+* ``tracking_rms_position_error``, ``tracking_max_position_error``: of ``|dp|`` (m);
+* ``tracking_rms_orientation_error``, ``tracking_max_orientation_error``: of ``|dtheta|`` (rad).
+
+Episode spec: ``{"task": "track", "working_mode": [...], "start": [x, y, theta],
+"reference": R}`` with ``R = {"kind": "segments", "waypoints": [[x, y, theta], ...],
+"durations": [s, ...]}`` or ``{"kind": "figure_eight", "centre": [x, y, theta],
+"amplitude": [ax, ay, atheta], "period": T, "ramp": Tr}`` (m, rad, s).  Reset options:
+``working_mode``, ``start`` (the reference begins there) and ``reference`` (validated:
+``ValueError`` if it leaves the workspace or its margins).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from typing import Any, ClassVar
+
+import numpy as np
+
+from .. import kinematics, task
+from ..observation import SPEED_BOUND_FACTOR
+from ..physics import SimState
+from ..scalar_kinematics import ConfigurationMeasures
+from .base import Pose, Task, pose_list
+
+__all__ = ["EIGHT_AMPLITUDES", "REFERENCE_KINDS", "TRACKING_METRICS", "TrackTask"]
+
+#: Reference kinds.
+REFERENCE_KINDS = ("segments", "figure_eight")
+#: Ranges the figure-eight amplitudes are drawn from: ``ax`` (m), ``ay`` (m), ``|atheta|`` (rad).
+EIGHT_AMPLITUDES = ((0.02, 0.06), (0.01, 0.03), (0.0, 0.25))
+#: Scales tried on drawn figure-eight amplitudes that do not fit, in order.
+EIGHT_SCALES = (1.0, 0.7, 0.5, 0.35, 0.25)
+#: Points at which a segment or the figure-eight is checked and its rates bounded.
+CHECK_POINTS = 65
+#: Shortest segment or period (s).
+MIN_DURATION = 0.5
+#: Figure-eight ramp-up time from rest (s).
+EIGHT_RAMP = 1.0
+#: Peak of ``ds/du`` of the minimum-jerk law (at ``u = 1/2``).
+MIN_JERK_PEAK = 1.875
+#: ``info`` keys of the tracking metrics.
+TRACKING_METRICS = (
+    "tracking_error",
+    "tracking_rms_error",
+    "tracking_max_error",
+    "tracking_rms_position_error",
+    "tracking_max_position_error",
+    "tracking_rms_orientation_error",
+    "tracking_max_orientation_error",
+)
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def _eight(centre: np.ndarray, amp: np.ndarray, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Poses ``(n, 3)`` of the figure-eight at phases ``phi`` ``(n,)`` and their derivatives
+    with respect to the phase."""
+    s, c = np.sin(phi), np.cos(phi)
+    s2, c2 = np.sin(2.0 * phi), np.cos(2.0 * phi)
+    pose = centre + np.column_stack([amp[0] * s, amp[1] * s2, amp[2] * s])
+    dpose = np.column_stack([amp[0] * c, 2.0 * amp[1] * c2, amp[2] * c])
+    return pose, dpose
+
+
+class TrackTask(Task):
+    """Follow a moving reference pose (see the module docstring).
+
+    Args:
+        reference: ``"segments"`` or ``"figure_eight"``.
+        speed_fraction: largest slider rate the reference needs, as a fraction of
+            ``max_speed`` (leaves the rest for feedback), in ``(0, 1]``.
+        duration: time covered by random segments (s); the reference then rests.
+    """
+
+    name: ClassVar[str] = "track"
+    option_keys: ClassVar[tuple[str, ...]] = ("start", "working_mode", "reference")
+    termination_reasons: ClassVar[tuple[str, ...]] = ("singularity_crossing", "physics_breakdown")
+    metric_keys: ClassVar[tuple[str, ...]] = TRACKING_METRICS
+
+    def __init__(
+        self, reference: str = "segments", speed_fraction: float = 0.5, duration: float = 10.0
+    ) -> None:
+        if reference not in REFERENCE_KINDS:
+            raise ValueError(f"reference must be one of {REFERENCE_KINDS}, got {reference!r}")
+        if not (isinstance(speed_fraction, (int, float)) and 0 < speed_fraction <= 1):
+            raise ValueError(f"speed_fraction must be in (0, 1], got {speed_fraction!r}")
+        if not (isinstance(duration, (int, float)) and MIN_DURATION <= duration <= 3600):
+            raise ValueError(f"duration must be in [{MIN_DURATION}, 3600] s, got {duration!r}")
+        self.kind = reference
+        self.speed_fraction = float(speed_fraction)
+        self.duration = float(duration)
+
+    # ------------------------------------------------------------------ set-up
+    def bind(self, env: Any) -> None:
+        super().bind(env)
+        self._samplers: dict[tuple[int, int, int], task.PoseSampler] = {}
+        self._ref: dict[str, Any] = {}
+        self._pose_cache: tuple[int, np.ndarray, np.ndarray] | None = None
+        self._sums = np.zeros(3)
+        self._maxes = np.zeros(3)
+        self._count = 0
+
+    def reseed(self) -> None:
+        for sampler in self._samplers.values():
+            sampler.clear()
+
+    def _known_mode(self, options: dict[str, Any]) -> tuple[int, int, int] | None:
+        if options.get("working_mode") is not None:
+            return options["working_mode"]
+        modes = self.env.modes
+        return modes[0] if len(modes) == 1 else None
+
+    def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
+        ref = options.get("reference")
+        if ref is not None:
+            options["reference"] = self._parse_reference(ref)
+            start = self._reference_at(options["reference"], 0)[0]
+            if options.get("start") is not None:
+                given = self.finite_pose(options["start"], "start")
+                if np.abs(_wrap(given - start)).max() > 1e-9:
+                    raise ValueError(
+                        f"start {given.tolist()} is not the reference's initial pose "
+                        f"{start.tolist()}"
+                    )
+            options["start"] = start
+        mode = self._known_mode(options)
+        if mode is not None:
+            self._check_start_and_reference(options, mode)
+        return options
+
+    def _check_start_and_reference(self, options: dict[str, Any], mode: Any) -> None:
+        if options.get("start") is not None:
+            options["start"] = task.check_pose(self.env.design, options["start"], mode, "start")
+        if options.get("reference") is not None:
+            problem = self._reference_problem(options["reference"], mode)
+            if problem:
+                raise ValueError(f"reference is not feasible in working mode {mode}: {problem}")
+
+    def episode_spec(self, rng: np.random.Generator, options: dict[str, Any]) -> dict[str, Any]:
+        mode = self._known_mode(options)
+        if mode is None:
+            modes = self.env.modes
+            mode = modes[int(rng.integers(len(modes)))]
+            self._check_start_and_reference(options, mode)
+        if mode not in self._samplers:
+            self._samplers[mode] = task.PoseSampler(self.env.design, mode, self.env.task_config)
+        ref = options.get("reference")
+        if ref is None:
+            draw = self._draw_segments if self.kind == "segments" else self._draw_eight
+            start = options.get("start")
+            ref = None
+            for _ in range(1000):
+                ref = draw(rng, mode, start)
+                if ref is not None:
+                    break
+            if ref is None:
+                raise ValueError(
+                    f"could not build a {self.kind} reference from start {start} in working "
+                    f"mode {mode} under the task's margins"
+                )
+        start = self._reference_at(ref, 0)[0]
+        return {
+            "task": self.name,
+            "working_mode": [int(m) for m in mode],
+            "start": pose_list(start),
+            "reference": ref,
+        }
+
+    def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
+        self._ref = self._parse_reference(spec["reference"])
+        self._pose_cache = None
+        self._sums = np.zeros(3)
+        self._maxes = np.zeros(3)
+        self._count = 0
+        mode = tuple(int(m) for m in spec["working_mode"])
+        return np.asarray(spec["start"], dtype=np.float64), mode  # type: ignore[return-value]
+
+    # ------------------------------------------------------------------ reference
+    def _parse_reference(self, ref: Any) -> dict[str, Any]:
+        """A reference dict checked for form (not feasibility), as plain JSON data."""
+        if not isinstance(ref, dict) or ref.get("kind") not in REFERENCE_KINDS:
+            raise ValueError(
+                f"reference must be a dict with kind in {REFERENCE_KINDS}, got {ref!r:.200}"
+            )
+        if ref["kind"] == "segments":
+            if set(ref) != {"kind", "waypoints", "durations"}:
+                raise ValueError("a segments reference has keys kind, waypoints, durations")
+            wps = [self.finite_pose(w, "reference waypoint") for w in ref["waypoints"]]
+            try:
+                dur = [float(d) for d in ref["durations"]]
+            except (TypeError, ValueError) as exc:
+                raise ValueError("reference durations must be numbers (s)") from exc
+            if len(wps) < 2 or len(dur) != len(wps) - 1:
+                raise ValueError(
+                    "a segments reference needs >= 2 waypoints and one duration per segment"
+                )
+            if not all(math.isfinite(d) and d >= MIN_DURATION * 0.5 for d in dur):
+                raise ValueError(f"reference durations must be >= {MIN_DURATION * 0.5} s")
+            return {
+                "kind": "segments",
+                "waypoints": [pose_list(w) for w in wps],
+                "durations": dur,
+            }
+        if set(ref) != {"kind", "centre", "amplitude", "period", "ramp"}:
+            raise ValueError(
+                "a figure_eight reference has keys kind, centre, amplitude, period, ramp"
+            )
+        centre = self.finite_pose(ref["centre"], "reference centre")
+        amp = self.finite_pose(ref["amplitude"], "reference amplitude")
+        try:
+            period, ramp = float(ref["period"]), float(ref["ramp"])
+        except (TypeError, ValueError) as exc:
+            raise ValueError("reference period and ramp must be numbers (s)") from exc
+        if not (math.isfinite(period) and period >= MIN_DURATION):
+            raise ValueError(f"reference period must be >= {MIN_DURATION} s, got {period!r}")
+        if not (math.isfinite(ramp) and 0 < ramp <= 60):
+            raise ValueError(f"reference ramp must be in (0, 60] s, got {ramp!r}")
+        return {
+            "kind": "figure_eight",
+            "centre": pose_list(centre),
+            "amplitude": pose_list(amp),
+            "period": period,
+            "ramp": ramp,
+        }
+
+    def _reference_at(self, ref: dict[str, Any], step: int) -> tuple[np.ndarray, np.ndarray]:
+        """Reference pose and velocity at ``step`` control steps (m, rad; m/s, rad/s)."""
+        t = step * self.env.dt
+        if ref["kind"] == "segments":
+            wps = np.asarray(ref["waypoints"])
+            for a, b, dur in zip(wps[:-1], wps[1:], ref["durations"], strict=True):
+                if t < dur:
+                    delta = b - a
+                    delta[2] = _wrap(delta[2])
+                    u = t / dur
+                    s = u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
+                    s_dot = 30.0 * u * u * (1.0 - u) ** 2 / dur
+                    return a + s * delta, s_dot * delta
+                t -= dur
+            return wps[-1].copy(), np.zeros(3)
+        omega = 2.0 * math.pi / ref["period"]
+        ramp = ref["ramp"]
+        u = min(t / ramp, 1.0)
+        # Phase time g(t) with g' = smoothstep(t / ramp): from rest to full speed, C^1.
+        g = ramp * (u**3 - 0.5 * u**4) + max(t - ramp, 0.0)
+        g_dot = 3.0 * u * u - 2.0 * u**3
+        pose, dpose = _eight(
+            np.asarray(ref["centre"]), np.asarray(ref["amplitude"]), np.array([omega * g])
+        )
+        return pose[0], dpose[0] * omega * g_dot
+
+    def _current(self, step: int) -> tuple[np.ndarray, np.ndarray]:
+        if self._pose_cache is None or self._pose_cache[0] != step:
+            pose, vel = self._reference_at(self._ref, step)
+            self._pose_cache = (step, pose, vel)
+        return self._pose_cache[1], self._pose_cache[2]
+
+    def reference(self, step: int) -> Pose:
+        p = self._current(step)[0]
+        return float(p[0]), float(p[1]), float(p[2])
+
+    # ------------------------------------------------------------------ feasibility
+    def _screen(self, paths: np.ndarray, mode: Any, assembly: float | None) -> np.ndarray:
+        cfg = self.env.task_config
+        design = self.env.design
+        lo, hi = cfg.travel_margin * design.stroke, (1.0 - cfg.travel_margin) * design.stroke
+        return kinematics.screen_paths(
+            design,
+            paths,
+            np.asarray(mode, dtype=np.float64),
+            travel=(lo, hi),
+            min_parallel=cfg.path_parallel_margin,
+            min_serial=cfg.path_serial_margin,
+            assembly=assembly,
+        )
+
+    def _assembly(self, pose: np.ndarray, mode: Any) -> float:
+        design = self.env.design
+        rho = kinematics.inverse(design, pose, mode).rho
+        return float(kinematics.assembly_mode(design, pose, rho))
+
+    def _peak_rate(self, poses: np.ndarray, mode: Any) -> float:
+        """Largest ``|d rho / d(parameter)|`` along densely sampled poses ``(n, 3)`` spanning
+        a unit parameter interval (m per unit parameter)."""
+        rho = kinematics.inverse(self.env.design, poses, mode).rho
+        return float(np.abs(np.diff(rho, axis=0)).max() * (len(poses) - 1))
+
+    def _reference_problem(self, ref: dict[str, Any], mode: Any) -> str | None:
+        """Why ``ref`` is infeasible in ``mode`` (None if it is feasible)."""
+        if ref["kind"] == "segments":
+            wps = np.asarray(ref["waypoints"])
+            asm = self._assembly(wps[0], mode)
+            for i, (a, b) in enumerate(itertools.pairwise(wps)):
+                path = task.interpolate(a, b, CHECK_POINTS)
+                if not self._screen(path, mode, asm):
+                    return f"segment {i} leaves the stroke, its margins or the assembly mode"
+            return None
+        curve = self._eight_curve(ref)
+        if not self._screen(curve, mode, self._assembly(curve[0], mode)):
+            return "the curve leaves the stroke, its margins or the assembly mode"
+        return None
+
+    @staticmethod
+    def _eight_curve(ref: dict[str, Any]) -> np.ndarray:
+        phi = np.linspace(0.0, 2.0 * math.pi, 4 * CHECK_POINTS)
+        return _eight(np.asarray(ref["centre"]), np.asarray(ref["amplitude"]), phi)[0]
+
+    # ------------------------------------------------------------------ sampling
+    def _draw_start(self, rng: np.random.Generator, mode: Any, start: Any) -> np.ndarray:
+        if start is not None:
+            return np.asarray(start, dtype=np.float64)
+        return self._samplers[mode].draw(rng)[0]
+
+    def _draw_segments(
+        self, rng: np.random.Generator, mode: Any, start: Any
+    ) -> dict[str, Any] | None:
+        """Random waypoints and minimum-jerk durations covering ``duration`` (None if a
+        waypoint could not be paired; the caller draws again)."""
+        design, cfg = self.env.design, self.env.task_config
+        vmax = self.speed_fraction * design.max_speed
+        wps = [self._draw_start(rng, mode, start)]
+        durations: list[float] = []
+        asm = self._assembly(wps[0], mode)
+        while sum(durations) < self.duration:
+            for _ in range(20):
+                try:
+                    _, nxt = task.sample_pair(
+                        design, mode, rng, cfg, start=wps[-1], sampler=self._samplers[mode]
+                    )
+                except ValueError:
+                    return None
+                path = task.interpolate(wps[-1], nxt, CHECK_POINTS)
+                # The validation of requested references (travel margins included).
+                if self._screen(path, mode, asm):
+                    break
+            else:
+                return None
+            peak = self._peak_rate(path, mode) * MIN_JERK_PEAK
+            durations.append(max(peak / vmax, MIN_DURATION))
+            wps.append(nxt)
+        return {
+            "kind": "segments",
+            "waypoints": [pose_list(w) for w in wps],
+            "durations": durations,
+        }
+
+    def _draw_eight(self, rng: np.random.Generator, mode: Any, start: Any) -> dict[str, Any] | None:
+        """A feasible figure-eight around a drawn (or the given) centre (None if the drawn
+        amplitudes do not fit; the caller draws again)."""
+        design = self.env.design
+        centre = self._draw_start(rng, mode, start)
+        (x0, x1), (y0, y1), (_, t1) = EIGHT_AMPLITUDES
+        amp = np.array(
+            [rng.uniform(x0, x1), rng.uniform(y0, y1), rng.uniform(-t1, t1)], dtype=np.float64
+        )
+        asm = self._assembly(centre, mode)
+        for scale in EIGHT_SCALES:  # shrink the drawn eight until it fits, if it can
+            ref = {
+                "kind": "figure_eight",
+                "centre": pose_list(centre),
+                "amplitude": pose_list(scale * amp),
+                "period": 1.0,
+                "ramp": EIGHT_RAMP,
+            }
+            curve = self._eight_curve(ref)
+            if self._screen(curve, mode, asm):
+                break
+        else:
+            return None
+        # Rates per radian of phase, times 2 pi / period at full speed.
+        peak = self._peak_rate(curve, mode) / (2.0 * math.pi)
+        ref["period"] = max(2.0 * math.pi * peak / (self.speed_fraction * design.max_speed), 2.0)
+        return ref
+
+    # ------------------------------------------------------------------ per step
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        d = self.env.design
+        v = SPEED_BOUND_FACTOR * d.max_speed
+        w = v / d.characteristic_length
+        high = np.array([v, v, w], dtype=np.float32)
+        return -high, high
+
+    def observation_extra(self, step: int) -> list[float]:
+        return self._current(step)[1].tolist()
+
+    def termination(
+        self,
+        state: SimState,
+        measures: ConfigurationMeasures,
+        errors: tuple[float, float],
+        assembly: int,
+    ) -> str | None:
+        return "singularity_crossing" if measures.det_sign == -assembly else None
+
+    def step_info(self, step: int, state: SimState, errors: tuple[float, float]) -> dict[str, Any]:
+        pos_err, ang_err = errors
+        err = (
+            pos_err + self.env.design.characteristic_length * abs(ang_err),
+            pos_err,
+            abs(ang_err),
+        )
+        if step > 0:
+            self._count += 1
+            e = np.asarray(err)
+            self._sums += e * e
+            self._maxes = np.maximum(self._maxes, e)
+        rms = np.sqrt(self._sums / self._count) if self._count else np.zeros(3)
+        return {
+            "tracking_error": err[0] if step > 0 else 0.0,
+            "tracking_rms_error": float(rms[0]),
+            "tracking_max_error": float(self._maxes[0]),
+            "tracking_rms_position_error": float(rms[1]),
+            "tracking_max_position_error": float(self._maxes[1]),
+            "tracking_rms_orientation_error": float(rms[2]),
+            "tracking_max_orientation_error": float(self._maxes[2]),
+        }
