@@ -267,7 +267,8 @@ def parse_policy_spec(text: str) -> PolicySpec:
 
 def policy_label(text: str) -> str:
     """Short name of a specification for tables and plots (built-in name, ``pretrained:x``,
-    or the model file's stem)."""
+    or the model file's stem, prefixed by its directory for generic stems such as
+    ``model``/``best_model`` and for rl-zoo3's ``<run>/<env id>.zip``)."""
     spec = str(text).strip()
     if spec in BUILTIN_POLICIES or spec.startswith(PRETRAINED_PREFIX):
         return spec
@@ -279,7 +280,8 @@ def policy_label(text: str) -> str:
     p = Path(spec)
     parent = p.parent.name
     generic = p.stem in ("model", "best_model") or p.stem.endswith("_model")
-    return f"{parent}/{p.stem}" if parent and generic else p.stem
+    zoo = (p.parent / p.stem).is_dir()  # rl-zoo3: <run>/<env id>.zip beside <run>/<env id>/
+    return f"{parent}/{p.stem}" if parent and (generic or zoo) else p.stem
 
 
 # ------------------------------------------------------------------ SB3 models

@@ -181,3 +181,10 @@ def test_named_statistics_are_loaded(tmp_path) -> None:
     with pytest.raises(PolicyError, match="model paths only"):
         load_policy(f"pretrained:{name}:stats={stats}")
     assert "code" in TRUSTED_FILES_NOTE and "trust" in TRUSTED_FILES_NOTE
+
+
+def test_an_rl_zoo_model_is_labelled_by_its_run(tmp_path) -> None:
+    run = tmp_path / "logs" / "ppo" / "Planar3P-v0_1"
+    (run / "Planar3P-v0").mkdir(parents=True)
+    assert policy_label(str(run / "Planar3P-v0.zip")) == "Planar3P-v0_1/Planar3P-v0"
+    assert policy_label(str(tmp_path / "ppo_fast.zip")) == "ppo_fast"
