@@ -28,7 +28,13 @@ import numpy as np  # noqa: E402
 
 import planar3p_gym  # noqa: E402
 from agents import suites as su  # noqa: E402
-from agents.policies import PolicyError, list_pretrained, load_policy, policy_label  # noqa: E402
+from agents.policies import (  # noqa: E402
+    TRUSTED_FILES_NOTE,
+    PolicyError,
+    list_pretrained,
+    load_policy,
+    policy_label,
+)
 
 ANALYTIC = "analytic-simultaneous"
 
@@ -75,7 +81,9 @@ def record_gif(policy_spec: str, episode: su.EpisodeSpec, path: Path, seed: int)
 
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(
-        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=TRUSTED_FILES_NOTE,
     )
     p.add_argument("--out", type=Path, default=ROOT / "results" / "demo")
     p.add_argument("--policy", default=None, help="learned policy (default: the shipped one)")

@@ -3,7 +3,9 @@
 
 Writes ``<name>.zip`` (the model), ``<name>_vecnormalize.pkl`` (its observation statistics, if
 the run normalised) and ``<name>.json`` (where it came from: the run's config and command, its
-metrics, the versions), which ``pretrained:<name>`` then loads.
+metrics, the versions), which ``pretrained:<name>`` then loads, and records the SHA-256 of every
+shipped file in ``SHA256SUMS`` (checked before loading).  Ship only models you trust: model and
+statistics files are code.
 
     python scripts/ship_policy.py runs/ppo-ks-s2 --name ppo_kickstart --model best_model
 """
@@ -61,7 +63,11 @@ def main(argv: list[str] | None = None) -> int:
         if path.is_file():
             record[extra.removesuffix(".json")] = json.loads(path.read_text())
     (args.out / f"{args.name}.json").write_text(json.dumps(record, indent=2))
-    print(f"shipped {model} as pretrained:{args.name} in {args.out}")
+    sys.path.insert(0, str(ROOT))
+    from agents.policies import MANIFEST, write_manifest
+
+    write_manifest(args.out)  # pretrained:<name> loads only files whose SHA-256 is recorded
+    print(f"shipped {model} as pretrained:{args.name} in {args.out} (sums in {MANIFEST})")
     return 0
 
 
