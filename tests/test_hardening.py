@@ -225,3 +225,51 @@ def test_a_nan_state_reports_a_nan_closure_error():
         body.position = (math.nan, body.position.y)
         state = fresh._read()
         assert math.isnan(state.closure_error) and not state.finite
+
+
+# ------------------------------------------------------------------ item 8: ecosystem interop
+def test_record_video_writes_a_file(tmp_path):
+    pytest.importorskip("moviepy")  # the 'video' extra
+    from gymnasium.wrappers import RecordVideo
+
+    env = gym.make(ENV_ID, render_mode="rgb_array", render_size=(160, 120))
+    env = RecordVideo(env, str(tmp_path), episode_trigger=lambda _: True, disable_logger=True)
+    env.reset(seed=0)
+    for _ in range(10):
+        env.step(np.zeros(3, dtype=np.float32))
+    env.close()
+    videos = list(tmp_path.glob("*.mp4"))
+    assert len(videos) == 1 and videos[0].stat().st_size > 0
+
+
+def test_keyboard_mapping_drives_the_sliders():
+    from planar3p_gym.env import KEYBOARD_KEYS, KEYBOARD_SPEED
+
+    mapping = gym.make(ENV_ID).unwrapped.get_keys_to_action()
+    assert len(mapping) == 26  # each slider still, +x or -x; all still is the no-op
+    assert all(keys == tuple(sorted(keys)) for keys in mapping)
+    np.testing.assert_array_equal(mapping[("q",)], [KEYBOARD_SPEED, 0, 0])
+    np.testing.assert_array_equal(mapping[("d", "s")], [0, -KEYBOARD_SPEED, -KEYBOARD_SPEED])
+    assert {k for pair in KEYBOARD_KEYS for k in pair} == {k for keys in mapping for k in keys}
+
+
+def test_gymnasium_play_runs_with_the_env_mapping(monkeypatch):
+    """gymnasium.utils.play.play finds the mapping on the env: pressing 'q' drives slider 1."""
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    pygame = pytest.importorskip("pygame")
+    from gymnasium.utils.play import play
+
+    actions = []
+
+    def callback(obs_t, obs_tp1, action, rew, terminated, truncated, info):
+        actions.append(np.array(action, dtype=np.float64))
+        if len(actions) == 1:  # press 'q' (slider 1 towards +x)
+            pygame.event.post(pygame.event.Event(pygame.KEYDOWN, key=ord("q")))
+        if len(actions) == 3:
+            pygame.event.post(pygame.event.Event(pygame.QUIT))
+
+    env = gym.make(ENV_ID, render_mode="rgb_array", render_size=(160, 120))
+    play(env, fps=1000, seed=0, noop=np.zeros(3, dtype=np.float32), callback=callback)
+    assert len(actions) >= 3
+    np.testing.assert_array_equal(actions[0], [0, 0, 0])
+    assert actions[-1][0] > 0 and actions[-1][1] == 0 and actions[-1][2] == 0
