@@ -232,6 +232,11 @@ class Planar3PEnv(gym.Env):
     - ``control_frequency``: control rate (Hz), default 50; also the render fps.
     - ``substeps``: physics steps per control step (default 8: 2.5 ms at 50 Hz);
       ``solver_iterations``: pymunk constraint iterations per physics step (default 18).
+    - ``projection``: project the simulated state exactly onto the mechanism's constraint
+      manifold after every control step (:mod:`planar3p_gym.projection`); default ``False``.
+      ``Planar3P-v1`` turns it on with fewer substeps and iterations
+      (:data:`~planar3p_gym.physics.PROJECTED_SUBSTEPS`,
+      :data:`~planar3p_gym.physics.PROJECTED_ITERATIONS`).
     - ``reward_weights``: :class:`RewardWeights` or a dict of its fields.
     - ``task_config``: :class:`TaskConfig` or a dict of its fields (tolerances, sampling
       margins).
@@ -245,6 +250,8 @@ class Planar3PEnv(gym.Env):
     ``reset(options=spec)`` replays it exactly (:mod:`planar3p_gym.tasks.base`).
 
     ## Version History
+    - v1: the same task on the projected physics (``projection=True``, fewer substeps and
+      solver iterations): loop closure exact on every step, faster.
     - v0: initial release.
     """
 
@@ -258,6 +265,7 @@ class Planar3PEnv(gym.Env):
         control_frequency: float = 50.0,
         substeps: int = DEFAULT_SUBSTEPS,
         solver_iterations: int = DEFAULT_ITERATIONS,
+        projection: bool = False,
         reward_weights: RewardWeights | dict | None = None,
         task_config: TaskConfig | dict | None = None,
         breakdown_threshold: float = 0.01,
@@ -286,6 +294,8 @@ class Planar3PEnv(gym.Env):
         for name, value in (("substeps", substeps), ("solver_iterations", solver_iterations)):
             if not (_is_int(value) and 1 <= value <= 1000):
                 raise ValueError(f"{name} must be an integer in [1, 1000], got {value!r}")
+        if not isinstance(projection, (bool, np.bool_)):
+            raise ValueError(f"projection must be True or False, got {projection!r}")
         if not (_is_number(breakdown_threshold) and 0 < breakdown_threshold < 1):
             raise ValueError(f"breakdown_threshold must be in (0, 1), got {breakdown_threshold!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -307,6 +317,7 @@ class Planar3PEnv(gym.Env):
         self.dt = 1.0 / self.control_frequency
         self.substeps = int(substeps)
         self.solver_iterations = int(solver_iterations)
+        self.projection = bool(projection)
         self.breakdown_distance = breakdown_threshold * self.design.shortest_leg
         self.render_mode = render_mode
         self.render_size = tuple(render_size)
@@ -416,6 +427,7 @@ class Planar3PEnv(gym.Env):
             dt=self.dt,
             substeps=self.substeps,
             iterations=self.solver_iterations,
+            projection=self.projection,
         )
         state = self._sim.state
         self._measures = self._kin.measures(state.pose, state.rho)
@@ -599,6 +611,7 @@ class Planar3PEnv(gym.Env):
             "control_frequency": self.control_frequency,
             "substeps": self.substeps,
             "solver_iterations": self.solver_iterations,
+            "projection": self.projection,
             "reward_weights": asdict(self.reward_weights),
             "task_config": asdict(self.task_config),
             "breakdown_threshold": self.breakdown_distance / self.design.shortest_leg,

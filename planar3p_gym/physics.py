@@ -23,11 +23,26 @@ share of the error (``error_bias``).  The platform's pivots ``C_i`` join two tur
 drift most, so they get a stronger correction (``platform_error_bias``); a stronger one
 everywhere would need more solver iterations to stay stable where holding the mechanism takes
 large forces.  ``tests/test_physics.py`` checks the defaults against the fidelity bound.
+
+Projection (``projection=True``, used by ``Planar3P-v1``): after each control step the bodies
+are projected exactly back onto the constraint manifold (:mod:`planar3p_gym.projection`:
+mass-weighted Newton steps on the three loop equations, velocities onto their tangent space,
+legs rebuilt from their joints) and written back into pymunk, which keeps doing the dynamics
+(gravity, force-limited servos, end stops).  The drift no longer accumulates, so the solver can
+run fewer substeps and iterations (:data:`PROJECTED_SUBSTEPS`, :data:`PROJECTED_ITERATIONS`).
+The reported ``closure_error`` is then the largest leg-length error left by the projection.
+
+Snapshots: :meth:`Planar3PSim.get_state` / :meth:`Planar3PSim.set_state` restore a simulation
+bit for bit.  pymunk does not expose the solver's warm-start impulses, on which the next steps
+depend, so a snapshot records how the model was built and the commands it was stepped with, and
+restoring rebuilds the model and replays them (time proportional to the steps since the build).
 """
 
 from __future__ import annotations
 
 import math
+from array import array
+from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
 import numpy as np
@@ -36,8 +51,17 @@ from numpy.typing import ArrayLike
 
 from . import kinematics
 from .design import Design
+from .projection import LoopProjector
 
-__all__ = ["DEFAULT_ITERATIONS", "DEFAULT_SUBSTEPS", "Planar3PSim", "SimState"]
+__all__ = [
+    "DEFAULT_ITERATIONS",
+    "DEFAULT_SUBSTEPS",
+    "PROJECTED_ITERATIONS",
+    "PROJECTED_SUBSTEPS",
+    "Planar3PSim",
+    "SimSnapshot",
+    "SimState",
+]
 
 try:  # Direct Chipmunk calls skip pymunk's per-call Python bookkeeping (the hot loop's cost).
     from pymunk._chipmunk_cffi import ffi as _ffi
@@ -66,6 +90,10 @@ _BODY_FIELDS = 6
 DEFAULT_SUBSTEPS = 8
 #: Constraint-solver iterations per substep used by default.
 DEFAULT_ITERATIONS = 18
+#: Physics substeps per control step with ``projection=True`` (``Planar3P-v1``).
+PROJECTED_SUBSTEPS = 1
+#: Constraint-solver iterations per substep with ``projection=True``.
+PROJECTED_ITERATIONS = 4
 #: Solver iterations of the warm-start step at construction.
 WARM_START_ITERATIONS = 500
 #: pymunk's ``error_bias`` of the rails, the servos and the pivots ``B_i``: fraction of a joint
@@ -75,6 +103,13 @@ DEFAULT_ERROR_BIAS = 1e-15
 DEFAULT_PLATFORM_ERROR_BIAS = 1e-25
 #: Length of the pin joint by which a drive body pulls its slider along the rail (m).
 SERVO_ARM = 1.0
+#: Servo arm with ``projection=True`` (m).  A slider's velocity off its rail (what the few
+#: solver iterations leave) tilts the arm by ``y / arm`` and leaks into the servo's direction:
+#: a long arm keeps servo-held sliders still to well below a nanometre per step.
+PROJECTED_SERVO_ARM = 1000.0
+#: With ``projection=True`` the grooves run this far past the stroke (m): the end stops are
+#: separate limits (see :meth:`Planar3PSim._build`).
+PROJECTED_RAIL_OVERRUN = 1.0
 #: Largest speed at which a servo removes a following error (m/s).
 SERVO_CORRECTION_SPEED = 0.02
 #: Largest following error a servo keeps (m); beyond it the setpoint is pulled along.
@@ -122,6 +157,30 @@ class SimState(NamedTuple):
         )
 
 
+@dataclass(frozen=True)
+class SimSnapshot:
+    """Everything needed to restore a :class:`Planar3PSim` bit for bit (plain data, picklable).
+
+    Attributes:
+        design: the machine, as :meth:`Design.to_dict`.
+        pose: the pose the model was built at (m, m, rad).
+        working_mode: its working mode.
+        settings: the constructor's keyword arguments (``dt``, ``substeps``, ...).
+        commands: the velocity commands of every step since the build, flattened (m/s).
+    """
+
+    design: dict
+    pose: tuple[float, float, float]
+    working_mode: tuple[int, int, int]
+    settings: dict
+    commands: tuple[float, ...]
+
+    @property
+    def steps(self) -> int:
+        """Control steps since the build."""
+        return len(self.commands) // 3
+
+
 def _wrap(angle: float) -> float:
     """Angle wrapped into ``(-pi, pi]``."""
     return math.pi - (math.pi - angle) % (2.0 * math.pi)
@@ -144,6 +203,8 @@ class Planar3PSim:
         error_bias: position-error correction of the rails, servos and pivots ``B_i``
             (fraction of an error left after 1 s).
         platform_error_bias: the same for the platform's pivots ``C_i``.
+        projection: project the state exactly onto the constraint manifold after every control
+            step (module docstring); ``False`` keeps the original model (``Planar3P-v0``).
     """
 
     use_fast_path: bool = True
@@ -162,6 +223,7 @@ class Planar3PSim:
         iterations: int = DEFAULT_ITERATIONS,
         error_bias: float = DEFAULT_ERROR_BIAS,
         platform_error_bias: float = DEFAULT_PLATFORM_ERROR_BIAS,
+        projection: bool = False,
     ) -> None:
         if not isinstance(design, Design):
             raise ValueError(f"design must be a Design, got {type(design).__name__}")
@@ -177,6 +239,8 @@ class Planar3PSim:
         ):
             if not (isinstance(bias, (int, float)) and math.isfinite(bias) and 0.0 <= bias <= 1.0):
                 raise ValueError(f"{name} must be in [0, 1], got {bias!r}")
+        if not isinstance(projection, (bool, np.bool_)):
+            raise ValueError(f"projection must be True or False, got {projection!r}")
         p = np.asarray(pose, dtype=np.float64)
         if p.shape != (3,) or not np.isfinite(p).all():
             raise ValueError(f"pose must be 3 finite numbers (x, y, theta), got {pose!r}")
@@ -197,6 +261,21 @@ class Planar3PSim:
         self._time = 0.0
         self._forces = (0.0, 0.0, 0.0)
         self._saturated = (False, False, False)
+        self.projection = bool(projection)
+        self._projector = LoopProjector(design) if self.projection else None
+        self._origin = (
+            (float(p[0]), float(p[1]), float(p[2])),
+            tuple(int(m) for m in working_mode),
+            {
+                "dt": self.dt,
+                "substeps": self.substeps,
+                "iterations": self.iterations,
+                "error_bias": float(error_bias),
+                "platform_error_bias": float(platform_error_bias),
+                "projection": self.projection,
+            },
+        )
+        self._commands = array("d")
         self._build(p, rho, error_bias, platform_error_bias)
 
     # ------------------------------------------------------------------ construction
@@ -226,10 +305,29 @@ class Planar3PSim:
             leg = pymunk.Body(d.leg_mass, d.leg_mass * L * L / 12.0)
             leg.position = (0.5 * (b + cx), 0.5 * cy)
             leg.angle = math.atan2(cy, cx - b)
-            rail = pymunk.GrooveJoint(
-                space.static_body, slider, (a, 0.0), (a + d.stroke, 0.0), (0, 0)
-            )
-            servo = pymunk.PinJoint(drive, slider, (-SERVO_ARM, 0.0), (0.0, 0.0))
+            if self.projection:
+                # The groove only keeps the slider on its line; the end stops are a separate
+                # unilateral limit whose impulse is dropped whenever it is not touching.
+                rail = pymunk.GrooveJoint(
+                    space.static_body,
+                    slider,
+                    (a - PROJECTED_RAIL_OVERRUN, 0.0),
+                    (a + d.stroke + PROJECTED_RAIL_OVERRUN, 0.0),
+                    (0, 0),
+                )
+                half = 0.5 * d.stroke
+                stop = pymunk.SlideJoint(
+                    space.static_body, slider, (a + half, 0.0), (0.0, 0.0), 0.0, half
+                )
+                stop.error_bias = error_bias
+                extra: tuple = (stop,)
+            else:
+                rail = pymunk.GrooveJoint(
+                    space.static_body, slider, (a, 0.0), (a + d.stroke, 0.0), (0, 0)
+                )
+                extra = ()
+            arm = PROJECTED_SERVO_ARM if self.projection else SERVO_ARM
+            servo = pymunk.PinJoint(drive, slider, (-arm, 0.0), (0.0, 0.0))
             servo.max_bias = SERVO_CORRECTION_SPEED
             servo.max_force = d.max_force
             servo.error_bias = error_bias
@@ -238,7 +336,7 @@ class Planar3PSim:
             rail.error_bias = pin_b.error_bias = error_bias
             pin_c.error_bias = platform_error_bias
             space.add(slider, drive, leg)
-            joints.append((rail, pin_b, pin_c))
+            joints.append((rail, *extra, pin_b, pin_c))
             sliders.append(slider)
             drives.append(drive)
             servos.append(servo)
@@ -288,6 +386,7 @@ class Planar3PSim:
             (array, request, _ffi.addressof(_cp, "pmSpaceBodyGetIteratorFuncBatched")),
             tuple(b._body for b in drives),
             unused,
+            _ffi.addressof(_cp, "pmSpaceBodySetIteratorFuncBatched"),
         )
         if Planar3PSim._batch_layout_ok is None:  # checked once per process
             public = self._public_values()
@@ -328,6 +427,7 @@ class Planar3PSim:
 
     def step_unchecked(self, v0: float, v1: float, v2: float) -> SimState:
         """:meth:`step` without input validation, for callers that validated already."""
+        self._commands.extend((v0, v1, v2))
         self._limit_following_error()
         if self._fast is None:
             for drive, v in zip(self.drives, (v0, v1, v2), strict=True):
@@ -367,8 +467,45 @@ class Planar3PSim:
         self._forces = (f0 * scale, f1 * scale, f2 * scale)
         limit = 0.999 * self.design.max_force * h
         self._saturated = (m0 >= limit, m1 >= limit, m2 >= limit)
-        self._state = self._read()
+        self._state = self._read() if self._projector is None else self._project()
         return self._state
+
+    def _project(self) -> SimState:
+        """Project the bodies onto the constraint manifold, write them back, return the state."""
+        fast = self._fast
+        if fast is None:
+            v = self._public_values()
+        else:
+            array_, request, iterator = fast[2]
+            array_.num = 0
+            _cp.cpSpaceEachBody(fast[0], iterator, request)
+            v = _ffi.unpack(array_.arr, array_.num)
+        pr = self._projector.project(v, self._saturated)  # type: ignore[union-attr]
+        out = pr.bodies
+        if fast is None:
+            for n, body in enumerate(self._bodies):
+                if body.body_type != pymunk.Body.KINEMATIC:
+                    o = 6 * n
+                    body.position = (out[o], out[o + 1])
+                    body.angle = out[o + 2]
+                    body.velocity = (out[o + 3], out[o + 4])
+                    body.angular_velocity = out[o + 5]
+        else:
+            array_.arr[0 : len(out)] = out
+            array_.num = 0
+            _cp.cpSpaceEachBody(fast[0], fast[5], request)
+        self._setpoints = [v[12], v[30], v[48]]
+        return SimState(
+            self._time,
+            pr.rho,
+            pr.rho_dot,
+            (pr.pose[0], pr.pose[1], _wrap(pr.pose[2])),
+            pr.twist,
+            pr.leg_angles,
+            self._forces,
+            self._saturated,
+            pr.closure_error,
+        )
 
     def _limit_following_error(self) -> None:
         """Pull each drive's setpoint to within :data:`FOLLOWING_ERROR_LIMIT` of its slider."""
@@ -411,6 +548,7 @@ class Planar3PSim:
         half = 0.5 * k[0]
         gx, gy = px - half * c, py - half * s
         err2 = 0.0  # largest squared joint separation (m^2)
+        nan_check = 0.0
         rho, rho_dot, alphas, setpoints = [], [], [], []
         for i, o in enumerate((6, 24, 42)):
             # Slider, drive and leg of leg i: 18 numbers from offset o (x, y, angle, vx, vy, w).
@@ -427,8 +565,9 @@ class Planar3PSim:
             e2 = max(bx * bx + by * by, cx * cx + cy * cy, sy * sy)
             if e2 > err2:
                 err2 = e2
+            nan_check += bx + by + cx + cy + sy  # max() and > skip NaN; a sum keeps it
             alphas.append(_wrap(phi))
-        err = math.sqrt(err2)
+        err = math.sqrt(err2) if math.isfinite(nan_check) else math.nan
         self._setpoints = setpoints
         return SimState(
             self._time,

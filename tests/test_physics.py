@@ -9,6 +9,11 @@ third column over ``L_ref``), so leg-length residuals ``r`` move the pose by at 
 ``|r| / sigma_min(A_bar)``; a joint separation ``e`` at each end of three legs gives
 ``|r| <= 2 sqrt(3) e``.  Hence a closure error ``e`` explains a pose discrepancy of at most
 ``2 sqrt(3) e / sigma_min(A_bar)``.
+
+The physical behaviour tests run on both models (fixture ``model``): ``v0``, the defaults
+without projection, and ``v1``, projection on with :data:`PROJECTED_SUBSTEPS` and
+:data:`PROJECTED_ITERATIONS` (``Planar3P-v1``); ``tests/test_projection.py`` has the stricter
+checks that only the projected model meets.
 """
 
 from __future__ import annotations
@@ -19,7 +24,7 @@ import math
 import numpy as np
 import pytest
 
-from planar3p_gym import Design, kinematics, motions, task
+from planar3p_gym import Design, kinematics, motions, physics, task
 from planar3p_gym.physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PSim
 
 DESIGN = Design.fig8()
@@ -37,6 +42,23 @@ WELL_CONDITIONED = motions.WELL_CONDITIONED
 
 
 # ---------------------------------------------------------------------------- helpers
+def model_kwargs(name: str) -> dict:
+    """Constructor settings of the two simulation models."""
+    if name == "v0":
+        return {}
+    return {
+        "projection": True,
+        "substeps": physics.PROJECTED_SUBSTEPS,
+        "iterations": physics.PROJECTED_ITERATIONS,
+    }
+
+
+@pytest.fixture(params=["v0", "v1"])
+def model(request) -> dict:
+    """Settings of the model under test (see the module docstring)."""
+    return model_kwargs(request.param)
+
+
 def wrap(a):
     return (np.asarray(a) + math.pi) % (2.0 * math.pi) - math.pi
 
@@ -133,7 +155,7 @@ def test_step_rejects_bad_commands_without_stepping(cmd):
     assert sim.state == before
 
 
-def test_fast_path_and_public_api_give_identical_results():
+def test_fast_path_and_public_api_give_identical_results(model):
     p = sampled_starts(DEFAULT_MODE, 1)[0]
     cmds = np.random.default_rng(3).uniform(-0.2, 0.2, size=(30, 3))
     states = []
@@ -141,7 +163,7 @@ def test_fast_path_and_public_api_give_identical_results():
         old = Planar3PSim.use_fast_path
         Planar3PSim.use_fast_path = fast
         try:
-            sim = Planar3PSim(DESIGN, p, DEFAULT_MODE)
+            sim = Planar3PSim(DESIGN, p, DEFAULT_MODE, **model)
             states.append([sim.step(c) for c in cmds])
         finally:
             Planar3PSim.use_fast_path = old
@@ -149,7 +171,7 @@ def test_fast_path_and_public_api_give_identical_results():
 
 
 # ---------------------------------------------------------------------------- fidelity
-def test_equal_slider_velocities_translate_the_platform_horizontally():
+def test_equal_slider_velocities_translate_the_platform_horizontally(model):
     """Equal travel rates: ``A p_dot = B rho_dot`` has the unique solution ``x_dot = rho_dot``,
     ``y_dot = theta_dot = 0`` away from parallel singularities, so ``y`` and ``theta`` must stay
     put (within ``1e-4 L_min`` and ``1e-4`` rad) and ``x`` follow the common travel.  The
@@ -163,7 +185,7 @@ def test_equal_slider_velocities_translate_the_platform_horizontally():
         room_right, room_left = DESIGN.stroke - rho0.max(), rho0.min()
         direction = 1.0 if room_right >= room_left else -1.0
         travel = max(room_right, room_left) - 0.01
-        sim = Planar3PSim(DESIGN, p, DEFAULT_MODE)
+        sim = Planar3PSim(DESIGN, p, DEFAULT_MODE, **model)
         k = 0
         while True:
             v = direction * speed * min(1.0, (k + 1) / ramp_steps)
@@ -271,7 +293,7 @@ def test_closure_error_distribution_over_more_smooth_motions():
 
 # ---------------------------------------------------------------------------- holding
 @pytest.mark.parametrize("mode", [DEFAULT_MODE, (1, 1, 1), (-1, -1, -1)])
-def test_zero_commands_hold_the_mechanism_under_gravity(mode):
+def test_zero_commands_hold_the_mechanism_under_gravity(mode, model):
     """Servos at zero speed hold the sliders (within the fidelity bound ``1e-4 L_min``: the
     solver is iterative, and the servos' position hold removes what it lets slip); the platform
     stays put: at every step within the pose change a closure error of ``1e-4 L_min`` can
@@ -280,7 +302,7 @@ def test_zero_commands_hold_the_mechanism_under_gravity(mode):
     for p in sampled_starts(mode, 6):
         rho0 = kinematics.inverse(DESIGN, p, mode).rho
         allowed = 2.0 * math.sqrt(3.0) * CLOSURE_BOUND / sigma_min(DESIGN, p, rho0)
-        sim = Planar3PSim(DESIGN, p, mode)
+        sim = Planar3PSim(DESIGN, p, mode, **model)
         worst_gap, worst_rho = 0.0, 0.0
         for _ in range(100):
             st = sim.step((0.0, 0.0, 0.0))
@@ -300,10 +322,10 @@ def test_zero_commands_hold_the_mechanism_under_gravity(mode):
     assert not failures, "\n".join(failures)
 
 
-def test_zero_commands_without_gravity_keep_everything_still():
+def test_zero_commands_without_gravity_keep_everything_still(model):
     d = DESIGN.with_(gravity=0.0)
     for p in sampled_starts(DEFAULT_MODE, 3):
-        sim = Planar3PSim(d, p, DEFAULT_MODE)
+        sim = Planar3PSim(d, p, DEFAULT_MODE, **model)
         for _ in range(50):
             st = sim.step((0.0, 0.0, 0.0))
         assert normalised_distance(d, st.pose, p) < 1e-12
@@ -337,18 +359,20 @@ def _single_slider_path(p, leg: int, end: float, mode=DEFAULT_MODE):
 
 
 @pytest.mark.parametrize("direction", [1.0, -1.0])
-def test_end_stops_hold(direction):
+def test_end_stops_hold(direction, model):
     """One slider driven at full speed into its end stop, the others held (zero command),
     along motions that stay well-conditioned (margins checked on the exact kinematics).
 
     The travel stays within ``[0, L]`` up to the overshoot of one physics substep at full speed
-    (a velocity-level solver sees the stop one substep late).  A held slider may only yield
+    (a velocity-level solver sees the stop one substep late; full speed is the command plus
+    the servo's following-error correction).  A held slider may only yield
     while its servo is saturated (the impact of the stop is impulsive); once everything rests
     on the stop, the penetration is within the joint accuracy ``1e-4 L_min``, no travel
     changes, the pushing servo is saturated, and the pose is the exact DK pose of the travels
     (within what the closure bound allows), in the starting assembly mode."""
-    h = DT / DEFAULT_SUBSTEPS
-    overshoot = DESIGN.max_speed * h * (1.0 + 1e-6)
+    h = DT / model.get("substeps", DEFAULT_SUBSTEPS)
+    # Fastest slider: the command plus the servo's following-error correction.
+    overshoot = (DESIGN.max_speed + physics.SERVO_CORRECTION_SPEED) * h * (1.0 + 1e-6)
     end = DESIGN.stroke if direction > 0 else 0.0
     cases = []
     for p in sampled_starts(DEFAULT_MODE, 12):
@@ -362,7 +386,7 @@ def test_end_stops_hold(direction):
         assembly0 = int(kinematics.assembly_mode(DESIGN, p, rho0))
         cmd = np.zeros(3)
         cmd[leg] = direction * DESIGN.max_speed
-        sim = Planar3PSim(DESIGN, p, DEFAULT_MODE)
+        sim = Planar3PSim(DESIGN, p, DEFAULT_MODE, **model)
         travels, saturated = [rho0], []
         for _ in range(75):
             st = sim.step(cmd)
@@ -383,22 +407,22 @@ def test_end_stops_hold(direction):
         assert normalised_distance(DESIGN, st.pose, dk_pose) <= allowed
 
 
-def test_actuator_forces_are_bounded_by_max_force():
+def test_actuator_forces_are_bounded_by_max_force(model):
     rng = np.random.default_rng(7)
     for p in sampled_starts(DEFAULT_MODE, 3):
-        sim = Planar3PSim(DESIGN, p, DEFAULT_MODE)
+        sim = Planar3PSim(DESIGN, p, DEFAULT_MODE, **model)
         for _ in range(60):
             st = sim.step(rng.uniform(-1.0, 1.0, 3) * DESIGN.max_speed)
             assert st.finite
             assert all(0.0 <= f <= DESIGN.max_force * (1.0 + 1e-9) for f in st.actuator_forces)
 
 
-def test_static_forces_balance_gravity_reasonably():
+def test_static_forces_balance_gravity_reasonably(model):
     """At rest the servos carry a share of the weight: forces are positive and below the
     total weight scaled by the worst lever the pose allows (1 / sigma_min)."""
     weight = (DESIGN.platform_mass + 3 * DESIGN.leg_mass) * DESIGN.gravity
     for p in sampled_starts(DEFAULT_MODE, 3):
-        sim = Planar3PSim(DESIGN, p, DEFAULT_MODE)
+        sim = Planar3PSim(DESIGN, p, DEFAULT_MODE, **model)
         for _ in range(50):
             st = sim.step((0.0, 0.0, 0.0))
         lever = 1.0 / sigma_min(DESIGN, p, st.rho)
@@ -406,11 +430,11 @@ def test_static_forces_balance_gravity_reasonably():
         assert not any(st.saturated)
 
 
-def test_weak_actuators_saturate_and_the_platform_sags():
+def test_weak_actuators_saturate_and_the_platform_sags(model):
     weak = DESIGN.with_(max_force=0.01)
     for p in sampled_starts(DEFAULT_MODE, 3):
         rho0 = kinematics.inverse(weak, p, DEFAULT_MODE).rho
-        sim = Planar3PSim(weak, p, DEFAULT_MODE)
+        sim = Planar3PSim(weak, p, DEFAULT_MODE, **model)
         for _ in range(25):
             st = sim.step((0.0, 0.0, 0.0))
         assert st.finite
@@ -420,8 +444,8 @@ def test_weak_actuators_saturate_and_the_platform_sags():
         assert np.abs(np.asarray(st.rho) - rho0).max() > 1e-3  # sliders pushed off
 
 
-def test_time_and_forces_bookkeeping():
-    sim = Planar3PSim(DESIGN, sampled_starts(DEFAULT_MODE, 1)[0], DEFAULT_MODE, dt=0.01)
+def test_time_and_forces_bookkeeping(model):
+    sim = Planar3PSim(DESIGN, sampled_starts(DEFAULT_MODE, 1)[0], DEFAULT_MODE, dt=0.01, **model)
     for k in range(1, 11):
         st = sim.step((0.01, 0.0, -0.01))
         assert st.time == pytest.approx(0.01 * k, abs=1e-12)
