@@ -163,3 +163,28 @@ def test_interpolate_steps():
     np.testing.assert_array_equal(path[0, :, 0], a[0] + np.linspace(0, 1, 5) * (b[0, 0] - a[0]))
     with pytest.raises(TypeError):
         task.interpolate(a[None], b, 5.0)  # type: ignore[arg-type]
+
+
+def test_unbounded_sampling_draws_the_same_poses_as_bounded():
+    """``max_batches=None`` only lifts the limit: where the bounded search finds poses, both
+    consume the stream identically (so resets that succeeded before are unchanged)."""
+    for mode in MODES:
+        a = task.sample_poses(DESIGN, mode, np.random.default_rng(8), CFG)
+        b = task.sample_poses(DESIGN, mode, np.random.default_rng(8), CFG, max_batches=None)
+        np.testing.assert_array_equal(a[0], b[0])
+        np.testing.assert_array_equal(a[1], b[1])
+
+
+def test_check_mode_accepts_modes_with_pairs_and_explains_the_others():
+    for mode in MODES:  # every mode of the default design has pairs
+        task.check_mode(DESIGN, mode, CFG)
+        assert task.has_pairs(DESIGN, mode, CFG)
+    fig7 = Design.fig7()
+    with pytest.raises(
+        ValueError, match=r"\(1, 1, 1\) of this design has no pose .*\(0 acceptable"
+    ):
+        task.check_mode(fig7, (1, 1, 1), CFG)
+    assert not task.has_pairs(fig7, (1, 1, 1), CFG)
+    apart = replace(CFG, min_distance=5.0)  # poses, but none 5 m apart
+    with pytest.raises(ValueError, match=r"no start/target pair .* min_distance apart"):
+        task.check_mode(DESIGN, (1, 1, -1), apart)
