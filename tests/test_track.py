@@ -181,8 +181,8 @@ def test_bad_input_raises():
 @pytest.mark.parametrize("kind", KINDS)
 def test_feed_forward_beats_feedback_alone(kind):
     """The reference velocity fed forward removes the feedback controller's lag: over the same
-    episodes its RMS tracking error is several times smaller (measured: about 15x on segments,
-    40x on the figure-eight, ``scripts/track_baseline.py``)."""
+    episodes its RMS tracking error is several times smaller (measured over 100 episodes:
+    39x on segments, 30x on the figure-eight, ``scripts/task_baselines.py``)."""
     rows = {}
     for ff in (0.0, 1.0):
         env = make(kind)
