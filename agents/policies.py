@@ -141,11 +141,12 @@ def _read_manifest(directory: Path) -> dict[str, str]:
         raise PolicyError(f"cannot read the checksum manifest {path}: {exc}") from exc
     sums = {}
     for line in lines:
-        digest, sep, name = line.strip().partition("  ")
-        if line.strip() and (not sep or not re.fullmatch(r"[0-9a-f]{64}", digest)):
-            raise PolicyError(f"malformed line in {path}: {line!r}")
-        if sep:
-            sums[name.lstrip("*")] = digest
+        if not line.strip():
+            continue
+        m = re.fullmatch(r"([0-9a-fA-F]{64}) [ *](.+)", line.rstrip("\r\n"))
+        if m is None:
+            raise PolicyError(f"malformed line in {path} (want sha256sum format): {line!r}")
+        sums[m.group(2)] = m.group(1).lower()
     return sums
 
 
