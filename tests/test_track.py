@@ -199,3 +199,18 @@ def test_tracking_controller_validates_input():
         TrackingController(mode="sequential")
     with pytest.raises(ValueError, match="shape"):
         TrackingController().predict(np.zeros(OBS_SIZE))
+
+
+def test_task_baselines_script(tmp_path, capsys):
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("task_baselines", "scripts/task_baselines.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    out = tmp_path / "b.json"
+    assert module.main(["--episodes", "1", "--seed", "3", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data["Planar3PGoal-v0/analytic"]["success_rate"] == 1.0
+    assert len(data) == 6
+    assert "figure_eight" in capsys.readouterr().out
+    assert module.main(["--episodes", "0"]) == 2
