@@ -39,7 +39,20 @@ if ENV_ID_V1 not in registry:
         },
     )
 
-# H2 (issue 10): goal-conditioned reach and trajectory tracking.
+
+# H2 (issue 10): goal-conditioned reach and trajectory tracking, on the projected physics.
+def _projected_physics() -> dict:
+    """Constructor arguments of the projected physics (H1's settings, shared by the ids below)."""
+    from .physics import PROJECTED_ITERATIONS, PROJECTED_SUBSTEPS
+
+    return {
+        "projection": True,
+        "substeps": PROJECTED_SUBSTEPS,
+        "solver_iterations": PROJECTED_ITERATIONS,
+    }
+
+
+_PROJECTED = _projected_physics()
 #: Goal-conditioned reach ids (sparse and dense reward) and their time limit (control steps).
 GOAL_ENV_ID = "Planar3PGoal-v0"
 GOAL_DENSE_ENV_ID = "Planar3PGoalDense-v0"
@@ -49,7 +62,7 @@ for _id, _reward in ((GOAL_ENV_ID, "sparse"), (GOAL_DENSE_ENV_ID, "dense")):
             id=_id,
             entry_point="planar3p_gym.goal_env:Planar3PGoalEnv",
             max_episode_steps=MAX_EPISODE_STEPS,
-            kwargs={"reward_type": _reward},
+            kwargs={"reward_type": _reward, **_PROJECTED},
         )
 #: Trajectory-tracking id and its time limit (control steps: 10 s at 50 Hz).
 TRACK_ENV_ID = "Planar3PTrack-v0"
@@ -59,4 +72,5 @@ if TRACK_ENV_ID not in registry:
         id=TRACK_ENV_ID,
         entry_point="planar3p_gym.track_env:Planar3PTrackEnv",
         max_episode_steps=TRACK_MAX_EPISODE_STEPS,
+        kwargs=dict(_PROJECTED),
     )
