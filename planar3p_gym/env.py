@@ -616,6 +616,7 @@ class Planar3PEnv(gym.Env):
             "task_config": asdict(self.task_config),
             "breakdown_threshold": self.breakdown_distance / self.design.shortest_leg,
             "task": self.task.name,
+            "task_arguments": self.task.arguments(),
         }
 
 

@@ -88,12 +88,14 @@ class Planar3PGoalEnv(Planar3PEnv):
     """Goal-conditioned reach with a 3-PRR planar parallel manipulator (GoalEnv interface).
 
     ## Description
-    The machine and episodes of ``Planar3P-v0`` (same physics, same start/target sampler,
-    same singularity handling), presented as a goal-conditioned task: the policy is told the
-    goal pose and is rewarded by :meth:`compute_reward`, which depends only on the achieved
-    and desired goals and on goal-independent facts of the step carried in ``info``, so
-    hindsight relabelling (SB3's ``HerReplayBuffer``) gives exactly the reward the
-    environment would have returned for the relabelled goal.
+    The machine and episodes of ``Planar3P-v1`` (the projected physics: ``projection=True``
+    with :data:`~planar3p_gym.physics.PROJECTED_SUBSTEPS` and
+    :data:`~planar3p_gym.physics.PROJECTED_ITERATIONS`, as registered; the same start/target
+    sampler and singularity handling as ``Planar3P-v0``), presented as a goal-conditioned
+    task: the policy is told the goal pose and is rewarded by :meth:`compute_reward`, which
+    depends only on the achieved and desired goals and on goal-independent facts of the step
+    carried in ``info``, so hindsight relabelling (SB3's ``HerReplayBuffer``) gives exactly
+    the reward the environment would have returned for the relabelled goal.
 
     ## Action Space
     ``Box(-1, 1, (3,), float32)``: slider velocity commands as fractions of ``max_speed``

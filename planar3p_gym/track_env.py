@@ -15,7 +15,8 @@ class Planar3PTrackEnv(Planar3PEnv):
     """Trajectory tracking with a 3-PRR planar parallel manipulator simulated in pymunk.
 
     ## Description
-    The machine of ``Planar3P-v0`` must follow a moving reference pose: smooth random
+    The machine of ``Planar3P-v1`` (registered on the projected physics, as ``Planar3P-v1``)
+    must follow a moving reference pose: smooth random
     segments between reach-like waypoints (``reference="segments"``, default) or a
     figure-eight in the workspace (``reference="figure_eight"``).  The reference always stays
     within the stroke, away from the end stops and from singularities (checked along its whole

@@ -138,3 +138,13 @@ def test_pose_list_is_exact_and_plain():
     out = pose_list(pose)
     assert all(type(v) is float for v in out)
     assert np.array_equal(np.array(json.loads(json.dumps(out))), pose)
+
+
+def test_config_records_the_task():
+    assert gym.make("Planar3P-v0").unwrapped.config()["task"] == "reach"
+    cfg = gym.make(planar3p_gym.TRACK_ENV_ID, reference="figure_eight").unwrapped.config()
+    assert cfg["task"] == "track" and cfg["task_arguments"]["reference"] == "figure_eight"
+    assert cfg["projection"] is True
+    cfg = gym.make(planar3p_gym.GOAL_DENSE_ENV_ID).unwrapped.config()
+    assert cfg["task_arguments"] == {"reward_type": "dense"}
+    json.dumps(cfg)

@@ -106,6 +106,10 @@ class Task:
         Raise ``ValueError`` here if no episode can exist under the env's settings."""
         self.env = env
 
+    def arguments(self) -> dict[str, Any]:
+        """The task's constructor arguments as plain data (for ``env.config()``)."""
+        return {}
+
     def reseed(self) -> None:
         """The environment was re-seeded: drop anything cached from the old random stream."""
 

@@ -215,6 +215,9 @@ class GoalTask(ReachTask):
         self.reward_type = reward_type
         self.desired = np.zeros(GOAL_SIZE, dtype=np.float32)
 
+    def arguments(self) -> dict[str, Any]:
+        return {"reward_type": self.reward_type}
+
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         goal = options.pop("desired_goal", None)
         if goal is not None:

@@ -126,6 +126,13 @@ class TrackTask(Task):
         self.duration = float(duration)
 
     # ------------------------------------------------------------------ set-up
+    def arguments(self) -> dict[str, Any]:
+        return {
+            "reference": self.kind,
+            "speed_fraction": self.speed_fraction,
+            "duration": self.duration,
+        }
+
     def bind(self, env: Any) -> None:
         super().bind(env)
         self._samplers: dict[tuple[int, int, int], task.PoseSampler] = {}
