@@ -25,7 +25,9 @@ differential-algebraic equations):
   released) servo's slider moves with its own mass.  Near a parallel singularity the platform
   alone cannot close the loop (``J W^-1 J^T`` becomes singular when every slider is held:
   its determinant relative to the product of its diagonal falls below
-  :data:`HELD_CONDITION`); then every slider moves with its own mass.
+  :data:`HELD_CONDITION`), and near a fold of the direct kinematics the held travels may have
+  no pose nearby (Newton has not converged after :data:`HELD_NEWTON_STEPS`); then the
+  projection starts again with every slider moving with its own mass.
 * **End stops** stay pymunk's (groove joints); a slider found past an end of its stroke is held
   during the projection (the stop, not the servo, holds it), so the correction does not push it
   further in.  (Putting it back on the stop exactly was tried: with few substeps the groove's
@@ -59,12 +61,15 @@ __all__ = [
 ]
 
 #: Leg-length error (m) below which the position projection stops.
-POSITION_TOLERANCE = 1e-12
+POSITION_TOLERANCE = 1e-11
 #: A slider past an end stop is put back this far into it (m), at rest: touching, so the stop
 #: keeps holding it during the next step.
 STOP_CONTACT = 1e-9
 #: Largest number of Newton steps of one position projection.
 MAX_NEWTON_STEPS = 8
+#: Newton steps allowed with servo-held sliders fixed before starting again with every slider
+#: free (near a fold of the direct kinematics the held travels may have no pose nearby).
+HELD_NEWTON_STEPS = 4
 #: Smallest ``det(G) / (G_11 G_22 G_33)`` of ``G = J W^-1 J^T`` with the servo-held sliders
 #: fixed; below it (close to a parallel singularity, where it vanishes like the square of
 #: ``det A``) the held sliders take their share of the correction.
@@ -133,33 +138,43 @@ class LoopProjector:
 
         ``saturated[i]`` says whether servo ``i`` was at its force limit (its slider then
         moves with its own mass; otherwise its servo holds it, see the module docstring)."""
-        px, py, th, pvx, pvy, w = v[0], v[1], v[2], v[3], v[4], v[5]
-        dc = self.d_centre
-        c, s = math.cos(th), math.sin(th)
-        qx, qy = px - dc * c, py - dc * s
-        qvx, qvy = pvx + dc * w * s, pvy - dc * w * c
         a1, a2, a3 = self.origins
         r1, r2, r3 = self.r
         l1, l2, l3 = self.legs
+        dc, kq, stroke = self.d_centre, self.k_q, self.stroke
         ll1, ll2, ll3 = l1 * l1, l2 * l2, l3 * l3
+        # Convergence test on f_i = |u_i|^2 - L_i^2 ~ 2 L_i (|u_i| - L_i).
+        ft1, ft2, ft3 = (
+            2.0 * l1 * POSITION_TOLERANCE,
+            2.0 * l2 * POSITION_TOLERANCE,
+            (2.0 * l3 * POSITION_TOLERANCE),
+        )
         ip, ii = 1.0 / self.m_platform, 1.0 / self.i_q
-        free, held = 1.0 / self.m_rho, 0.0
-        i1 = free if saturated[0] else held
-        i2 = free if saturated[1] else held
-        i3 = free if saturated[2] else held
+        free = 1.0 / self.m_rho
+        i1 = free if saturated[0] else 0.0
+        i2 = free if saturated[1] else 0.0
+        i3 = free if saturated[2] else 0.0
         hold = i1 == 0.0 or i2 == 0.0 or i3 == 0.0
+
+        px, py, th, pvx, pvy, w = v[0], v[1], v[2], v[3], v[4], v[5]
+        c, s = math.cos(th), math.sin(th)
+        qx, qy = px - dc * c, py - dc * s
+        qvx, qvy = pvx + dc * w * s, pvy - dc * w * c
         p1, p2, p3 = v[6] - a1, v[24] - a2, v[42] - a3
         d1, d2, d3 = v[9], v[27], v[45]
-        stroke, pen = self.stroke, STOP_CONTACT
         if not (0.0 <= p1 <= stroke and 0.0 <= p2 <= stroke and 0.0 <= p3 <= stroke):
-            # A slider past an end stop (rare path) rests on it: held.
+            # A slider past an end stop (rare path): back just into the stop, at rest, held.
+            pen = STOP_CONTACT
             if p1 < 0.0 or p1 > stroke:
-                p1, d1, i1 = (-pen if p1 < 0.0 else stroke + pen), 0.0, held
+                p1, d1, i1 = (-pen if p1 < 0.0 else stroke + pen), 0.0, 0.0
             if p2 < 0.0 or p2 > stroke:
-                p2, d2, i2 = (-pen if p2 < 0.0 else stroke + pen), 0.0, held
+                p2, d2, i2 = (-pen if p2 < 0.0 else stroke + pen), 0.0, 0.0
             if p3 < 0.0 or p3 > stroke:
-                p3, d3, i3 = (-pen if p3 < 0.0 else stroke + pen), 0.0, held
-        tol = POSITION_TOLERANCE
+                p3, d3, i3 = (-pen if p3 < 0.0 else stroke + pen), 0.0, 0.0
+            hold = True
+
+        start = (p1, p2, p3, qx, qy, th, c, s)
+        limit = HELD_NEWTON_STEPS if hold else MAX_NEWTON_STEPS
         steps = 0
         while True:
             # Leg vectors u_i = C_i - B_i and the loop residuals f_i = |u_i|^2 - L_i^2.
@@ -169,33 +184,35 @@ class LoopProjector:
             f1 = x1 * x1 + y1 * y1 - ll1
             f2 = x2 * x2 + y2 * y2 - ll2
             f3 = x3 * x3 + y3 * y3 - ll3
-            # Row i of J: -x_i at rho_i, then (x_i, y_i, t_i).
+            # Row i of J: -x_i at rho_i, then (x_i, y_i, t_i); G = J W^-1 J^T (symmetric).
             t1, t2, t3 = r1 * (y1 * c - x1 * s), r2 * (y2 * c - x2 * s), r3 * (y3 * c - x3 * s)
-            # G = J W^-1 J^T (symmetric 3x3).
             g11 = x1 * x1 * i1 + (x1 * x1 + y1 * y1) * ip + t1 * t1 * ii
             g22 = x2 * x2 * i2 + (x2 * x2 + y2 * y2) * ip + t2 * t2 * ii
             g33 = x3 * x3 * i3 + (x3 * x3 + y3 * y3) * ip + t3 * t3 * ii
             g12 = (x1 * x2 + y1 * y2) * ip + t1 * t2 * ii
             g13 = (x1 * x3 + y1 * y3) * ip + t1 * t3 * ii
             g23 = (x2 * x3 + y2 * y3) * ip + t2 * t3 * ii
-            # Adjugate of G and its determinant (G is symmetric positive definite where J has
-            # full rank).
+            # Adjugate and determinant (G is positive definite where J has full rank).
             h11 = g22 * g33 - g23 * g23
             h12 = g13 * g23 - g12 * g33
             h13 = g12 * g23 - g13 * g22
+            det = g11 * h11 + g12 * h12 + g13 * h13
+            converged = -ft1 <= f1 <= ft1 and -ft2 <= f2 <= ft2 and -ft3 <= f3 <= ft3
+            if hold and (
+                det <= HELD_CONDITION * g11 * g22 * g33 or (not converged and steps >= limit)
+            ):
+                # Too close to a parallel singularity for the platform alone (or no pose near
+                # for the held travels): start again with every slider free.
+                p1, p2, p3, qx, qy, th, c, s = start
+                i1 = i2 = i3 = free
+                hold = False
+                limit = steps + MAX_NEWTON_STEPS
+                continue
+            if converged or steps >= limit or det <= 0.0:
+                break
             h22 = g11 * g33 - g13 * g13
             h23 = g12 * g13 - g11 * g23
             h33 = g11 * g22 - g12 * g12
-            det = g11 * h11 + g12 * h12 + g13 * h13
-            if hold and det <= HELD_CONDITION * g11 * g22 * g33:
-                # Too close to a parallel singularity for the platform alone: free the sliders.
-                i1 = i2 = i3 = free
-                hold = False
-                continue
-            # Leg-length errors |u_i| - L_i = f_i / (|u_i| + L_i) ~ f_i / (2 L_i).
-            e1, e2, e3 = abs(f1) / (2.0 * l1), abs(f2) / (2.0 * l2), abs(f3) / (2.0 * l3)
-            if (e1 <= tol and e2 <= tol and e3 <= tol) or steps == MAX_NEWTON_STEPS or det <= 0.0:
-                break
             # lambda = G^-1 f / 2, dq = -W^-1 J^T lambda.
             k = 0.5 / det
             m1 = (h11 * f1 + h12 * f2 + h13 * f3) * k
@@ -209,14 +226,14 @@ class LoopProjector:
             th -= (t1 * m1 + t2 * m2 + t3 * m3) * ii
             c, s = math.cos(th), math.sin(th)
             steps += 1
-        closure = max(
-            abs(math.sqrt(x1 * x1 + y1 * y1) - l1),
-            abs(math.sqrt(x2 * x2 + y2 * y2) - l2),
-            abs(math.sqrt(x3 * x3 + y3 * y3) - l3),
-        )
+        n1, n2, n3 = x1 * x1 + y1 * y1, x2 * x2 + y2 * y2, x3 * x3 + y3 * y3
+        closure = max(abs(math.sqrt(n1) - l1), abs(math.sqrt(n2) - l2), abs(math.sqrt(n3) - l3))
 
         # Velocities: q_dot' = q_dot - W^-1 J^T G^-1 J q_dot, with J at the projected q.
         if det > 0.0:
+            h22 = g11 * g33 - g13 * g13
+            h23 = g12 * g13 - g11 * g23
+            h33 = g11 * g22 - g12 * g12
             k = 1.0 / det
             j1 = (qvx - d1) * x1 + qvy * y1 + w * t1
             j2 = (qvx - d2) * x2 + qvy * y2 + w * t2
@@ -231,34 +248,36 @@ class LoopProjector:
             qvy -= (y1 * m1 + y2 * m2 + y3 * m3) * ip
             w -= (t1 * m1 + t2 * m2 + t3 * m3) * ii
 
-        # Bodies from the projected coordinates.
+        # Bodies from the projected coordinates.  Leg i: midpoint of B_i C_i, along u_i, the
+        # rigid motion of its two ends (B_i moves at (d_i, 0), C_i at Q_dot + r_i w e_perp).
         ws, wc = w * s, w * c  # theta_dot e_perp = (-ws, wc)
-        out = [qx + dc * c, qy + dc * s, th, qvx - dc * ws, qvy + dc * wc, w]
-        for a, ri, p, d, x, y, o in (
-            (a1, r1, p1, d1, x1, y1, 6),
-            (a2, r2, p2, d2, x2, y2, 24),
-            (a3, r3, p3, d3, x3, y3, 42),
-        ):
-            b = a + p
-            cvx, cvy = qvx - ri * ws, qvy + ri * wc  # velocity of C_i (m/s)
-            out += (b, 0.0, v[o + 2], d, 0.0, 0.0)  # slider
-            out += v[o + 6 : o + 12]  # drive (kinematic, unchanged)
-            out += (  # leg: midpoint of B_i C_i, along u_i, rigid motion of its two ends
-                b + 0.5 * x,
-                0.5 * y,
-                math.atan2(y, x),
-                0.5 * (d + cvx),
-                0.5 * cvy,
-                (x * cvy - y * (cvx - d)) / (x * x + y * y),
-            )
-        kq = self.k_q
+        b1, b2, b3 = a1 + p1, a2 + p2, a3 + p3
+        c1x, c1y = qvx - r1 * ws, qvy + r1 * wc
+        c2x, c2y = qvx - r2 * ws, qvy + r2 * wc
+        c3x, c3y = qvx - r3 * ws, qvy + r3 * wc
+        al1, al2, al3 = math.atan2(y1, x1), math.atan2(y2, x2), math.atan2(y3, x3)
+        out = [
+            qx + dc * c, qy + dc * s, th, qvx - dc * ws, qvy + dc * wc, w,
+            b1, 0.0, v[8], d1, 0.0, 0.0,
+            v[12], v[13], v[14], v[15], v[16], v[17],
+            b1 + 0.5 * x1, 0.5 * y1, al1, 0.5 * (d1 + c1x), 0.5 * c1y,
+            (x1 * c1y - y1 * (c1x - d1)) / n1,
+            b2, 0.0, v[26], d2, 0.0, 0.0,
+            v[30], v[31], v[32], v[33], v[34], v[35],
+            b2 + 0.5 * x2, 0.5 * y2, al2, 0.5 * (d2 + c2x), 0.5 * c2y,
+            (x2 * c2y - y2 * (c2x - d2)) / n2,
+            b3, 0.0, v[44], d3, 0.0, 0.0,
+            v[48], v[49], v[50], v[51], v[52], v[53],
+            b3 + 0.5 * x3, 0.5 * y3, al3, 0.5 * (d3 + c3x), 0.5 * c3y,
+            (x3 * c3y - y3 * (c3x - d3)) / n3,
+        ]  # fmt: skip
         return Projected(
             out,
             (p1, p2, p3),
             (d1, d2, d3),
             (qx - kq * c, qy - kq * s, th),
             (qvx + kq * ws, qvy - kq * wc, w),
-            (out[20], out[38], out[56]),
+            (al1, al2, al3),
             closure,
             steps,
         )
