@@ -542,6 +542,69 @@ class Planar3PEnv(gym.Env):
             self._renderer.close()
             self._renderer = None
 
+    # ------------------------------------------------------------------ snapshots
+    #: Per-episode attributes a snapshot carries (besides the simulation, the random
+    #: generator and the task).
+    _EPISODE_FIELDS = (
+        "_spec",
+        "_steps",
+        "_mode",
+        "_target",
+        "_assembly",
+        "_obs",
+        "_measures",
+        "_last_info",
+    )
+
+    def get_state(self) -> dict[str, Any]:
+        """A snapshot of the environment (plain, picklable data): the simulation
+        (:meth:`Planar3PSim.get_state`), ``np_random``'s state, the task's episode state
+        (``task.get_state()`` if the task defines it, else a copy of its attributes) and the
+        episode's bookkeeping.  :meth:`set_state` on an environment made with the same
+        settings continues bit for bit as this one would."""
+        task = self.task
+        if hasattr(task, "get_state"):
+            task_state = task.get_state()
+        else:
+            task_state = copy.deepcopy({k: v for k, v in vars(task).items() if k != "env"})
+        return {
+            "config": self.config(),
+            "sim": None if self._sim is None else self._sim.get_state(),
+            "np_random": copy.deepcopy(self.np_random.bit_generator.state),
+            "np_random_seed": self._np_random_seed,
+            "task": task_state,
+            "episode": copy.deepcopy({k: getattr(self, k) for k in self._EPISODE_FIELDS}),
+        }
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Restore a :meth:`get_state` snapshot (``ValueError`` if it is not one, or was taken
+        from an environment with other settings; nothing is changed then)."""
+        keys = {"config", "sim", "np_random", "np_random_seed", "task", "episode"}
+        if not isinstance(state, dict) or set(state) != keys:
+            raise ValueError("state must be a snapshot from Planar3PEnv.get_state()")
+        if state["config"] != self.config():
+            raise ValueError(
+                "the snapshot was taken from an environment with other settings: "
+                f"{state['config']} != {self.config()}"
+            )
+        sim = None if state["sim"] is None else Planar3PSim.from_state(state["sim"])
+        rng = np.random.Generator(type(self.np_random.bit_generator)())
+        rng.bit_generator.state = copy.deepcopy(state["np_random"])
+        self._np_random, self._np_random_seed = rng, state["np_random_seed"]
+        self._sim = sim
+        if hasattr(self.task, "set_state"):
+            self.task.set_state(copy.deepcopy(state["task"]))
+        else:
+            vars(self.task).update(copy.deepcopy(state["task"]))
+        for key, value in copy.deepcopy(state["episode"]).items():
+            setattr(self, key, value)
+
+    def __getstate__(self) -> dict[str, Any]:
+        # The renderer holds a pygame window or surface: copies are made without one.
+        out = dict(self.__dict__)
+        out["_renderer"] = None
+        return out
+
     # ------------------------------------------------------------------ internals
     def _errors(self, pose: tuple[float, float, float]) -> tuple[float, float]:
         tx, ty, tth = self._target

@@ -517,6 +517,44 @@ class Planar3PSim:
             elif slider_x - setpoints[i] > FOLLOWING_ERROR_LIMIT:
                 drive.position = (slider_x - FOLLOWING_ERROR_LIMIT, 0.0)
 
+    # ------------------------------------------------------------------ snapshots
+    def get_state(self) -> SimSnapshot:
+        """A snapshot from which :meth:`set_state` / :meth:`from_state` restore this simulation
+        bit for bit (plain data; its size grows with the steps since the build)."""
+        pose, mode, settings = self._origin
+        return SimSnapshot(self.design.to_dict(), pose, mode, dict(settings), tuple(self._commands))
+
+    @classmethod
+    def from_state(cls, snapshot: SimSnapshot) -> Planar3PSim:
+        """A new simulation in the state of ``snapshot`` (rebuilt, then the recorded commands
+        replayed: pymunk's solver caches are restored with everything else)."""
+        if not isinstance(snapshot, SimSnapshot):
+            raise ValueError(f"expected a SimSnapshot, got {type(snapshot).__name__}")
+        commands = snapshot.commands
+        if len(commands) % 3 or not all(math.isfinite(c) for c in commands):
+            raise ValueError("snapshot commands must be finite, three per step")
+        sim = cls(
+            Design.from_dict(snapshot.design),
+            snapshot.pose,
+            snapshot.working_mode,
+            **snapshot.settings,
+        )
+        step = sim.step_unchecked
+        for i in range(0, len(commands), 3):
+            step(commands[i], commands[i + 1], commands[i + 2])
+        return sim
+
+    def set_state(self, snapshot: SimSnapshot) -> None:
+        """Put this simulation in the state of ``snapshot`` (see :meth:`from_state`)."""
+        self.__dict__.update(Planar3PSim.from_state(snapshot).__dict__)
+
+    def __getstate__(self) -> dict:
+        # pymunk's C structures cannot be pickled; a snapshot rebuilds them exactly.
+        return {"snapshot": self.get_state()}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(Planar3PSim.from_state(state["snapshot"]).__dict__)
+
     # ------------------------------------------------------------------ readout
     @property
     def state(self) -> SimState:
