@@ -1,10 +1,10 @@
 #!/usr/bin/env python
 """Plot learning curves of training runs (``evaluations.npz`` written by ``scripts/train.py``).
 
-Runs are grouped by algorithm (from each run's ``config.json``); for each group the mean over
+Runs are grouped by name (the directory without ``-s<seed>``); for each group the mean over
 seeds of the evaluation success rate and return is drawn against environment steps, with the
 range over seeds shaded.  Also prints a table of every run (steps, wall time, steps/s, final
-success rate) as markdown.
+success rate) as markdown.  The work is done by :mod:`agents.learning_curves`.
 
     python scripts/plot_learning.py runs/sac-s1 runs/ppo-s1 --out docs/figures/learning.png
 """
@@ -12,131 +12,18 @@ success rate) as markdown.
 from __future__ import annotations
 
 import argparse
-import json
-import re
 import sys
 from pathlib import Path
 
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt
-import numpy as np
 
+ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:
+    sys.path.insert(0, str(ROOT))
 
-def load_run(path: Path) -> dict:
-    """Learning curve and metadata of one run directory (``ValueError`` if incomplete)."""
-    try:
-        curve = np.load(path / "evaluations.npz")
-        config = json.loads((path / "config.json").read_text())["config"]
-    except (OSError, ValueError, KeyError) as exc:
-        raise ValueError(f"{path} is not a complete run directory: {exc}") from exc
-    metrics = {}
-    if (path / "metrics.json").exists():
-        metrics = json.loads((path / "metrics.json").read_text())
-    timesteps = curve["timesteps"]
-    returns = curve["results"].mean(axis=1)
-    successes = curve["successes"].mean(axis=1) if "successes" in curve else None
-    kick = json.loads((path / "config.json").read_text()).get("kickstart")
-    if kick and kick.get("evaluation"):  # the cloned policy before RL, at step 0
-        timesteps = np.concatenate([[0], timesteps])
-        returns = np.concatenate([[kick["evaluation"]["mean_return"]], returns])
-        if successes is not None:
-            successes = np.concatenate([[kick["evaluation"]["success_rate"]], successes])
-    return {
-        "name": path.name,
-        "train_time": training_time(path),
-        "kickstart": kick,
-        "algo": config["algo"],
-        "seed": config["seed"],
-        "timesteps": timesteps,
-        "returns": returns,
-        "successes": successes,
-        "metrics": metrics,
-    }
-
-
-def training_time(path: Path) -> float | None:
-    """Wall time spent training (s): the span of each TensorBoard log of the run, summed over
-    sessions (a resumed run has one log per session)."""
-    try:
-        from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
-    except ImportError:  # pragma: no cover - tensorboard is in the train extra
-        return None
-    total, found = 0.0, False
-    for log in sorted((path / "tb").glob("*")):
-        acc = EventAccumulator(str(log), size_guidance={"scalars": 0})
-        acc.Reload()
-        stamps = [e.wall_time for tag in acc.Tags()["scalars"] for e in acc.Scalars(tag)]
-        if len(stamps) > 1:
-            total += max(stamps) - min(stamps)
-            found = True
-    return total if found else None
-
-
-def _group_curves(
-    runs: list[dict], key: str
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Mean, min and max over the seeds that reached each evaluation step."""
-    steps = np.unique(np.concatenate([r["timesteps"] for r in runs]))
-    values = np.full((len(runs), len(steps)), np.nan)
-    for i, r in enumerate(runs):
-        values[i, np.searchsorted(steps, r["timesteps"])] = r[key]
-    return steps, np.nanmean(values, 0), np.nanmin(values, 0), np.nanmax(values, 0)
-
-
-def group_name(run: dict) -> str:
-    """Runs that differ only by seed form a group: the directory name without ``-s<seed>``."""
-    return re.sub(r"-s\d+$", "", run["name"])
-
-
-def plot(runs: list[dict], out: Path) -> None:
-    """Success rate and return against steps, one line per group of seeds (mean, range)."""
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    for group in sorted({group_name(r) for r in runs}):
-        members = [r for r in runs if group_name(r) == group]
-        label = f"{group} ({len(members)} seed{'s' if len(members) > 1 else ''})"
-        for ax, key in zip(axes, ("successes", "returns"), strict=True):
-            if any(r[key] is None for r in members):
-                continue
-            steps, mean, lo, hi = _group_curves(members, key)
-            ax.plot(steps, mean, label=label)
-            ax.fill_between(steps, lo, hi, alpha=0.2)
-    axes[0].set(xlabel="environment steps", ylabel="evaluation success rate", ylim=(-0.02, 1.02))
-    axes[0].set_title("Success rate (deterministic evaluation)")
-    axes[1].set(xlabel="environment steps", ylabel="mean evaluation return")
-    axes[1].set_title("Return")
-    for ax in axes:
-        ax.grid(alpha=0.3)
-        ax.legend()
-    fig.suptitle("Planar3P-v0 learning curves (mean over seeds, range shaded)")
-    fig.tight_layout()
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-
-
-def table(runs: list[dict]) -> str:
-    """Markdown table of the runs (training wall time from the TensorBoard logs)."""
-    lines = [
-        "| run | algo | seed | kick-started | env steps | training wall time (min) | steps/s "
-        "| final success (100 episodes) | final return |",
-        "|---|---|---|---|---|---|---|---|---|",
-    ]
-    for r in runs:
-        m = r["metrics"]
-        fe = m.get("final_evaluation", {})
-        steps = m.get("timesteps", int(r["timesteps"][-1]))
-        wall = r["train_time"]
-        kick = "yes" if r["kickstart"] else "no"
-        rate = f"{steps / wall:.0f}" if wall else "?"
-        minutes = f"{wall / 60:.1f}" if wall else "?"
-        lines.append(
-            f"| {r['name']} | {r['algo'].upper()} | {r['seed']} | {kick} | {steps} | {minutes} "
-            f"| {rate} | {fe.get('success_rate', float('nan')):.2f} "
-            f"| {fe.get('mean_return', float('nan')):.1f} |"
-        )
-    return "\n".join(lines)
+from agents.learning_curves import load_run, plot, table  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -146,6 +33,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("runs", nargs="+", type=Path, help="run directories")
     p.add_argument("--out", type=Path, default=Path("docs/figures/learning_curves.png"))
     args = p.parse_args(argv)
+    if args.out.is_dir():
+        print(f"error: --out {args.out} is a directory (give a .png file)", file=sys.stderr)
+        return 2
     try:
         runs = [load_run(path) for path in args.runs]
     except ValueError as exc:
