@@ -6,7 +6,8 @@ the run normalised) and ``<name>.json`` (where it came from: the run's config an
 metrics, the versions), which ``pretrained:<name>`` then loads; also the same model in
 rl-zoo3's folder layout (``<algo>/<env id>_<n>/``), so that ``python -m rl_zoo3.enjoy --algo
 ALGO --env ID -f agents/pretrained --gym-packages planar3p_gym`` plays it; and rewrites the
-checksum manifest ``SHA256SUMS``.  See :mod:`agents.shipping`.
+checksum manifest ``SHA256SUMS`` (checked before loading).  Ship only models you trust:
+model and statistics files are code.  See :mod:`agents.shipping`.
 
     python scripts/ship_policy.py runs/ppo-ks-s2 --name ppo_kickstart --model best_model
     python scripts/ship_policy.py --zoo-only --name ppo_kickstart   # (re)write the zoo layout
