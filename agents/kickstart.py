@@ -7,6 +7,11 @@ fitted to the teacher's actions and its value function to the discounted returns
 steps; PPO trains on from there.  The teacher sees the raw observations, so any policy with
 SB3's ``predict`` (e.g. :class:`agents.analytic.AnalyticController`) can teach.
 
+Why this is hand-written: neither SB3 nor rl-zoo3 has behaviour cloning, and the ``imitation``
+library's BC/DAgger train a policy of their own on its own rollout types; here the PPO model that
+will train on is fitted in place (action mean *and* value function), through the very
+``VecNormalize`` statistics PPO then uses, so RL starts from the clone without any conversion.
+
 A kick-started policy is *not* a policy learned from scratch; runs record the teacher and
 the number of teacher steps in ``config.json``, and the README reports such runs separately.
 """
