@@ -19,6 +19,7 @@ if ENV_ID not in registry:
     register(
         id=ENV_ID,
         entry_point="planar3p_gym.env:Planar3PEnv",
+        vector_entry_point="planar3p_gym.vector_env:Planar3PVectorEnv",
         max_episode_steps=MAX_EPISODE_STEPS,
     )
 
@@ -31,6 +32,7 @@ if ENV_ID_V1 not in registry:
     register(
         id=ENV_ID_V1,
         entry_point="planar3p_gym.env:Planar3PEnv",
+        vector_entry_point="planar3p_gym.vector_env:Planar3PVectorEnv",
         max_episode_steps=MAX_EPISODE_STEPS,
         kwargs={
             "projection": True,

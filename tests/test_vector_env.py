@@ -1,0 +1,106 @@
+"""The native vector env (planar3p_gym.vector_env): registered as the ids' vector entry point,
+Gymnasium's next-step autoreset, and the same trajectories as ``num_envs`` single envs."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode
+
+import planar3p_gym
+from planar3p_gym.vector_env import INFO_KEYS, Planar3PVectorEnv
+
+
+@pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v1"])
+def test_make_vec_gives_the_native_vector_env(env_id):
+    venv = gym.make_vec(env_id, num_envs=3)
+    assert isinstance(venv, Planar3PVectorEnv)
+    assert venv.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    assert venv.observation_space.shape == (3, 31)
+    assert venv.action_space.shape == (3, 3)
+    assert venv.max_episode_steps == planar3p_gym.MAX_EPISODE_STEPS
+    assert venv.envs[0].projection == (env_id == "Planar3P-v1")
+    venv.close()
+
+
+@pytest.mark.parametrize(("env_id", "kwargs"), [("Planar3P-v1", {}), ("Planar3P-v0", {})])
+def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs):
+    """Bit for bit: observations, rewards, flags and info entries of ``num_envs`` single
+    envs made with ``gym.make`` (time limit included), reset with ``seed + i`` and autoreset
+    on the next step after an episode ends, as the vector env does.  A short time limit makes
+    several episodes end (truncations) and restart within the test."""
+    n, steps, limit = 3, 130, 40
+    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit, **kwargs)
+    singles = [gym.make(env_id, max_episode_steps=limit, **kwargs) for _ in range(n)]
+    actions = np.random.default_rng(7).uniform(-1.0, 1.0, (steps, n, 3)).astype(np.float32)
+    obs, infos = venv.reset(seed=21)
+    expected = [env.reset(seed=21 + i) for i, env in enumerate(singles)]
+    np.testing.assert_array_equal(obs, np.stack([o for o, _ in expected]))
+    done = [False] * n
+    ends = 0
+    for a in actions:
+        obs, rewards, terminated, truncated, infos = venv.step(a)
+        for i, env in enumerate(singles):
+            if done[i]:
+                o, info = env.reset()
+                r, te, tr = 0.0, False, False
+            else:
+                o, r, te, tr, info = env.step(a[i])
+            done[i] = te or tr
+            ends += done[i]
+            np.testing.assert_array_equal(obs[i], o)
+            assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr)
+            for key in INFO_KEYS:
+                assert infos[key][i] == info[key], key
+                assert infos["_" + key][i]
+    assert ends >= n * 2
+    venv.close()
+
+
+def test_reset_accepts_a_list_of_seeds_and_options():
+    venv = Planar3PVectorEnv(num_envs=2, max_episode_steps=10)
+    obs_a, _ = venv.reset(seed=[5, 9])
+    single = gym.make("Planar3P-v0")
+    np.testing.assert_array_equal(obs_a[1], single.reset(seed=9)[0])
+    start = single.unwrapped.sim.state.pose
+    _, info = venv.reset(seed=1, options={"start": start})
+    for env in venv.envs:
+        np.testing.assert_allclose(env.sim.state.pose, start, atol=1e-12)
+    assert info["position_error"].shape == (2,)
+    with pytest.raises(ValueError, match="seeds"):
+        venv.reset(seed=[1, 2, 3])
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"num_envs": 0}, {"num_envs": 2.5}, {"num_envs": 2, "max_episode_steps": 0}],
+)
+def test_constructor_rejects_bad_arguments(kwargs):
+    with pytest.raises(ValueError):
+        Planar3PVectorEnv(**kwargs)
+
+
+def test_step_rejects_bad_actions_without_stepping():
+    venv = Planar3PVectorEnv(num_envs=2)
+    venv.reset(seed=0)
+    before = [env.sim.state for env in venv.envs]
+    for bad in (np.zeros((3, 3)), np.full((2, 3), np.nan)):
+        with pytest.raises(ValueError):
+            venv.step(bad)
+    assert [env.sim.state for env in venv.envs] == before
+
+
+def test_vector_snapshot_restores_the_batch():
+    venv = Planar3PVectorEnv(num_envs=2, max_episode_steps=20, projection=True)
+    venv.reset(seed=3)
+    rng = np.random.default_rng(0)
+    for _ in range(15):
+        venv.step(rng.uniform(-1, 1, (2, 3)))
+    snap = venv.get_state()
+    twin = Planar3PVectorEnv(num_envs=2, max_episode_steps=20, projection=True)
+    twin.set_state(snap)
+    for a in rng.uniform(-1, 1, (30, 2, 3)):
+        x, y = venv.step(a), twin.step(a)
+        np.testing.assert_array_equal(x[0], y[0])
+        np.testing.assert_array_equal(x[1], y[1])
