@@ -214,3 +214,18 @@ def test_task_baselines_script(tmp_path, capsys):
     assert len(data) == 6
     assert "figure_eight" in capsys.readouterr().out
     assert module.main(["--episodes", "0"]) == 2
+
+
+def test_figure_eight_modes():
+    """Working modes where figure-eights hardly fit are left out of the random draw, and
+    rejected when fixed; segments use every mode."""
+    env = make("figure_eight", working_mode="random")
+    draw = env.unwrapped.task._draw_modes
+    assert (1, 1, -1) in draw and len(draw) < len(env.unwrapped.modes)
+    left_out = sorted(set(env.unwrapped.modes) - set(draw))
+    with pytest.raises(ValueError, match="hardly fit"):
+        make("figure_eight", working_mode=left_out[0])
+    assert make("segments", working_mode=left_out[0]).reset(seed=0)[0].shape == (OBS_SIZE + 3,)
+    env.reset(seed=1)
+    for _ in range(10):
+        assert tuple(env.reset()[1]["episode_spec"]["working_mode"]) in draw

@@ -16,7 +16,10 @@ Two kinds of reference (constructor argument ``reference``):
   whole closed curve is checked like a reach path (within the stroke with ``travel_margin``,
   path margins, same assembly mode); the phase advances at
   ``2 pi / period`` after a smooth ramp of ``ramp`` seconds from rest, and the period makes the
-  largest slider rate ``speed_fraction * max_speed`` at full speed.
+  largest slider rate ``speed_fraction * max_speed`` at full speed.  Working modes in which
+  eights hardly fit (on the default design (1, -1, 1) and (-1, 1, -1), whose reachable regions
+  are too thin for an eight of more than a few millimetres) are left out of the random draw, and
+  a fixed one is rejected in the constructor.
 
 The episode starts at rest at the reference's initial pose.  Observation: the 31 entries of
 ``Planar3P-v0`` against the current reference pose (target position/orientation = reference,
@@ -63,6 +66,10 @@ REFERENCE_KINDS = ("segments", "figure_eight")
 EIGHT_AMPLITUDES = ((0.02, 0.06), (0.01, 0.03), (0.0, 0.25))
 #: Scales tried on drawn figure-eight amplitudes that do not fit, in order.
 EIGHT_SCALES = (1.0, 0.7, 0.5, 0.35, 0.25)
+#: A working mode is used for figure-eights when at least this many of
+#: :data:`EIGHT_MODE_TRIALS` drawn eights fit in it.
+EIGHT_MODE_ACCEPTS = 3
+EIGHT_MODE_TRIALS = 16
 #: Points at which a segment or the figure-eight is checked and its rates bounded.
 CHECK_POINTS = 65
 #: Shortest segment or period (s).
@@ -141,6 +148,36 @@ class TrackTask(Task):
         self._sums = np.zeros(3)
         self._maxes = np.zeros(3)
         self._count = 0
+        self._draw_modes = self._reference_modes()
+
+    def _reference_modes(self) -> list[tuple[int, int, int]]:
+        """The env's working modes in which references of this kind are drawn: all of them for
+        segments; for the figure-eight those where at least :data:`EIGHT_MODE_ACCEPTS` of
+        :data:`EIGHT_MODE_TRIALS` drawn eights fit (fixed internal seed, so the list never
+        depends on, or consumes, the episode's random stream); ``ValueError`` if none."""
+        modes = list(self.env.modes)
+        if self.kind == "segments":
+            return modes
+        rng = np.random.default_rng(0)
+        usable = []
+        cfg = self.env.task_config
+        for mode in modes:
+            sampler = task.PoseSampler(self.env.design, mode, cfg)
+            self._samplers[mode] = sampler
+            fits = sum(
+                self._draw_eight(rng, mode, None) is not None for _ in range(EIGHT_MODE_TRIALS)
+            )
+            sampler.clear()
+            if fits >= EIGHT_MODE_ACCEPTS:
+                usable.append(mode)
+        if not usable:
+            raise ValueError(
+                f"figure-eight references hardly fit in working mode(s) {modes} of this design "
+                f"(fewer than {EIGHT_MODE_ACCEPTS} of {EIGHT_MODE_TRIALS} drawn eights, "
+                f"amplitudes down to {EIGHT_SCALES[-1]} of {EIGHT_AMPLITUDES}); use "
+                "reference='segments' or another working mode"
+            )
+        return usable
 
     def reseed(self) -> None:
         for sampler in self._samplers.values():
@@ -181,7 +218,7 @@ class TrackTask(Task):
     def episode_spec(self, rng: np.random.Generator, options: dict[str, Any]) -> dict[str, Any]:
         mode = self._known_mode(options)
         if mode is None:
-            modes = self.env.modes
+            modes = self._draw_modes
             mode = modes[int(rng.integers(len(modes)))]
             self._check_start_and_reference(options, mode)
         if mode not in self._samplers:
@@ -395,20 +432,23 @@ class TrackTask(Task):
         amp = np.array(
             [rng.uniform(x0, x1), rng.uniform(y0, y1), rng.uniform(-t1, t1)], dtype=np.float64
         )
-        asm = self._assembly(centre, mode)
-        for scale in EIGHT_SCALES:  # shrink the drawn eight until it fits, if it can
-            ref = {
+        # Shrink the drawn eight until it fits, if it can (all scales screened at once).
+        refs = [
+            {
                 "kind": "figure_eight",
                 "centre": pose_list(centre),
                 "amplitude": pose_list(scale * amp),
                 "period": 1.0,
                 "ramp": EIGHT_RAMP,
             }
-            curve = self._eight_curve(ref)
-            if self._screen(curve, mode, asm):
-                break
-        else:
+            for scale in EIGHT_SCALES
+        ]
+        curves = np.stack([self._eight_curve(r) for r in refs])
+        fits = self._screen(curves, mode, self._assembly(centre, mode))
+        if not fits.any():
             return None
+        ref = refs[int(np.argmax(fits))]
+        curve = curves[int(np.argmax(fits))]
         # Rates per radian of phase, times 2 pi / period at full speed.
         peak = self._peak_rate(curve, mode) / (2.0 * math.pi)
         ref["period"] = max(2.0 * math.pi * peak / (self.speed_fraction * design.max_speed), 2.0)
