@@ -228,7 +228,9 @@ class Planar3PEnv(gym.Env):
     - ``design``: a :class:`Design`, a dict of its fields, or a preset name (``"fig8"``,
       ``"fig7"``); default ``Design.fig8()``.
     - ``working_mode``: ``(s1, s2, s3)`` of +-1 (default ``(1, 1, -1)``) or ``"random"``
-      (one of the modes with a usable workspace, drawn per episode).
+      (one of the modes with start/target pairs, drawn per episode).  A mode without pairs
+      under the task's margins is rejected here (:func:`planar3p_gym.task.check_mode`), so
+      ``reset()`` never fails on a valid setting: it redraws until it finds a pair.
     - ``control_frequency``: control rate (Hz), default 50; also the render fps.
     - ``substeps``: physics steps per control step (default 8: 2.5 ms at 50 Hz);
       ``solver_iterations``: pymunk constraint iterations per physics step (default 18).
