@@ -150,13 +150,19 @@ def _read_manifest(directory: Path) -> dict[str, str]:
     return sums
 
 
+#: Shipped files the manifest covers (all are read by a loader; ``.yml`` by rl-zoo3's YAML).
+MANIFEST_SUFFIXES = (".zip", ".pkl", ".json", ".yml", ".yaml")
+
+
 def write_manifest(directory: Path | None = None) -> Path:
-    """(Re)write ``SHA256SUMS`` for every ``.zip``, ``.pkl`` and ``.json`` file in the
-    pretrained directory (``scripts/ship_policy.py`` calls this after copying a model)."""
+    """(Re)write ``SHA256SUMS`` for every model, statistics, record and config file under the
+    pretrained directory, subfolders included (rl-zoo3 layout), named by their relative POSIX
+    paths as ``sha256sum -c`` expects (``scripts/ship_policy.py`` calls this after copying)."""
     d = directory or PRETRAINED_DIR
-    files = sorted(p for p in d.iterdir() if p.is_file() and p.suffix in (".zip", ".pkl", ".json"))
+    files = sorted(p for p in d.rglob("*") if p.is_file() and p.suffix in MANIFEST_SUFFIXES)
     out = d / MANIFEST
-    out.write_text("".join(f"{file_sha256(p)}  {p.name}\n" for p in files))
+    lines = (f"{file_sha256(p)}  {p.relative_to(d).as_posix()}\n" for p in files)
+    out.write_text("".join(lines))
     return out
 
 
