@@ -53,6 +53,11 @@ class Planar3PVectorEnv(VectorEnv):
         num_envs: number of environments (>= 1).
         max_episode_steps: time limit in steps (``None`` or -1: none); ``gym.make_vec`` passes
             the registered one.
+        autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default, Gymnasium's) or
+            ``AutoresetMode.SAME_STEP`` (an ended episode is reset within the same step: its
+            last observation is in ``info["final_obs"]``, its last info entries in
+            ``info["final_info"]``; what SB3's ``VecEnv`` expects, see
+            :mod:`agents.vec_adapter`).
         **kwargs: :class:`Planar3PEnv` arguments, the same for every copy (``render_mode``
             is not supported here).
     """
@@ -60,7 +65,11 @@ class Planar3PVectorEnv(VectorEnv):
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
 
     def __init__(
-        self, num_envs: int = 1, max_episode_steps: int | None = None, **kwargs: Any
+        self,
+        num_envs: int = 1,
+        max_episode_steps: int | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        **kwargs: Any,
     ) -> None:
         if not (isinstance(num_envs, (int, np.integer)) and not isinstance(num_envs, bool)):
             raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
@@ -72,6 +81,15 @@ class Planar3PVectorEnv(VectorEnv):
                     f"max_episode_steps must be an integer >= 1, -1 or None, "
                     f"got {max_episode_steps!r}"
                 )
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            mode = None
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(
+                f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {autoreset_mode!r}"
+            )
+        self.metadata = {**self.metadata, "autoreset_mode": mode}
         if kwargs.get("render_mode") is not None:
             raise ValueError("Planar3PVectorEnv does not render; use gym.make for rendering")
         self.num_envs = int(num_envs)
@@ -130,6 +148,8 @@ class Planar3PVectorEnv(VectorEnv):
         infos = []
         limit = self.max_episode_steps
         obs_out, elapsed, autoreset = self._obs, self._elapsed, self._autoreset
+        same_step = self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
+        final: dict[int, tuple[np.ndarray, dict[str, Any]]] = {}
         for i, env in enumerate(self.envs):
             if autoreset[i]:
                 obs, info = env.reset()
@@ -140,10 +160,27 @@ class Planar3PVectorEnv(VectorEnv):
                 rewards[i] = reward
                 terminated[i] = term
                 truncated[i] = limit is not None and elapsed[i] >= limit
+                if same_step and (term or truncated[i]):
+                    final[i] = (obs, info)
+                    obs, info = env.reset()
+                    elapsed[i] = 0
             obs_out[i] = obs
             infos.append(info)
-        np.logical_or(terminated, truncated, out=autoreset)
-        return obs_out.copy(), rewards, terminated, truncated, self._batch_infos(infos)
+        if not same_step:
+            np.logical_or(terminated, truncated, out=autoreset)
+        out = self._batch_infos(infos)
+        if final:
+            final_obs = np.full(self.num_envs, None, dtype=object)
+            done = np.zeros(self.num_envs, dtype=np.bool_)
+            last = list(infos)
+            for i, (obs, info) in final.items():
+                final_obs[i], done[i], last[i] = obs, True, info
+            out["final_obs"], out["_final_obs"] = final_obs, done
+            final_info = self._batch_infos(last)
+            for key in INFO_KEYS:
+                final_info["_" + key] = done
+            out["final_info"], out["_final_info"] = final_info, done
+        return obs_out.copy(), rewards, terminated, truncated, out
 
     def _batch_infos(self, infos: list[dict[str, Any]]) -> dict[str, Any]:
         """Gymnasium's vector info layout for :data:`INFO_KEYS`."""

@@ -104,3 +104,44 @@ def test_vector_snapshot_restores_the_batch():
         x, y = venv.step(a), twin.step(a)
         np.testing.assert_array_equal(x[0], y[0])
         np.testing.assert_array_equal(x[1], y[1])
+
+
+def test_sb3_adapter_matches_dummy_vec_env():
+    """``agents.vec_adapter.make_native_vec_env`` gives what SB3's ``DummyVecEnv`` of
+    ``gym.make`` envs gives (same seeds): observations, rewards, dones, terminal observations,
+    time-limit flags and success flags; and PPO runs on it."""
+    sb3 = pytest.importorskip("stable_baselines3")
+    import torch
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    torch.set_num_threads(1)
+
+    from agents.vec_adapter import make_native_vec_env
+
+    n, limit = 2, 30
+    native = make_native_vec_env("Planar3P-v1", n_envs=n, seed=4, env_kwargs=None)
+    native.venv.max_episode_steps = limit
+    dummy = DummyVecEnv(
+        [lambda: gym.make("Planar3P-v1", max_episode_steps=limit) for _ in range(n)]
+    )
+    dummy.seed(4)
+    np.testing.assert_array_equal(native.reset(), dummy.reset())
+    ends = 0
+    for a in np.random.default_rng(1).uniform(-1, 1, (75, n, 3)).astype(np.float32):
+        x, y = native.step(a), dummy.step(a)
+        np.testing.assert_array_equal(x[0], y[0])
+        np.testing.assert_array_equal(x[1], y[1])
+        np.testing.assert_array_equal(x[2], y[2])
+        for i in range(n):
+            for key in ("TimeLimit.truncated", "is_success", "closure_error"):
+                assert x[3][i][key] == y[3][i][key]
+            if x[2][i]:
+                ends += 1
+                np.testing.assert_array_equal(
+                    x[3][i]["terminal_observation"], y[3][i]["terminal_observation"]
+                )
+                assert x[3][i]["episode"]["l"] == limit
+    assert ends >= n * 2
+    model = sb3.PPO("MlpPolicy", native, n_steps=32, batch_size=32, n_epochs=1, seed=0)
+    model.learn(64)
+    native.close()
