@@ -1,0 +1,214 @@
+"""Throughput measurements of the environments (the logic of ``scripts/bench_env.py``).
+
+* :func:`single_env_rates`: steps/s of single envs made with ``gym.make`` (their registered
+  wrappers included), each measured by Gymnasium's own
+  :func:`gymnasium.utils.performance.benchmark_step` (random actions, resets included) for a
+  fixed duration; the envs are interleaved across repeats with a rotating order, so that a
+  load drifting on a shared machine affects all alike, and ratios are taken per repeat
+  (paired) before the median.
+* :func:`median_step_us`: the median wall time of single steps, each timed on its own
+  (ignores the steps during which a busy machine preempted the process).
+* :func:`vector_rates`: total env steps/s of a vector env: the native one
+  (``gym.make_vec``'s default for the ids that register it), ``SyncVectorEnv`` or
+  ``AsyncVectorEnv``.
+* :func:`profile_step`: median time per step of the parts of a ``Planar3PEnv`` step.
+* :func:`ppo_rates`: PPO training steps/s with the native SB3 adapter, ``DummyVecEnv`` and
+  ``SubprocVecEnv`` (needs the ``train`` extra).
+* :func:`write_json_atomic`: results written to a temporary file, then renamed.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import statistics
+import tempfile
+import time
+import warnings
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.utils.performance import benchmark_step
+
+__all__ = [
+    "median_step_us",
+    "paired_ratio",
+    "ppo_rates",
+    "profile_step",
+    "single_env_rates",
+    "vector_rates",
+    "write_json_atomic",
+]
+
+
+def _make(env_id: str, **kwargs: Any) -> gym.Env:
+    with warnings.catch_warnings():  # e.g. "Planar3P-v0 is out of date"
+        warnings.simplefilter("ignore")
+        return gym.make(env_id, **kwargs)
+
+
+def single_env_rates(
+    env_ids: list[str], repeats: int, duration: float, seed: int
+) -> dict[str, list[float]]:
+    """``{env_id: [steps/s of each repeat]}``, interleaved (module docstring)."""
+    envs = {e: _make(e) for e in env_ids}
+    rates: dict[str, list[float]] = {e: [] for e in env_ids}
+    try:
+        for env in envs.values():  # warm-up: first-call caches, lazy imports
+            benchmark_step(env, target_duration=min(0.2, duration), seed=seed)
+        for r in range(repeats):
+            order = env_ids[r % len(env_ids) :] + env_ids[: r % len(env_ids)]
+            for e in order:
+                envs[e].action_space.seed(seed + r)
+                rates[e].append(benchmark_step(envs[e], target_duration=duration, seed=seed))
+    finally:
+        for env in envs.values():
+            env.close()
+    return rates
+
+
+def paired_ratio(a: list[float], b: list[float]) -> float:
+    """Median of the per-repeat ratios ``a[r] / b[r]``."""
+    return statistics.median(x / y for x, y in zip(a, b, strict=True))
+
+
+def median_step_us(env_id: str, n_steps: int, seed: int) -> float:
+    """Median wall time (us) of one ``gym.make(env_id)`` step over ``n_steps`` random-action
+    steps (resets not timed)."""
+    env = _make(env_id)
+    env.action_space.seed(seed)
+    actions = [env.action_space.sample() for _ in range(n_steps)]
+    env.reset(seed=seed)
+    clock = time.perf_counter_ns
+    times = np.empty(n_steps, dtype=np.int64)
+    for n, a in enumerate(actions):
+        t0 = clock()
+        _, _, terminated, truncated, _ = env.step(a)
+        times[n] = clock() - t0
+        if terminated or truncated:
+            env.reset()
+    env.close()
+    return float(np.median(times)) / 1e3
+
+
+def vector_rates(
+    env_id: str, kind: str, num_envs: int, n_steps: int, repeats: int, seed: int
+) -> list[float]:
+    """Total env steps/s of a ``kind`` vector env (``"native"``, ``"sync"`` or ``"async"``)
+    of ``num_envs`` copies of ``env_id``, ``n_steps`` batch steps per repeat."""
+    modes = {"native": "vector_entry_point", "sync": "sync", "async": "async"}
+    if kind not in modes:
+        raise ValueError(f"kind must be one of {sorted(modes)}, got {kind!r}")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        venv = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode=modes[kind])
+    try:
+        venv.action_space.seed(seed)
+        actions = [venv.action_space.sample() for _ in range(n_steps)]
+        venv.reset(seed=seed)
+        for a in actions[: min(50, n_steps)]:  # warm-up
+            venv.step(a)
+        out = []
+        for _ in range(repeats):
+            venv.reset(seed=seed)
+            t0 = time.perf_counter()
+            for a in actions:
+                venv.step(a)
+            out.append(num_envs * n_steps / (time.perf_counter() - t0))
+        return out
+    finally:
+        venv.close()
+
+
+def profile_step(env_id: str, n_steps: int, seed: int) -> dict[str, float]:
+    """Median time per step (us) of the parts of a ``Planar3PEnv`` step, measured on a second
+    env stepped in lockstep with the whole step (same actions, so the same states):
+    ``wrapped_step`` (``gym.make(...).step``), ``env_step`` (unwrapped), ``physics``
+    (``Planar3PSim.step_unchecked``: pymunk, and the projection where it is on),
+    ``measures`` (margins, assembly mode), ``observation``, ``reward`` (the task's reward
+    terms); ``other`` is the rest of ``env_step`` (action parsing, termination, info)."""
+    rng = np.random.default_rng(seed)
+    actions = rng.uniform(-1.0, 1.0, size=(n_steps, 3)).astype(np.float32)
+    wrapped, raw, parts = _make(env_id), _make(env_id).unwrapped, _make(env_id).unwrapped
+    vmax = parts.design.max_speed
+    keys = ("wrapped_step", "env_step", "physics", "measures", "observation", "reward")
+    samples = np.zeros((n_steps, len(keys)), dtype=np.int64)
+    clock = time.perf_counter_ns
+    for env in (wrapped, raw, parts):
+        env.reset(seed=seed)
+    for n, a in enumerate(actions):
+        t0 = clock()
+        _, _, terminated, truncated, _ = wrapped.step(a)
+        t1 = clock()
+        raw.step(a)
+        t2 = clock()
+        state = parts.sim.step_unchecked(float(a[0]) * vmax, float(a[1]) * vmax, float(a[2]) * vmax)
+        t3 = clock()
+        measures = parts._kin.measures(state.pose, state.rho)
+        t4 = clock()
+        parts._observe(state, measures)
+        t5 = clock()
+        parts.task.reward_terms(
+            errors=parts._errors(state.pose),
+            measures=measures,
+            action=(float(a[0]), float(a[1]), float(a[2])),
+            success=False,
+            failure=False,
+        )
+        t6 = clock()
+        samples[n] = (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4, t6 - t5)
+        if terminated or truncated:
+            for env in (wrapped, raw, parts):
+                env.reset()
+    wrapped.close()
+    med = np.median(samples, axis=0) / 1e3
+    out = {k: float(v) for k, v in zip(keys, med, strict=True)}
+    out["other"] = out["env_step"] - out["physics"] - out["measures"] - out["observation"]
+    out["other"] -= out["reward"]
+    return out
+
+
+def ppo_rates(env_id: str, n_envs: int, timesteps: int, seed: int) -> dict[str, float]:
+    """PPO training steps/s (``model.learn(timesteps)``, SB3 defaults but ``n_steps`` sized to
+    the rollout) on ``n_envs`` copies of ``env_id`` through each vec env: ``native``
+    (:mod:`agents.vec_adapter`), ``dummy`` (``DummyVecEnv``) and ``subproc``
+    (``SubprocVecEnv``, one process per env)."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    from agents.vec_adapter import make_native_vec_env
+
+    torch.set_num_threads(1)
+    n_steps = max(16, timesteps // (2 * n_envs))
+    out = {}
+    for kind in ("native", "dummy", "subproc"):
+        if kind == "native":
+            venv = make_native_vec_env(env_id, n_envs=n_envs, seed=seed)
+        else:
+            cls = DummyVecEnv if kind == "dummy" else SubprocVecEnv
+            venv = make_vec_env(f"planar3p_gym:{env_id}", n_envs, seed=seed, vec_env_cls=cls)
+        model = PPO("MlpPolicy", venv, n_steps=n_steps, batch_size=n_steps, seed=seed, n_epochs=4)
+        t0 = time.perf_counter()
+        model.learn(timesteps)
+        out[kind] = model.num_timesteps / (time.perf_counter() - t0)
+        venv.close()
+    return out
+
+
+def write_json_atomic(path: str | os.PathLike, data: Any) -> None:
+    """Write ``data`` as JSON to ``path`` atomically (a temporary file in the same directory,
+    then ``os.replace``): a reader never sees a partial file, and a failure leaves the old
+    file as it was."""
+    target = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            json.dump(data, fh, indent=2)
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise

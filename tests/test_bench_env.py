@@ -1,0 +1,80 @@
+"""``scripts/bench_env.py``: bad arguments are rejected before any work (exit 2, one line);
+results are written atomically; :mod:`planar3p_gym.throughput` measures what it says."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+import pytest
+
+from planar3p_gym import throughput
+
+SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "bench_env.py"
+
+
+def load_script():
+    spec = importlib.util.spec_from_file_location("bench_env_script", SCRIPT)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["--repeats", "-1"],
+        ["--repeats", "0"],
+        ["--steps", "0"],
+        ["--seed", "-1"],
+        ["--duration", "0"],
+        ["--duration", "nan"],
+        ["--num-envs", "0"],
+        ["--ppo-steps", "0"],
+        ["--json", "/nonexistent/dir/out.json"],
+        ["--steps", "abc"],
+        ["--unknown"],
+    ],
+)
+def test_bad_arguments_exit_2_with_one_line_before_any_work(argv, capsys, monkeypatch):
+    mod = load_script()
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("measured despite bad arguments")
+
+    monkeypatch.setattr(throughput, "single_env_rates", no_work)
+    with pytest.raises(SystemExit) as exc:
+        mod.main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("bench_env.py: error:")
+
+
+def test_json_directory_is_rejected(tmp_path, capsys):
+    mod = load_script()
+    with pytest.raises(SystemExit) as exc:
+        mod.main(["--json", str(tmp_path)])
+    assert exc.value.code == 2
+
+
+def test_write_json_atomic_replaces_whole_files_only(tmp_path):
+    target = tmp_path / "out.json"
+    throughput.write_json_atomic(target, {"a": 1})
+    assert json.loads(target.read_text()) == {"a": 1}
+    with pytest.raises(TypeError):
+        throughput.write_json_atomic(target, {"a": object()})  # not serialisable
+    assert json.loads(target.read_text()) == {"a": 1}  # the old file survives
+    assert [p.name for p in tmp_path.iterdir()] == ["out.json"]  # no temporary left
+
+
+def test_throughput_measures_run_and_are_positive():
+    rates = throughput.single_env_rates(["Planar3P-v1", "Pendulum-v1"], 2, 0.05, 0)
+    assert all(len(v) == 2 and min(v) > 0 for v in rates.values())
+    assert throughput.paired_ratio([2.0, 4.0], [1.0, 1.0]) == 3.0
+    assert throughput.median_step_us("Planar3P-v1", 20, 0) > 0
+    assert min(throughput.vector_rates("Planar3P-v1", "native", 2, 5, 1, 0)) > 0
+    prof = throughput.profile_step("Planar3P-v1", 20, 0)
+    assert prof["physics"] > 0 and prof["wrapped_step"] >= prof["physics"]
+    with pytest.raises(ValueError):
+        throughput.vector_rates("Planar3P-v1", "threads", 2, 5, 1, 0)
