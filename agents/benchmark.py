@@ -16,8 +16,9 @@ Loading policies, and refusing statistics files the user did not name, is
 from __future__ import annotations
 
 import json
+import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -25,19 +26,31 @@ from typing import Any
 from planar3p_gym.design import Design
 
 from .episodes import EpisodeResult, evaluate
-from .policies import PolicyError, load_policy, parse_policy_spec, policy_label
+from .policies import BUILTIN_POLICIES, PolicyError, load_policy, parse_policy_spec, policy_label
 from .report import write_report, write_rows, write_summary
 from .report_plots import plot_errors, plot_success, plot_trajectories
 from .statistics import summarize
 from .suites import SUITE_NAMES, EpisodeSpec, Suite, load_suites, make_suite, save_suites
+from .task_suites import TASK_SUITES, make_task_suite, task_baseline
+
+#: What ``baselines`` stands for on the reach suites.
+REACH_BASELINES: tuple[str, ...] = (
+    "analytic-simultaneous",
+    "analytic-sequential",
+    "random",
+    "zero",
+)
+#: Every task baseline name.
+TASK_BASELINE_NAMES = frozenset(b for d in TASK_SUITES.values() for b in d.baselines)
 
 __all__ = [
     "OUTPUT_FILES",
+    "REACH_BASELINES",
     "TRAJECTORIES_PER_SUITE",
     "BenchmarkRun",
     "build_suites",
     "check_output_dir",
-    "load_policies",
+    "load_suite_policies",
     "run_benchmark",
     "training_seed",
 ]
@@ -103,23 +116,63 @@ def training_seed(model_path: str | Path | None) -> int | None:
     return None
 
 
-def load_policies(
-    specs: Sequence[str], env: Any, *, seed: int = 0, device: str = "cpu"
-) -> tuple[dict[str, Any], dict[str, tuple[str, int | None]]]:
-    """Load each specification (:func:`agents.policies.load_policy`) under its label
-    (:func:`agents.policies.policy_label`): returns labels -> policies and labels ->
-    (specification, training seed or ``None``).  :class:`~agents.policies.PolicyError` for a
-    bad specification or a label given twice."""
-    policies: dict[str, Any] = {}
+def _warn(text: str) -> None:
+    print(f"warning: {text}", file=sys.stderr)
+
+
+def load_suite_policies(
+    specs: Sequence[str],
+    suites: Sequence[str],
+    envs: dict[str, Any],
+    *,
+    seed: int = 0,
+    device: str = "cpu",
+    warn: Callable[[str], None] = _warn,
+) -> tuple[dict[str, dict[str, Any]], dict[str, tuple[str, int | None]]]:
+    """The policies each suite (a name of :data:`~agents.suites.SUITE_NAMES` or of
+    :data:`~agents.task_suites.TASK_SUITES`) is played with: suite -> (label -> policy), and
+    label -> (specification, training seed or ``None``).
+
+    ``baselines`` stands for the suite's baselines (:data:`REACH_BASELINES` on the reach
+    suites, the task's own in :data:`agents.task_suites.TASK_SUITES`).  On a reach suite every
+    specification is loaded once with :func:`agents.policies.load_policy` in its environment
+    ``envs[suite]``; on a task suite a baseline name builds that task's baseline, a model is
+    loaded against the task's environment (its spaces must match), and a built-in name the
+    task does not list is skipped (``warn`` says so).  :class:`~agents.policies.PolicyError`
+    (a ``ValueError``) for a bad specification, a label given twice, or a suite left without
+    any policy.
+    """
+    per_suite: dict[str, dict[str, Any]] = {}
     meta: dict[str, tuple[str, int | None]] = {}
-    for text in specs:
-        ps = parse_policy_spec(text)
-        label = policy_label(text)
-        if label in policies:
-            raise PolicyError(f"policy {text!r} given twice (as {label!r})")
-        policies[label] = load_policy(ps, env=env, seed=seed, device=device)
-        meta[label] = (text, training_seed(ps.path))
-    return policies, meta
+    shared: dict[str, Any] = {}
+    for name in suites:
+        task = name in TASK_SUITES
+        base = TASK_SUITES[name].baselines if task else REACH_BASELINES
+        texts = [t for spec in specs for t in (base if spec == "baselines" else (spec,))]
+        pols: dict[str, Any] = {}
+        for text in texts:
+            label = policy_label(text)
+            if label in pols:
+                raise PolicyError(f"policy {text!r} given twice (as {label!r})")
+            if task and (text in TASK_BASELINE_NAMES or text in BUILTIN_POLICIES):
+                if text not in base:
+                    warn(f"{text} does not apply to task suite {name} (its baselines: {base})")
+                    continue
+                pols[label] = task_baseline(text, name, envs[name])
+                meta.setdefault(label, (text, None))
+                continue
+            ps = parse_policy_spec(text)
+            if task:
+                pols[label] = load_policy(ps, env=envs[name], seed=seed, device=device)
+            else:
+                if label not in shared:
+                    shared[label] = load_policy(ps, env=envs[name], seed=seed, device=device)
+                pols[label] = shared[label]
+            meta.setdefault(label, (text, training_seed(ps.path)))
+        if not pols:
+            raise PolicyError(f"no policy of {list(specs)} applies to suite {name!r}")
+        per_suite[name] = pols
+    return per_suite, meta
 
 
 def build_suites(
@@ -129,29 +182,46 @@ def build_suites(
     design: Design,
     *,
     suite_file: str | Path | None = None,
+    envs: dict[str, Any] | None = None,
     **suite_kwargs: Any,
 ) -> dict[str, Suite]:
     """The suites ``names``: generated (:func:`agents.suites.make_suite` with
-    ``suite_kwargs``) or, with ``suite_file``, read from a saved ``suites.json``, which must be
-    for ``design`` and hold them all.  ``ValueError`` with a clear message otherwise."""
+    ``suite_kwargs``, :func:`agents.task_suites.make_task_suite` in ``envs[name]``) or, with
+    ``suite_file``, read from a saved ``suites.json``, which must be for ``design`` (a task
+    suite: for its environment's design) and hold them all.  ``ValueError`` with a clear
+    message otherwise."""
+    known = (*SUITE_NAMES, *TASK_SUITES)
     if suite_file is None:
-        unknown = [s for s in names if s not in SUITE_NAMES]
+        unknown = [s for s in names if s not in known]
         if unknown:
             raise ValueError(
-                f"unknown suite(s) {', '.join(map(repr, unknown))}; known: {', '.join(SUITE_NAMES)}"
+                f"unknown suite(s) {', '.join(map(repr, unknown))}; known: {', '.join(known)}"
             )
         try:
-            return {n: make_suite(n, n_episodes, seed, design, **suite_kwargs) for n in names}
+            return {
+                n: make_task_suite(n, n_episodes, seed, env=(envs or {}).get(n))
+                if n in TASK_SUITES
+                else make_suite(n, n_episodes, seed, design, **suite_kwargs)
+                for n in names
+            }
         except ValueError as exc:
             raise ValueError(f"cannot generate the suites: {exc}") from exc
     loaded, file_design = load_suites(suite_file)
-    if file_design != design:
-        raise ValueError(f"{suite_file} was made for another design: {file_design}")
     missing = [s for s in names if s not in loaded]
     if missing:
         raise ValueError(
             f"suite(s) {', '.join(missing)} not in {suite_file}; it has {', '.join(loaded)}"
         )
+    for n in names:
+        params = loaded[n].params
+        if params.get("task") is None and file_design != design:
+            raise ValueError(f"{suite_file} was made for another design: {file_design}")
+        if params.get("task") is not None:
+            if n not in TASK_SUITES or params.get("env_id") != TASK_SUITES[n].env_id:
+                raise ValueError(f"suite {n!r} of {suite_file} is for {params.get('env_id')}")
+            env_design = (envs or {})[n].unwrapped.design.to_dict()
+            if params.get("design") != env_design:
+                raise ValueError(f"suite {n!r} of {suite_file} was made for another design")
     return {s: loaded[s] for s in names}
 
 
@@ -183,6 +253,7 @@ def run_benchmark(
     progress: bool = False,
     training_seeds: dict[str, int | None] | None = None,
     envs: dict[str, Any] | None = None,
+    suite_policies: dict[str, dict[str, Any]] | None = None,
 ) -> BenchmarkRun:
     """Play every policy (label -> object with SB3's ``predict``) on every suite in ``env``
     and write the outputs into ``out`` (created; existing files are overwritten: check with
@@ -192,8 +263,10 @@ def run_benchmark(
     hold ``command``; ``seed``, ``bootstrap``, ``episodes`` (the longest suite), ``design``
     (``"fig8"`` or its parameters), ``env`` (the environment's configuration),
     ``training_seeds`` and ``policy_env_kwargs`` (what each model's run recorded) are filled
-    in.  ``envs`` maps an environment id to the environment of the suites with that
-    ``env_id`` (default ``env``).
+    in.  ``envs`` maps a suite name to the environment it is played in (default ``env``);
+    ``suite_policies`` maps a suite name to the policies played on it instead of ``policies``
+    (task suites have their own baselines and environments).  Policies run label by label, in
+    order of first appearance, each on its suites in order.
     A policy raising while it runs, or ``KeyboardInterrupt``, stops the run after writing the
     results finished so far (``status`` 1 or 130, ``error`` says why).
     """
@@ -210,14 +283,17 @@ def run_benchmark(
         "design": "fig8" if design == Design.fig8() else design.to_dict(),
         "env": env.unwrapped.config(),
         "training_seeds": {k: v for k, v in (training_seeds or {}).items() if v is not None},
-        "policy_env_kwargs": {
-            k: p.env_kwargs for k, p in policies.items() if getattr(p, "env_kwargs", None)
-        },
         "elapsed_s": 0.0,
+    }
+    per_suite = {n: (suite_policies or {}).get(n, policies) for n in suites}
+    labels = list(dict.fromkeys(k for pols in per_suite.values() for k in pols))
+    plan = [(k, n, per_suite[n][k]) for k in labels for n in suites if k in per_suite[n]]
+    settings["policy_env_kwargs"] = {
+        k: p.env_kwargs for k, _, p in plan if getattr(p, "env_kwargs", None)
     }
     results: dict[tuple[str, str], list[EpisodeResult]] = {}
     summaries: list[dict[str, Any]] = []
-    total = sum(len(s) for s in suites.values()) * len(policies)
+    total = sum(len(suites[n]) for _, n, _ in plan)
     bar = _progress(total, disable=not progress)
     status, error = 0, None
 
@@ -225,24 +301,22 @@ def run_benchmark(
         return spec.index < TRAJECTORIES_PER_SUITE
 
     try:
-        for label, policy in policies.items():
-            for name, suite in suites.items():
-                bar.set_description(f"{label} / {name}")
-                suite_env = (envs or {}).get(getattr(suite, "env_id", ""), env)
-                res = evaluate(
-                    suite_env,
-                    policy,
-                    suite,
-                    policy_name=label,
-                    seed=seed,
-                    record=recorded,
-                    callback=lambda _r: bar.update(1),
-                )
-                results[(label, name)] = res
-                summaries.append(summarize(res, n_resamples=n_resamples, seed=seed))
-                write_rows(out, results, training_seeds)
-                settings["elapsed_s"] = time.perf_counter() - t_start
-                write_summary(out, settings, summaries)
+        for label, name, policy in plan:
+            bar.set_description(f"{label} / {name}")
+            res = evaluate(
+                (envs or {}).get(name, env),
+                policy,
+                suites[name],
+                policy_name=label,
+                seed=seed,
+                record=recorded,
+                callback=lambda _r: bar.update(1),
+            )
+            results[(label, name)] = res
+            summaries.append(summarize(res, n_resamples=n_resamples, seed=seed))
+            write_rows(out, results, training_seeds)
+            settings["elapsed_s"] = time.perf_counter() - t_start
+            write_summary(out, settings, summaries)
     except KeyboardInterrupt:
         status, error = 130, "interrupted"
     except Exception as exc:  # a policy or model failing at run time
@@ -256,8 +330,9 @@ def run_benchmark(
         done = [s for s in suites if any(k[1] == s for k in results)]
         written.append(plot_success(out, summaries, done))
         written.append(plot_errors(out, results, done))
-        traj = plot_trajectories(out, design, {s: suites[s] for s in done}, results)
-        if traj:
+        mapped = [s for s in done if suites[s].params.get("task") in (None, "goal")]
+        traj = plot_trajectories(out, design, {s: suites[s] for s in mapped}, results)
+        if mapped and traj:
             written.append(traj)
     table = write_report(
         out,

@@ -27,7 +27,8 @@ from .suites import EpisodeSpec, Suite, suite_id
 __all__ = ["FAILURE_CAUSES", "EpisodeResult", "episode_seed", "evaluate", "run_episode"]
 
 #: How an episode ended (``EpisodeResult.cause``): success, the two failures the environment
-#: reports, and the diagnoses of a timeout from the final state.
+#: reports, and the diagnoses of a timeout from the final state.  A task that has no success
+#: (tracking) ends its timed-out episodes as ``"completed"`` instead.
 FAILURE_CAUSES: tuple[str, ...] = (
     "success",
     "singularity_crossing",
@@ -48,7 +49,8 @@ class EpisodeResult:
     loop-closure error of the simulation during the episode (m).  ``trajectory`` (poses,
     ``(steps + 1, 3)``) is kept only when asked for and is not part of :meth:`row`.
     ``task_metrics`` holds the metrics a task reports at the end of an episode (e.g. tracking
-    errors, m or rad as named); empty for the reach task.
+    errors, m or rad as named); empty for the reach task.  ``success_defined`` is false for a
+    task without a success test (tracking).
     """
 
     policy: str
@@ -75,12 +77,14 @@ class EpisodeResult:
     sequential_path_clear: bool
     trajectory: np.ndarray | None = None
     task_metrics: dict[str, float] = field(default_factory=dict)
+    success_defined: bool = True
 
     def row(self) -> dict[str, Any]:
-        """Plain values for CSV/JSON: the fields without the trajectory, then the task metrics
-        (if any) as further columns."""
+        """Plain values for CSV/JSON: the fields without the trajectory (and
+        ``success_defined``), then the task metrics (if any) as further columns."""
         out = asdict(self)
         out.pop("trajectory")
+        out.pop("success_defined")
         out.update(out.pop("task_metrics"))
         return out
 
@@ -127,9 +131,11 @@ def run_episode(
     deterministic: bool = True,
     record: bool = False,
 ) -> EpisodeResult:
-    """Play ``spec`` in ``env`` (a ``Planar3P-v0`` made with ``gymnasium.make``, so with its time
-    limit) with ``policy`` (anything with SB3's ``predict``).  A policy with a ``reset(seed=)``
-    method is reset first with :func:`episode_seed`."""
+    """Play ``spec`` in ``env`` (``Planar3P-v0``, or the task id of a task suite, made with
+    ``gymnasium.make``, so with its time limit) with ``policy`` (anything with SB3's
+    ``predict``).  A policy with a ``reset(seed=)`` method is reset first with
+    :func:`episode_seed`.  The task's metrics (``Task.metric_keys``) are read from the last
+    ``info`` of the episode."""
     base = env.unwrapped
     design: Design = base.design
     dt = float(base.dt)
@@ -173,16 +179,20 @@ def run_episode(
         min_sm = min(min_sm, float(info["serial_margin"]))
         if poses is not None:
             poses.append(info["pose"])
-        if not mode_changed:
+        if not mode_changed and spec.options is None:  # reach: leg angles of the observation
             cos_a = np.asarray(obs[legs], dtype=np.float64)[0::2]
             mode_changed = bool(np.any(cos_a * mode < -1e-3))
+        elif not mode_changed:  # a task suite: the environment's own report
+            mode_changed = bool(info.get("working_mode_changed", False))
         if terminated or truncated:
             reason = info["termination_reason"]
             break
     success = bool(info["is_success"])
+    task_obj = getattr(base, "task", None)
+    can_succeed = "success" in getattr(task_obj, "termination_reasons", ("success",))
     if reason is None:
         reason = "timeout"
-        cause = _diagnose(info, design, base.task_config)
+        cause = _diagnose(info, design, base.task_config) if can_succeed else "completed"
     else:
         cause = reason
     return EpisodeResult(
@@ -209,6 +219,8 @@ def run_episode(
         path_clear=bool(spec.path.get("clear", False)),
         sequential_path_clear=bool(spec.path.get("sequential_clear", False)),
         trajectory=np.array(poses) if poses is not None else None,
+        success_defined=can_succeed,
+        task_metrics=_metrics(info, getattr(getattr(base, "task", None), "metric_keys", ())),
     )
 
 
@@ -230,4 +242,17 @@ def evaluate(
         out.append(res)
         if callback is not None:
             callback(res)
+    return out
+
+
+def _metrics(info: dict[str, Any], keys: tuple[str, ...]) -> dict[str, float]:
+    """The numeric outcome metrics among ``keys`` in ``info``: not the ones that describe the
+    episode's target (``target_*``), nor non-numeric ones (e.g. a mode)."""
+    out = {}
+    for k in keys:
+        if k.startswith("target_"):
+            continue
+        v = info.get(k)
+        if isinstance(v, (bool, int, float, np.bool_, np.integer, np.floating)):
+            out[k] = float(v)
     return out

@@ -18,11 +18,15 @@ from .suites import Suite
 
 __all__ = [
     "DEFINITIONS",
+    "TASK_DEFINITIONS",
     "causes_table",
+    "metrics_table",
     "path_table",
     "results_table",
     "suite_definitions",
     "suites_section",
+    "task_suites_section",
+    "task_table",
     "write_report",
     "write_rows",
     "write_summary",
@@ -79,6 +83,9 @@ def results_table(summaries: Sequence[dict[str, Any]]) -> str:
 def causes_table(summaries: Sequence[dict[str, Any]]) -> str:
     """How episodes ended, per policy and suite (counts of each cause)."""
     causes = list(FAILURE_CAUSES)
+    causes += [
+        c for c in dict.fromkeys(c for s in summaries for c in s["causes"]) if c not in causes
+    ]
     head = "| policy | suite | " + " | ".join(c.replace("_", " ") for c in causes)
     lines = [head + " | working-mode changes |", "|" + "---|" * (len(causes) + 3)]
     for s in summaries:
@@ -136,11 +143,110 @@ def suites_section(suites: dict[str, Suite]) -> str:
     return "\n".join(lines)
 
 
+def _is_task(suite: Suite) -> bool:
+    return suite.params.get("task") is not None
+
+
+def task_suites_section(suites: dict[str, Suite]) -> str:
+    """One row per task suite: its environment, size and start working modes."""
+    lines = [
+        "| suite | environment | episodes | start working modes | what |",
+        "|---|---|---|---|---|",
+    ]
+    for s in suites.values():
+        kwargs = ", ".join(f"{k}={v!r}" for k, v in s.params.get("env_kwargs", {}).items())
+        modes = sorted({tuple(e.working_mode) for e in s.episodes})
+        lines.append(
+            f"| {s.name} | `{s.params['env_id']}`{f' ({kwargs})' if kwargs else ''} | "
+            f"{len(s)} | {len(modes)} | {s.params.get('description', '')} |"
+        )
+    return "\n".join(lines)
+
+
+def _metric_cell(key: str, value: float) -> str:
+    if "orientation" in key:
+        return _fmt(math.degrees(value), 2)
+    if "error" in key:
+        return _fmt(1000.0 * value, 2)
+    return _fmt(value, 2)
+
+
+def metrics_table(summaries: Sequence[dict[str, Any]]) -> str:
+    """Task metrics (median / worst over the episodes) of the summaries that have any;
+    errors in mm (``*_orientation_error`` in deg), other metrics as the task reports them."""
+    rows = [s for s in summaries if s.get("task_metrics")]
+    if not rows:
+        return ""
+    keys = list(dict.fromkeys(k for s in rows for k in s["task_metrics"]))
+    head = " | ".join(
+        k.replace("_", " ") + (" deg" if "orientation" in k else " mm" if "error" in k else "")
+        for k in keys
+    )
+    lines = [
+        f"| policy | suite | {head} |",
+        "|" + "---|" * (len(keys) + 2),
+    ]
+    for s in rows:
+        cells = []
+        for k in keys:
+            m = s["task_metrics"].get(k)
+            cells.append(
+                "–"
+                if m is None
+                else f"{_metric_cell(k, m['median'])} / {_metric_cell(k, m['max'])}"
+            )
+        lines.append(f"| {s['policy']} | {s['suite']} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def task_table(summaries: Sequence[dict[str, Any]], suites: dict[str, Suite]) -> str:
+    """The compact table of the task suites (one row per policy and suite): success with its
+    interval, median time to success, singularity crossings, physics breakdowns, working-mode
+    changes and the tracking error (RMS and maximum pose error ``|dp| + L_ref |dtheta|``,
+    median / worst episode, mm)."""
+    lines = [
+        "| suite | environment | policy | n | success % [95% CI] | time to success s | "
+        "sing. crossings | breakdowns | working-mode changes | tracking RMS error mm | "
+        "tracking max error mm |",
+        "|" + "---|" * 11,
+    ]
+    order = {name: i for i, name in enumerate(suites)}
+    rows = [s for s in summaries if s["suite"] in suites and _is_task(suites[s["suite"]])]
+    for s in sorted(rows, key=lambda s: order[s["suite"]]):  # stable: policy order kept
+        suite = suites[s["suite"]]
+        m = s.get("task_metrics", {})
+
+        def pair(key: str, m: dict[str, Any] = m) -> str:
+            v = m.get(key)
+            return (
+                "–"
+                if v is None
+                else f"{_metric_cell(key, v['median'])} / " + _metric_cell(key, v["max"])
+            )
+
+        lines.append(
+            f"| {s['suite']} | `{suite.params['env_id']}` | {s['policy']} | {s['episodes']} | "
+            f"{_ci(s['success_rate'], s['success_ci'], 0, 100.0)} | "
+            f"{_fmt(s['median_time_to_success'], 2)} | {s['singularity_crossings']} | "
+            f"{s['physics_breakdowns']} | {s['working_mode_changes']} | "
+            f"{pair('tracking_rms_error')} | {pair('tracking_max_error')} |"
+        )
+    return "\n".join(lines)
+
+
 def suite_definitions(suites: dict[str, Suite]) -> str:
     """What each suite is, from the parameters that generated it."""
     out = ["Generated from the seed and saved in `suites.json`:", ""]
     for s in suites.values():
         p = s.params
+        if _is_task(s):
+            out.append(
+                f"- `{s.name}`: `{p['env_id']}`, {p.get('description', '')}; episode `i` is the "
+                'environment\'s own draw (its `info["episode_spec"]`) after a reset with a '
+                "seed derived from the suite seed, name and `i`, replayed with "
+                "`reset(options=spec)`."
+            )
+            continue
         if s.name == "standard":
             text = "start/target pairs drawn exactly as the environment draws them."
         elif s.name == "hard":
@@ -198,6 +304,20 @@ DEFINITIONS = """\
 """
 
 
+TASK_DEFINITIONS = """\
+- **Task suites**: success, return and errors as above, against each task's own target (the
+  goal; the target pose in the other working or assembly mode).  Tracking has no success: its
+  episodes run 500 steps (10 s) unless they cross a singularity or the physics breaks down, and
+  such an episode is counted as `completed`; the final errors are against the reference's last
+  pose.
+- **Task metrics** (the task's own, from the episode's last `info`): `tracking error` is the
+  pose error `|dp| + L_ref |dtheta|` to the moving reference, RMS and maximum over the episode,
+  also split into position and orientation; `in target mode` / `in target assembly` (1 if the
+  episode ended in the target's working / assembly mode), `legs to flip`, `crossings` (parallel
+  singularity crossings).  Each cell: median over the episodes / worst episode.
+"""
+
+
 def write_report(
     out: Path,
     command: str,
@@ -211,8 +331,10 @@ def write_report(
     """Write ``report.md`` into ``out`` (``plots``: file names of figures already written
     there; ``complete=False`` marks an interrupted run) and return the results table."""
     table = results_table(summaries)
+    reach = {k: v for k, v in suites.items() if not _is_task(v)}
+    tasks = {k: v for k, v in suites.items() if _is_task(v)}
     parts = [
-        "# Policy benchmark: Planar3P-v0",
+        "# Policy benchmark: Planar3P-v0" if not tasks else "# Policy benchmark",
         "",
         f"Command: `{command}`" + ("" if complete else "  \n**Incomplete run** (see stderr)."),
         "",
@@ -224,26 +346,36 @@ def write_report(
         "",
         table,
         "",
-        "## Suites",
-        "",
-        suites_section(suites),
-        "",
+    ]
+    if tasks:
+        parts += ["Task suites at a glance:", "", task_table(summaries, suites), ""]
+    metrics = metrics_table(summaries)
+    if metrics:
+        parts += ["Task metrics (median / worst episode):", "", metrics, ""]
+    parts += ["## Suites", ""]
+    if reach:
+        parts += [suites_section(reach), ""]
+    if tasks:
+        parts += [task_suites_section(tasks), ""]
+    parts += [
         suite_definitions(suites),
         "",
         "## Why episodes end",
         "",
         causes_table(summaries),
         "",
-        "Success by kind of path (successes / episodes):",
-        "",
-        path_table(results),
-        "",
     ]
+    reach_results = {k: v for k, v in results.items() if k[1] in reach}
+    if reach_results:
+        parts += ["Success by kind of path (successes / episodes):", "", path_table(reach_results)]
+        parts += [""]
     if plots:
         parts += ["## Plots", ""]
         parts += [f"![{Path(p).stem}]({p})" for p in plots]
         parts += [""]
     parts += ["## Definitions", "", DEFINITIONS]
+    if tasks:
+        parts += [TASK_DEFINITIONS]
     text = "\n".join(parts)
     (out / "report.md").write_text(text)
     return table

@@ -105,12 +105,12 @@ def summarize(
 ) -> dict[str, Any]:
     """Aggregate statistics of one policy on one suite.
 
-    Success rate with its Wilson interval; IQM of the return with a percentile-bootstrap
-    interval; median final errors (mm, deg), time to success (s, successful episodes only) and
-    mechanical energy (J); the worst and median smallest parallel margin; counts of each
-    ending (:data:`~agents.episodes.FAILURE_CAUSES`); the share of steps with a saturated
-    actuator; and, for tasks that report them, the median and worst of each task metric
-    (``task_metrics`` of the results, e.g. tracking errors).
+    Success rate with its Wilson interval (NaN for a task without a success test); IQM of the
+    return with a percentile-bootstrap interval; median final errors (mm, deg), time to success
+    (s, successful episodes only) and mechanical energy (J); the worst and median smallest
+    parallel margin; counts of each ending (:data:`~agents.episodes.FAILURE_CAUSES`); the share
+    of steps with a saturated actuator; and, for tasks that report them, the median and worst
+    of each task metric (``task_metrics`` of the results, e.g. tracking errors).
     """
     if not results:
         raise ValueError("no episodes to summarize")
@@ -120,13 +120,16 @@ def summarize(
     for r in results:
         causes[r.cause] = causes.get(r.cause, 0) + 1
     total_steps = sum(r.steps for r in results)
+    defined = all(r.success_defined for r in results)  # tracking has no success test
     out: dict[str, Any] = {
         "policy": results[0].policy,
         "suite": results[0].suite,
         "episodes": len(results),
         "successes": int(succ.sum()),
-        "success_rate": float(succ.mean()),
-        "success_ci": success_interval(int(succ.sum()), len(results)),
+        "success_rate": float(succ.mean()) if defined else math.nan,
+        "success_ci": success_interval(int(succ.sum()), len(results))
+        if defined
+        else (math.nan, math.nan),
         "return_iqm": iqm(ret),
         "return_ci": bootstrap_ci(ret, iqm, n_resamples=n_resamples, seed=seed),
         "median_position_error_mm": 1000.0 * _median([r.final_position_error for r in results]),

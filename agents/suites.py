@@ -33,7 +33,9 @@ Each episode records the diagnostics of its straight and sequential paths
 
 from __future__ import annotations
 
+import copy
 import json
+import zlib
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -61,6 +63,7 @@ __all__ = [
     "make_suites",
     "save_suites",
     "suite_id",
+    "triple",
 ]
 
 #: The evaluation suites of the reach task, in report order.
@@ -79,8 +82,9 @@ FloatArray = NDArray[np.float64]
 
 
 def suite_id(name: str) -> int:
-    """A small integer naming suite ``name`` in seed sequences (99 for an unknown name)."""
-    return _SUITE_IDS.get(name, 99)
+    """A small integer naming suite ``name`` in seed sequences (for a name that is not a reach
+    suite, e.g. a task suite, one derived from the name's CRC-32)."""
+    return _SUITE_IDS.get(name, 100 + zlib.crc32(name.encode()) % 1_000_000)
 
 
 @dataclass(frozen=True)
@@ -90,23 +94,30 @@ class EpisodeSpec:
     Attributes:
         suite: suite name.
         index: position in the suite (0-based).
-        start, target: poses ``(x, y, theta)`` (m, m, rad).
-        working_mode: ``(s1, s2, s3)``.
+        start, target: poses ``(x, y, theta)`` (m, m, rad); ``target`` is ``None`` for a task
+            without one (tracking).
+        working_mode: ``(s1, s2, s3)`` at the start.
         path: diagnostics of the straight path in pose space from start to target (see
-            :func:`path_profiles`): ``distance`` (m), ``reachable``, ``min_parallel_margin``,
-            ``min_serial_margin``, ``crosses`` (``det A`` changes sign), ``clear`` (meets the
-            environment's clear-path test).
+            :func:`agents.paths.path_profiles`): ``distance`` (m), ``reachable``,
+            ``min_parallel_margin``, ``min_serial_margin``, ``crosses`` (``det A`` changes
+            sign), ``clear`` (meets the environment's clear-path test).
+        options: for a task suite (:mod:`agents.task_suites`), the environment's
+            ``info["episode_spec"]``, which ``reset(options=...)`` replays; ``None`` for the
+            reach suites, whose options are built from start, target and working mode.
     """
 
     suite: str
     index: int
     start: tuple[float, float, float]
-    target: tuple[float, float, float]
+    target: tuple[float, float, float] | None
     working_mode: tuple[int, int, int]
     path: dict[str, Any] = field(default_factory=dict)
+    options: dict[str, Any] | None = None
 
     def reset_options(self) -> dict[str, Any]:
         """The ``options`` of ``env.reset`` that play this episode."""
+        if self.options is not None:
+            return copy.deepcopy(self.options)
         return {
             "start": np.array(self.start),
             "target": np.array(self.target),
@@ -114,28 +125,37 @@ class EpisodeSpec:
         }
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        """Plain JSON values (``options`` only for a task suite)."""
+        out = {
             "suite": self.suite,
             "index": self.index,
             "start": list(self.start),
-            "target": list(self.target),
+            "target": None if self.target is None else list(self.target),
             "working_mode": list(self.working_mode),
             "path": dict(self.path),
         }
+        if self.options is not None:
+            out["options"] = copy.deepcopy(self.options)
+        return out
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> EpisodeSpec:
+        """Inverse of :meth:`to_dict`."""
+        target = data["target"]
+        options = data.get("options")
         return cls(
             suite=str(data["suite"]),
             index=int(data["index"]),
-            start=_triple(data["start"]),
-            target=_triple(data["target"]),
+            start=triple(data["start"]),
+            target=None if target is None else triple(target),
             working_mode=tuple(int(v) for v in data["working_mode"]),  # type: ignore[arg-type]
             path=dict(data.get("path", {})),
+            options=None if options is None else dict(options),
         )
 
 
-def _triple(v: Iterable[Any]) -> tuple[float, float, float]:
+def triple(v: Iterable[Any]) -> tuple[float, float, float]:
+    """Three floats from any iterable of three numbers (``ValueError`` otherwise)."""
     a, b, c = (float(x) for x in v)
     return (a, b, c)
 
@@ -360,8 +380,8 @@ def make_suite(
         EpisodeSpec(
             name,
             k,
-            _triple(s),
-            _triple(t),
+            triple(s),
+            triple(t),
             mode,  # type: ignore[arg-type]
             with_sequential(design, s, t, mode, cfg, path),
         )

@@ -43,8 +43,8 @@ import planar3p_gym  # noqa: E402
 from agents import benchmark as bm  # noqa: E402
 from agents import suites as su  # noqa: E402
 from agents.policies import TRUSTED_FILES_NOTE  # noqa: E402
+from agents.task_suites import TASK_SUITES, make_task_env  # noqa: E402
 
-DEFAULT_POLICIES = "analytic-simultaneous,analytic-sequential,random,zero"
 DEFAULT_EPISODES = 100
 QUICK_EPISODES = 20
 
@@ -61,8 +61,10 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     )
     p.add_argument(
         "--policies",
-        default=DEFAULT_POLICIES,
-        help="comma-separated: analytic-simultaneous, analytic-sequential, random, zero, "
+        default="baselines",
+        help="comma-separated: baselines (each suite's: on reach suites "
+        f"{', '.join(bm.REACH_BASELINES)}; on task suites the task's own), those names, "
+        f"{', '.join(sorted(bm.TASK_BASELINE_NAMES - set(bm.REACH_BASELINES)))} (task suites), "
         "pretrained:NAME, or paths to SB3 model .zip files (optionally prefixed ppo:, sac:, "
         "td3:, a2c:, ddpg:; suffixed :stats=STATS.pkl to name their VecNormalize statistics, "
         ":stats=none to go without). Model and statistics files are code: see below",
@@ -70,7 +72,8 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     p.add_argument(
         "--suites",
         default=",".join(su.SUITE_NAMES),
-        help=f"comma-separated suites among {', '.join(su.SUITE_NAMES)}",
+        help=f"comma-separated reach suites among {', '.join(su.SUITE_NAMES)} (Planar3P-v0) "
+        f"and task suites among {', '.join(TASK_SUITES)}",
     )
     p.add_argument(
         "--episodes",
@@ -149,9 +152,10 @@ def _run(args: argparse.Namespace, command: str) -> int:
     if n_boot < 10:
         raise InputError(f"--bootstrap must be >= 10, got {n_boot}")
     names = _split(args.suites)
-    unknown = [s for s in names if s not in su.SUITE_NAMES]
+    known = (*su.SUITE_NAMES, *TASK_SUITES)
+    unknown = [s for s in names if s not in known]
     if not names or (unknown and args.suite_file is None):
-        raise InputError(f"unknown suite(s) {unknown}; known: {', '.join(su.SUITE_NAMES)}")
+        raise InputError(f"unknown suite(s) {unknown}; known: {', '.join(known)}")
     mode = _parse_mode(args.working_mode)
     if not _split(args.policies):
         raise InputError("--policies is empty")
@@ -159,8 +163,9 @@ def _run(args: argparse.Namespace, command: str) -> int:
     design = env.unwrapped.design
     try:
         out = bm.check_output_dir(args.out, args.force)
-        policies, meta = bm.load_policies(
-            _split(args.policies), env, seed=args.seed, device=args.device
+        envs = {n: make_task_env(n) if n in TASK_SUITES else env for n in names}
+        per_suite, meta = bm.load_suite_policies(
+            _split(args.policies), names, envs, seed=args.seed, device=args.device
         )
         suites = bm.build_suites(
             names,
@@ -168,6 +173,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
             args.seed,
             design,
             suite_file=args.suite_file,
+            envs=envs,
             working_mode=mode,
             end_parallel_margin=args.hard_end_margin,
             hold_force_fraction=args.hold_force_fraction,
@@ -175,11 +181,11 @@ def _run(args: argparse.Namespace, command: str) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except (ValueError, OSError) as exc:  # PolicyError is a ValueError
         raise InputError(str(exc)) from exc
-    for label, policy in policies.items():
+    for label, policy in {k: p for pols in per_suite.values() for k, p in pols.items()}.items():
         if getattr(policy, "env_kwargs", None):
             print(
                 f"warning: {label} was trained with environment arguments {policy.env_kwargs}; "
-                "the benchmark runs the default Planar3P-v0",
+                "the benchmark runs the suites' own environments",
                 file=sys.stderr,
             )
     # ---- run
@@ -190,7 +196,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
     }
     run = bm.run_benchmark(
         env,
-        policies,
+        {},
         suites,
         out,
         settings=settings,
@@ -199,6 +205,8 @@ def _run(args: argparse.Namespace, command: str) -> int:
         plots=not args.no_plots,
         progress=not args.no_progress,
         training_seeds={k: s for k, (_, s) in meta.items()},
+        envs=envs,
+        suite_policies=per_suite,
     )
     if run.error:
         print(f"\nerror: {run.error}; wrote the results finished so far to {out}", file=sys.stderr)

@@ -1,0 +1,225 @@
+"""Fixed benchmark suites for the task ids (goal-conditioned reach, tracking, mode change,
+assembly change), and the baseline policies of each.
+
+Every task id describes its episodes by a JSON ``info["episode_spec"]`` at reset, and
+``reset(options=spec)`` replays that episode exactly (the task contract of
+:mod:`planar3p_gym.tasks.base`).  A task suite is therefore generic: episode ``i`` is the
+environment's own draw after ``reset(seed=s_i)``, with ``s_i`` derived from the suite's seed,
+name and ``i`` alone (so a shorter suite is a prefix of a longer one), and the spec is saved in
+``suites.json`` (:class:`~agents.suites.EpisodeSpec` ``options``) and replayed by the runner.
+The episodes are thus exactly those the environment samples for training, frozen.
+
+:data:`TASK_SUITES` lists the suites (environment id, its keyword arguments, the baselines);
+:func:`task_baseline` builds a baseline for a suite's environment:
+
+* ``analytic-simultaneous``: the paper's simultaneous simple motions on every task (through
+  :class:`agents.goal_adapter.GoalAdapter` on the ``Dict`` goal observation, on the first 31
+  entries of a longer observation otherwise; on tracking without feed-forward);
+* ``analytic-feedforward`` (tracking): the same controller with the reference velocity fed
+  forward (:class:`agents.tracking.TrackingController`);
+* ``planner`` (mode change): resolved travel-space motion through a certified path
+  (:class:`agents.planner.JointPathPlanner`);
+* ``crossing`` (assembly change): the dynamic crossing demonstration
+  (:class:`agents.crossing.CrossingController`);
+* ``zero``: zero slider velocity (flat observations).
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from .suites import EpisodeSpec, Suite, triple
+
+__all__ = [
+    "TASK_SUITES",
+    "TaskSuiteDef",
+    "make_task_env",
+    "make_task_suite",
+    "task_baseline",
+    "task_episode_seed",
+]
+
+
+@dataclass(frozen=True)
+class TaskSuiteDef:
+    """A task suite: the environment it plays in and the baselines run on it by default.
+
+    Attributes:
+        env_id: registered Gymnasium id.
+        env_kwargs: keyword arguments of ``gymnasium.make``.
+        baselines: names for :func:`task_baseline`, in report order.
+        description: one line for the report.
+        index: a small integer naming the suite in seed sequences (never reused).
+    """
+
+    env_id: str
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    baselines: tuple[str, ...] = ("analytic-simultaneous",)
+    description: str = ""
+    index: int = 0
+
+
+#: The task suites, in report order.
+TASK_SUITES: dict[str, TaskSuiteDef] = {
+    "goal": TaskSuiteDef(
+        "Planar3PGoal-v0",
+        {},
+        ("analytic-simultaneous",),
+        "goal-conditioned reach (sparse reward): start/goal pairs as the environment draws them",
+        1,
+    ),
+    "track-segments": TaskSuiteDef(
+        "Planar3PTrack-v0",
+        {"reference": "segments"},
+        ("analytic-simultaneous", "analytic-feedforward", "zero"),
+        "tracking a reference of smooth random minimum-jerk segments (500 steps, 10 s)",
+        2,
+    ),
+    "track-figure-eight": TaskSuiteDef(
+        "Planar3PTrack-v0",
+        {"reference": "figure_eight"},
+        ("analytic-simultaneous", "analytic-feedforward", "zero"),
+        "tracking a figure-eight reference (500 steps, 10 s)",
+        3,
+    ),
+    "mode-change": TaskSuiteDef(
+        "Planar3PModeChange-v0",
+        {},
+        ("analytic-simultaneous", "planner", "zero"),
+        "start and target in different working modes (a leg must pass its rail's perpendicular)",
+        4,
+    ),
+    "assembly-change": TaskSuiteDef(
+        "Planar3PAssemblyChange-v0",
+        {},
+        ("analytic-simultaneous", "crossing", "zero"),
+        "start and target in opposite assembly modes (crossing a parallel singularity)",
+        5,
+    ),
+}
+
+
+def _definition(name: str) -> TaskSuiteDef:
+    if name not in TASK_SUITES:
+        raise ValueError(f"unknown task suite {name!r}; known: {', '.join(TASK_SUITES)}")
+    d = TASK_SUITES[name]
+    if d.env_id not in gym.registry:
+        raise ValueError(f"task suite {name!r} needs {d.env_id}, which is not registered")
+    return d
+
+
+def make_task_env(name: str) -> Any:
+    """``gymnasium.make`` of the environment of task suite ``name``."""
+    d = _definition(name)
+    return gym.make(d.env_id, **d.env_kwargs)
+
+
+def task_episode_seed(name: str, seed: int, index: int) -> int:
+    """The ``reset`` seed that draws episode ``index`` of task suite ``name``."""
+    ss = np.random.SeedSequence([int(seed), 0x7A5C, TASK_SUITES[name].index, int(index)])
+    return int(ss.generate_state(1)[0])
+
+
+def make_task_suite(name: str, n_episodes: int, seed: int, env: Any = None) -> Suite:
+    """Task suite ``name`` of ``n_episodes`` from ``seed``: each episode is the environment's
+    ``info["episode_spec"]`` after ``reset(seed=task_episode_seed(name, seed, i))``.
+    ``env``: the suite's environment (made if not given)."""
+    d = _definition(name)
+    if not (isinstance(n_episodes, (int, np.integer)) and n_episodes >= 1):
+        raise ValueError(f"n_episodes must be a positive integer, got {n_episodes!r}")
+    env = env if env is not None else make_task_env(name)
+    episodes = []
+    for i in range(int(n_episodes)):
+        _, info = env.reset(seed=task_episode_seed(name, seed, i))
+        spec = copy.deepcopy(info["episode_spec"])
+        target = spec.get("target")
+        episodes.append(
+            EpisodeSpec(
+                suite=name,
+                index=i,
+                start=triple(spec["start"]),
+                target=triple(target) if target is not None else None,
+                working_mode=tuple(int(m) for m in spec["working_mode"]),  # type: ignore[arg-type]
+                options=spec,
+            )
+        )
+    params = {
+        "env_id": d.env_id,
+        "env_kwargs": dict(d.env_kwargs),
+        "task": episodes[0].options["task"] if episodes[0].options else None,
+        "design": env.unwrapped.design.to_dict(),
+        "description": d.description,
+    }
+    return Suite(name, int(seed), episodes, params)
+
+
+def _flat(policy: Any) -> Any:
+    from .planner import BaseObservation
+
+    return BaseObservation(policy)
+
+
+def _analytic(env: Any) -> Any:
+    from .analytic import AnalyticController
+
+    base = env.unwrapped
+    if isinstance(env.observation_space, gym.spaces.Dict):
+        from .goal_adapter import GoalAdapter
+
+        return GoalAdapter.analytic(env)
+    if getattr(base.task, "name", "") == "track":
+        from .tracking import TrackingController
+
+        return TrackingController.from_env(env, feedforward=0.0)
+    return _flat(AnalyticController(base.design, "simultaneous"))
+
+
+def _feedforward(env: Any) -> Any:
+    from .tracking import TrackingController
+
+    return TrackingController.from_env(env, feedforward=1.0)
+
+
+def _planner(env: Any) -> Any:
+    from .planner import JointPathPlanner
+
+    return JointPathPlanner.from_env(env)
+
+
+def _crossing(env: Any) -> Any:
+    from .crossing import CrossingController
+
+    return CrossingController.from_env(env)
+
+
+def _zero(env: Any) -> Any:
+    from .baselines import ZeroPolicy
+
+    return ZeroPolicy()
+
+
+_BASELINES: dict[str, Callable[[Any], Any]] = {
+    "analytic-simultaneous": _analytic,
+    "analytic-feedforward": _feedforward,
+    "planner": _planner,
+    "crossing": _crossing,
+    "zero": _zero,
+}
+
+
+def task_baseline(name: str, suite: str, env: Any) -> Any:
+    """Baseline ``name`` of task suite ``suite``, for ``env`` (the suite's environment);
+    ``ValueError`` if the suite does not list it."""
+    d = _definition(suite)
+    if name not in d.baselines:
+        raise ValueError(
+            f"policy {name!r} does not apply to task suite {suite!r}; its baselines: "
+            f"{', '.join(d.baselines)} (or a model file that fits {d.env_id})"
+        )
+    return _BASELINES[name](env)

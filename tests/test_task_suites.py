@@ -1,0 +1,158 @@
+"""Task suites (agents/task_suites.py): seeded episode specs of the task ids, replayed exactly,
+their baselines, and the benchmark script on them."""
+
+from __future__ import annotations
+
+import csv
+import importlib.util
+import json
+import math
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import planar3p_gym
+from agents import benchmark as bm
+from agents import episodes as ep
+from agents import statistics as st
+from agents import suites as su
+from agents import task_suites as ts
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def bench():
+    spec = importlib.util.spec_from_file_location("benchmark_script", ROOT / "scripts/benchmark.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_generic_mechanism_on_planar3p_v0(monkeypatch):
+    """Episode i of a task suite is the environment's own draw after reset(seed=s_i); the
+    saved spec replays it: same start pose and target, also after a JSON round trip."""
+    # The reach task of Planar3P-v0 publishes its episode spec too.
+    reach = ts.TaskSuiteDef(planar3p_gym.ENV_ID, {}, ("analytic-simultaneous",), "reach", 99)
+    monkeypatch.setitem(ts.TASK_SUITES, "reach-env", reach)
+    env = gym.make(planar3p_gym.ENV_ID)
+    suite = ts.make_task_suite("reach-env", 3, seed=5, env=env)
+    assert suite.params["task"] == "reach" and suite.params["env_id"] == planar3p_gym.ENV_ID
+    for spec in suite.episodes:
+        _, drawn = env.reset(seed=ts.task_episode_seed("reach-env", 5, spec.index))
+        options = json.loads(json.dumps(spec.to_dict()))["options"]
+        _, replayed = env.reset(seed=123, options=options)
+        np.testing.assert_array_equal(replayed["pose"], drawn["pose"])
+        assert env.unwrapped.target == tuple(spec.target) == tuple(drawn["episode_spec"]["target"])
+    again = ts.make_task_suite("reach-env", 2, seed=5)
+    assert [e.to_dict() for e in again.episodes] == [e.to_dict() for e in suite.episodes[:2]]
+    other = ts.make_task_suite("reach-env", 2, seed=6)
+    assert other.episodes[0].options != suite.episodes[0].options
+
+
+def test_task_suite_files_roundtrip(tmp_path):
+    goal = ts.make_task_suite("goal", 2, seed=1)
+    reach = su.make_suite("standard", 2, seed=1)
+    su.save_suites(tmp_path / "suites.json", {"standard": reach, "goal": goal})
+    loaded, _ = su.load_suites(tmp_path / "suites.json")
+    assert loaded["goal"].to_dict() == json.loads(json.dumps(goal.to_dict()))
+    assert loaded["standard"].episodes[0].options is None
+    assert "options" not in loaded["standard"].to_dict()["episodes"][0]
+
+
+def test_unknown_task_suite_and_baseline():
+    with pytest.raises(ValueError, match="unknown task suite"):
+        ts.make_task_suite("juggling", 2, seed=0)
+    env = ts.make_task_env("goal")
+    with pytest.raises(ValueError, match="does not apply"):
+        ts.task_baseline("planner", "goal", env)
+
+
+def test_tracking_suite_metrics_and_replay():
+    """Tracking has no success test: its episodes end 'completed' and the summary has no
+    success rate; the task metrics come from the last info; a replay is identical; feeding
+    the reference velocity forward removes most of the feedback controller's lag."""
+    env = ts.make_task_env("track-figure-eight")
+    suite = ts.make_task_suite("track-figure-eight", 2, seed=0, env=env)
+    ff = ts.task_baseline("analytic-feedforward", "track-figure-eight", env)
+    fb = ts.task_baseline("analytic-simultaneous", "track-figure-eight", env)
+    res_ff = ep.evaluate(env, ff, suite, policy_name="ff")
+    res_fb = ep.evaluate(env, fb, suite, policy_name="fb")
+    again = ep.evaluate(env, ff, suite, policy_name="ff")
+    assert [r.row() for r in again] == [r.row() for r in res_ff]
+    for r in res_ff + res_fb:
+        assert r.cause == "completed" and not r.success_defined
+        assert r.steps == env.spec.max_episode_steps
+        assert set(r.task_metrics) >= {"tracking_rms_error", "tracking_max_error"}
+        assert r.task_metrics["tracking_rms_error"] <= r.task_metrics["tracking_max_error"]
+    s_ff = st.summarize(res_ff, n_resamples=100)
+    s_fb = st.summarize(res_fb, n_resamples=100)
+    assert math.isnan(s_ff["success_rate"]) and all(math.isnan(v) for v in s_ff["success_ci"])
+    assert s_ff["causes"]["completed"] == 2
+    rms_ff = s_ff["task_metrics"]["tracking_rms_error"]["max"]
+    rms_fb = s_fb["task_metrics"]["tracking_rms_error"]["median"]
+    assert rms_ff < 0.2 * rms_fb
+
+
+def _csv(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_script_on_task_suites_and_replay(tmp_path, bench, capsys):
+    out = tmp_path / "tasks"
+    args = ["--suites", "goal,track-segments", "--episodes", "1", "--seed", "2", "--no-progress"]
+    assert bench.main([*args, "--out", str(out), "--no-plots"]) == 0
+    printed = capsys.readouterr().out
+    assert "| analytic-simultaneous | goal | 1 |" in printed
+    assert "| analytic-feedforward | track-segments | 1 | – |" in printed
+    report = (out / "report.md").read_text()
+    assert "Task suites at a glance" in report and "tracking rms error mm" in report
+    rows = _csv(out / "episodes.csv")
+    assert {(r["policy"], r["suite"]) for r in rows} == {
+        ("analytic-simultaneous", "goal"),
+        ("analytic-simultaneous", "track-segments"),
+        ("analytic-feedforward", "track-segments"),
+        ("zero", "track-segments"),
+    }
+    assert all(r["tracking_rms_error"] for r in rows if r["suite"] == "track-segments")
+    replay = tmp_path / "replay"
+    code = bench.main(
+        [
+            "--suite-file",
+            str(out / "suites.json"),
+            "--suites",
+            "track-segments",
+            "--policies",
+            "analytic-feedforward",
+            "--out",
+            str(replay),
+            "--no-progress",
+            "--no-plots",
+        ]
+    )
+    assert code == 0
+    first = [r for r in rows if r["policy"] == "analytic-feedforward"]
+    assert _csv(replay / "episodes.csv") == first
+
+
+def test_script_policies_that_do_not_apply(tmp_path, bench, capsys):
+    out = tmp_path / "x"
+    base = ["--suites", "goal", "--episodes", "1", "--no-progress", "--out", str(out)]
+    assert bench.main([*base, "--policies", "analytic-sequential"]) == 2
+    assert "no policy" in capsys.readouterr().err and not out.exists()
+    assert bench.main([*base, "--policies", "baselines,random", "--no-plots"]) == 0
+    assert "random does not apply to task suite goal" in capsys.readouterr().err
+    assert [r["policy"] for r in _csv(out / "episodes.csv")] == ["analytic-simultaneous"]
+
+
+def test_load_suite_policies_shares_reach_policies():
+    env = gym.make(planar3p_gym.ENV_ID)
+    per_suite, meta = bm.load_suite_policies(
+        ["baselines"], ["standard", "far"], {"standard": env, "far": env}
+    )
+    assert list(per_suite["standard"]) == list(bm.REACH_BASELINES)
+    assert per_suite["standard"]["random"] is per_suite["far"]["random"]
+    assert meta["zero"] == ("zero", None)
