@@ -182,7 +182,7 @@ def test_bad_input_raises():
 def test_feed_forward_beats_feedback_alone(kind):
     """The reference velocity fed forward removes the feedback controller's lag: over the same
     episodes its RMS tracking error is several times smaller (measured over 100 episodes:
-    39x on segments, 30x on the figure-eight, ``scripts/task_baselines.py``)."""
+    47x on segments, 28x on the figure-eight, ``scripts/task_baselines.py``)."""
     rows = {}
     for ff in (0.0, 1.0):
         env = make(kind)
