@@ -465,16 +465,21 @@ def test_fidelity_script_reports_closure_and_dk_gap(tmp_path, capsys):
     out = tmp_path / "fidelity.json"
     args = ["--pairs", "2", "--episodes", "1", "--suites", "standard", "--json", str(out)]
     assert mod.main(args) == 0
-    report = json.loads(out.read_text())
-    assert (report["substeps"], report["iterations"]) == (DEFAULT_SUBSTEPS, DEFAULT_ITERATIONS)
-    closure, gap = np.array(report["smooth"]["closure"]), np.array(report["smooth"]["dk_gap"])
-    assert closure.shape == gap.shape == (2,)
-    assert (closure > 0).all() and (closure <= 1e-4).all()  # the first pairs of the test set
-    assert (gap > 0).all() and np.isfinite(gap).all()
-    assert len(report["episodes"]["standard"]) == 1
-    assert "closure error" in capsys.readouterr().out
-    with pytest.raises(SystemExit):
-        mod.main(["--suites", "nonsense"])
+    report = json.loads(out.read_text())["models"]
+    assert report["v0"]["settings"] == {}
+    assert report["v1"]["settings"]["projection"] is True
+    for name, bound in (("v0", CLOSURE_BOUND), ("v1", 1e-9)):
+        closure = np.array(report[name]["smooth"]["closure"])
+        gap = np.array(report[name]["smooth"]["dk_gap"])
+        assert closure.shape == gap.shape == (2,)
+        assert (closure > 0).all() and (closure <= bound).all()  # first pairs of the test set
+        assert (gap > 0).all() and np.isfinite(gap).all()
+        assert len(report[name]["episodes"]["standard"]["closure"]) == 1
+    assert "closure" in capsys.readouterr().out
+    for bad in (["--suites", "nonsense"], ["--pairs", "0"], ["--json", "/nonexistent/x.json"]):
+        with pytest.raises(SystemExit) as exc:
+            mod.main(bad)
+        assert exc.value.code == 2
 
 
 def test_nearest_dk_finds_the_configuration_and_rejects_impossible_travels():
