@@ -428,7 +428,8 @@ class Planar3PSim:
     def step_unchecked(self, v0: float, v1: float, v2: float) -> SimState:
         """:meth:`step` without input validation, for callers that validated already."""
         self._commands.extend((v0, v1, v2))
-        self._limit_following_error()
+        if self._projector is None:  # (with projection, done when the state is written back)
+            self._limit_following_error()
         if self._fast is None:
             for drive, v in zip(self.drives, (v0, v1, v2), strict=True):
                 drive.velocity = (v, 0.0)
@@ -482,19 +483,31 @@ class Planar3PSim:
             v = _ffi.unpack(array_.arr, array_.num)
         pr = self._projector.project(v, self._saturated)  # type: ignore[union-attr]
         out = pr.bodies
+        # The drives' setpoints for the next step (:meth:`_limit_following_error`, here on the
+        # values written back: drive x at 12, 30, 48; its slider's x 6 numbers before).
+        lim = FOLLOWING_ERROR_LIMIT
+        for o in (12, 30, 48):
+            slider_x = out[o - 6]
+            if out[o] - slider_x > lim:
+                out[o] = slider_x + lim
+            elif slider_x - out[o] > lim:
+                out[o] = slider_x - lim
         if fast is None:
             for n, body in enumerate(self._bodies):
-                if body.body_type != pymunk.Body.KINEMATIC:
-                    o = 6 * n
-                    body.position = (out[o], out[o + 1])
-                    body.angle = out[o + 2]
-                    body.velocity = (out[o + 3], out[o + 4])
-                    body.angular_velocity = out[o + 5]
+                o = 6 * n
+                if body.body_type == pymunk.Body.KINEMATIC:
+                    if out[o] != v[o]:
+                        body.position = (out[o], out[o + 1])
+                    continue
+                body.position = (out[o], out[o + 1])
+                body.angle = out[o + 2]
+                body.velocity = (out[o + 3], out[o + 4])
+                body.angular_velocity = out[o + 5]
         else:
             array_.arr[0 : len(out)] = out
             array_.num = 0
             _cp.cpSpaceEachBody(fast[0], fast[5], request)
-        self._setpoints = [v[12], v[30], v[48]]
+        self._setpoints = [out[12], out[30], out[48]]
         return SimState(
             self._time,
             pr.rho,
