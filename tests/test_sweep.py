@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import csv
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import pytest
@@ -13,26 +11,18 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("ray.tune")
 
+from script_loader import load_script
+
 from agents.sweep import COLUMNS, SweepSpec, run_sweep, search_space, validate
 from agents.train_run import RunOptions
 
-ROOT = Path(__file__).resolve().parents[1]
 SMOKE = {"n_steps": 64, "batch_size": 64, "n_epochs": 1}
 OPTIONS = dict(
     eval_freq=128, eval_episodes=1, final_eval_episodes=2, checkpoint_freq=256, progress_bar=False
 )
 
 
-def _load_script():
-    spec = importlib.util.spec_from_file_location("sweep_script", ROOT / "scripts" / "sweep.py")
-    module = importlib.util.module_from_spec(spec)
-    assert spec.loader is not None
-    sys.modules["sweep_script"] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-sweep_script = _load_script()
+sweep_script = load_script("sweep")
 
 
 @pytest.fixture(scope="module")

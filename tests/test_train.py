@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,21 +10,11 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
+from script_loader import load_script
+
 from agents import training
 
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def _load_script(name: str):
-    spec = importlib.util.spec_from_file_location(name, ROOT / "scripts" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    assert spec.loader is not None
-    sys.modules[name] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-train_script = _load_script("train")
+train_script = load_script("train")
 
 SMOKE = {
     "ppo": ["n_steps=64", "batch_size=64", "n_epochs=1"],

@@ -3,30 +3,15 @@ table equals docs/workspace_table.*, a quick run writes every file, bad argument
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
+from script_loader import ROOT, load_script
 
 from planar3p_gym.workspace_figures import FIGURES
 from planar3p_gym.workspace_report import StudySettings, recommendation_text, run_study, tables
 
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def _load_script():
-    spec = importlib.util.spec_from_file_location(
-        "workspace_script", ROOT / "scripts" / "workspace.py"
-    )
-    module = importlib.util.module_from_spec(spec)
-    assert spec.loader is not None
-    sys.modules["workspace_script"] = module
-    spec.loader.exec_module(module)
-    return module
-
-
-workspace_script = _load_script()
+workspace_script = load_script("workspace")
 
 
 def _read(path: Path) -> str:
