@@ -31,6 +31,12 @@ legs rebuilt from their joints) and written back into pymunk, which keeps doing 
 (gravity, force-limited servos, end stops).  The drift no longer accumulates, so the solver can
 run fewer substeps and iterations (:data:`PROJECTED_SUBSTEPS`, :data:`PROJECTED_ITERATIONS`).
 The reported ``closure_error`` is then the largest leg-length error left by the projection.
+Two details of the model differ with projection, both for what few solver iterations leave:
+the servo's arm is long (:data:`PROJECTED_SERVO_ARM`), so a slider's small excursions off its
+rail do not leak into the servo's direction; and the grooves only keep the sliders on their
+lines, the end stops being separate ``SlideJoint`` limits whose impulse is dropped whenever the
+slider leaves the stop (a groove's own ends keep a stale impulse after an impact, and with one
+substep a slider resting on the stop then bounced between two states).
 
 Snapshots: :meth:`Planar3PSim.get_state` / :meth:`Planar3PSim.set_state` restore a simulation
 bit for bit.  pymunk does not expose the solver's warm-start impulses, on which the next steps
