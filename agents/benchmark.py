@@ -169,6 +169,12 @@ def load_suite_policies(
                     shared[label] = load_policy(ps, env=envs[name], seed=seed, device=device)
                 pols[label] = shared[label]
             meta.setdefault(label, (text, training_seed(ps.path)))
+            trained_with = getattr(pols[label], "env_kwargs", None)
+            if trained_with:
+                warn(
+                    f"{label} was trained with environment arguments {trained_with}; {name} runs "
+                    "its suite's own environment"
+                )
         if not pols:
             raise PolicyError(f"no policy of {list(specs)} applies to suite {name!r}")
         per_suite[name] = pols

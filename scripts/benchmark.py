@@ -1,8 +1,10 @@
 #!/usr/bin/env python
-"""Benchmark policies on fixed evaluation suites of ``Planar3P-v0``.
+"""Benchmark policies on fixed evaluation suites of ``Planar3P-v0`` and of the task ids.
 
-Every policy plays exactly the same episodes (``standard``, ``hard``, ``far``; see
-``agents/suites.py``), generated from ``--seed``.  Writes into ``--out``:
+Every policy plays exactly the same episodes, generated from ``--seed``: the reach suites
+``standard``, ``hard``, ``far`` (``agents/suites.py``) and the task suites ``goal``,
+``track-segments``, ``track-figure-eight``, ``mode-change``, ``assembly-change``
+(``agents/task_suites.py``; each with its own baselines).  Writes into ``--out``:
 
 * ``report.md``: the results table (success rate with its 95% Wilson interval, IQM return with
   its 95% bootstrap interval, median final errors, time to success, margins, failure counts,
@@ -15,8 +17,9 @@ Every policy plays exactly the same episodes (``standard``, ``hard``, ``far``; s
 Examples::
 
     python scripts/benchmark.py --quick
-    python scripts/benchmark.py --policies analytic-simultaneous,runs/sac/model.zip --out res/sac
-    python scripts/benchmark.py --policies pretrained:sac_default --suites standard,hard
+    python scripts/benchmark.py --policies baselines,runs/a/model.zip:stats=runs/a/vecnormalize.pkl
+    python scripts/benchmark.py --policies pretrained:ppo_kickstart --suites standard,hard
+    python scripts/benchmark.py --suites goal,track-segments,track-figure-eight --out res/tasks
 
 The logic lives in ``agents.benchmark`` (this file parses, validates and prints).  Exit status:
 0 on success; 2 for bad input (unknown policy or suite, missing or corrupt model, an ``--out``
@@ -55,7 +58,7 @@ class InputError(Exception):
 
 def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     p = argparse.ArgumentParser(
-        description="Benchmark policies of Planar3P-v0 on fixed evaluation suites.",
+        description="Benchmark policies on fixed evaluation suites (Planar3P-v0, task ids).",
         epilog=f"Trusted files only: {TRUSTED_FILES_NOTE}",
         formatter_class=argparse.ArgumentDefaultsHelpFormatter,
     )
@@ -93,7 +96,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     p.add_argument(
         "--working-mode",
         default=None,
-        help="override the working mode of every generated suite, e.g. 1,1,-1 "
+        help="override the working mode of every generated reach suite, e.g. 1,1,-1 "
         f"(default per suite: {su.DEFAULT_SUITE_MODES})",
     )
     p.add_argument(
@@ -181,13 +184,6 @@ def _run(args: argparse.Namespace, command: str) -> int:
         out.mkdir(parents=True, exist_ok=True)
     except (ValueError, OSError) as exc:  # PolicyError is a ValueError
         raise InputError(str(exc)) from exc
-    for label, policy in {k: p for pols in per_suite.values() for k, p in pols.items()}.items():
-        if getattr(policy, "env_kwargs", None):
-            print(
-                f"warning: {label} was trained with environment arguments {policy.env_kwargs}; "
-                "the benchmark runs the suites' own environments",
-                file=sys.stderr,
-            )
     # ---- run
     settings = {
         "command": command,

@@ -309,6 +309,7 @@ def test_script_refuses_an_rl_zoo_model_without_its_statistics(tmp_path, bench, 
     args = _quick_args(out, "--policies", f"{model}:stats=none", "--suites", "standard")
     assert bench.main([*args, "--no-plots", "--episodes", "1"]) == 0
     assert not marker.exists()
+    assert "| Planar3P-v0_1/Planar3P-v0 | standard | 1 |" in capsys.readouterr().out
 
 
 def test_help_says_model_files_are_code(bench, capsys):
