@@ -142,12 +142,13 @@ class Planar3PVectorEnv(VectorEnv):
             raise ValueError(f"actions must have shape {self.action_space.shape}, got {a.shape}")
         if not np.isfinite(a).all():
             raise ValueError("actions must be finite")
-        rewards = np.zeros(self.num_envs, dtype=np.float64)
-        terminated = np.zeros(self.num_envs, dtype=np.bool_)
-        truncated = np.zeros(self.num_envs, dtype=np.bool_)
+        n = self.num_envs
+        rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
         infos = []
-        limit = self.max_episode_steps
-        obs_out, elapsed, autoreset = self._obs, self._elapsed, self._autoreset
+        limit = self.max_episode_steps if self.max_episode_steps is not None else -1
+        obs_out = self._obs
+        # Plain lists in the loop: numpy scalar indexing costs more than the bookkeeping.
+        elapsed, autoreset = self._elapsed.tolist(), self._autoreset.tolist()
         same_step = self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
         final: dict[int, tuple[np.ndarray, dict[str, Any]]] = {}
         for i, env in enumerate(self.envs):
@@ -156,18 +157,20 @@ class Planar3PVectorEnv(VectorEnv):
                 elapsed[i] = 0
             else:
                 obs, reward, term, _, info = env.step(a[i])
-                elapsed[i] += 1
-                rewards[i] = reward
-                terminated[i] = term
-                truncated[i] = limit is not None and elapsed[i] >= limit
-                if same_step and (term or truncated[i]):
+                steps = elapsed[i] = elapsed[i] + 1
+                trunc = 0 < limit <= steps
+                rewards[i], terminated[i], truncated[i] = reward, term, trunc
+                if same_step and (term or trunc):
                     final[i] = (obs, info)
                     obs, info = env.reset()
                     elapsed[i] = 0
             obs_out[i] = obs
             infos.append(info)
+        self._elapsed[:] = elapsed
+        terminated_a = np.array(terminated, dtype=np.bool_)
+        truncated_a = np.array(truncated, dtype=np.bool_)
         if not same_step:
-            np.logical_or(terminated, truncated, out=autoreset)
+            np.logical_or(terminated_a, truncated_a, out=self._autoreset)
         out = self._batch_infos(infos)
         if final:
             final_obs = np.full(self.num_envs, None, dtype=object)
@@ -180,7 +183,7 @@ class Planar3PVectorEnv(VectorEnv):
             for key in INFO_KEYS:
                 final_info["_" + key] = done
             out["final_info"], out["_final_info"] = final_info, done
-        return obs_out.copy(), rewards, terminated, truncated, out
+        return obs_out.copy(), np.array(rewards), terminated_a, truncated_a, out
 
     def _batch_infos(self, infos: list[dict[str, Any]]) -> dict[str, Any]:
         """Gymnasium's vector info layout for :data:`INFO_KEYS`."""
