@@ -76,3 +76,26 @@ if TRACK_ENV_ID not in registry:
         max_episode_steps=TRACK_MAX_EPISODE_STEPS,
         kwargs=dict(_PROJECTED),
     )
+
+# H3 (issue 10): working-mode change and assembly-mode change, on the projected physics.
+#: Working-mode change id and its time limit (control steps: 8 s at 50 Hz).
+MODE_CHANGE_ENV_ID = "Planar3PModeChange-v0"
+MODE_CHANGE_MAX_EPISODE_STEPS = 400
+#: Assembly-mode change id (parallel-singularity crossing) and its time limit (12 s at 50 Hz).
+ASSEMBLY_CHANGE_ENV_ID = "Planar3PAssemblyChange-v0"
+ASSEMBLY_CHANGE_MAX_EPISODE_STEPS = 600
+for _id, _entry, _steps in (
+    (MODE_CHANGE_ENV_ID, "mode_change_env:Planar3PModeChangeEnv", MODE_CHANGE_MAX_EPISODE_STEPS),
+    (
+        ASSEMBLY_CHANGE_ENV_ID,
+        "assembly_change_env:Planar3PAssemblyChangeEnv",
+        ASSEMBLY_CHANGE_MAX_EPISODE_STEPS,
+    ),
+):
+    if _id not in registry:
+        register(
+            id=_id,
+            entry_point=f"planar3p_gym.{_entry}",
+            max_episode_steps=_steps,
+            kwargs=dict(_PROJECTED),
+        )

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from .design import Design
 from .env import Planar3PEnv
 from .tasks.joint_paths import PathLimits
 from .tasks.mode_change import ModeChangeTask
@@ -76,7 +77,8 @@ class Planar3PModeChangeEnv(Planar3PEnv):
 
     def __init__(
         self,
-        *args: Any,
+        design: Design | dict | str | None = None,
+        *,
         flips: int = 1,
         path_limits: PathLimits | dict | None = None,
         **kwargs: Any,
@@ -85,4 +87,4 @@ class Planar3PModeChangeEnv(Planar3PEnv):
             raise ValueError("Planar3PModeChangeEnv makes its own task; do not pass task=")
         if isinstance(path_limits, dict):
             path_limits = PathLimits(**path_limits)
-        super().__init__(*args, task=ModeChangeTask(flips=flips, limits=path_limits), **kwargs)
+        super().__init__(design, task=ModeChangeTask(flips=flips, limits=path_limits), **kwargs)
