@@ -1,0 +1,163 @@
+"""Planar3PAssemblyChange-v0: API checks, sampling and its feasibility checks, the crossing, the
+signed servo forces of the fidelity study, bad input."""
+
+from __future__ import annotations
+
+import json
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import planar3p_gym  # noqa: F401
+from agents.crossing import CrossingController, _ServoReader, crossing_fidelity
+from planar3p_gym import Design, kinematics, task
+from planar3p_gym.assembly_change_env import Planar3PAssemblyChangeEnv
+from planar3p_gym.physics import Planar3PSim
+from planar3p_gym.scalar_kinematics import ConfigurationMeasures
+from planar3p_gym.statics import holding_forces
+from planar3p_gym.tasks.assembly_change import CrossingLimits, crossing_path
+
+ENV_ID = "Planar3PAssemblyChange-v0"
+RELEVANT = (UserWarning, RuntimeWarning)
+
+
+@pytest.fixture(scope="module")
+def env():
+    e = gym.make(ENV_ID)
+    yield e
+    e.close()
+
+
+def test_gymnasium_check_env():
+    from gymnasium.utils.env_checker import check_env
+
+    e = gym.make(ENV_ID)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(e.unwrapped)
+    assert not [str(w.message) for w in caught if issubclass(w.category, RELEVANT)]
+
+
+def test_sb3_check_env():
+    checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    e = gym.make(ENV_ID)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        checker.check_env(e, warn=True)
+    assert not [str(w.message) for w in caught if issubclass(w.category, RELEVANT)]
+
+
+def test_many_resets_give_opposite_assembly_modes(env):
+    design = env.unwrapped.design
+    assert design.gravity == 0.0  # the id's default design (see the task's docstring)
+    for seed in range(20):
+        obs, info = env.reset(seed=seed)
+        assert env.observation_space.contains(obs) and np.isfinite(obs).all()
+        spec = info["episode_spec"]
+        mode = tuple(spec["working_mode"])
+        start, target = np.array(spec["start"]), np.array(spec["target"])
+        asm = [
+            int(kinematics.assembly_mode(design, p, kinematics.inverse(design, p, mode).rho))
+            for p in (start, target)
+        ]
+        assert asm[0] == -asm[1] == info["assembly_mode"]
+        assert info["target_assembly"] == asm[1] and obs[34] == asm[1]
+        assert not info["in_target_assembly"] and info["crossings"] == 0
+        # signed parallel margin: sign det A times the margin
+        assert np.sign(obs[35]) == asm[0]
+        assert abs(abs(obs[35]) - info["parallel_margin"]) < 1e-6
+        ok, reason = crossing_path(design, start, target, mode, CrossingLimits())
+        assert ok, reason
+
+
+def test_crossing_does_not_end_the_episode_and_is_counted(env):
+    pol = CrossingController.from_env(env)
+    obs, info = env.reset(seed=4)
+    start = np.ones(1, dtype=bool)
+    seen = []
+    while True:
+        action, _ = pol.predict(obs, episode_start=start)
+        start = np.zeros(1, dtype=bool)
+        obs, _, term, trunc, info = env.step(action)
+        seen.append(info["assembly_mode"])
+        if term or trunc:
+            break
+    assert info["termination_reason"] == "success" and info["is_success"]
+    assert info["crossings"] >= 1 and info["in_target_assembly"]
+    assert seen[-1] == info["target_assembly"] == -seen[0] or seen[0] == 0
+
+
+def test_deterministic_and_replayable(env):
+    actions = np.random.default_rng(1).uniform(-1, 1, (15, 3)).astype(np.float32)
+
+    def play(options=None, seed=None):
+        obs, info = env.reset(seed=seed, options=options)
+        out = [obs]
+        for a in actions:
+            obs, r, term, trunc, _ = env.step(a)
+            out.append(np.append(obs, r))
+            if term or trunc:
+                break
+        return out
+
+    first = play(seed=5)
+    again = play(seed=5)
+    _, info = env.reset(seed=5)
+    replay = play(options=json.loads(json.dumps(info["episode_spec"])))
+    for x, y, z in zip(first, again, replay, strict=True):
+        np.testing.assert_array_equal(x, y)
+        np.testing.assert_array_equal(x, z)
+
+
+def test_infeasible_requests_raise(env):
+    _, info = env.reset(seed=0)
+    spec = info["episode_spec"]
+    with pytest.raises(ValueError, match="same assembly mode"):
+        env.reset(options={**spec, "target": spec["start"]})
+    with pytest.raises(ValueError, match="not reachable"):
+        env.reset(options={**spec, "start": [3.0, 0.1, 0.0]})
+
+
+def test_gravity_in_the_plane_is_rejected_at_construction():
+    with pytest.raises(ValueError, match="too few feasible assembly changes"):
+        Planar3PAssemblyChangeEnv(design=Design.fig8())
+
+
+def test_reward_has_no_parallel_barrier(env):
+    env.reset(seed=2)
+    task = env.unwrapped.task
+    kwargs = dict(errors=(0.0, 0.0), action=(0.0, 0.0, 0.0), success=False, failure=False)
+    near_parallel = ConfigurationMeasures(0.0, 0.5, 0, (0.0, 0.0, 0.0))
+    assert task.reward_terms(measures=near_parallel, **kwargs)["singularity"] == 0.0
+    near_serial = ConfigurationMeasures(0.5, 0.001, 1, (0.0, 0.0, 0.0))
+    assert task.reward_terms(measures=near_serial, **kwargs)["singularity"] < 0.0
+
+
+def test_signed_servo_forces_match_statics():
+    """The fidelity study's signed servo impulses: holding a pose at rest under gravity, the
+    servos' forces are the statics' holding forces (virtual work), signs included."""
+    design = Design.fig8()
+    mode = (1, 1, -1)
+    poses, _ = task.sample_poses(design, mode, np.random.default_rng(0), task.TaskConfig())
+    pose = poses[0]
+    sim = Planar3PSim(design, pose, mode)
+    sim._fast = None
+    readers = [_ServoReader(s) for s in sim.servos]
+    for _ in range(25):
+        sim.step([0.0, 0.0, 0.0])
+    h = sim.dt / sim.substeps
+    forces = np.array([r.impulse_x() / h for r in readers])
+    expected = holding_forces(design, pose, mode)
+    np.testing.assert_allclose(forces, expected, rtol=0.02, atol=0.02)
+
+
+def test_crossing_fidelity_with_projection_closes_the_loop(env):
+    """With the projected physics the loop closes exactly through the crossing (closure error
+    below the projection's tolerance), and the energy booked is finite and consistent."""
+    f = crossing_fidelity(env, CrossingController.from_env(env), 3)
+    assert f["success"] == 1.0 and f["crossings"] >= 1
+    assert f["max_closure_error"] < 1e-9
+    assert np.isfinite([f["servo_work"], f["energy_gap"], f["projection_energy"]]).all()
+    assert f["servo_abs_work"] >= abs(f["servo_work"])

@@ -1,0 +1,78 @@
+"""The non-learning baselines of the mode-change and assembly-change tasks."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import planar3p_gym  # noqa: F401
+from agents.crossing import CrossingController
+from agents.planner import BaseObservation, JointPathPlanner
+from agents.task_baselines import make_baseline, run_baselines, wilson
+
+
+def _play(env, policy, seed):
+    obs, info = env.reset(seed=seed)
+    start = np.ones(1, dtype=bool)
+    while True:
+        action, _ = policy.predict(obs, episode_start=start)
+        start = np.zeros(1, dtype=bool)
+        assert env.action_space.contains(np.asarray(action, dtype=np.float32))
+        obs, _, term, trunc, info = env.step(action)
+        if term or trunc:
+            return info
+
+
+def test_joint_path_planner_changes_working_mode():
+    env = gym.make("Planar3PModeChange-v0")
+    planner = JointPathPlanner.from_env(env)
+    for seed in range(100, 105):
+        info = _play(env, planner, seed)
+        assert info["termination_reason"] == "success", (seed, info["termination_reason"])
+        assert info["in_target_mode"] and info["working_mode_changed"]
+        assert planner.certified == [True]
+
+
+def test_simple_motions_do_not_change_working_mode():
+    """The simultaneous simple-motion controller brakes before a serial singularity: it never
+    reaches a target in another working mode."""
+    env = gym.make("Planar3PModeChange-v0")
+    policy = make_baseline("analytic-simultaneous", env)
+    for seed in range(100, 103):
+        info = _play(env, policy, seed)
+        assert not info["is_success"] and not info["in_target_mode"]
+
+
+def test_crossing_controller_changes_assembly_mode():
+    env = gym.make("Planar3PAssemblyChange-v0")
+    controller = CrossingController.from_env(env)
+    for seed in range(100, 104):
+        info = _play(env, controller, seed)
+        assert info["is_success"] and info["crossings"] >= 1
+
+
+def test_run_baselines_counts_episodes():
+    res = run_baselines("Planar3PModeChange-v0", "planner", 2, 7)
+    assert res.episodes == 2 and res.successes == 2 and sum(res.reasons.values()) == 2
+    assert "| Planar3PModeChange-v0 | planner | 2 |" in res.row()
+
+
+def test_bad_input():
+    env = gym.make("Planar3PModeChange-v0")
+    with pytest.raises(ValueError, match="unknown baseline"):
+        make_baseline("nope", env)
+    with pytest.raises(ValueError, match="mode-change observation"):
+        JointPathPlanner().predict(np.zeros(31))
+    with pytest.raises(ValueError, match="observation"):
+        CrossingController().predict(np.zeros(5))
+    with pytest.raises(ValueError, match="speed_fraction"):
+        JointPathPlanner(speed_fraction=0.0)
+    assert isinstance(make_baseline("analytic-simultaneous", env), BaseObservation)
+
+
+def test_wilson_interval():
+    lo, hi = wilson(50, 50)
+    assert abs(hi - 1.0) < 1e-12 and abs(lo - 0.9287) < 1e-3  # 50/50: [92.9, 100] %
+    lo, hi = wilson(0, 50)
+    assert lo == 0.0 and abs(hi - 0.0713) < 1e-3
