@@ -55,15 +55,19 @@ def _projected_physics() -> dict:
 
 
 _PROJECTED = _projected_physics()
-#: Goal-conditioned reach ids (sparse and dense reward) and their time limit (control steps).
+#: Goal-conditioned reach ids (sparse and dense reward).
 GOAL_ENV_ID = "Planar3PGoal-v0"
 GOAL_DENSE_ENV_ID = "Planar3PGoalDense-v0"
+#: Their time limit in control steps (2 s; the analytic controller needs at most 75 over 200
+#: episodes in random working modes): short episodes suit hindsight relabelling, and SB3's HER
+#: can sample once an episode has ended, before its default ``learning_starts`` of 100 is up.
+GOAL_MAX_EPISODE_STEPS = 100
 for _id, _reward in ((GOAL_ENV_ID, "sparse"), (GOAL_DENSE_ENV_ID, "dense")):
     if _id not in registry:
         register(
             id=_id,
             entry_point="planar3p_gym.goal_env:Planar3PGoalEnv",
-            max_episode_steps=MAX_EPISODE_STEPS,
+            max_episode_steps=GOAL_MAX_EPISODE_STEPS,
             kwargs={"reward_type": _reward, **_PROJECTED},
         )
 #: Trajectory-tracking id and its time limit (control steps: 10 s at 50 Hz).

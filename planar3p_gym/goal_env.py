@@ -132,7 +132,8 @@ class Planar3PGoalEnv(Planar3PEnv):
 
     ## Episode End
     ``terminated`` on success or failure (:meth:`compute_terminated`), ``truncated`` by the
-    registered time limit (250 steps, 5 s).
+    registered time limit (100 steps, 2 s: short episodes suit hindsight relabelling, and
+    SB3's HER can sample before its default ``learning_starts`` of 100 steps is up).
 
     ## Arguments
     ``reward_type`` (``"sparse"`` or ``"dense"``), and every argument of

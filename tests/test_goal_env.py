@@ -251,7 +251,7 @@ def test_her_trains_out_of_the_box(algo):
         cls = pytest.importorskip("sb3_contrib").TQC
     else:
         cls = SAC
-    env = gym.make(IDS[0], max_episode_steps=50)
+    env = gym.make(IDS[0])  # the registered time limit, SB3's default learning_starts
     # SAC with SB3's defaults (empty infos), TQC with the infos copied (exact penalties).
     buffer_kwargs = {"n_sampled_goal": 4, "goal_selection_strategy": "future"}
     if algo == "TQC":
@@ -261,7 +261,6 @@ def test_her_trains_out_of_the_box(algo):
         env,
         replay_buffer_class=HerReplayBuffer,
         replay_buffer_kwargs=buffer_kwargs,
-        learning_starts=100,
         batch_size=32,
         policy_kwargs={"net_arch": [32, 32]},
         seed=0,
