@@ -10,7 +10,7 @@ from numpy.typing import ArrayLike
 from agents.analytic import AnalyticController
 from planar3p_gym.goal_env import flat_observation
 
-__all__ = ["GoalAdapter"]
+__all__ = ["GoalAdapter", "goal_baseline"]
 
 
 class GoalAdapter:
@@ -59,3 +59,38 @@ class GoalAdapter:
         return self.policy.predict(
             flat, state=state, episode_start=episode_start, deterministic=deterministic
         )
+
+
+def goal_baseline(env_id: str, episodes: int, seed: int) -> dict[str, float]:
+    """Success rate, mean steps of the successful episodes and mean return of the analytic
+    controller (through :class:`GoalAdapter`) on a goal id, over ``episodes`` episodes
+    (reset with ``seed`` once, then unseeded)."""
+    import gymnasium as gym
+    import numpy as np
+
+    if not (isinstance(episodes, int) and episodes >= 1):
+        raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")
+    env = gym.make(env_id)
+    ctrl = GoalAdapter.analytic(env)
+    obs, _ = env.reset(seed=seed)
+    wins, steps, returns = 0, [], []
+    for _ in range(episodes):
+        ctrl.reset()
+        total, n = 0.0, 0
+        while True:
+            obs, reward, terminated, truncated, info = env.step(ctrl.predict(obs)[0])
+            total += reward
+            n += 1
+            if terminated or truncated:
+                break
+        if info["is_success"]:
+            wins += 1
+            steps.append(n)
+        returns.append(total)
+        obs, _ = env.reset()
+    return {
+        "episodes": episodes,
+        "success_rate": wins / episodes,
+        "steps_to_success_mean": float(np.mean(steps)) if steps else float("nan"),
+        "return_mean": float(np.mean(returns)),
+    }

@@ -17,7 +17,14 @@ from agents.analytic import AnalyticController, FloatArray
 from planar3p_gym.design import Design
 from planar3p_gym.observation import OBS_SIZE
 
-__all__ = ["TRACK_OBS_SIZE", "TrackingController", "run_tracking_episodes", "summarize_tracking"]
+__all__ = [
+    "TRACKING_BASELINES",
+    "TRACK_OBS_SIZE",
+    "TrackingController",
+    "run_tracking_episodes",
+    "summarize_tracking",
+    "tracking_baselines",
+]
 
 #: Length of the tracking observation: the 31 entries of ``Planar3P-v0`` and the reference
 #: velocity.
@@ -101,3 +108,27 @@ def summarize_tracking(rows: list[dict[str, Any]]) -> dict[str, float]:
         "rms_position_error_mean": float(rms_p.mean()),
         "rms_orientation_error_mean": float(rms_o.mean()),
     }
+
+
+#: Controllers compared on the tracking id: label -> feed-forward scale.
+TRACKING_BASELINES = {"analytic (feedback)": 0.0, "analytic + feed-forward": 1.0}
+
+
+def tracking_baselines(
+    episodes: int, seed: int, kinds: tuple[str, ...] = ("segments", "figure_eight")
+) -> dict[str, dict[str, float]]:
+    """:func:`summarize_tracking` of each of :data:`TRACKING_BASELINES` on
+    ``Planar3PTrack-v0`` per reference kind, keyed ``"<kind>/<label>"``."""
+    import gymnasium as gym
+
+    import planar3p_gym
+
+    out = {}
+    for kind in kinds:
+        for label, ff in TRACKING_BASELINES.items():
+            env = gym.make(planar3p_gym.TRACK_ENV_ID, reference=kind)
+            ctrl = TrackingController.from_env(env, feedforward=ff)
+            out[f"{kind}/{label}"] = summarize_tracking(
+                run_tracking_episodes(env, ctrl, episodes, seed)
+            )
+    return out

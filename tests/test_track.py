@@ -182,7 +182,7 @@ def test_bad_input_raises():
 def test_feed_forward_beats_feedback_alone(kind):
     """The reference velocity fed forward removes the feedback controller's lag: over the same
     episodes its RMS tracking error is several times smaller (measured over 100 episodes:
-    47x on segments, 28x on the figure-eight, ``scripts/task_baselines.py``)."""
+    47x on segments, 28x on the figure-eight, ``scripts/goal_track_baselines.py``)."""
     rows = {}
     for ff in (0.0, 1.0):
         env = make(kind)
@@ -201,10 +201,11 @@ def test_tracking_controller_validates_input():
         TrackingController().predict(np.zeros(OBS_SIZE))
 
 
-def test_task_baselines_script(tmp_path, capsys):
+def test_goal_track_baselines_script(tmp_path, capsys):
     import importlib.util
 
-    spec = importlib.util.spec_from_file_location("task_baselines", "scripts/task_baselines.py")
+    path = "scripts/goal_track_baselines.py"
+    spec = importlib.util.spec_from_file_location("goal_track_baselines", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     out = tmp_path / "b.json"
@@ -214,18 +215,3 @@ def test_task_baselines_script(tmp_path, capsys):
     assert len(data) == 6
     assert "figure_eight" in capsys.readouterr().out
     assert module.main(["--episodes", "0"]) == 2
-
-
-def test_figure_eight_modes():
-    """Working modes where figure-eights hardly fit are left out of the random draw, and
-    rejected when fixed; segments use every mode."""
-    env = make("figure_eight", working_mode="random")
-    draw = env.unwrapped.task._draw_modes
-    assert (1, 1, -1) in draw and len(draw) < len(env.unwrapped.modes)
-    left_out = sorted(set(env.unwrapped.modes) - set(draw))
-    with pytest.raises(ValueError, match="hardly fit"):
-        make("figure_eight", working_mode=left_out[0])
-    assert make("segments", working_mode=left_out[0]).reset(seed=0)[0].shape == (OBS_SIZE + 3,)
-    env.reset(seed=1)
-    for _ in range(10):
-        assert tuple(env.reset()[1]["episode_spec"]["working_mode"]) in draw
