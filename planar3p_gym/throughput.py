@@ -94,10 +94,18 @@ def median_step_us(env_id: str, n_steps: int, seed: int) -> float:
 
 
 def vector_rates(
-    env_id: str, kind: str, num_envs: int, n_steps: int, repeats: int, seed: int
-) -> list[float]:
+    env_id: str,
+    kind: str,
+    num_envs: int,
+    n_steps: int,
+    repeats: int,
+    seed: int,
+    reference: str | None = None,
+) -> list[float] | tuple[list[float], list[float]]:
     """Total env steps/s of a ``kind`` vector env (``"native"``, ``"sync"`` or ``"async"``)
-    of ``num_envs`` copies of ``env_id``, ``n_steps`` batch steps per repeat."""
+    of ``num_envs`` copies of ``env_id``, ``n_steps`` batch steps per repeat.  With
+    ``reference`` (an env id), also the single-env steps/s of that id measured right before
+    each repeat (``benchmark_step`` for as long as the repeat took), for paired ratios."""
     modes = {"native": "vector_entry_point", "sync": "sync", "async": "async"}
     if kind not in modes:
         raise ValueError(f"kind must be one of {sorted(modes)}, got {kind!r}")
@@ -110,13 +118,21 @@ def vector_rates(
         venv.reset(seed=seed)
         for a in actions[: min(50, n_steps)]:  # warm-up
             venv.step(a)
-        out = []
+        ref_env = _make(reference) if reference else None
+        out, ref = [], []
+        duration = 0.5
         for _ in range(repeats):
+            if ref_env is not None:
+                ref.append(benchmark_step(ref_env, target_duration=duration, seed=seed))
             venv.reset(seed=seed)
             t0 = time.perf_counter()
             for a in actions:
                 venv.step(a)
-            out.append(num_envs * n_steps / (time.perf_counter() - t0))
+            duration = time.perf_counter() - t0
+            out.append(num_envs * n_steps / duration)
+        if ref_env is not None:
+            ref_env.close()
+            return out, ref
         return out
     finally:
         venv.close()

@@ -129,15 +129,17 @@ def main(argv: list[str] | None = None) -> int:
     vec_repeats = max(1, args.repeats // 2)
     vec_steps = max(1, args.steps // n)
     print(f"\nvector envs, {n} envs x {vec_steps} steps x {vec_repeats} repeats (total steps/s):")
-    reacher = statistics.median(rates[REACHER]) if REACHER in rates else None
+    ref = REACHER if REACHER in rates else None
     results["vector"] = {}
     for e in (V0, V1):
         for kind in ("native", "sync"):
-            v = throughput.vector_rates(e, kind, n, vec_steps, vec_repeats, args.seed)
+            got = throughput.vector_rates(e, kind, n, vec_steps, vec_repeats, args.seed, ref)
+            v, extra = (got[0], "") if ref else (got, "")
+            if ref:
+                ratio = throughput.paired_ratio(got[0], got[1])
+                extra = f"  {ratio:.2f}x Reacher-v5 single (paired)"
+                results["vector"][f"{e}/{kind}/reacher_ratio"] = ratio
             results["vector"][f"{e}/{kind}"] = v
-            extra = (
-                f"  = {statistics.median(v) / reacher:.2f}x Reacher-v5 single" if reacher else ""
-            )
             print(f"  {e} {kind:<7} {_rates(v)}{extra}")
 
     n_prof = max(args.steps, 200)
