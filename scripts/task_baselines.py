@@ -3,6 +3,7 @@ study.  Logic: agents/task_baselines.py.
 
     python scripts/task_baselines.py --episodes 50 --seed 0
     python scripts/task_baselines.py --fidelity --episodes 20
+    python scripts/task_baselines.py --ids Planar3PAssemblyChange-v0 --gravity 9.81
 """
 
 from __future__ import annotations
@@ -22,6 +23,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0, help="first episode seed")
     p.add_argument("--ids", default=",".join(BASELINES), help="comma-separated env ids")
     p.add_argument("--fidelity", action="store_true", help="run the crossing-fidelity study")
+    p.add_argument(
+        "--gravity",
+        type=float,
+        default=None,
+        help="gravity (m/s^2) of the assembly-change design (default: the id's, 0)",
+    )
     args = p.parse_args(argv)
     if args.episodes < 1:
         print("error: --episodes must be >= 1", file=sys.stderr)
@@ -40,10 +47,23 @@ def main(argv: list[str] | None = None) -> int:
     if unknown:
         print(f"error: unknown ids {unknown}; known: {list(BASELINES)}", file=sys.stderr)
         return 2
+    if args.gravity is not None and not (args.gravity >= 0 and args.gravity < 1e3):
+        print("error: --gravity must be in [0, 1000) m/s^2", file=sys.stderr)
+        return 2
     print(TABLE_HEADER)
     for env_id in ids:
+        kwargs = {}
+        if args.gravity is not None and env_id == "Planar3PAssemblyChange-v0":
+            from planar3p_gym.assembly_change_env import assembly_change_design
+
+            kwargs["design"] = assembly_change_design().with_(gravity=args.gravity)
         for policy in BASELINES[env_id]:
-            print(run_baselines(env_id, policy, args.episodes, args.seed).row(), flush=True)
+            try:
+                res = run_baselines(env_id, policy, args.episodes, args.seed, kwargs)
+            except ValueError as exc:
+                print(f"error: {exc}", file=sys.stderr)
+                return 2
+            print(res.row(), flush=True)
     return 0
 
 
