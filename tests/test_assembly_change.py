@@ -93,7 +93,7 @@ def test_deterministic_and_replayable(env):
     actions = np.random.default_rng(1).uniform(-1, 1, (15, 3)).astype(np.float32)
 
     def play(options=None, seed=None):
-        obs, info = env.reset(seed=seed, options=options)
+        obs, _ = env.reset(seed=seed, options=options)
         out = [obs]
         for a in actions:
             obs, r, term, trunc, _ = env.step(a)
@@ -161,3 +161,20 @@ def test_crossing_fidelity_with_projection_closes_the_loop(env):
     assert f["max_closure_error"] < 1e-9
     assert np.isfinite([f["servo_work"], f["energy_gap"], f["projection_energy"]]).all()
     assert f["servo_abs_work"] >= abs(f["servo_work"])
+
+
+def test_gravity_pushes_along_the_free_motion_at_every_singularity():
+    """On the default design no parallel singularity of mode (1, 1, 1) (serial margin >= 0.1)
+    is gravity-neutral: the weight has a component along the free motion, so no singular pose
+    can be held at rest (a quasi-static crossing does not exist).  The reported point is
+    singular: det A vanishes there."""
+    from planar3p_gym.tasks.assembly_change import gravity_alignment
+
+    design = Design.fig8()
+    cos, (y, theta) = gravity_alignment(design, (1, 1, 1), thetas=241, heights=401)
+    assert 0.05 < cos < 1.0
+    pose = np.array([0.0, y, theta])
+    rho = kinematics.inverse(design, pose, (1, 1, 1)).rho
+    rho = rho - rho.min() + 0.01  # shift x into the stroke (det A does not depend on x)
+    pose[0] = rho[0] - kinematics.inverse(design, np.array([0.0, y, theta]), (1, 1, 1)).rho[0]
+    assert float(kinematics.parallel_margin(design, pose, rho)) < 1e-6

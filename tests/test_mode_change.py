@@ -122,7 +122,7 @@ def test_deterministic_and_replayable(env):
                 break
         return info, out
 
-    first_info, first = play(seed=11)
+    _, first = play(seed=11)
     _, again = play(seed=11)
     for x, y in zip(first, again, strict=True):
         np.testing.assert_array_equal(x, y)
@@ -143,7 +143,7 @@ def test_infeasible_requests_raise(env):
     with pytest.raises(ValueError, match="three entries"):
         env.reset(options={"target_working_mode": [1, 0, 1]})
     # a start/target pair in the right modes but with no certified path
-    with pytest.raises(ValueError, match="no certified path|assembly modes"):
+    with pytest.raises(ValueError, match=r"no certified path|assembly modes"):
         env.reset(options={**spec, "target": spec["start"], "target_working_mode": [1, 1, 1]})
 
 

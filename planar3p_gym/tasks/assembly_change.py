@@ -30,6 +30,19 @@ Working mode: the default design has poses in both assembly modes (holdable, wit
 in the working modes ``(+1, +1, +1)``, ``(-1, -1, -1)`` and the sparsely populated
 ``(+1, -1, +1)``, ``(-1, +1, -1)``; the registered id uses ``(+1, +1, +1)``.
 
+**Gravity.**  At a parallel singularity the platform has a free motion ``n`` the actuators
+cannot resist; a singular pose can be held at rest only where the weight does not push along
+``n``.  On the default design no singular pose of ``(+1, +1, +1)`` with serial margin >= 0.1 is
+such a pose (:func:`gravity_alignment`: ``|cos(n, c)| >= 0.12``), so under gravity the servos
+saturate near ``det A = 0`` and the platform falls across, usually onto another branch of the
+direct kinematics.  With the plain solver (8 substeps, 18 iterations) the demonstration
+motion ended within 1 cm of the target in 0 of 25 + 25 candidate pairs (peak slider rate 0.05
+and 0.2 m/s), so such a design is rejected at construction.  The projected physics
+(``projection=True``) lets half the candidates pass, but its energy balance through those
+crossings is off by about 1 J (the servos do 0.7 J; README, "Crossing fidelity"), so the
+registered id uses the default design mounted horizontally, ``gravity = 0``
+(:func:`planar3p_gym.assembly_change_env.assembly_change_design`), where both physics agree.
+
 Episode spec: ``{"task": "assembly_change", "working_mode", "start", "target"}``.  Reset options:
 ``start``, ``target``, ``working_mode`` (any subset; a requested pair must pass the checks,
 including the simulated demonstration when ``verify`` is on).
