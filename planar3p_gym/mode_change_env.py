@@ -23,7 +23,8 @@ class Planar3PModeChangeEnv(Planar3PEnv):
     The machine, physics, actions and failure tests of ``Planar3P-v0``
     (:class:`planar3p_gym.env.Planar3PEnv`).  The start pose is in working mode
     ``sigma_s`` (by default ``(+1, +1, -1)``) and the target pose in a working mode ``sigma_t``
-    that differs in one leg (``sign cos alpha_i``): that leg must pass the serial singularity
+    that differs in one leg (``sign cos alpha_i``; on the default design ``(+1, +1, +1)``, leg
+    3 flips): that leg must pass the serial singularity
     where it stands perpendicular to its rail.  A controller that keeps clear of serial
     singularities (the paper's simple motions with their brake) cannot get there; the slider
     under the upright leg has to move past it.  Changing working mode is not a failure here;

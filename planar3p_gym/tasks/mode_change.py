@@ -23,10 +23,12 @@ the actuator limits.  (``agents.planner.JointPathPlanner`` follows the same cert
 Working-mode pairs: the start mode is drawn from the environment's modes; the target mode from
 the modes that differ in ``flips`` legs (default: exactly one) and for which the task found a
 certified pair at construction (a fixed internal seed, so the list never consumes the episode's
-random stream).  On the default design from the default mode ``(+1, +1, -1)`` these are
-``(+1, +1, +1)`` (leg 3 flips) and ``(-1, +1, -1)`` (leg 1 flips); flipping two or three legs
-at once needs a parallel-singularity crossing for the sampled poses (the certificate search
-fails).
+random stream).  On the default design from the default mode ``(+1, +1, -1)`` this is
+``(+1, +1, +1)`` (leg 3 flips): ``(+1, -1, -1)`` has no acceptable pose in the start's assembly
+mode, and ``(-1, +1, -1)`` so few (about 1 random pose in 4,000 meets the margins) that the
+construction-time check finds none.  Flipping two or three legs at once failed the certificate
+for every sampled pair we tried (the straight travel line loses its branch, i.e. passes a
+parallel singularity, and no upright-leg waypoint helps).
 
 Episode spec: ``{"task": "mode_change", "working_mode": sigma_s, "start": pose, "target": pose,
 "target_working_mode": sigma_t}``.  Reset options: the same keys (any subset).
