@@ -26,9 +26,10 @@ certified pair at construction (a fixed internal seed, so the list never consume
 random stream).  On the default design from the default mode ``(+1, +1, -1)`` this is
 ``(+1, +1, +1)`` (leg 3 flips): ``(+1, -1, -1)`` has no acceptable pose in the start's assembly
 mode, and ``(-1, +1, -1)`` so few (about 1 random pose in 4,000 meets the margins) that the
-construction-time check finds none.  Flipping two or three legs at once failed the certificate
-for every sampled pair we tried (the straight travel line loses its branch, i.e. passes a
-parallel singularity, and no upright-leg waypoint helps).
+construction-time check finds none.  From ``(+1, +1, -1)``, flipping two or three legs at once
+failed the certificate for all 10 pairs tried per target mode (the straight travel line loses
+its branch, i.e. passes near a parallel singularity, and no upright-leg waypoint helps); from
+other start modes some two-leg flips do pass (``working_mode="random"``, ``flips=2``).
 
 Episode spec: ``{"task": "mode_change", "working_mode": sigma_s, "start": pose, "target": pose,
 "target_working_mode": sigma_t}``.  Reset options: the same keys (any subset).
