@@ -28,8 +28,10 @@ random stream).  On the default design from the default mode ``(+1, +1, -1)`` th
 mode, and ``(-1, +1, -1)`` so few (about 1 random pose in 4,000 meets the margins) that the
 construction-time check finds none.  From ``(+1, +1, -1)``, flipping two or three legs at once
 failed the certificate for all 10 pairs tried per target mode (the straight travel line loses
-its branch, i.e. passes near a parallel singularity, and no upright-leg waypoint helps); from
-other start modes some two-leg flips do pass (``working_mode="random"``, ``flips=2``).
+its branch, i.e. passes near a parallel singularity, and no upright-leg waypoint helps); with
+``working_mode="random"`` and ``flips=2`` the construction-time check finds no pair either
+(some two-leg flips from ``(-1, -1, -1)`` do pass, but too rarely for it), and the
+constructor says so (``ValueError``).
 
 Episode spec: ``{"task": "mode_change", "working_mode": sigma_s, "start": pose, "target": pose,
 "target_working_mode": sigma_t}``.  Reset options: the same keys (any subset).
