@@ -9,8 +9,9 @@ loader for Stable-Baselines3 models, and the evaluation used by ``scripts/benchm
   (``analytic-simultaneous``, ``analytic-sequential``, ``random``, ``zero``,
   ``pretrained:<name>``) or a model path -> a policy.
 * The benchmark: :mod:`agents.suites` (fixed suites ``standard``, ``hard``, ``far``; saving
-  and loading), :mod:`agents.paths` and :mod:`agents.region_maps` (path diagnostics and
-  singularity-free regions the suites use), :mod:`agents.episodes` (the episode runner),
+  and loading), :mod:`agents.task_suites` (suites and baselines of the task ids),
+  :mod:`agents.paths` and :mod:`agents.region_maps` (path diagnostics and singularity-free
+  regions the suites use), :mod:`agents.episodes` (the episode runner),
   :mod:`agents.statistics` (IQM, bootstrap and Wilson intervals, summaries),
   :mod:`agents.report` / :mod:`agents.report_plots` (report, CSV, figures) and
   :mod:`agents.benchmark` (:func:`~agents.benchmark.run_benchmark`, used by
