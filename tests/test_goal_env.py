@@ -271,3 +271,19 @@ def test_her_trains_out_of_the_box(algo):
     obs, _ = env.reset(seed=0)
     action, _ = model.predict(obs, deterministic=True)
     assert env.action_space.contains(action)
+
+
+def test_spec_of_a_requested_goal_vector_replays_it():
+    env = gym.make(IDS[1])
+    obs, info = env.reset(seed=6)
+    goal = obs["achieved_goal"]  # the start pose as a goal, at rest
+    spec = info["episode_spec"]
+    opts = {"start": spec["start"], "working_mode": spec["working_mode"], "desired_goal": goal}
+    obs1, info1 = env.reset(options=opts)
+    replay = json.loads(json.dumps(info1["episode_spec"]))
+    assert replay["desired_goal"] == [float(v) for v in goal]
+    obs2, _ = env.reset(options=replay)
+    assert np.array_equal(obs2["desired_goal"], goal)
+    assert all(np.array_equal(obs1[k], obs2[k]) for k in obs1)
+    with pytest.raises(ValueError, match="disagrees"):
+        env.reset(options={**replay, "target": [0.0, 0.1, 0.0]})
