@@ -28,10 +28,11 @@ differential-algebraic equations):
   :data:`HELD_CONDITION`), and near a fold of the direct kinematics the held travels may have
   no pose nearby (Newton has not converged after :data:`HELD_NEWTON_STEPS`); then the
   projection starts again with every slider moving with its own mass.
-* **End stops** stay pymunk's (groove joints); a slider found past an end of its stroke is held
-  during the projection (the stop, not the servo, holds it), so the correction does not push it
-  further in.  (Putting it back on the stop exactly was tried: with few substeps the groove's
-  warm-started impulse then makes it bounce between two states forever.)
+* **End stops**: a slider found past an end of its stroke is put back just into contact with
+  the stop (:data:`STOP_CONTACT`) and held there during the projection.  Its velocity: zero
+  while its servo's setpoint lies beyond the stop (the servo pushes it onto the stop: it rests
+  there; the velocity the solver leaves after an impact would otherwise make it bounce off
+  and back every step), else only its component away from the stop is kept (it leaves).
 * **Positions**: Newton steps of the mass-weighted minimal correction
   ``dq = -W^-1 J^T (J W^-1 J^T)^-1 f / 2`` until every leg-length error is below
   :data:`POSITION_TOLERANCE` (m), at most :data:`MAX_NEWTON_STEPS`.
@@ -163,14 +164,28 @@ class LoopProjector:
         p1, p2, p3 = v[6] - a1, v[24] - a2, v[42] - a3
         d1, d2, d3 = v[9], v[27], v[45]
         if not (0.0 <= p1 <= stroke and 0.0 <= p2 <= stroke and 0.0 <= p3 <= stroke):
-            # A slider past an end stop (rare path): back just into the stop, at rest, held.
+            # A slider past an end stop (rare path): back just into the stop and held; at rest
+            # while its servo's setpoint is beyond the stop (pushing into it), else it keeps
+            # only its velocity away from the stop.
             pen = STOP_CONTACT
             if p1 < 0.0 or p1 > stroke:
-                p1, d1, i1 = (-pen if p1 < 0.0 else stroke + pen), 0.0, 0.0
+                s1 = v[12] - a1  # the servo's setpoint
+                if p1 < 0.0:
+                    p1, d1, i1 = -pen, (0.0 if s1 <= 0.0 else max(d1, 0.0)), 0.0
+                else:
+                    p1, d1, i1 = stroke + pen, (0.0 if s1 >= stroke else min(d1, 0.0)), 0.0
             if p2 < 0.0 or p2 > stroke:
-                p2, d2, i2 = (-pen if p2 < 0.0 else stroke + pen), 0.0, 0.0
+                s2 = v[30] - a2  # the servo's setpoint
+                if p2 < 0.0:
+                    p2, d2, i2 = -pen, (0.0 if s2 <= 0.0 else max(d2, 0.0)), 0.0
+                else:
+                    p2, d2, i2 = stroke + pen, (0.0 if s2 >= stroke else min(d2, 0.0)), 0.0
             if p3 < 0.0 or p3 > stroke:
-                p3, d3, i3 = (-pen if p3 < 0.0 else stroke + pen), 0.0, 0.0
+                s3 = v[48] - a3  # the servo's setpoint
+                if p3 < 0.0:
+                    p3, d3, i3 = -pen, (0.0 if s3 <= 0.0 else max(d3, 0.0)), 0.0
+                else:
+                    p3, d3, i3 = stroke + pen, (0.0 if s3 >= stroke else min(d3, 0.0)), 0.0
             hold = True
 
         start = (p1, p2, p3, qx, qy, th, c, s)
