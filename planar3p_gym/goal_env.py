@@ -214,7 +214,7 @@ class Planar3PGoalEnv(Planar3PEnv):
         info["failure"] = info["termination_reason"] in self.task.failure_reasons
         info["goal_free_reward"] = goal_free_reward(info["reward_terms"], self.reward_type)
         obs = self._dict_obs(flat, info)
-        reward = self.compute_reward(obs["achieved_goal"], obs["desired_goal"], info)
+        reward = self.goal_task.step_reward(obs["achieved_goal"], info)
         return obs, reward, terminated, truncated, info
 
     def _dict_obs(self, flat: np.ndarray, info: dict[str, Any]) -> dict[str, np.ndarray]:

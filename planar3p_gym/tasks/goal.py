@@ -118,9 +118,25 @@ def goal_errors(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np
     """Position error (m) and signed orientation error desired minus achieved (rad, in
     ``[-pi, pi]``), each of shape ``(n,)`` (``(1,)`` for single goals)."""
     a, d, _ = _goals(achieved, desired)
+    return _errors(a, d)
+
+
+def _errors(a: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`goal_errors` of validated ``(n, 5)`` float64 goals."""
     pos = np.hypot(d[:, 0] - a[:, 0], d[:, 1] - a[:, 1])
     ang = np.arctan2(a[:, 2] * d[:, 3] - a[:, 3] * d[:, 2], a[:, 2] * d[:, 2] + a[:, 3] * d[:, 3])
     return pos, ang
+
+
+def _evaluate(
+    a: np.ndarray, d: np.ndarray, info: Any, cfg: TaskConfig
+) -> tuple[np.ndarray, np.ndarray, NDArray[np.bool_]]:
+    """Errors and success of validated ``(n, 5)`` float64 goals (one evaluation shared by
+    the success test and the reward)."""
+    pos, ang = _errors(a, d)
+    failed = _info_field(info, "failure", pos.shape[0]) > 0.5
+    close = (pos <= cfg.position_tolerance) & (np.abs(ang) <= cfg.orientation_tolerance)
+    return pos, ang, close & (a[:, 4] <= d[:, 4] + cfg.rest_speed) & ~failed
 
 
 def _info_field(info: Any, key: str, n: int) -> np.ndarray:
@@ -155,10 +171,7 @@ def goal_success(
     ``orientation_tolerance`` (rad), achieved speed at most desired speed plus ``rest_speed``
     (m/s), and not ``info["failure"]``."""
     a, d, _ = _goals(achieved, desired)
-    pos, ang = goal_errors(a, d)
-    failed = _info_field(info, "failure", pos.shape[0]) > 0.5
-    close = (pos <= cfg.position_tolerance) & (np.abs(ang) <= cfg.orientation_tolerance)
-    return close & (a[:, 4] <= d[:, 4] + cfg.rest_speed) & ~failed
+    return _evaluate(a, d, info, cfg)[2]
 
 
 def goal_reward(
@@ -177,8 +190,21 @@ def goal_reward(
     exp(-d / s)) + w_success [success]`` with ``d = |dp| + length |dtheta|`` (m), ``e = d /
     length`` (the reach reward's goal terms, :mod:`planar3p_gym.rewards`).
     """
-    pos, ang = goal_errors(achieved, desired)
-    success = goal_success(achieved, desired, info, cfg)
+    a, d, _ = _goals(achieved, desired)
+    return _reward(a, d, info, cfg, weights, length, reward_type)
+
+
+def _reward(
+    a: np.ndarray,
+    d: np.ndarray,
+    info: Any,
+    cfg: TaskConfig,
+    weights: RewardWeights,
+    length: float,
+    reward_type: str,
+) -> NDArray[np.float64]:
+    """:func:`goal_reward` of validated ``(n, 5)`` float64 goals."""
+    pos, ang, success = _evaluate(a, d, info, cfg)
     free = _info_field(info, "goal_free_reward", pos.shape[0])
     if reward_type == "sparse":
         goal = success.astype(np.float64) - 1.0
@@ -261,9 +287,27 @@ class GoalTask(ReachTask):
         return start, mode
 
     def is_success(self, state: Any, errors: tuple[float, float]) -> bool:
-        # A crossing is tested before this: no failure here.
-        achieved = achieved_goal(state.pose, state.rho_dot)
-        return bool(goal_success(achieved, self.desired, None, self.env.task_config)[0])
+        # A crossing is tested before this: no failure here.  The goals are valid by
+        # construction: skip the public functions' checks (same arithmetic).
+        a = achieved_goal(state.pose, state.rho_dot).astype(np.float64)[None, :]
+        d = self.desired.astype(np.float64)[None, :]
+        return bool(_evaluate(a, d, None, self.env.task_config)[2][0])
+
+    def step_reward(self, achieved: NDArray[np.float32], info: dict[str, Any]) -> float:
+        """The reward of a step, exactly :func:`goal_reward` of the float32 goals the
+        environment returns (without the public function's input checks)."""
+        env = self.env
+        return float(
+            _reward(
+                achieved.astype(np.float64)[None, :],
+                self.desired.astype(np.float64)[None, :],
+                info,
+                env.task_config,
+                env.reward_weights,
+                env.design.characteristic_length,
+                self.reward_type,
+            )[0]
+        )
 
 
 def achieved_goal(pose: ArrayLike, rho_dot: ArrayLike) -> NDArray[np.float32]:
