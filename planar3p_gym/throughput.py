@@ -6,6 +6,10 @@
   fixed duration; the envs are interleaved across repeats with a rotating order, so that a
   load drifting on a shared machine affects all alike, and ratios are taken per repeat
   (paired) before the median.
+* :func:`best_block_rates`: the envs (single ones and vector envs) stepped in short blocks,
+  round-robin, many times; each env's fastest blocks estimate its speed on an idle machine
+  (load only ever slows a block down), which makes ratios between envs reproducible on a
+  busy shared machine where rates of whole runs vary several-fold.
 * :func:`median_step_us`: the median wall time of single steps, each timed on its own
   (ignores the steps during which a busy machine preempted the process).
 * :func:`vector_rates`: total env steps/s of a vector env: the native one
@@ -33,6 +37,8 @@ import numpy as np
 from gymnasium.utils.performance import benchmark_step
 
 __all__ = [
+    "best_block_rates",
+    "make_env",
     "median_step_us",
     "paired_ratio",
     "ppo_rates",
@@ -43,7 +49,8 @@ __all__ = [
 ]
 
 
-def _make(env_id: str, **kwargs: Any) -> gym.Env:
+def make_env(env_id: str, **kwargs: Any) -> gym.Env:
+    """``gym.make`` without Gymnasium's warnings (e.g. that v0 has a newer version)."""
     with warnings.catch_warnings():  # e.g. "Planar3P-v0 is out of date"
         warnings.simplefilter("ignore")
         return gym.make(env_id, **kwargs)
@@ -53,7 +60,7 @@ def single_env_rates(
     env_ids: list[str], repeats: int, duration: float, seed: int
 ) -> dict[str, list[float]]:
     """``{env_id: [steps/s of each repeat]}``, interleaved (module docstring)."""
-    envs = {e: _make(e) for e in env_ids}
+    envs = {e: make_env(e) for e in env_ids}
     rates: dict[str, list[float]] = {e: [] for e in env_ids}
     try:
         for env in envs.values():  # warm-up: first-call caches, lazy imports
@@ -69,6 +76,44 @@ def single_env_rates(
     return rates
 
 
+def best_block_rates(
+    makers: dict[str, Any], block_steps: int, blocks: int, seed: int, quantile: float = 0.9
+) -> dict[str, float]:
+    """Env steps/s of each env at the ``quantile`` of its block rates (0.9: the fastest
+    tenth), blocks of ``block_steps`` steps (vector envs: batch steps, counted as
+    ``num_envs`` env steps each) interleaved round-robin ``blocks`` times.  ``makers`` maps
+    a label to a zero-argument function making the env (single or vector); random actions
+    are sampled up front; resets are included."""
+    envs = {k: make() for k, make in makers.items()}
+    runners = {}
+    for k, env in envs.items():
+        env.action_space.seed(seed)
+        actions = [env.action_space.sample() for _ in range(block_steps)]
+        env.reset(seed=seed)
+        vector = isinstance(env, gym.vector.VectorEnv)
+        runners[k] = (env, actions, env.num_envs if vector else 1, vector)
+    rates: dict[str, list[float]] = {k: [] for k in envs}
+    clock = time.perf_counter
+    try:
+        for _ in range(blocks + 1):  # the first round warms up
+            for k, (env, actions, n, vector) in runners.items():
+                step, reset = env.step, env.reset
+                t0 = clock()
+                if vector:
+                    for a in actions:
+                        step(a)
+                else:
+                    for a in actions:
+                        _, _, terminated, truncated, _ = step(a)
+                        if terminated or truncated:
+                            reset()
+                rates[k].append(n * len(actions) / (clock() - t0))
+    finally:
+        for env in envs.values():
+            env.close()
+    return {k: float(np.quantile(v[1:], quantile)) for k, v in rates.items()}
+
+
 def paired_ratio(a: list[float], b: list[float]) -> float:
     """Median of the per-repeat ratios ``a[r] / b[r]``."""
     return statistics.median(x / y for x, y in zip(a, b, strict=True))
@@ -77,7 +122,7 @@ def paired_ratio(a: list[float], b: list[float]) -> float:
 def median_step_us(env_id: str, n_steps: int, seed: int) -> float:
     """Median wall time (us) of one ``gym.make(env_id)`` step over ``n_steps`` random-action
     steps (resets not timed)."""
-    env = _make(env_id)
+    env = make_env(env_id)
     env.action_space.seed(seed)
     actions = [env.action_space.sample() for _ in range(n_steps)]
     env.reset(seed=seed)
@@ -118,7 +163,7 @@ def vector_rates(
         venv.reset(seed=seed)
         for a in actions[: min(50, n_steps)]:  # warm-up
             venv.step(a)
-        ref_env = _make(reference) if reference else None
+        ref_env = make_env(reference) if reference else None
         out, ref = [], []
         duration = 0.5
         for _ in range(repeats):
@@ -147,7 +192,7 @@ def profile_step(env_id: str, n_steps: int, seed: int) -> dict[str, float]:
     terms); ``other`` is the rest of ``env_step`` (action parsing, termination, info)."""
     rng = np.random.default_rng(seed)
     actions = rng.uniform(-1.0, 1.0, size=(n_steps, 3)).astype(np.float32)
-    wrapped, raw, parts = _make(env_id), _make(env_id).unwrapped, _make(env_id).unwrapped
+    wrapped, raw, parts = make_env(env_id), make_env(env_id).unwrapped, make_env(env_id).unwrapped
     vmax = parts.design.max_speed
     keys = ("wrapped_step", "env_step", "physics", "measures", "observation", "reward")
     samples = np.zeros((n_steps, len(keys)), dtype=np.int64)

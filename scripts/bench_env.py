@@ -27,6 +27,7 @@ import os
 import platform
 import statistics
 import sys
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -66,6 +67,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     ap.add_argument("--steps", type=int, help="steps per vector / per-step / profile run")
     ap.add_argument("--repeats", type=int, help="interleaved repeats")
     ap.add_argument("--num-envs", type=int, default=16, help="native vector env size")
+    ap.add_argument("--blocks", type=int, help="round-robin blocks of the fastest-block rates")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--ppo", action="store_true", help="also PPO steps/s per vec env type")
     ap.add_argument("--ppo-steps", type=int, default=8192, help="PPO timesteps per vec env")
@@ -75,10 +77,12 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     args.duration = args.duration if args.duration is not None else (0.5 if quick else 2.0)
     args.steps = args.steps if args.steps is not None else (1_000 if quick else 5_000)
     args.repeats = args.repeats if args.repeats is not None else (3 if quick else 7)
+    args.blocks = args.blocks if args.blocks is not None else (10 if quick else 60)
     problems = [
         (not (args.duration > 0 and args.duration < 3600), "--duration must be in (0, 3600) s"),
         (args.steps < 1, "--steps must be >= 1"),
         (args.repeats < 1, "--repeats must be >= 1"),
+        (args.blocks < 1, "--blocks must be >= 1"),
         (args.num_envs < 1, "--num-envs must be >= 1"),
         (args.seed < 0, "--seed must be >= 0"),
         (args.ppo_steps < 1, "--ppo-steps must be >= 1"),
@@ -100,6 +104,7 @@ def _rates(values: list[float]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
+    warnings.filterwarnings("ignore", message=".*out of date.*")
     env_ids = [V0, V1, PENDULUM] + ([REACHER] if mujoco_available() else [])
     print(
         f"python {platform.python_version()}, gymnasium {gym.__version__}, "
@@ -141,6 +146,16 @@ def main(argv: list[str] | None = None) -> int:
                 results["vector"][f"{e}/{kind}/reacher_ratio"] = ratio
             results["vector"][f"{e}/{kind}"] = v
             print(f"  {e} {kind:<7} {_rates(v)}{extra}")
+
+    print(f"\nfastest blocks ({args.blocks} blocks of 200 steps, round-robin; 90th percentile):")
+    makers = {e: (lambda e=e: throughput.make_env(e)) for e in env_ids}
+    for e in (V0, V1):
+        makers[f"{e} x{n}"] = lambda e=e: gym.make_vec(e, num_envs=n)
+    best = throughput.best_block_rates(makers, 200, args.blocks, args.seed)
+    results["best_blocks"] = best
+    for k, rate in best.items():
+        extra = f"  {rate / best[REACHER]:.2f}x Reacher-v5" if REACHER in best else ""
+        print(f"  {k:<16} {rate:10,.0f} steps/s{extra}")
 
     n_prof = max(args.steps, 200)
     print(f"\nprofile of one step, median over {n_prof} random-action steps (us):")

@@ -7,6 +7,7 @@ import importlib.util
 import json
 from pathlib import Path
 
+import gymnasium as gym
 import pytest
 
 from planar3p_gym import throughput
@@ -32,6 +33,7 @@ def load_script():
         ["--duration", "nan"],
         ["--num-envs", "0"],
         ["--ppo-steps", "0"],
+        ["--blocks", "0"],
         ["--json", "/nonexistent/dir/out.json"],
         ["--steps", "abc"],
         ["--unknown"],
@@ -80,3 +82,13 @@ def test_throughput_measures_run_and_are_positive():
     assert prof["physics"] > 0 and prof["wrapped_step"] >= prof["physics"]
     with pytest.raises(ValueError):
         throughput.vector_rates("Planar3P-v1", "threads", 2, 5, 1, 0)
+    best = throughput.best_block_rates(
+        {
+            "single": lambda: throughput.make_env("Planar3P-v1"),
+            "vector": lambda: gym.make_vec("Planar3P-v1", num_envs=2),
+        },
+        10,
+        3,
+        0,
+    )
+    assert set(best) == {"single", "vector"} and min(best.values()) > 0
