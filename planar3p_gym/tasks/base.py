@@ -43,6 +43,11 @@ Contract every task must meet (the fixed benchmark suites and the tests rely on 
   for every task (``termination_reason`` is one of :attr:`Task.termination_reasons` or None).
 * **Reward.**  :meth:`Task.reward_terms` returns the weighted terms; the reward is their sum
   and they are reported in ``info["reward_terms"]``.  Every value is finite.
+* **Snapshots.**  ``Planar3PEnv.get_state``/``set_state`` copy the task's attributes (all but
+  ``env``) with ``copy.deepcopy`` unless the task defines ``get_state()``/``set_state(state)``:
+  keep per-episode state in plain, deep-copyable attributes, or define those two methods.
+* **Settings.**  :meth:`Task.arguments` returns the constructor arguments as plain data; it
+  goes into ``env.config()["task_arguments"]`` (run records, snapshot compatibility).
 * **Observation.**  The flat observation is the 31 entries of
   :mod:`planar3p_gym.observation`, computed against the current reference pose (the target of
   a reach), followed by :meth:`Task.observation_extra` (bounds from
