@@ -78,7 +78,7 @@ class SweepSpec:
     """What to run: algorithm, environment, seeds, configurations or a search space.
 
     ``timesteps`` is the total environment steps of each trial; ``options`` the run options
-    shared by every trial (evaluation, checkpoints; ``threads`` is forced to 1).  In search
+    shared by every trial (evaluation, checkpoints; ``threads`` must be 1).  In search
     mode (``search`` given) ``num_samples`` configurations are drawn (on top of the
     ``default`` configuration of ``grid``), each trained with the single seed in ``seeds``,
     and ``metric`` (``final_success_rate`` or ``final_mean_return``) is maximised.
@@ -280,9 +280,6 @@ def run_sweep(
 
     out = Path(out).resolve()
     validate(spec, out)
-    out.mkdir(parents=True, exist_ok=True)
-    record = {**asdict(spec), "command": command}
-    (out / "sweep.json").write_text(json.dumps(record, indent=2, default=str))
     spec_dict = {**asdict(spec), "options": asdict(spec.options)}
     base = {"spec": spec_dict, "out": str(out)}
     if spec.search is None:
@@ -308,9 +305,15 @@ def run_sweep(
         kwargs: dict[str, Any] = {"runtime_env": {"env_vars": env}, "log_to_driver": False}
         if address is None:
             kwargs.update(num_cpus=num_cpus, include_dashboard=False)
-        ray.init(address=address, **kwargs)
+        try:
+            ray.init(address=address, **kwargs)
+        except (ConnectionError, RuntimeError) as exc:
+            raise ValueError(f"cannot start or join Ray (address {address!r}): {exc}") from exc
         started = True
     try:
+        out.mkdir(parents=True, exist_ok=True)
+        record = {**asdict(spec), "command": command}
+        (out / "sweep.json").write_text(json.dumps(record, indent=2, default=str))
         tuner = tune.Tuner(
             tune.with_resources(_trainable, {"cpu": 1}),
             param_space=param_space,
