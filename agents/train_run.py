@@ -51,8 +51,10 @@ __all__ = [
     "plan_run",
 ]
 
-#: Vectorised-environment choices: ``auto`` = ``SubprocVecEnv`` when ``n_envs > 1``.
-VEC_ENVS = ("auto", "dummy", "subproc")
+#: Vectorised-environment choices: ``auto`` = ``SubprocVecEnv`` when ``n_envs > 1``; ``native``
+#: = all environments in one process through the native vector env
+#: (:func:`agents.vec_adapter.make_native_vec_env`; ``Planar3P-v0`` and ``-v1`` only).
+VEC_ENVS = ("auto", "dummy", "subproc", "native")
 
 
 @dataclass
@@ -139,6 +141,15 @@ def _check_env(env_id: str, env_kwargs: dict[str, Any]) -> None:
         gym.make(env_id, **env_kwargs).close()
     except (TypeError, ValueError) as exc:
         raise ValueError(f"invalid environment kwargs {env_kwargs}: {exc}") from exc
+
+
+def _check_native(cfg: TrainConfig) -> None:
+    from .vec_adapter import make_native_vec_env
+
+    try:
+        make_native_vec_env(cfg.env_id, n_envs=1, env_kwargs=cfg.env_kwargs).close()
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"--vec-env native: {exc}") from exc
 
 
 def _check_model(cfg: TrainConfig) -> Any:
@@ -271,6 +282,8 @@ def plan_run(
         algo, env_id, seed, entry, n_timesteps=timesteps, n_envs=n_envs, env_kwargs=kwargs_env
     )
     _check_env(cfg.env_id, cfg.env_kwargs)
+    if options.vec_env == "native":
+        _check_native(cfg)
     model = _check_model(cfg)
     done = resume_from[1] if resume_from else 0
     if cfg.n_timesteps <= done:
@@ -293,13 +306,18 @@ def _make_envs(cfg: TrainConfig, vec_env: str, stats: Path | None) -> tuple[Any,
 
     subproc = vec_env == "subproc" or (vec_env == "auto" and cfg.n_envs > 1)
     factory = EnvFactory(cfg.env_id, cfg.env_kwargs)
-    venv = make_vec_env(
-        factory,
-        n_envs=cfg.n_envs,
-        seed=cfg.seed,
-        vec_env_cls=SubprocVecEnv if subproc else DummyVecEnv,
-        monitor_kwargs={"info_keywords": ("is_success",)},
-    )
+    if vec_env == "native":  # episode statistics come from the adapter (no Monitor)
+        from .vec_adapter import make_native_vec_env
+
+        venv = make_native_vec_env(cfg.env_id, cfg.n_envs, seed=cfg.seed, env_kwargs=cfg.env_kwargs)
+    else:
+        venv = make_vec_env(
+            factory,
+            n_envs=cfg.n_envs,
+            seed=cfg.seed,
+            vec_env_cls=SubprocVecEnv if subproc else DummyVecEnv,
+            monitor_kwargs={"info_keywords": ("is_success",)},
+        )
     eval_env = make_vec_env(factory, n_envs=1, seed=cfg.seed + 10_000)
     if cfg.normalize is not None:
         gamma = cfg.algo_kwargs.get("gamma", 0.99)

@@ -149,6 +149,26 @@ def test_crash_paths_exit_2_with_one_line_and_write_nothing(
     assert not run.exists()
 
 
+def test_native_vector_env_trains(tmp_path: Path) -> None:
+    """--vec-env native (H1's adapter over the native vector env): a complete run."""
+    run = tmp_path / "native"
+    args = _smoke_args("ppo", run, steps=128) + ["--vec-env", "native"]
+    args[args.index("--n-envs") + 1] = "2"
+    assert train_script.main(args) == 0
+    metrics = json.loads((run / "metrics.json").read_text())
+    assert metrics["timesteps"] == 128 and (run / "vecnormalize.pkl").is_file()
+
+
+def test_native_vector_env_refuses_other_ids(tmp_path: Path, capsys) -> None:
+    run = tmp_path / "r"
+    hp = tmp_path / "ppo.yml"
+    hp.write_text("Planar3PTrack-v0:\n  n_steps: 64\n  batch_size: 64\n")
+    argv = ["--algo", "ppo", "--env", "Planar3PTrack-v0", "--vec-env", "native"]
+    argv += ["--hyperparams", str(hp)]
+    assert train_script.main([*argv, "--run-dir", str(run)]) == 2
+    assert "--vec-env native" in capsys.readouterr().err and not run.exists()
+
+
 def test_an_empty_run_directory_does_not_block_a_run(tmp_path: Path) -> None:
     from agents.train_run import plan_run
 
