@@ -171,9 +171,16 @@ def _metric_cell(key: str, value: float) -> str:
     return _fmt(value, 2)
 
 
+def _metric_summary(key: str, m: dict[str, float]) -> str:
+    """An error: median / worst episode; another metric (a flag, a count): mean [min, max]."""
+    if "error" in key:
+        return f"{_metric_cell(key, m['median'])} / {_metric_cell(key, m['max'])}"
+    return f"{_fmt(m['mean'], 2)} [{_fmt(m['min'], 0)}, {_fmt(m['max'], 0)}]"
+
+
 def metrics_table(summaries: Sequence[dict[str, Any]]) -> str:
-    """Task metrics (median / worst over the episodes) of the summaries that have any;
-    errors in mm (``*_orientation_error`` in deg), other metrics as the task reports them."""
+    """Task metrics of the summaries that have any (see :func:`_metric_summary`); errors in mm
+    (``*_orientation_error`` in deg), other metrics as the task reports them."""
     rows = [s for s in summaries if s.get("task_metrics")]
     if not rows:
         return ""
@@ -190,11 +197,7 @@ def metrics_table(summaries: Sequence[dict[str, Any]]) -> str:
         cells = []
         for k in keys:
             m = s["task_metrics"].get(k)
-            cells.append(
-                "–"
-                if m is None
-                else f"{_metric_cell(k, m['median'])} / {_metric_cell(k, m['max'])}"
-            )
+            cells.append("–" if m is None else _metric_summary(k, m))
         lines.append(f"| {s['policy']} | {s['suite']} | " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
@@ -306,15 +309,16 @@ DEFINITIONS = """\
 
 TASK_DEFINITIONS = """\
 - **Task suites**: success, return and errors as above, against each task's own target (the
-  goal; the target pose in the other working or assembly mode).  Tracking has no success: its
-  episodes run 500 steps (10 s) unless they cross a singularity or the physics breaks down, and
-  such an episode is counted as `completed`; the final errors are against the reference's last
-  pose.
+  goal; the target pose in the other working or assembly mode).  Tracking has no success test:
+  its episodes run 500 steps (10 s) unless they cross a singularity or the physics breaks
+  down, an episode that runs to the end is counted as `completed`, and the final errors are
+  against the reference's last pose.
 - **Task metrics** (the task's own, from the episode's last `info`): `tracking error` is the
-  pose error `|dp| + L_ref |dtheta|` to the moving reference, RMS and maximum over the episode,
-  also split into position and orientation; `in target mode` / `in target assembly` (1 if the
-  episode ended in the target's working / assembly mode), `legs to flip`, `crossings` (parallel
-  singularity crossings).  Each cell: median over the episodes / worst episode.
+  pose error `|dp| + L_ref |dtheta|` to the moving reference at the last step, `tracking rms
+  error` / `tracking max error` its RMS and maximum over the episode (also split into position
+  and orientation); `in target mode` / `in target assembly` (1 if the episode ended in the
+  target's working / assembly mode), `legs to flip` (legs not yet in their target mode),
+  `crossings` (changes of `sign det A`, i.e. parallel singularities crossed).
 """
 
 
@@ -351,7 +355,13 @@ def write_report(
         parts += ["Task suites at a glance:", "", task_table(summaries, suites), ""]
     metrics = metrics_table(summaries)
     if metrics:
-        parts += ["Task metrics (median / worst episode):", "", metrics, ""]
+        parts += [
+            "Task metrics (errors: median / worst episode; flags and counts: mean [min, max],",
+            "the mean of a 0/1 flag being the share of episodes):",
+            "",
+            metrics,
+            "",
+        ]
     parts += ["## Suites", ""]
     if reach:
         parts += [suites_section(reach), ""]

@@ -109,8 +109,9 @@ def summarize(
     return with a percentile-bootstrap interval; median final errors (mm, deg), time to success
     (s, successful episodes only) and mechanical energy (J); the worst and median smallest
     parallel margin; counts of each ending (:data:`~agents.episodes.FAILURE_CAUSES`); the share
-    of steps with a saturated actuator; and, for tasks that report them, the median and worst
-    of each task metric (``task_metrics`` of the results, e.g. tracking errors).
+    of steps with a saturated actuator; and, for tasks that report them, the median, mean,
+    smallest and largest value of each task metric (``task_metrics`` of the results, e.g.
+    tracking errors, or 0/1 flags whose mean is the share of episodes).
     """
     if not results:
         raise ValueError("no episodes to summarize")
@@ -153,16 +154,20 @@ def summarize(
     keys = list(dict.fromkeys(k for r in results for k in r.task_metrics))
     if keys:
         out["task_metrics"] = {
-            k: {
-                "median": _median([r.task_metrics.get(k, math.nan) for r in results]),
-                "max": _max([r.task_metrics.get(k, math.nan) for r in results]),
-            }
-            for k in keys
+            k: _describe([r.task_metrics.get(k, math.nan) for r in results]) for k in keys
         }
     return out
 
 
-def _max(values: Sequence[float]) -> float:
+def _describe(values: Sequence[float]) -> dict[str, float]:
+    """Median, mean, smallest and largest of the finite values (NaN if none)."""
     x = np.asarray(values, dtype=np.float64)
     x = x[np.isfinite(x)]
-    return float(np.max(x)) if x.size else math.nan
+    if not x.size:
+        return dict.fromkeys(("median", "mean", "min", "max"), math.nan)
+    return {
+        "median": float(np.median(x)),
+        "mean": float(np.mean(x)),
+        "min": float(np.min(x)),
+        "max": float(np.max(x)),
+    }

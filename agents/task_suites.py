@@ -18,9 +18,9 @@ The episodes are thus exactly those the environment samples for training, frozen
 * ``analytic-feedforward`` (tracking): the same controller with the reference velocity fed
   forward (:class:`agents.tracking.TrackingController`);
 * ``planner`` (mode change): resolved travel-space motion through a certified path
-  (:class:`agents.planner.JointPathPlanner`);
-* ``crossing`` (assembly change): the dynamic crossing demonstration
-  (:class:`agents.crossing.CrossingController`);
+  (:class:`agents.planner.JointPathPlanner`), and ``crossing`` (assembly change): the dynamic
+  crossing demonstration (:class:`agents.crossing.CrossingController`), both built by
+  :func:`agents.task_baselines.make_baseline`;
 * ``zero``: zero slider velocity (flat observations).
 """
 
@@ -159,25 +159,18 @@ def make_task_suite(name: str, n_episodes: int, seed: int, env: Any = None) -> S
     return Suite(name, int(seed), episodes, params)
 
 
-def _flat(policy: Any) -> Any:
-    from .planner import BaseObservation
-
-    return BaseObservation(policy)
-
-
 def _analytic(env: Any) -> Any:
-    from .analytic import AnalyticController
-
-    base = env.unwrapped
     if isinstance(env.observation_space, gym.spaces.Dict):
         from .goal_adapter import GoalAdapter
 
         return GoalAdapter.analytic(env)
-    if getattr(base.task, "name", "") == "track":
+    if getattr(env.unwrapped.task, "name", "") == "track":
         from .tracking import TrackingController
 
         return TrackingController.from_env(env, feedforward=0.0)
-    return _flat(AnalyticController(base.design, "simultaneous"))
+    from .task_baselines import make_baseline
+
+    return make_baseline("analytic-simultaneous", env)
 
 
 def _feedforward(env: Any) -> Any:
@@ -186,16 +179,13 @@ def _feedforward(env: Any) -> Any:
     return TrackingController.from_env(env, feedforward=1.0)
 
 
-def _planner(env: Any) -> Any:
-    from .planner import JointPathPlanner
+def _task_baseline(name: str) -> Callable[[Any], Any]:
+    def make(env: Any) -> Any:
+        from .task_baselines import make_baseline
 
-    return JointPathPlanner.from_env(env)
+        return make_baseline(name, env)
 
-
-def _crossing(env: Any) -> Any:
-    from .crossing import CrossingController
-
-    return CrossingController.from_env(env)
+    return make
 
 
 def _zero(env: Any) -> Any:
@@ -207,8 +197,8 @@ def _zero(env: Any) -> Any:
 _BASELINES: dict[str, Callable[[Any], Any]] = {
     "analytic-simultaneous": _analytic,
     "analytic-feedforward": _feedforward,
-    "planner": _planner,
-    "crossing": _crossing,
+    "planner": _task_baseline("planner"),
+    "crossing": _task_baseline("crossing"),
     "zero": _zero,
 }
 

@@ -156,3 +156,25 @@ def test_load_suite_policies_shares_reach_policies():
     assert list(per_suite["standard"]) == list(bm.REACH_BASELINES)
     assert per_suite["standard"]["random"] is per_suite["far"]["random"]
     assert meta["zero"] == ("zero", None)
+
+
+@pytest.mark.parametrize(
+    ("suite", "baseline", "flag"),
+    [("mode-change", "planner", "in_target_mode"), ("assembly-change", "crossing", None)],
+)
+def test_mode_and_assembly_change_suites(suite, baseline, flag):
+    """The planner / crossing baselines on seeded episodes of their suites: success, the task's
+    own flags in the metrics (target-describing ones left out), and an identical replay."""
+    env = ts.make_task_env(suite)
+    episodes = ts.make_task_suite(suite, 1, seed=0, env=env)
+    policy = ts.task_baseline(baseline, suite, env)
+    first = ep.evaluate(env, policy, episodes, policy_name=baseline)
+    again = ep.evaluate(env, policy, episodes, policy_name=baseline)
+    assert [r.row() for r in again] == [r.row() for r in first]
+    (r,) = first
+    assert r.success and r.cause == "success" and r.success_defined
+    assert not any(k.startswith("target_") for k in r.task_metrics)
+    if flag:
+        assert r.task_metrics[flag] == 1.0 and r.working_mode_changed
+    else:
+        assert r.task_metrics["in_target_assembly"] == 1.0 and r.task_metrics["crossings"] >= 1
