@@ -80,17 +80,19 @@ def best_block_rates(
     makers: dict[str, Any], block_steps: int, blocks: int, seed: int, quantile: float = 0.9
 ) -> dict[str, float]:
     """Env steps/s of each env at the ``quantile`` of its block rates (0.9: the fastest
-    tenth), blocks of ``block_steps`` steps (vector envs: batch steps, counted as
-    ``num_envs`` env steps each) interleaved round-robin ``blocks`` times.  ``makers`` maps
+    tenth), blocks of ``block_steps`` env steps (a vector env's block: ``block_steps //
+    num_envs`` batch steps) interleaved round-robin ``blocks`` times.  ``makers`` maps
     a label to a zero-argument function making the env (single or vector); random actions
     are sampled up front; resets are included."""
     envs = {k: make() for k, make in makers.items()}
     runners = {}
     for k, env in envs.items():
         env.action_space.seed(seed)
-        actions = [env.action_space.sample() for _ in range(block_steps)]
-        env.reset(seed=seed)
         vector = isinstance(env, gym.vector.VectorEnv)
+        # Blocks of about the same duration: a vector env's block has block_steps env steps.
+        n_batch = max(1, block_steps // env.num_envs) if vector else block_steps
+        actions = [env.action_space.sample() for _ in range(n_batch)]
+        env.reset(seed=seed)
         runners[k] = (env, actions, env.num_envs if vector else 1, vector)
     rates: dict[str, list[float]] = {k: [] for k in envs}
     clock = time.perf_counter
