@@ -303,3 +303,37 @@ def test_overrides_read_exponent_floats() -> None:
     assert out == {"learning_rate": 2e-5, "n_epochs": 5, "ent_coef": "auto"}
     with pytest.raises(ValueError, match="key=value"):
         training.parse_overrides(["no_equals_sign"])
+
+
+def test_final_evaluation_matches_a_plain_rollout() -> None:
+    """agents.train_run.evaluate (SB3's evaluate_policy + the env's info at each episode's end)
+    reports what a plain deterministic rollout of the same seeded episodes measures."""
+    from stable_baselines3.common.env_util import make_vec_env
+
+    from agents.policies import load_policy
+    from agents.train_run import evaluate
+
+    factory = training.EnvFactory("Planar3P-v0")
+    policy = load_policy("analytic-simultaneous", env=factory())
+    got = evaluate(policy, make_vec_env(factory, n_envs=1, seed=5), episodes=4)
+
+    env = make_vec_env(factory, n_envs=1, seed=5)
+    obs = env.reset()
+    returns, lengths, success, pos = [], [], [], []
+    ret, length = 0.0, 0
+    while len(returns) < 4:
+        obs, reward, done, infos = env.step(policy.predict(obs, deterministic=True)[0])
+        ret, length = ret + float(reward[0]), length + 1
+        if done[0]:
+            returns.append(ret)
+            lengths.append(length)
+            success.append(bool(infos[0]["is_success"]))
+            pos.append(infos[0]["position_error"])
+            ret, length = 0.0, 0
+    assert got["episodes"] == 4
+    assert got["success_rate"] == np.mean(success)
+    # Monitor rounds episode returns to 6 digits
+    assert got["mean_return"] == pytest.approx(np.mean(returns), abs=1e-5)
+    assert got["mean_episode_length"] == np.mean(lengths)
+    assert got["median_position_error_mm"] == pytest.approx(np.median(pos) * 1000, rel=1e-12)
+    assert sum(got["end_reasons"].values()) == 4
