@@ -30,6 +30,7 @@ __all__ = [
     "make_baseline",
     "run_baselines",
     "run_fidelity",
+    "run_reach_fidelity",
     "wilson",
 ]
 
@@ -128,6 +129,33 @@ def run_baselines(
     return res
 
 
+def _summary(rows: list[dict[str, float]], projection: bool) -> dict[str, float]:
+    out: dict[str, float] = {"episodes": float(len(rows)), "projection": float(projection)}
+    for key in rows[0]:
+        vals = np.array([r[key] for r in rows])
+        out[f"{key}_median"] = float(np.median(vals))
+        out[f"{key}_max"] = float(np.max(vals))
+        out[f"{key}_min"] = float(np.min(vals))
+    out["success_rate"] = float(np.mean([r["success"] for r in rows]))
+    return out
+
+
+def run_reach_fidelity(
+    episodes: int, seed: int, projection: bool, gravity: float = 0.0
+) -> dict[str, float]:
+    """The same measurements on reach episodes without a crossing, for comparison:
+    ``Planar3P-v1`` (projected) or ``Planar3P-v0`` (plain solver) on ``Design.fig8`` with
+    ``gravity`` (m/s^2), played by the simultaneous simple motions."""
+    from planar3p_gym import Design
+
+    env_id = "Planar3P-v1" if projection else "Planar3P-v0"
+    env = gym.make(env_id, design=Design.fig8(gravity=gravity))
+    pol = AnalyticController.from_env(env, "simultaneous")
+    rows = [crossing_fidelity(env, pol, seed + i) for i in range(episodes)]
+    env.close()
+    return _summary(rows, projection)
+
+
 def run_fidelity(
     episodes: int, seed: int, projection: bool, gravity: float | None = None
 ) -> dict[str, float]:
@@ -150,11 +178,4 @@ def run_fidelity(
     pol = CrossingController.from_env(env)
     rows = [crossing_fidelity(env, pol, seed + i) for i in range(episodes)]
     env.close()
-    out: dict[str, float] = {"episodes": float(episodes), "projection": float(projection)}
-    for key in rows[0]:
-        vals = np.array([r[key] for r in rows])
-        out[f"{key}_median"] = float(np.median(vals))
-        out[f"{key}_max"] = float(np.max(vals))
-        out[f"{key}_min"] = float(np.min(vals))
-    out["success_rate"] = float(np.mean([r["success"] for r in rows]))
-    return out
+    return _summary(rows, projection)

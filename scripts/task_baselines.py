@@ -15,8 +15,20 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 
+def _print(label: str, figures: dict[str, float]) -> None:
+    print(label)
+    for k, v in figures.items():
+        print(f"  {k}: {v:.6g}")
+
+
 def main(argv: list[str] | None = None) -> int:
-    from agents.task_baselines import BASELINES, TABLE_HEADER, run_baselines, run_fidelity
+    from agents.task_baselines import (
+        BASELINES,
+        TABLE_HEADER,
+        run_baselines,
+        run_fidelity,
+        run_reach_fidelity,
+    )
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--episodes", type=int, default=50, help="episodes per id and policy")
@@ -37,10 +49,12 @@ def main(argv: list[str] | None = None) -> int:
         settings = [(True, None), (False, None), (True, 9.81), (False, 9.81)]
         for projection, gravity in settings:
             f = run_fidelity(args.episodes, args.seed, projection, gravity)
-            label = f"projection={projection} gravity={gravity if gravity is not None else 0.0}"
-            print(label)
-            for k, v in f.items():
-                print(f"  {k}: {v:.6g}")
+            g = gravity if gravity is not None else 0.0
+            _print(f"assembly change, crossing controller: projection={projection} gravity={g}", f)
+        for projection in (True, False):
+            for g in (0.0, 9.81):
+                f = run_reach_fidelity(args.episodes, args.seed, projection, g)
+                _print(f"reach (no crossing), analytic: projection={projection} gravity={g}", f)
         return 0
     ids = [s for s in args.ids.split(",") if s]
     unknown = [i for i in ids if i not in BASELINES]
