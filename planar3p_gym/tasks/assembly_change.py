@@ -333,6 +333,9 @@ class AssemblyChangeTask(Task):
         self.pair_tries = pair_tries
 
     # ------------------------------------------------------------------ set-up
+    def arguments(self) -> dict[str, Any]:
+        return {"limits": asdict(self.limits), "pair_tries": self.pair_tries}
+
     def bind(self, env: Any) -> None:
         super().bind(env)
         self._samplers: dict[ModeTriple, task.PoseSampler] = {}
@@ -597,10 +600,6 @@ class AssemblyChangeTask(Task):
             "in_target_assembly": self._last_sign == self._target_asm,
             "crossings": self._crossings,
         }
-
-    def config(self) -> dict[str, Any]:
-        """The task's settings as plain data."""
-        return {"limits": asdict(self.limits), "pair_tries": self.pair_tries}
 
 
 def gravity_alignment(

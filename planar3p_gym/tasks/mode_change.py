@@ -52,7 +52,7 @@ barrier stays).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -140,6 +140,9 @@ class ModeChangeTask(Task):
         self.pair_tries = pair_tries
 
     # ------------------------------------------------------------------ set-up
+    def arguments(self) -> dict[str, Any]:
+        return {"flips": self.flips, "limits": asdict(self.limits), "pair_tries": self.pair_tries}
+
     def bind(self, env: Any) -> None:
         super().bind(env)
         self._samplers: dict[ModeTriple, task.PoseSampler] = {}
