@@ -31,6 +31,7 @@ __all__ = [
     "run_baselines",
     "run_fidelity",
     "run_reach_fidelity",
+    "verification_rate",
     "wilson",
 ]
 
@@ -179,3 +180,57 @@ def run_fidelity(
     rows = [crossing_fidelity(env, pol, seed + i) for i in range(episodes)]
     env.close()
     return _summary(rows, projection)
+
+
+def verification_rate(
+    pairs: int,
+    seed: int,
+    *,
+    gravity: float,
+    projection: bool,
+    speed_fraction: float = 1.0,
+    max_force: float | None = None,
+) -> dict[str, float]:
+    """How often the assembly-change demonstration motion reaches the target (within the
+    task's 1 cm, and within 5 cm) on ``pairs`` start/target pairs that pass the kinematic check
+    (:func:`planar3p_gym.tasks.assembly_change.crossing_path`), drawn from
+    ``np.random.default_rng(seed)``, on ``Design.fig8`` with ``gravity`` (m/s^2) and
+    ``max_force`` (N), with the projected or the plain physics; peak slider rate
+    ``speed_fraction`` of ``max_speed``."""
+    from dataclasses import replace
+
+    from planar3p_gym import Design
+    from planar3p_gym.assembly_change_env import ASSEMBLY_CHANGE_MODE, Planar3PAssemblyChangeEnv
+    from planar3p_gym.physics import PROJECTED_ITERATIONS, PROJECTED_SUBSTEPS
+    from planar3p_gym.tasks.assembly_change import crossing_path, verify_crossing
+
+    design = Design.fig8(gravity=gravity)
+    if max_force is not None:
+        design = design.with_(max_force=max_force)
+    physics: dict[str, Any] = (
+        {
+            "projection": True,
+            "substeps": PROJECTED_SUBSTEPS,
+            "solver_iterations": PROJECTED_ITERATIONS,
+        }
+        if projection
+        else {"projection": False, "substeps": 8, "solver_iterations": 18}
+    )
+    env = Planar3PAssemblyChangeEnv(design=design, crossing_limits={"verify": False}, **physics)
+    task = env.task
+    limits = replace(task.limits, speed_fraction=speed_fraction)
+    mode = ASSEMBLY_CHANGE_MODE
+    sampler = task._sampler(mode)
+    rng = np.random.default_rng(seed)
+    within, near, tried = 0, 0, 0
+    while tried < pairs:
+        s, asm = sampler.draw(rng)
+        t = sampler.draw_many(rng, -asm, 1)[0]
+        if not crossing_path(design, s, t, mode, limits)[0]:
+            continue
+        tried += 1
+        ok, fig = verify_crossing(design, s, t, mode, limits, task.make_sim, env.breakdown_distance)
+        within += ok
+        near += fig["end_distance"] <= 0.05 and fig["end_assembly"] == -int(asm)
+    env.close()
+    return {"pairs": float(pairs), "within_1cm": within / pairs, "within_5cm": near / pairs}

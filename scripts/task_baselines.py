@@ -3,6 +3,7 @@ study.  Logic: agents/task_baselines.py.
 
     python scripts/task_baselines.py --episodes 50 --seed 0
     python scripts/task_baselines.py --fidelity --episodes 20
+    python scripts/task_baselines.py --verify-rates --episodes 25
     python scripts/task_baselines.py --ids Planar3PAssemblyChange-v0 --gravity 9.81
 """
 
@@ -28,6 +29,7 @@ def main(argv: list[str] | None = None) -> int:
         run_baselines,
         run_fidelity,
         run_reach_fidelity,
+        verification_rate,
     )
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -35,6 +37,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0, help="first episode seed")
     p.add_argument("--ids", default=",".join(BASELINES), help="comma-separated env ids")
     p.add_argument("--fidelity", action="store_true", help="run the crossing-fidelity study")
+    p.add_argument(
+        "--verify-rates",
+        action="store_true",
+        help="how often the assembly-change demonstration reaches the target, per physics",
+    )
     p.add_argument(
         "--gravity",
         type=float,
@@ -45,6 +52,35 @@ def main(argv: list[str] | None = None) -> int:
     if args.episodes < 1:
         print("error: --episodes must be >= 1", file=sys.stderr)
         return 2
+    if args.verify_rates:
+        print(
+            "| gravity m/s^2 | physics | max force N | peak slider rate m/s | pairs | "
+            "within 1 cm | within 5 cm |"
+        )
+        print("|---|---|---|---|---|---|---|")
+        for gravity, projection, force, speed in (
+            (0.0, True, 40.0, 1.0),
+            (0.0, False, 40.0, 1.0),
+            (9.81, True, 40.0, 1.0),
+            (9.81, False, 40.0, 1.0),
+            (9.81, False, 40.0, 0.25),
+            (9.81, False, 100.0, 0.25),
+        ):
+            r = verification_rate(
+                args.episodes,
+                args.seed,
+                gravity=gravity,
+                projection=projection,
+                speed_fraction=speed,
+                max_force=force,
+            )
+            print(
+                f"| {gravity} | {'projected' if projection else 'plain (8 x 18)'} | {force:.0f} "
+                f"| {0.2 * speed:.2f} | {args.episodes} | {100 * r['within_1cm']:.0f} % "
+                f"| {100 * r['within_5cm']:.0f} % |",
+                flush=True,
+            )
+        return 0
     if args.fidelity:
         settings = [(True, None), (False, None), (True, 9.81), (False, 9.81)]
         for projection, gravity in settings:
