@@ -324,6 +324,11 @@ class ModeChangeTask(Task):
                 path, _ = find_joint_path(design, s, ms, t, mt, self.limits)
                 if path is not None:
                     return s, t
+        if start is None and target is None:
+            raise ValueError(
+                f"no certified mode change from working mode {ms} to {mt} found after many "
+                "draws; request another pair of working modes"
+            )
         fixed = "start" if start is not None else "target"
         raise ValueError(
             f"no certified mode change from working mode {ms} to {mt} found for the requested "
