@@ -179,3 +179,12 @@ def test_bad_constructor_arguments():
         Planar3PModeChangeEnv(flips=4)
     with pytest.raises(ValueError, match="task="):
         Planar3PModeChangeEnv(task=None)
+
+
+def test_an_unsampled_pair_of_working_modes_fails_fast(env):
+    import time
+
+    t0 = time.perf_counter()
+    with pytest.raises(ValueError, match="no certified mode change"):
+        env.reset(options={"working_mode": [1, 1, 1], "target_working_mode": [-1, -1, -1]})
+    assert time.perf_counter() - t0 < 30.0  # a bounded check, not the sampler's long search

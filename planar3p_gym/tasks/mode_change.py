@@ -149,7 +149,7 @@ class ModeChangeTask(Task):
         self._target: Pose = (0.0, 0.0, 0.0)
         self._target_mode: ModeTriple = (1, 1, 1)
         self._target_rho: tuple[float, float, float] = (0.0, 0.0, 0.0)
-        self._mode_in = False
+        self._checked: dict[tuple[ModeTriple, ModeTriple], bool] = {}
         self.pairs = self._viable_pairs()
         if not self.pairs:
             raise ValueError(
@@ -189,6 +189,24 @@ class ModeChangeTask(Task):
                 if self._first_certified(starts, targets, ms, mt, tries=16) is not None:
                     out.setdefault(ms, []).append(mt)
         return out
+
+    def _requested_pair_viable(self, ms: ModeTriple, mt: ModeTriple) -> bool:
+        """For a requested pair of working modes the construction-time check did not list:
+        whether a certified pair turns up among a few drawn with a fixed internal seed
+        (cached), so an infeasible request fails fast instead of after many draws."""
+        key = (ms, mt)
+        if key not in self._checked:
+            design, cfg = self.env.design, self.env.task_config
+            rng = np.random.default_rng(0)
+            try:
+                starts = task.sample_poses(design, ms, rng, cfg, max_batches=20)
+                targets = task.sample_poses(design, mt, rng, cfg, max_batches=20)
+            except ValueError:
+                self._checked[key] = False
+            else:
+                found = self._first_certified(starts, targets, ms, mt, tries=16)
+                self._checked[key] = found is not None
+        return self._checked[key]
 
     def _first_certified(
         self,
@@ -261,6 +279,12 @@ class ModeChangeTask(Task):
         if start is not None and target is not None:
             self._require_path(start, ms, target, mt)
         else:
+            if mt not in self.pairs.get(ms, []) and not self._requested_pair_viable(ms, mt):
+                raise ValueError(
+                    f"no certified mode change from working mode {ms} to {mt} found among 16 "
+                    "candidate pairs (fixed internal seed); request another pair of working "
+                    f"modes (this environment samples {self.pairs})"
+                )
             start, target = self._draw(rng, ms, mt, start, target)
         return {
             "task": self.name,
