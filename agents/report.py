@@ -13,6 +13,8 @@ from typing import Any
 
 import numpy as np
 
+from planar3p_gym.design import Design
+
 from .episodes import FAILURE_CAUSES, EpisodeResult
 from .suites import Suite
 
@@ -150,15 +152,21 @@ def _is_task(suite: Suite) -> bool:
 def task_suites_section(suites: dict[str, Suite]) -> str:
     """One row per task suite: its environment, size and start working modes."""
     lines = [
-        "| suite | environment | episodes | start working modes | what |",
-        "|---|---|---|---|---|",
+        "| suite | environment | episodes | steps per episode (at most) | start working modes | "
+        "what |",
+        "|---|---|---|---|---|---|",
     ]
     for s in suites.values():
         kwargs = ", ".join(f"{k}={v!r}" for k, v in s.params.get("env_kwargs", {}).items())
         modes = sorted({tuple(e.working_mode) for e in s.episodes})
+        fig8 = Design.fig8().to_dict()
+        design = s.params.get("design", fig8)
+        changed = ", ".join(f"{k} {v}" for k, v in design.items() if fig8.get(k) != v)
+        what = s.params.get("description", "")
+        what += f" (design fig8 with {changed})" if changed else ""
         lines.append(
             f"| {s.name} | `{s.params['env_id']}`{f' ({kwargs})' if kwargs else ''} | "
-            f"{len(s)} | {len(modes)} | {s.params.get('description', '')} |"
+            f"{len(s)} | {s.params.get('max_episode_steps', '–')} | {len(modes)} | {what} |"
         )
     return "\n".join(lines)
 
@@ -310,7 +318,7 @@ DEFINITIONS = """\
 TASK_DEFINITIONS = """\
 - **Task suites**: success, return and errors as above, against each task's own target (the
   goal; the target pose in the other working or assembly mode).  Tracking has no success test:
-  its episodes run 500 steps (10 s) unless they cross a singularity or the physics breaks
+  its episodes run their full length unless they cross a singularity or the physics breaks
   down, an episode that runs to the end is counted as `completed`, and the final errors are
   against the reference's last pose.
 - **Task metrics** (the task's own, from the episode's last `info`): `tracking error` is the

@@ -78,14 +78,14 @@ TASK_SUITES: dict[str, TaskSuiteDef] = {
         "Planar3PTrack-v0",
         {"reference": "segments"},
         ("analytic-simultaneous", "analytic-feedforward", "zero"),
-        "tracking a reference of smooth random minimum-jerk segments (500 steps, 10 s)",
+        "tracking a reference of smooth random minimum-jerk segments",
         2,
     ),
     "track-figure-eight": TaskSuiteDef(
         "Planar3PTrack-v0",
         {"reference": "figure_eight"},
         ("analytic-simultaneous", "analytic-feedforward", "zero"),
-        "tracking a figure-eight reference (500 steps, 10 s)",
+        "tracking a figure-eight reference",
         3,
     ),
     "mode-change": TaskSuiteDef(
@@ -154,6 +154,7 @@ def make_task_suite(name: str, n_episodes: int, seed: int, env: Any = None) -> S
         "env_kwargs": dict(d.env_kwargs),
         "task": episodes[0].options["task"] if episodes[0].options else None,
         "design": env.unwrapped.design.to_dict(),
+        "max_episode_steps": env.spec.max_episode_steps if env.spec is not None else None,
         "description": d.description,
     }
     return Suite(name, int(seed), episodes, params)
