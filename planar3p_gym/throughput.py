@@ -152,7 +152,7 @@ def vector_rates(
     """Total env steps/s of a ``kind`` vector env (``"native"``, ``"sync"`` or ``"async"``)
     of ``num_envs`` copies of ``env_id``, ``n_steps`` batch steps per repeat.  With
     ``reference`` (an env id), also the single-env steps/s of that id measured right before
-    each repeat (``benchmark_step`` for as long as the repeat took), for paired ratios."""
+    each repeat, as many env steps with actions sampled up front, for paired ratios."""
     modes = {"native": "vector_entry_point", "sync": "sync", "async": "async"}
     if kind not in modes:
         raise ValueError(f"kind must be one of {sorted(modes)}, got {kind!r}")
@@ -166,17 +166,24 @@ def vector_rates(
         for a in actions[: min(50, n_steps)]:  # warm-up
             venv.step(a)
         ref_env = make_env(reference) if reference else None
+        if ref_env is not None:  # pre-sampled too: the same loop structure as the vector env
+            ref_env.action_space.seed(seed)
+            ref_actions = [ref_env.action_space.sample() for _ in range(num_envs * n_steps)]
+            ref_env.reset(seed=seed)
         out, ref = [], []
-        duration = 0.5
         for _ in range(repeats):
             if ref_env is not None:
-                ref.append(benchmark_step(ref_env, target_duration=duration, seed=seed))
+                t0 = time.perf_counter()
+                for a in ref_actions:
+                    _, _, terminated, truncated, _ = ref_env.step(a)
+                    if terminated or truncated:
+                        ref_env.reset()
+                ref.append(len(ref_actions) / (time.perf_counter() - t0))
             venv.reset(seed=seed)
             t0 = time.perf_counter()
             for a in actions:
                 venv.step(a)
-            duration = time.perf_counter() - t0
-            out.append(num_envs * n_steps / duration)
+            out.append(num_envs * n_steps / (time.perf_counter() - t0))
         if ref_env is not None:
             ref_env.close()
             return out, ref

@@ -2,12 +2,17 @@
 
 Prints, from one run (the logic is :mod:`planar3p_gym.throughput`):
 
-* single-env steps/s of each id made with ``gym.make`` (Gymnasium's ``benchmark_step``: random
-  actions, resets included), interleaved over ``--repeats`` with medians, and the ratios to
-  ``Reacher-v5`` and ``Pendulum-v1`` (medians of per-repeat ratios);
+* single-env steps/s of each id made with ``gym.make`` (Gymnasium's ``benchmark_step``, which
+  samples each random action inside the timed loop; resets included), interleaved over
+  ``--repeats`` with medians, and the ratios to ``Reacher-v5`` and ``Pendulum-v1`` (medians of
+  per-repeat ratios);
 * the median time of single steps;
 * the native vector env (``gym.make_vec(id, num_envs=--num-envs)``) of v0 and v1, total env
-  steps/s and per process against Reacher's single-env rate; ``SyncVectorEnv`` for comparison;
+  steps/s, against Reacher's single-env rate measured in the same repeats (actions sampled up
+  front for both); ``SyncVectorEnv`` for comparison;
+* the fastest-block rates (:func:`planar3p_gym.throughput.best_block_rates`: single and vector
+  envs in short round-robin blocks, actions sampled up front): the ratios that hold on a busy
+  shared machine, where whole-run rates vary several-fold;
 * a profile of one step of each id;
 * with ``--ppo``: PPO training steps/s through the native SB3 adapter, ``DummyVecEnv`` and
   ``SubprocVecEnv`` (needs the ``train`` extra).
