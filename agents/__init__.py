@@ -16,6 +16,10 @@ loader for Stable-Baselines3 models, and the evaluation used by ``scripts/benchm
   :mod:`agents.report` / :mod:`agents.report_plots` (report, CSV, figures) and
   :mod:`agents.benchmark` (:func:`~agents.benchmark.run_benchmark`, used by
   ``scripts/benchmark.py``).
+* Training: :mod:`agents.training` (hyperparameters, rl-zoo3 format), :mod:`agents.train_run`
+  (one run: :func:`~agents.train_run.plan_run`, :func:`~agents.train_run.execute`),
+  :mod:`agents.kickstart`, :mod:`agents.sweep` (Ray Tune sweeps), :mod:`agents.shipping`
+  (``agents/pretrained`` in both layouts), :mod:`agents.learning_curves`.
 
 Importing this package does not import torch or Stable-Baselines3 (only loading a model does).
 """
