@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import shlex
 import sys
+from dataclasses import fields
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -77,20 +78,10 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 
 def options_from(args: argparse.Namespace) -> RunOptions:
-    """The run options given on the command line."""
+    """The run options given on the command line (each option has its field's name)."""
+    names = {f.name for f in fields(RunOptions)} - {"progress_bar"}
     return RunOptions(
-        eval_freq=args.eval_freq,
-        eval_episodes=args.eval_episodes,
-        final_eval_episodes=args.final_eval_episodes,
-        checkpoint_freq=args.checkpoint_freq,
-        threads=args.threads,
-        progress_bar=not args.no_progress_bar,
-        verbose=args.verbose,
-        vec_env=args.vec_env,
-        kickstart=args.kickstart,
-        kickstart_steps=args.kickstart_steps,
-        kickstart_epochs=args.kickstart_epochs,
-        kickstart_log_std=args.kickstart_log_std,
+        progress_bar=not args.no_progress_bar, **{name: getattr(args, name) for name in names}
     )
 
 
