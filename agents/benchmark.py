@@ -168,13 +168,13 @@ def load_suite_policies(
                 if label not in shared:
                     shared[label] = load_policy(ps, env=envs[name], seed=seed, device=device)
                 pols[label] = shared[label]
-            meta.setdefault(label, (text, training_seed(ps.path)))
             trained_with = getattr(pols[label], "env_kwargs", None)
-            if trained_with:
+            if trained_with and label not in meta:
                 warn(
-                    f"{label} was trained with environment arguments {trained_with}; {name} runs "
-                    "its suite's own environment"
+                    f"{label} was trained with environment arguments {trained_with}; the "
+                    "benchmark runs each suite's own environment"
                 )
+            meta.setdefault(label, (text, training_seed(ps.path)))
         if not pols:
             raise PolicyError(f"no policy of {list(specs)} applies to suite {name!r}")
         per_suite[name] = pols
