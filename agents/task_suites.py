@@ -74,6 +74,13 @@ TASK_SUITES: dict[str, TaskSuiteDef] = {
         "goal-conditioned reach (sparse reward): start/goal pairs as the environment draws them",
         1,
     ),
+    "goal-dense": TaskSuiteDef(
+        "Planar3PGoalDense-v0",
+        {},
+        ("analytic-simultaneous",),
+        "goal-conditioned reach (dense reward): start/goal pairs as the environment draws them",
+        6,
+    ),
     "track-segments": TaskSuiteDef(
         "Planar3PTrack-v0",
         {"reference": "segments"},

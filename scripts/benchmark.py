@@ -3,8 +3,9 @@
 
 Every policy plays exactly the same episodes, generated from ``--seed``: the reach suites
 ``standard``, ``hard``, ``far`` (``agents/suites.py``) and the task suites ``goal``,
-``track-segments``, ``track-figure-eight``, ``mode-change``, ``assembly-change``
-(``agents/task_suites.py``; each with its own baselines).  Writes into ``--out``:
+``goal-dense``, ``track-segments``, ``track-figure-eight``, ``mode-change``,
+``assembly-change`` (``agents/task_suites.py``; each with its own baselines).  Writes into
+``--out``:
 
 * ``report.md``: the results table (success rate with its 95% Wilson interval, IQM return with
   its 95% bootstrap interval, median final errors, time to success, margins, failure counts,
@@ -19,7 +20,7 @@ Examples::
     python scripts/benchmark.py --quick
     python scripts/benchmark.py --policies baselines,runs/a/model.zip:stats=runs/a/vecnormalize.pkl
     python scripts/benchmark.py --policies pretrained:ppo_kickstart --suites standard,hard
-    python scripts/benchmark.py --suites goal,track-segments,track-figure-eight --out res/tasks
+    python scripts/benchmark.py --suites goal,track-segments,mode-change --out res/tasks
 
 The logic lives in ``agents.benchmark`` (this file parses, validates and prints).  Exit status:
 0 on success; 2 for bad input (unknown policy or suite, missing or corrupt model, an ``--out``
