@@ -89,6 +89,7 @@ SB3_ALGORITHMS: dict[str, str] = {
     "td3": "TD3",
     "a2c": "A2C",
     "ddpg": "DDPG",
+    "tqc": "TQC",  # sb3-contrib
 }
 PRETRAINED_PREFIX = "pretrained:"
 #: SHA-256 sums of the shipped files, in ``sha256sum`` format (``sha256sum -c SHA256SUMS``).
@@ -473,9 +474,12 @@ def load_sb3_model(
     key = algo or _detect_algorithm(p)
     if key not in SB3_ALGORITHMS:
         raise PolicyError(f"unknown SB3 algorithm {key!r}; known: {', '.join(SB3_ALGORITHMS)}")
-    import stable_baselines3
+    if key == "tqc":
+        import sb3_contrib as algorithms
+    else:
+        import stable_baselines3 as algorithms
 
-    cls = getattr(stable_baselines3, SB3_ALGORITHMS[key])
+    cls = getattr(algorithms, SB3_ALGORITHMS[key])
     try:
         model = cls.load(p, device=device)
     except Exception as exc:  # SB3/torch raise many types on corrupt or foreign files

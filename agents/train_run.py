@@ -30,6 +30,7 @@ import numpy as np
 from .training import (
     ALGORITHMS,
     HYPERPARAMS_DIR,
+    OFF_POLICY,
     EnvFactory,
     TrainConfig,
     import_rl_zoo3,
@@ -125,6 +126,10 @@ def latest_checkpoint(run_dir: Path) -> tuple[Path, int]:
 def _algo_class(algo: str) -> Any:
     from stable_baselines3 import PPO, SAC, TD3
 
+    if algo == "tqc":
+        from sb3_contrib import TQC
+
+        return TQC
     return {"ppo": PPO, "sac": SAC, "td3": TD3}[algo]
 
 
@@ -422,7 +427,7 @@ def execute(plan: RunPlan) -> dict[str, Any]:
     cfg, opt, run_dir = plan.cfg, plan.options, plan.run_dir
     torch.set_num_threads(opt.threads)
     algo_cls = _algo_class(cfg.algo)
-    off_policy = cfg.algo in ("sac", "td3")
+    off_policy = cfg.algo in OFF_POLICY
     checkpoint, done_steps = plan.resume_from or (None, 0)
     stats = None
     if checkpoint is not None:

@@ -5,6 +5,9 @@ each entry holding the algorithm's keyword arguments plus the zoo's own keys ``n
 ``policy``, ``n_envs``, ``normalize`` (bool, or a dict / string of VecNormalize kwargs),
 ``noise_type``/``noise_std`` (action noise of off-policy algorithms) and ``policy_kwargs``
 (a mapping, or a string such as ``"dict(net_arch=[256, 256])"`` as the zoo writes them).
+Off-policy entries may name ``replay_buffer_class: HerReplayBuffer`` with
+``replay_buffer_kwargs`` (a mapping or a ``dict(...)`` string) for goal-conditioned ids
+(``Planar3PGoal-v0``), as rl-zoo3's files do; ``tqc`` is sb3-contrib's TQC.
 A ``lin_`` prefix on ``learning_rate`` or ``clip_range`` means a linear schedule to 0
 (rl-zoo3's :func:`rl_zoo3.utils.linear_schedule`).
 
@@ -48,6 +51,8 @@ import yaml
 __all__ = [
     "ALGORITHMS",
     "HYPERPARAMS_DIR",
+    "OFF_POLICY",
+    "REPLAY_BUFFERS",
     "EnvFactory",
     "TrainConfig",
     "import_rl_zoo3",
@@ -57,7 +62,11 @@ __all__ = [
     "versions",
 ]
 
-ALGORITHMS = ("ppo", "sac", "td3")
+ALGORITHMS = ("ppo", "sac", "td3", "tqc")
+#: Off-policy algorithms (replay buffer saved with checkpoints; HER possible).
+OFF_POLICY = ("sac", "td3", "tqc")
+#: Replay buffers a YAML entry may name in ``replay_buffer_class`` (by their SB3 class name).
+REPLAY_BUFFERS = ("HerReplayBuffer",)
 #: Where the shipped, tuned hyperparameter files live (``<algo>.yml``).
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 
@@ -270,6 +279,7 @@ def resolve(
     for key in ("learning_rate", "clip_range"):
         if key in kwargs:
             kwargs[key] = _schedule(kwargs[key], key)
+    _resolve_replay_buffer(algo, kwargs)
     noise_type = entry.get("noise_type")
     if noise_type not in (None, "normal"):
         raise ValueError(f"noise_type must be 'normal' or absent, got {noise_type!r}")
@@ -287,6 +297,29 @@ def resolve(
         noise_std=float(entry.get("noise_std", 0.1)),
         entry=entry,
     )
+
+
+def _resolve_replay_buffer(algo: str, kwargs: dict[str, Any]) -> None:
+    """Turn the zoo's ``replay_buffer_class`` name and ``replay_buffer_kwargs`` string into the
+    class and a mapping, in place (only the buffers in :data:`REPLAY_BUFFERS`; no code)."""
+    name = kwargs.get("replay_buffer_class")
+    if name is not None:
+        if algo not in OFF_POLICY:
+            raise ValueError(f"replay_buffer_class needs an off-policy algorithm, not {algo!r}")
+        if name not in REPLAY_BUFFERS:
+            raise ValueError(
+                f"replay_buffer_class must be one of {', '.join(REPLAY_BUFFERS)}, got {name!r}"
+            )
+        from stable_baselines3 import HerReplayBuffer
+
+        kwargs["replay_buffer_class"] = HerReplayBuffer
+    buffer_kwargs = kwargs.get("replay_buffer_kwargs")
+    if isinstance(buffer_kwargs, str):
+        buffer_kwargs = _literal(buffer_kwargs, "replay_buffer_kwargs")
+    if buffer_kwargs is not None:
+        if not isinstance(buffer_kwargs, Mapping):
+            raise ValueError(f"replay_buffer_kwargs must be a mapping, got {buffer_kwargs!r}")
+        kwargs["replay_buffer_kwargs"] = dict(buffer_kwargs)
 
 
 def parse_env_kwargs(items: list[str] | None) -> dict[str, Any]:

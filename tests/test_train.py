@@ -231,6 +231,53 @@ def test_shipped_hyperparameters_resolve() -> None:
         assert isinstance(cfg.algo_kwargs.get("policy_kwargs"), dict)
 
 
+def test_her_and_tqc_entries_resolve_to_sb3_classes() -> None:
+    from stable_baselines3 import HerReplayBuffer
+
+    for algo in ("sac", "tqc"):
+        entry = training.load_hyperparams(
+            training.HYPERPARAMS_DIR / f"{algo}.yml", "Planar3PGoal-v0", algo
+        )
+        cfg = training.resolve(algo, "Planar3PGoal-v0", 0, entry)
+        assert cfg.algo_kwargs["replay_buffer_class"] is HerReplayBuffer
+        assert cfg.algo_kwargs["replay_buffer_kwargs"]["goal_selection_strategy"] == "future"
+        assert cfg.policy == "MultiInputPolicy" and cfg.normalize is None
+    entry = {"replay_buffer_class": "HerReplayBuffer"}
+    with pytest.raises(ValueError, match="off-policy"):
+        training.resolve("ppo", "Planar3PGoal-v0", 0, entry)
+    with pytest.raises(ValueError, match="replay_buffer_class must be one of"):
+        training.resolve("sac", "Planar3PGoal-v0", 0, {"replay_buffer_class": "os.system"})
+    with pytest.raises(ValueError, match="replay_buffer_kwargs must be a mapping"):
+        training.resolve("sac", "Planar3PGoal-v0", 0, {"replay_buffer_kwargs": "[1, 2]"})
+
+
+def test_her_training_on_the_goal_env_runs_and_resumes(tmp_path: Path) -> None:
+    """SAC + HER through scripts/train.py on Planar3PGoal-v0, then --resume with its buffer."""
+    run = tmp_path / "her"
+    small = [
+        "learning_starts=100",
+        "batch_size=32",
+        "buffer_size=2000",
+        "policy_kwargs={net_arch: [32]}",
+    ]
+
+    def args(steps: int) -> list[str]:
+        return [
+            "--algo", "sac", "--env", "Planar3PGoal-v0", "--timesteps", str(steps),
+            "--run-dir", str(run), "--eval-freq", "150", "--eval-episodes", "1",
+            "--final-eval-episodes", "1", "--checkpoint-freq", "150", "--no-progress-bar",
+            "--params", *small,
+        ]  # fmt: skip
+
+    assert train_script.main(args(300)) == 0
+    config = json.loads((run / "config.json").read_text())
+    assert "HerReplayBuffer" in json.dumps(config["config"]["algo_kwargs"])
+    assert (run / "checkpoints" / "rl_model_replay_buffer_300_steps.pkl").is_file()
+    assert train_script.main([*args(450), "--resume"]) == 0
+    metrics = json.loads((run / "metrics.json").read_text())
+    assert metrics["resumed_from"] == 300 and metrics["timesteps"] >= 450
+
+
 def test_zoo_strings_are_parsed_safely() -> None:
     import torch.nn as nn
 
