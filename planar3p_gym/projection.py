@@ -37,8 +37,8 @@ differential-algebraic equations):
   ``dq = -W^-1 J^T (J W^-1 J^T)^-1 f / 2`` until every leg-length error is below
   :data:`POSITION_TOLERANCE` (m), at most :data:`MAX_NEWTON_STEPS`.
 * **Velocities**: ``q_dot`` is projected onto ``J q_dot = 0`` in the same metric,
-  ``q_dot' = q_dot - W^-1 J^T (J W^-1 J^T)^-1 J q_dot`` (the correction is the smallest
-  kinetic-energy change that restores the joints).
+  ``q_dot' = q_dot - W^-1 J^T (J W^-1 J^T)^-1 J q_dot`` (the correction is the smallest change
+  of the kinetic energy measured by ``W`` that restores the joints, and never increases it).
 * **Legs** (positions, angles, velocities, angular velocities) are then recomputed from the
   slider and platform values.
 
@@ -55,16 +55,18 @@ from .design import Design
 
 __all__ = [
     "HELD_CONDITION",
+    "HELD_NEWTON_STEPS",
     "MAX_NEWTON_STEPS",
     "POSITION_TOLERANCE",
+    "STOP_CONTACT",
     "LoopProjector",
     "Projected",
 ]
 
 #: Leg-length error (m) below which the position projection stops.
 POSITION_TOLERANCE = 1e-11
-#: A slider past an end stop is put back this far into it (m), at rest: touching, so the stop
-#: keeps holding it during the next step.
+#: A slider past an end stop is put back this far into it (m): touching, so the stop keeps
+#: holding it during the next step.
 STOP_CONTACT = 1e-9
 #: Largest number of Newton steps of one position projection.
 MAX_NEWTON_STEPS = 8
