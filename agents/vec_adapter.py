@@ -69,6 +69,8 @@ class NativeVecEnv(VecEnv):
     def reset(self) -> np.ndarray:
         seeds = self._seeds if any(s is not None for s in self._seeds) else None
         options = self._options[0] if self._options and self._options[0] else None
+        if any(o != self._options[0] for o in self._options):
+            raise ValueError("NativeVecEnv resets every env with the same options")
         obs, infos = self.venv.reset(seed=seeds, options=options)
         self.reset_infos = [self._info(infos, i) for i in range(self.num_envs)]
         self._reset_seeds()
