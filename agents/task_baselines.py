@@ -220,7 +220,7 @@ def verification_rate(
     task = env.task
     limits = replace(task.limits, speed_fraction=speed_fraction)
     mode = ASSEMBLY_CHANGE_MODE
-    sampler = task._sampler(mode)
+    sampler = task.pose_sampler(mode)
     rng = np.random.default_rng(seed)
     within, near, tried = 0, 0, 0
     while tried < pairs:

@@ -72,7 +72,6 @@ from numpy.typing import ArrayLike, NDArray
 from .. import kinematics, task
 from ..design import Design
 from ..physics import Planar3PSim, SimState
-from ..rewards import pose_error, precision_penalty, reward_terms
 from ..scalar_kinematics import ConfigurationMeasures, ScalarKinematics
 from .base import Pose, Task, pose_list
 
@@ -338,7 +337,6 @@ class AssemblyChangeTask(Task):
 
     def bind(self, env: Any) -> None:
         super().bind(env)
-        self._samplers: dict[ModeTriple, task.PoseSampler] = {}
         self._target: Pose = (0.0, 0.0, 0.0)
         self._target_rho = (0.0, 0.0, 0.0)
         self._target_asm = 1
@@ -398,11 +396,6 @@ class AssemblyChangeTask(Task):
                 hits += bool(self.feasible(s, t, mode)[0])
         return hits / (BIND_SEEDS * (BIND_TRIES // BIND_SEEDS))
 
-    def _sampler(self, mode: ModeTriple) -> task.PoseSampler:
-        if mode not in self._samplers:
-            self._samplers[mode] = task.PoseSampler(self.env.design, mode, self.env.task_config)
-        return self._samplers[mode]
-
     def make_sim(self, pose: np.ndarray, mode: tuple[int, int, int]) -> Planar3PSim:
         """A simulation with the environment's settings (what an episode runs on)."""
         env = self.env
@@ -414,10 +407,6 @@ class AssemblyChangeTask(Task):
         if getattr(env, "projection", False):
             kwargs["projection"] = True
         return Planar3PSim(env.design, pose, mode, **kwargs)
-
-    def reseed(self) -> None:
-        for sampler in self._samplers.values():
-            sampler.clear()
 
     # ------------------------------------------------------------------ options and sampling
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
@@ -498,7 +487,7 @@ class AssemblyChangeTask(Task):
         start: np.ndarray | None,
         target: np.ndarray | None,
     ) -> tuple[np.ndarray, np.ndarray]:
-        sampler = self._sampler(mode)
+        sampler = self.pose_sampler(mode)
         for _ in range(1000):
             if start is None:
                 s, asm = sampler.draw(rng)
@@ -539,10 +528,7 @@ class AssemblyChangeTask(Task):
         return self._target
 
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        stroke = self.env.design.stroke
-        low = np.array([-0.05 * stroke] * 3 + [-1.0, -1.0], dtype=np.float32)
-        high = np.array([1.05 * stroke] * 3 + [1.0, 1.0], dtype=np.float32)
-        return low, high
+        return self.travel_bounds(2)  # target travels, target assembly, signed parallel margin
 
     def observation_extra(self, step: int) -> list[float]:
         state = self.env.sim.state
@@ -578,15 +564,8 @@ class AssemblyChangeTask(Task):
         success: bool,
         failure: bool,
     ) -> dict[str, float]:
-        env = self.env
-        pos_err, ang_err = errors
-        length = env.design.characteristic_length
-        return reward_terms(
-            env.reward_weights,
-            pose_err=pose_error(pos_err, ang_err, length),
-            precision_err=precision_penalty(
-                pos_err, ang_err, length, env.reward_weights.precision_scale
-            ),
+        return self.pose_reward_terms(
+            errors=errors,
             parallel_margin=1.0,  # passing the parallel singularity is the task: no barrier
             serial_margin=measures.serial_margin,
             action=action,

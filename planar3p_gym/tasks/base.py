@@ -61,6 +61,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from .. import task
 from ..physics import SimState
 from ..rewards import pose_error, precision_penalty, reward_terms
 from ..scalar_kinematics import ConfigurationMeasures
@@ -108,15 +109,20 @@ class Task:
     # ------------------------------------------------------------------ set-up
     def bind(self, env: Planar3PEnv) -> None:
         """Attach to ``env`` (its design, working modes, task config, reward weights, ``dt``).
-        Raise ``ValueError`` here if no episode can exist under the env's settings."""
+        Raise ``ValueError`` here if no episode can exist under the env's settings.
+        Subclasses call this first (it also starts the cache of :meth:`pose_sampler`)."""
         self.env = env
+        self._samplers: dict[tuple[int, int, int], task.PoseSampler] = {}
 
     def arguments(self) -> dict[str, Any]:
         """The task's constructor arguments as plain data (for ``env.config()``)."""
         return {}
 
     def reseed(self) -> None:
-        """The environment was re-seeded: drop anything cached from the old random stream."""
+        """The environment was re-seeded: drop anything cached from the old random stream
+        (default: the pose batches of the samplers of :meth:`pose_sampler`)."""
+        for sampler in self._samplers.values():
+            sampler.clear()
 
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         """Validate ``reset`` options that need no randomness (``ValueError`` if invalid);
@@ -188,15 +194,8 @@ class Task:
     ) -> dict[str, float]:
         """Weighted reward terms (their sum is the reward); default
         :func:`planar3p_gym.rewards.reward_terms` on the errors to the reference."""
-        env = self.env
-        pos_err, ang_err = errors
-        length = env.design.characteristic_length
-        return reward_terms(
-            env.reward_weights,
-            pose_err=pose_error(pos_err, ang_err, length),
-            precision_err=precision_penalty(
-                pos_err, ang_err, length, env.reward_weights.precision_scale
-            ),
+        return self.pose_reward_terms(
+            errors=errors,
             parallel_margin=measures.parallel_margin,
             serial_margin=measures.serial_margin,
             action=action,
@@ -210,6 +209,59 @@ class Task:
         return {}
 
     # ------------------------------------------------------------------ helpers
+    def pose_reward_terms(
+        self,
+        *,
+        errors: tuple[float, float],
+        parallel_margin: float,
+        serial_margin: float,
+        action: tuple[float, float, float],
+        success: bool,
+        failure: bool,
+    ) -> dict[str, float]:
+        """:func:`planar3p_gym.rewards.reward_terms` with the env's weights on ``errors``
+        (position error (m), orientation error (rad)) to the reference and the given margins
+        (dimensionless; a task whose problem is to pass a singularity passes ``1.0`` for that
+        margin, i.e. no barrier)."""
+        env = self.env
+        pos_err, ang_err = errors
+        length = env.design.characteristic_length
+        return reward_terms(
+            env.reward_weights,
+            pose_err=pose_error(pos_err, ang_err, length),
+            precision_err=precision_penalty(
+                pos_err, ang_err, length, env.reward_weights.precision_scale
+            ),
+            parallel_margin=parallel_margin,
+            serial_margin=serial_margin,
+            action=action,
+            success=success,
+            failure=failure,
+        )
+
+    def pose_sampler(self, mode: tuple[int, int, int]) -> task.PoseSampler:
+        """The task's :class:`planar3p_gym.task.PoseSampler` for working ``mode`` (made on
+        first use, kept for the task's life; :meth:`reseed` clears its pose batches)."""
+        if mode not in self._samplers:
+            self._samplers[mode] = task.PoseSampler(self.env.design, mode, self.env.task_config)
+        return self._samplers[mode]
+
+    def known_mode(self, options: dict[str, Any]) -> tuple[int, int, int] | None:
+        """The working mode fixed without drawing: the requested ``options["working_mode"]``,
+        or the env's only working mode; ``None`` if it must be drawn."""
+        if options.get("working_mode") is not None:
+            return options["working_mode"]
+        modes = self.env.modes
+        return modes[0] if len(modes) == 1 else None
+
+    def travel_bounds(self, unit_entries: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(low, high)`` of extra entries made of three slider travels (m, within 5 % of
+        the stroke beyond either end) followed by ``unit_entries`` values in ``[-1, 1]``."""
+        stroke = self.env.design.stroke
+        low = np.array([-0.05 * stroke] * 3 + [-1.0] * unit_entries, dtype=np.float32)
+        high = np.array([1.05 * stroke] * 3 + [1.0] * unit_entries, dtype=np.float32)
+        return low, high
+
     @staticmethod
     def finite_pose(pose: Any, name: str) -> np.ndarray:
         """``pose`` as a float64 array of 3 finite numbers, or ``ValueError`` naming ``name``."""

@@ -59,7 +59,6 @@ import numpy as np
 
 from .. import kinematics, task
 from ..physics import SimState
-from ..rewards import pose_error, precision_penalty, reward_terms
 from ..scalar_kinematics import ConfigurationMeasures
 from .base import Pose, Task, pose_list
 from .joint_paths import JointPath, PathLimits, find_joint_path
@@ -145,7 +144,6 @@ class ModeChangeTask(Task):
 
     def bind(self, env: Any) -> None:
         super().bind(env)
-        self._samplers: dict[ModeTriple, task.PoseSampler] = {}
         self._target: Pose = (0.0, 0.0, 0.0)
         self._target_mode: ModeTriple = (1, 1, 1)
         self._target_rho: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -156,11 +154,6 @@ class ModeChangeTask(Task):
                 f"no working-mode pair of this design (start modes {env.modes}, {self.flips} "
                 "leg(s) flipped) has a certified start/target pair under the task's margins"
             )
-
-    def _sampler(self, mode: ModeTriple) -> task.PoseSampler:
-        if mode not in self._samplers:
-            self._samplers[mode] = task.PoseSampler(self.env.design, mode, self.env.task_config)
-        return self._samplers[mode]
 
     def _viable_pairs(self) -> dict[ModeTriple, list[ModeTriple]]:
         """Start mode -> target modes with at least one certified pair among a few drawn with a
@@ -229,10 +222,6 @@ class ModeChangeTask(Task):
                 if n >= tries:
                     return None
         return None
-
-    def reseed(self) -> None:
-        for sampler in self._samplers.values():
-            sampler.clear()
 
     # ------------------------------------------------------------------ options and sampling
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
@@ -328,7 +317,7 @@ class ModeChangeTask(Task):
         length = design.characteristic_length
         for _ in range(200):
             if start is None:
-                s, asm = self._sampler(ms).draw(rng)
+                s, asm = self.pose_sampler(ms).draw(rng)
             else:
                 s = start
                 asm = float(
@@ -336,7 +325,7 @@ class ModeChangeTask(Task):
                 )
             if target is None:
                 try:
-                    cands = self._sampler(mt).draw_many(rng, asm, self.pair_tries)
+                    cands = self.pose_sampler(mt).draw_many(rng, asm, self.pair_tries)
                 except ValueError:
                     cands = np.zeros((0, 3))
             else:
@@ -373,10 +362,7 @@ class ModeChangeTask(Task):
         return self._target
 
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        stroke = self.env.design.stroke
-        low = np.array([-0.05 * stroke] * 3 + [-1.0] * 3, dtype=np.float32)
-        high = np.array([1.05 * stroke] * 3 + [1.0] * 3, dtype=np.float32)
-        return low, high
+        return self.travel_bounds(3)  # target travels, target working mode
 
     def observation_extra(self, step: int) -> list[float]:
         return [*self._target_rho, *(float(m) for m in self._target_mode)]
@@ -395,15 +381,8 @@ class ModeChangeTask(Task):
         success: bool,
         failure: bool,
     ) -> dict[str, float]:
-        env = self.env
-        pos_err, ang_err = errors
-        length = env.design.characteristic_length
-        return reward_terms(
-            env.reward_weights,
-            pose_err=pose_error(pos_err, ang_err, length),
-            precision_err=precision_penalty(
-                pos_err, ang_err, length, env.reward_weights.precision_scale
-            ),
+        return self.pose_reward_terms(
+            errors=errors,
             parallel_margin=measures.parallel_margin,
             serial_margin=1.0,  # passing a serial singularity is the task: no serial barrier
             action=action,

@@ -30,22 +30,10 @@ class ReachTask(Task):
 
     def bind(self, env: Any) -> None:
         super().bind(env)
-        self._samplers: dict[tuple[int, int, int], task.PoseSampler] = {}
         self._target: Pose = (0.0, 0.0, 0.0)
 
-    def reseed(self) -> None:
-        for sampler in self._samplers.values():
-            sampler.clear()
-
-    def _known_mode(self, options: dict[str, Any]) -> tuple[int, int, int] | None:
-        """The working mode fixed without drawing: the requested one, or the env's only one."""
-        if options.get("working_mode") is not None:
-            return options["working_mode"]
-        modes = self.env.modes
-        return modes[0] if len(modes) == 1 else None
-
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
-        mode = self._known_mode(options)
+        mode = self.known_mode(options)
         if mode is not None:  # checked before seeding: a rejected reset changes nothing
             for name in ("start", "target"):
                 if options.get(name) is not None:
@@ -54,7 +42,7 @@ class ReachTask(Task):
 
     def episode_spec(self, rng: np.random.Generator, options: dict[str, Any]) -> dict[str, Any]:
         design = self.env.design
-        mode = self._known_mode(options)
+        mode = self.known_mode(options)
         start = options.get("start")
         target = options.get("target")
         if mode is None:
@@ -75,8 +63,6 @@ class ReachTask(Task):
                     f"{assemblies[0]} vs {assemblies[1]}): no motion joins them without "
                     "crossing a parallel singularity"
                 )
-        if mode not in self._samplers:
-            self._samplers[mode] = task.PoseSampler(design, mode, self.env.task_config)
         start, target = task.sample_pair(
             design,
             mode,
@@ -84,7 +70,7 @@ class ReachTask(Task):
             self.env.task_config,
             start=start,
             target=target,
-            sampler=self._samplers[mode],
+            sampler=self.pose_sampler(mode),
         )
         return {
             "task": self.name,

@@ -142,7 +142,6 @@ class TrackTask(Task):
 
     def bind(self, env: Any) -> None:
         super().bind(env)
-        self._samplers: dict[tuple[int, int, int], task.PoseSampler] = {}
         self._ref: dict[str, Any] = {}
         self._pose_cache: tuple[int, np.ndarray, np.ndarray] | None = None
         self._sums = np.zeros(3)
@@ -160,10 +159,8 @@ class TrackTask(Task):
             return modes
         rng = np.random.default_rng(0)
         usable = []
-        cfg = self.env.task_config
         for mode in modes:
-            sampler = task.PoseSampler(self.env.design, mode, cfg)
-            self._samplers[mode] = sampler
+            sampler = self.pose_sampler(mode)
             fits = sum(
                 self._draw_eight(rng, mode, None) is not None for _ in range(EIGHT_MODE_TRIALS)
             )
@@ -179,16 +176,6 @@ class TrackTask(Task):
             )
         return usable
 
-    def reseed(self) -> None:
-        for sampler in self._samplers.values():
-            sampler.clear()
-
-    def _known_mode(self, options: dict[str, Any]) -> tuple[int, int, int] | None:
-        if options.get("working_mode") is not None:
-            return options["working_mode"]
-        modes = self.env.modes
-        return modes[0] if len(modes) == 1 else None
-
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         ref = options.get("reference")
         if ref is not None:
@@ -202,7 +189,7 @@ class TrackTask(Task):
                         f"{start.tolist()}"
                     )
             options["start"] = start
-        mode = self._known_mode(options)
+        mode = self.known_mode(options)
         if mode is not None:
             self._check_start_and_reference(options, mode)
         return options
@@ -216,13 +203,11 @@ class TrackTask(Task):
                 raise ValueError(f"reference is not feasible in working mode {mode}: {problem}")
 
     def episode_spec(self, rng: np.random.Generator, options: dict[str, Any]) -> dict[str, Any]:
-        mode = self._known_mode(options)
+        mode = self.known_mode(options)
         if mode is None:
             modes = self._draw_modes
             mode = modes[int(rng.integers(len(modes)))]
             self._check_start_and_reference(options, mode)
-        if mode not in self._samplers:
-            self._samplers[mode] = task.PoseSampler(self.env.design, mode, self.env.task_config)
         ref = options.get("reference")
         if ref is None:
             draw = self._draw_segments if self.kind == "segments" else self._draw_eight
@@ -388,7 +373,7 @@ class TrackTask(Task):
     def _draw_start(self, rng: np.random.Generator, mode: Any, start: Any) -> np.ndarray:
         if start is not None:
             return np.asarray(start, dtype=np.float64)
-        return self._samplers[mode].draw(rng)[0]
+        return self.pose_sampler(mode).draw(rng)[0]
 
     def _draw_segments(
         self, rng: np.random.Generator, mode: Any, start: Any
@@ -404,7 +389,7 @@ class TrackTask(Task):
             for _ in range(20):
                 try:
                     _, nxt = task.sample_pair(
-                        design, mode, rng, cfg, start=wps[-1], sampler=self._samplers[mode]
+                        design, mode, rng, cfg, start=wps[-1], sampler=self.pose_sampler(mode)
                     )
                 except ValueError:
                     return None
