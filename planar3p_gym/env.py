@@ -413,11 +413,20 @@ class Planar3PEnv(gym.Env):
                 f"{self.task.name!r}"
             )
         options = self.task.check_options(options)  # before seeding: a rejection changes nothing
-        super().reset(seed=seed)
-        if seed is not None:
-            self.task.reseed()
-        spec = self.task.episode_spec(self.np_random, options)
-        start, mode = self.task.begin(spec)
+        # Checks that need the episode's draw (a pose under a drawn working mode, a start no
+        # target pairs with) can only reject after seeding: then the random stream and the
+        # task's pools are put back, so a rejected reset changes nothing either.
+        undo = self._random_state() if options else None
+        try:
+            super().reset(seed=seed)
+            if seed is not None:
+                self.task.reseed()
+            spec = self.task.episode_spec(self.np_random, options)
+            start, mode = self.task.begin(spec)
+        except ValueError:
+            if undo is not None:
+                self._restore_random_state(undo)
+            raise
         self._spec = spec
         self._steps = 0
         self._mode = mode
@@ -564,19 +573,35 @@ class Planar3PEnv(gym.Env):
         (``task.get_state()`` if the task defines it, else a copy of its attributes) and the
         episode's bookkeeping.  :meth:`set_state` on an environment made with the same
         settings continues bit for bit as this one would."""
+        return {
+            "config": self.config(),
+            "sim": None if self._sim is None else self._sim.get_state(),
+            **self._random_state(),
+            "episode": copy.deepcopy({k: getattr(self, k) for k in self._EPISODE_FIELDS}),
+        }
+
+    def _random_state(self) -> dict[str, Any]:
+        """``np_random``'s state, its seed and the task's state (sampler pools included)."""
         task = self.task
         if hasattr(task, "get_state"):
             task_state = task.get_state()
         else:
             task_state = copy.deepcopy({k: v for k, v in vars(task).items() if k != "env"})
         return {
-            "config": self.config(),
-            "sim": None if self._sim is None else self._sim.get_state(),
             "np_random": copy.deepcopy(self.np_random.bit_generator.state),
             "np_random_seed": self._np_random_seed,
             "task": task_state,
-            "episode": copy.deepcopy({k: getattr(self, k) for k in self._EPISODE_FIELDS}),
         }
+
+    def _restore_random_state(self, state: dict[str, Any]) -> None:
+        """Put back what :meth:`_random_state` recorded."""
+        rng = np.random.Generator(type(self.np_random.bit_generator)())
+        rng.bit_generator.state = copy.deepcopy(state["np_random"])
+        self._np_random, self._np_random_seed = rng, state["np_random_seed"]
+        if hasattr(self.task, "set_state"):
+            self.task.set_state(copy.deepcopy(state["task"]))
+        else:
+            vars(self.task).update(copy.deepcopy(state["task"]))
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Restore a :meth:`get_state` snapshot (``ValueError`` if it is not one, or was taken
@@ -590,14 +615,8 @@ class Planar3PEnv(gym.Env):
                 f"{state['config']} != {self.config()}"
             )
         sim = None if state["sim"] is None else Planar3PSim.from_state(state["sim"])
-        rng = np.random.Generator(type(self.np_random.bit_generator)())
-        rng.bit_generator.state = copy.deepcopy(state["np_random"])
-        self._np_random, self._np_random_seed = rng, state["np_random_seed"]
+        self._restore_random_state(state)
         self._sim = sim
-        if hasattr(self.task, "set_state"):
-            self.task.set_state(copy.deepcopy(state["task"]))
-        else:
-            vars(self.task).update(copy.deepcopy(state["task"]))
         for key, value in copy.deepcopy(state["episode"]).items():
             setattr(self, key, value)
 

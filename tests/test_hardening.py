@@ -214,6 +214,21 @@ def test_a_rejected_reset_does_not_consume_the_seed(options):
     assert info["pose"] == want["pose"] and env.unwrapped.target == ref.unwrapped.target
 
 
+@pytest.mark.parametrize("seed", [7, None])
+def test_a_reset_rejected_after_the_mode_is_drawn_leaves_the_stream_as_it_was(seed):
+    """Under ``working_mode="random"`` a given pose can only be checked once the episode's
+    mode is drawn, after seeding; the random stream and the sampler pools are put back."""
+    env, ref = gym.make(ENV_ID, working_mode="random"), gym.make(ENV_ID, working_mode="random")
+    env.reset(seed=3)
+    ref.reset(seed=3)
+    with pytest.raises(ValueError, match="start"):
+        env.reset(seed=seed, options={"start": (5.0, 5.0, 0.0)})
+    for _ in range(3):
+        _, info = env.reset()
+        _, want = ref.reset()
+        assert info["episode_spec"] == want["episode_spec"]
+
+
 def test_a_nan_state_reports_a_nan_closure_error():
     design = Design.fig8()
     start, _ = task.sample_pair(design, (1, 1, -1), np.random.default_rng(0), CFG)
