@@ -27,7 +27,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from agents.analytic import AnalyticController
-from agents.planner import observed_configuration
+from agents.planner import episode_starts, observation_batch, observed_configuration
 from planar3p_gym.design import Design
 from planar3p_gym.observation import OBS_SIZE, SLICES
 from planar3p_gym.tasks.assembly_change import TravelCurve, demonstration_travels
@@ -91,20 +91,13 @@ class CrossingController:
         deterministic: bool = True,
     ) -> tuple[np.ndarray, Any]:
         """Action(s) in ``[-1, 1]`` for observation(s) (at least the 31 base entries)."""
-        obs = np.asarray(observation, dtype=np.float64)
-        single = obs.ndim == 1
-        obs2 = obs[None, :] if single else obs
-        if obs2.ndim != 2 or obs2.shape[1] < OBS_SIZE:
-            raise ValueError(
-                f"observation must have shape (m,) or (n, m) with m >= {OBS_SIZE}, got {obs.shape}"
-            )
+        obs2, single = observation_batch(
+            observation, OBS_SIZE, f"(m,) or (n, m) with m >= {OBS_SIZE}"
+        )
         n = obs2.shape[0]
         if len(self._curves) != n:
             self._curves, self._times = [None] * n, [0.0] * n
-        if episode_start is None:
-            starts = np.zeros(n, dtype=bool)
-        else:
-            starts = np.broadcast_to(np.asarray(episode_start, dtype=bool).reshape(-1), (n,))
+        starts = episode_starts(episode_start, n)
         vmax = self.design.max_speed
         actions = np.zeros((n, 3), dtype=np.float32)
         for i in range(n):

@@ -29,7 +29,13 @@ from planar3p_gym.design import Design
 from planar3p_gym.observation import OBS_SIZE, SLICES
 from planar3p_gym.tasks.joint_paths import PathLimits, find_joint_path
 
-__all__ = ["BaseObservation", "JointPathPlanner", "observed_configuration"]
+__all__ = [
+    "BaseObservation",
+    "JointPathPlanner",
+    "episode_starts",
+    "observation_batch",
+    "observed_configuration",
+]
 
 #: Index of the target travels and target working mode in the mode-change observation.
 TARGET_TRAVELS = slice(OBS_SIZE, OBS_SIZE + 3)
@@ -49,6 +55,27 @@ def observed_configuration(obs: ArrayLike) -> dict[str, NDArray[np.float64]]:
         "mode": np.where(cos_a >= 0.0, 1.0, -1.0),
         "target": np.array([tpos[0], tpos[1], math.atan2(tori[1], tori[0])]),
     }
+
+
+def observation_batch(
+    observation: ArrayLike, min_size: int, expected: str
+) -> tuple[NDArray[np.float64], bool]:
+    """``observation`` as a float64 batch ``(n, m)`` and whether it was a single ``(m,)`` one;
+    ``ValueError`` ("observation must have shape ``expected``, got ...") unless ``m >=
+    min_size``."""
+    obs = np.asarray(observation, dtype=np.float64)
+    single = obs.ndim == 1
+    obs2 = obs[None, :] if single else obs
+    if obs2.ndim != 2 or obs2.shape[1] < min_size:
+        raise ValueError(f"observation must have shape {expected}, got {obs.shape}")
+    return obs2, single
+
+
+def episode_starts(episode_start: ArrayLike | None, n: int) -> NDArray[np.bool_]:
+    """SB3's ``episode_start`` as one bool per environment (``None``: no new episode)."""
+    if episode_start is None:
+        return np.zeros(n, dtype=bool)
+    return np.broadcast_to(np.asarray(episode_start, dtype=bool).reshape(-1), (n,))
 
 
 class BaseObservation:
@@ -177,24 +204,15 @@ class JointPathPlanner:
         deterministic: bool = True,
     ) -> tuple[np.ndarray, Any]:
         """Action(s) in ``[-1, 1]`` for observation(s) ``(37,)`` or ``(n, 37)``."""
-        obs = np.asarray(observation, dtype=np.float64)
-        single = obs.ndim == 1
-        obs2 = obs[None, :] if single else obs
-        if obs2.ndim != 2 or obs2.shape[1] < OBS_SIZE + 6:
-            raise ValueError(
-                f"observation must have shape ({OBS_SIZE + 6},) or (n, {OBS_SIZE + 6}) "
-                f"(the mode-change observation), got {obs.shape}"
-            )
-        n = obs2.shape[0]
-        starts = (
-            np.ones(n, dtype=bool)
-            if episode_start is None and len(self._plans) != n
-            else np.zeros(n, dtype=bool)
-            if episode_start is None
-            else np.broadcast_to(np.asarray(episode_start, dtype=bool).reshape(-1), (n,))
+        size = OBS_SIZE + 6
+        obs2, single = observation_batch(
+            observation, size, f"({size},) or (n, {size}) (the mode-change observation)"
         )
+        n = obs2.shape[0]
+        # a new batch size starts every plan afresh (they are all None)
         if len(self._plans) != n:
             self._plans, self._times, self.certified = [None] * n, [0.0] * n, [False] * n
+        starts = episode_starts(episode_start, n)
         vmax = self.design.max_speed
         actions = np.zeros((n, 3), dtype=np.float32)
         for i in range(n):
