@@ -3,12 +3,10 @@ signed servo forces of the fidelity study, bad input."""
 
 from __future__ import annotations
 
-import json
-import warnings
-
 import gymnasium as gym
 import numpy as np
 import pytest
+from task_helpers import assert_seeded_and_replayable, checker_warnings, play_episode
 
 import planar3p_gym  # noqa: F401
 from agents.crossing import CrossingController, _ServoReader, crossing_fidelity
@@ -20,7 +18,6 @@ from planar3p_gym.statics import holding_forces
 from planar3p_gym.tasks.assembly_change import CrossingLimits, crossing_path
 
 ENV_ID = "Planar3PAssemblyChange-v0"
-RELEVANT = (UserWarning, RuntimeWarning)
 
 
 @pytest.fixture(scope="module")
@@ -33,20 +30,12 @@ def env():
 def test_gymnasium_check_env():
     from gymnasium.utils.env_checker import check_env
 
-    e = gym.make(ENV_ID)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        check_env(e.unwrapped)
-    assert not [str(w.message) for w in caught if issubclass(w.category, RELEVANT)]
+    assert not checker_warnings(check_env, gym.make(ENV_ID).unwrapped)
 
 
 def test_sb3_check_env():
     checker = pytest.importorskip("stable_baselines3.common.env_checker")
-    e = gym.make(ENV_ID)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        checker.check_env(e, warn=True)
-    assert not [str(w.message) for w in caught if issubclass(w.category, RELEVANT)]
+    assert not checker_warnings(checker.check_env, gym.make(ENV_ID), warn=True)
 
 
 def test_many_resets_give_opposite_assembly_modes(env):
@@ -73,17 +62,8 @@ def test_many_resets_give_opposite_assembly_modes(env):
 
 
 def test_crossing_does_not_end_the_episode_and_is_counted(env):
-    pol = CrossingController.from_env(env)
-    obs, info = env.reset(seed=4)
-    start = np.ones(1, dtype=bool)
-    seen = []
-    while True:
-        action, _ = pol.predict(obs, episode_start=start)
-        start = np.zeros(1, dtype=bool)
-        obs, _, term, trunc, info = env.step(action)
-        seen.append(info["assembly_mode"])
-        if term or trunc:
-            break
+    infos = play_episode(env, CrossingController.from_env(env), seed=4)
+    seen, info = [i["assembly_mode"] for i in infos], infos[-1]
     assert info["termination_reason"] == "success" and info["is_success"]
     assert info["crossings"] >= 1 and info["in_target_assembly"]
     assert seen[-1] == info["target_assembly"] == -seen[0] or seen[0] == 0
@@ -91,24 +71,7 @@ def test_crossing_does_not_end_the_episode_and_is_counted(env):
 
 def test_deterministic_and_replayable(env):
     actions = np.random.default_rng(1).uniform(-1, 1, (15, 3)).astype(np.float32)
-
-    def play(options=None, seed=None):
-        obs, _ = env.reset(seed=seed, options=options)
-        out = [obs]
-        for a in actions:
-            obs, r, term, trunc, _ = env.step(a)
-            out.append(np.append(obs, r))
-            if term or trunc:
-                break
-        return out
-
-    first = play(seed=5)
-    again = play(seed=5)
-    _, info = env.reset(seed=5)
-    replay = play(options=json.loads(json.dumps(info["episode_spec"])))
-    for x, y, z in zip(first, again, replay, strict=True):
-        np.testing.assert_array_equal(x, y)
-        np.testing.assert_array_equal(x, z)
+    assert_seeded_and_replayable(env, actions, seed=5)
 
 
 def test_infeasible_requests_raise(env):

@@ -2,13 +2,12 @@
 
 from __future__ import annotations
 
-import json
 import math
-import warnings
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from task_helpers import assert_seeded_and_replayable, checker_warnings
 
 import planar3p_gym  # noqa: F401
 from planar3p_gym import Design, kinematics
@@ -17,7 +16,6 @@ from planar3p_gym.tasks.joint_paths import PathLimits, find_joint_path, track_se
 from planar3p_gym.tasks.mode_change import leg_modes, single_flip_modes
 
 ENV_ID = "Planar3PModeChange-v0"
-RELEVANT = (UserWarning, RuntimeWarning)
 
 
 @pytest.fixture(scope="module")
@@ -30,20 +28,12 @@ def env():
 def test_gymnasium_check_env():
     from gymnasium.utils.env_checker import check_env
 
-    e = gym.make(ENV_ID)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        check_env(e.unwrapped)
-    assert not [str(w.message) for w in caught if issubclass(w.category, RELEVANT)]
+    assert not checker_warnings(check_env, gym.make(ENV_ID).unwrapped)
 
 
 def test_sb3_check_env():
     checker = pytest.importorskip("stable_baselines3.common.env_checker")
-    e = gym.make(ENV_ID)
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        checker.check_env(e, warn=True)
-    assert not [str(w.message) for w in caught if issubclass(w.category, RELEVANT)]
+    assert not checker_warnings(checker.check_env, gym.make(ENV_ID), warn=True)
 
 
 def test_many_resets_give_certified_mode_changes(env):
@@ -111,26 +101,7 @@ def test_track_segment_follows_inverse_kinematics():
 
 def test_deterministic_and_replayable(env):
     actions = np.random.default_rng(0).uniform(-1, 1, (15, 3)).astype(np.float32)
-
-    def play(options=None, seed=None):
-        obs, info = env.reset(seed=seed, options=options)
-        out = [obs]
-        for a in actions:
-            obs, r, term, trunc, info = env.step(a)
-            out.append(np.append(obs, r))
-            if term or trunc:
-                break
-        return info, out
-
-    _, first = play(seed=11)
-    _, again = play(seed=11)
-    for x, y in zip(first, again, strict=True):
-        np.testing.assert_array_equal(x, y)
-    _, info0 = env.reset(seed=11)
-    spec = json.loads(json.dumps(info0["episode_spec"]))
-    _, replay = play(options=spec)
-    for x, y in zip(first, replay, strict=True):
-        np.testing.assert_array_equal(x, y)
+    assert_seeded_and_replayable(env, actions, seed=11)
 
 
 def test_infeasible_requests_raise(env):

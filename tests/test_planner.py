@@ -5,6 +5,7 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 import pytest
+from task_helpers import play_episode
 
 import planar3p_gym  # noqa: F401
 from agents.crossing import CrossingController
@@ -13,15 +14,8 @@ from agents.task_baselines import make_baseline, run_baselines, wilson
 
 
 def _play(env, policy, seed):
-    obs, info = env.reset(seed=seed)
-    start = np.ones(1, dtype=bool)
-    while True:
-        action, _ = policy.predict(obs, episode_start=start)
-        start = np.zeros(1, dtype=bool)
-        assert env.action_space.contains(np.asarray(action, dtype=np.float32))
-        obs, _, term, trunc, info = env.step(action)
-        if term or trunc:
-            return info
+    """The last ``info`` of one episode (every action checked against the action space)."""
+    return play_episode(env, policy, seed)[-1]
 
 
 def test_joint_path_planner_changes_working_mode():

@@ -8,6 +8,7 @@ import json
 import gymnasium as gym
 import numpy as np
 import pytest
+from task_helpers import flat, rollout
 
 import planar3p_gym
 from planar3p_gym.env import Planar3PEnv
@@ -24,24 +25,6 @@ CASES = [
     (planar3p_gym.TRACK_ENV_ID, {"working_mode": "random"}),
     (planar3p_gym.TRACK_ENV_ID, {"reference": "figure_eight"}),
 ]
-
-
-def flat(obs):
-    """Observation as one float array (Dict observations concatenated in key order)."""
-    if isinstance(obs, dict):
-        return np.concatenate([np.asarray(obs[k], np.float64).ravel() for k in sorted(obs)])
-    return np.asarray(obs, np.float64)
-
-
-def rollout(env, actions, **reset_kwargs):
-    obs, _ = env.reset(**reset_kwargs)
-    out = [flat(obs)]
-    for a in actions:
-        obs, reward, terminated, truncated, _info = env.step(a)
-        out.append(np.concatenate([flat(obs), [reward, terminated]]))
-        if terminated or truncated:
-            break
-    return np.concatenate(out)
 
 
 @pytest.mark.parametrize(("env_id", "kwargs"), CASES)
