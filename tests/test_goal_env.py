@@ -256,9 +256,12 @@ def test_her_trains_out_of_the_box(algo):
     buffer_kwargs = {"n_sampled_goal": 4, "goal_selection_strategy": "future"}
     if algo == "TQC":
         buffer_kwargs["copy_info_dict"] = True
+    # buffer_size: room for the 300 steps learned; SB3's default of 10**6 transitions only
+    # costs seconds of allocation here (it is a training setting, not the env's interface).
     model = cls(
         "MultiInputPolicy",
         env,
+        buffer_size=1_000,
         replay_buffer_class=HerReplayBuffer,
         replay_buffer_kwargs=buffer_kwargs,
         batch_size=32,
