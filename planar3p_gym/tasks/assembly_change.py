@@ -320,6 +320,8 @@ class AssemblyChangeTask(Task):
         "in_target_assembly",
         "crossings",
     )
+    #: Passing the parallel singularity is the task: no parallel barrier in the reward.
+    parallel_barrier: ClassVar[bool] = False
 
     def __init__(self, limits: CrossingLimits | dict | None = None, pair_tries: int = 8) -> None:
         if isinstance(limits, dict):
@@ -554,24 +556,6 @@ class AssemblyChangeTask(Task):
         if sign == self._target_asm and self.is_success(state, errors):
             return "success"
         return None
-
-    def reward_terms(
-        self,
-        *,
-        errors: tuple[float, float],
-        measures: ConfigurationMeasures,
-        action: tuple[float, float, float],
-        success: bool,
-        failure: bool,
-    ) -> dict[str, float]:
-        return self.pose_reward_terms(
-            errors=errors,
-            parallel_margin=1.0,  # passing the parallel singularity is the task: no barrier
-            serial_margin=measures.serial_margin,
-            action=action,
-            success=success,
-            failure=failure,
-        )
 
     def step_info(self, step: int, state: SimState, errors: tuple[float, float]) -> dict[str, Any]:
         return {

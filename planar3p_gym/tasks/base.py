@@ -103,6 +103,10 @@ class Task:
     failure_reasons: ClassVar[tuple[str, ...]] = ("singularity_crossing", "physics_breakdown")
     #: Task-specific ``info`` keys (metrics) added by :meth:`step_info`.
     metric_keys: ClassVar[tuple[str, ...]] = ()
+    #: Whether the default reward keeps its barrier near parallel / serial singularities; a
+    #: task whose problem is to pass one turns that barrier off (its margin counts as 1).
+    parallel_barrier: ClassVar[bool] = True
+    serial_barrier: ClassVar[bool] = True
 
     env: Planar3PEnv
 
@@ -193,11 +197,19 @@ class Task:
         failure: bool,
     ) -> dict[str, float]:
         """Weighted reward terms (their sum is the reward); default
-        :func:`planar3p_gym.rewards.reward_terms` on the errors to the reference."""
-        return self.pose_reward_terms(
-            errors=errors,
-            parallel_margin=measures.parallel_margin,
-            serial_margin=measures.serial_margin,
+        :func:`planar3p_gym.rewards.reward_terms` on the errors to the reference, with the
+        singularity barriers :attr:`parallel_barrier` and :attr:`serial_barrier`."""
+        env = self.env
+        pos_err, ang_err = errors
+        length = env.design.characteristic_length
+        return reward_terms(
+            env.reward_weights,
+            pose_err=pose_error(pos_err, ang_err, length),
+            precision_err=precision_penalty(
+                pos_err, ang_err, length, env.reward_weights.precision_scale
+            ),
+            parallel_margin=measures.parallel_margin if self.parallel_barrier else 1.0,
+            serial_margin=measures.serial_margin if self.serial_barrier else 1.0,
             action=action,
             success=success,
             failure=failure,
@@ -209,36 +221,6 @@ class Task:
         return {}
 
     # ------------------------------------------------------------------ helpers
-    def pose_reward_terms(
-        self,
-        *,
-        errors: tuple[float, float],
-        parallel_margin: float,
-        serial_margin: float,
-        action: tuple[float, float, float],
-        success: bool,
-        failure: bool,
-    ) -> dict[str, float]:
-        """:func:`planar3p_gym.rewards.reward_terms` with the env's weights on ``errors``
-        (position error (m), orientation error (rad)) to the reference and the given margins
-        (dimensionless; a task whose problem is to pass a singularity passes ``1.0`` for that
-        margin, i.e. no barrier)."""
-        env = self.env
-        pos_err, ang_err = errors
-        length = env.design.characteristic_length
-        return reward_terms(
-            env.reward_weights,
-            pose_err=pose_error(pos_err, ang_err, length),
-            precision_err=precision_penalty(
-                pos_err, ang_err, length, env.reward_weights.precision_scale
-            ),
-            parallel_margin=parallel_margin,
-            serial_margin=serial_margin,
-            action=action,
-            success=success,
-            failure=failure,
-        )
-
     def pose_sampler(self, mode: tuple[int, int, int]) -> task.PoseSampler:
         """The task's :class:`planar3p_gym.task.PoseSampler` for working ``mode`` (made on
         first use, kept for the task's life; :meth:`reseed` clears its pose batches)."""

@@ -59,7 +59,6 @@ import numpy as np
 
 from .. import kinematics, task
 from ..physics import SimState
-from ..scalar_kinematics import ConfigurationMeasures
 from .base import Pose, Task, pose_list
 from .joint_paths import JointPath, PathLimits, find_joint_path
 
@@ -124,6 +123,8 @@ class ModeChangeTask(Task):
         "in_target_mode",
         "legs_to_flip",
     )
+    #: Passing a serial singularity is the task: no serial barrier in the reward.
+    serial_barrier: ClassVar[bool] = False
 
     def __init__(
         self, flips: int = 1, limits: PathLimits | None = None, pair_tries: int = 8
@@ -370,24 +371,6 @@ class ModeChangeTask(Task):
     def is_success(self, state: SimState, errors: tuple[float, float]) -> bool:
         return super().is_success(state, errors) and leg_modes(state.leg_angles) == (
             self._target_mode
-        )
-
-    def reward_terms(
-        self,
-        *,
-        errors: tuple[float, float],
-        measures: ConfigurationMeasures,
-        action: tuple[float, float, float],
-        success: bool,
-        failure: bool,
-    ) -> dict[str, float]:
-        return self.pose_reward_terms(
-            errors=errors,
-            parallel_margin=measures.parallel_margin,
-            serial_margin=1.0,  # passing a serial singularity is the task: no serial barrier
-            action=action,
-            success=success,
-            failure=failure,
         )
 
     def step_info(self, step: int, state: SimState, errors: tuple[float, float]) -> dict[str, Any]:
