@@ -27,7 +27,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from agents.analytic import AnalyticController
-from agents.planner import episode_starts, observation_batch, observed_configuration
+from agents.planner import (
+    check_follower_arguments,
+    episode_starts,
+    observation_batch,
+    observed_configuration,
+)
 from planar3p_gym.design import Design
 from planar3p_gym.observation import OBS_SIZE, SLICES
 from planar3p_gym.tasks.assembly_change import TravelCurve, demonstration_travels
@@ -54,13 +59,7 @@ class CrossingController:
         travel_gain: float = 10.0,
     ) -> None:
         self.design = design if design is not None else Design.fig8(gravity=0.0)
-        if not isinstance(self.design, Design):
-            raise ValueError(f"design must be a planar3p_gym.Design, got {type(design).__name__}")
-        for name, value in (("dt", dt), ("travel_gain", travel_gain)):
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-        if not 0 < speed_fraction <= 1:
-            raise ValueError(f"speed_fraction must be in (0, 1], got {speed_fraction!r}")
+        check_follower_arguments(self.design, dt, speed_fraction, travel_gain)
         self.dt = float(dt)
         self.speed_fraction = float(speed_fraction)
         self.travel_gain = float(travel_gain)

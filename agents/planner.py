@@ -32,6 +32,7 @@ from planar3p_gym.tasks.joint_paths import PathLimits, find_joint_path
 __all__ = [
     "BaseObservation",
     "JointPathPlanner",
+    "check_follower_arguments",
     "episode_starts",
     "observation_batch",
     "observed_configuration",
@@ -55,6 +56,21 @@ def observed_configuration(obs: ArrayLike) -> dict[str, NDArray[np.float64]]:
         "mode": np.where(cos_a >= 0.0, 1.0, -1.0),
         "target": np.array([tpos[0], tpos[1], math.atan2(tori[1], tori[0])]),
     }
+
+
+def check_follower_arguments(
+    design: Any, dt: float, speed_fraction: float, travel_gain: float
+) -> None:
+    """``ValueError`` unless ``design`` is a :class:`~planar3p_gym.design.Design`, ``dt`` (s)
+    and ``travel_gain`` (1/s) are finite and > 0 and ``speed_fraction`` is in ``(0, 1]`` (the
+    arguments of the travel-following baselines)."""
+    if not isinstance(design, Design):
+        raise ValueError(f"design must be a planar3p_gym.Design, got {type(design).__name__}")
+    for name, value in (("dt", dt), ("travel_gain", travel_gain)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be finite and > 0, got {value!r}")
+    if not 0 < speed_fraction <= 1:
+        raise ValueError(f"speed_fraction must be in (0, 1], got {speed_fraction!r}")
 
 
 def observation_batch(
@@ -154,13 +170,7 @@ class JointPathPlanner:
         limits: PathLimits | None = None,
     ) -> None:
         self.design = design if design is not None else Design.fig8()
-        if not isinstance(self.design, Design):
-            raise ValueError(f"design must be a planar3p_gym.Design, got {type(design).__name__}")
-        for name, value in (("dt", dt), ("travel_gain", travel_gain)):
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-        if not 0 < speed_fraction <= 1:
-            raise ValueError(f"speed_fraction must be in (0, 1], got {speed_fraction!r}")
+        check_follower_arguments(self.design, dt, speed_fraction, travel_gain)
         self.dt = float(dt)
         self.speed_fraction = float(speed_fraction)
         self.travel_gain = float(travel_gain)
