@@ -73,7 +73,7 @@ from .. import kinematics, task
 from ..design import Design
 from ..physics import Planar3PSim, SimState
 from ..scalar_kinematics import ConfigurationMeasures, ScalarKinematics
-from .base import Pose, Task, pose_list
+from .base import ModeTriple, Pose, Task, mode_option, pose_list
 
 __all__ = [
     "AssemblyChangeTask",
@@ -94,7 +94,6 @@ BIND_SEEDS = 5
 #: Smallest fraction of feasible candidates for a working mode to be used (below it sampling
 #: would be slow and could fail).
 MIN_FEASIBLE_RATE = 0.5
-ModeTriple = tuple[int, int, int]
 #: Builds a simulation from a pose and a working mode.
 SimFactory = Callable[[np.ndarray, tuple[int, int, int]], Planar3PSim]
 
@@ -291,18 +290,6 @@ def verify_crossing(
     }
 
 
-def _mode(arg: Any, name: str) -> ModeTriple:
-    try:
-        vals = list(arg)
-        m = tuple(int(v) for v in vals)
-        ok = len(m) == 3 and all(v in (1, -1) for v in m) and all(float(v) == int(v) for v in vals)
-    except (TypeError, ValueError):
-        ok = False
-    if not ok or any(isinstance(v, (bool, np.bool_)) for v in vals):
-        raise ValueError(f"{name} must be three entries of +1 or -1, got {arg!r}")
-    return m  # type: ignore[return-value]
-
-
 class AssemblyChangeTask(Task):
     """Reach a target pose in the other assembly mode (see the module docstring).
 
@@ -413,7 +400,7 @@ class AssemblyChangeTask(Task):
     # ------------------------------------------------------------------ options and sampling
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         if options.get("working_mode") is not None:
-            options["working_mode"] = _mode(options["working_mode"], "working_mode")
+            options["working_mode"] = mode_option(options["working_mode"], "working_mode")
         mode = options.get("working_mode")
         if mode is None and len(self.modes) == 1:
             mode = self.modes[0]
@@ -515,7 +502,7 @@ class AssemblyChangeTask(Task):
         )
 
     def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
-        mode = _mode(spec["working_mode"], "working_mode")
+        mode = mode_option(spec["working_mode"], "working_mode")
         tx, ty, tth = spec["target"]
         self._target = (float(tx), float(ty), float(tth))
         rho = kinematics.inverse(self.env.design, self._target, mode).rho

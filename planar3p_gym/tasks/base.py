@@ -69,15 +69,31 @@ from ..scalar_kinematics import ConfigurationMeasures
 if TYPE_CHECKING:
     from ..env import Planar3PEnv
 
-__all__ = ["Pose", "Task", "pose_list"]
+__all__ = ["ModeTriple", "Pose", "Task", "mode_option", "pose_list"]
 
 #: A pose ``(x, y, theta)`` (m, m, rad).
 Pose = tuple[float, float, float]
+#: A working mode: ``sign cos alpha_i`` of the three legs (+1 or -1 each).
+ModeTriple = tuple[int, int, int]
 
 
 def pose_list(pose: Any) -> list[float]:
     """A pose as a JSON-friendly list of three Python floats (exact: float64 round-trips)."""
     return [float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3).tolist()]
+
+
+def mode_option(arg: Any, name: str) -> ModeTriple:
+    """A working mode option (three entries of +-1, ints or integral floats, no bools) as
+    ints, or ``ValueError`` naming ``name``."""
+    try:
+        vals = list(arg)
+        m = tuple(int(v) for v in vals)
+        ok = len(m) == 3 and all(v in (1, -1) for v in m) and all(float(v) == int(v) for v in vals)
+    except (TypeError, ValueError):
+        ok = False
+    if not ok or any(isinstance(v, (bool, np.bool_)) for v in vals):
+        raise ValueError(f"{name} must be three entries of +1 or -1, got {arg!r}")
+    return m  # type: ignore[return-value]
 
 
 class Task:

@@ -59,25 +59,10 @@ import numpy as np
 
 from .. import kinematics, task
 from ..physics import SimState
-from .base import Pose, Task, pose_list
+from .base import ModeTriple, Pose, Task, mode_option, pose_list
 from .joint_paths import JointPath, PathLimits, find_joint_path
 
 __all__ = ["ModeChangeTask", "leg_modes", "single_flip_modes"]
-
-ModeTriple = tuple[int, int, int]
-
-
-def _mode(arg: Any, name: str) -> ModeTriple:
-    """A working mode (three +-1 ints) or ``ValueError`` naming ``name``."""
-    try:
-        vals = list(arg)
-        m = tuple(int(v) for v in vals)
-        ok = len(m) == 3 and all(v in (1, -1) for v in m) and all(float(v) == int(v) for v in vals)
-    except (TypeError, ValueError):
-        ok = False
-    if not ok or any(isinstance(v, (bool, np.bool_)) for v in vals):
-        raise ValueError(f"{name} must be three entries of +1 or -1, got {arg!r}")
-    return m  # type: ignore[return-value]
 
 
 def leg_modes(leg_angles: tuple[float, float, float]) -> ModeTriple:
@@ -228,7 +213,7 @@ class ModeChangeTask(Task):
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         for key in ("working_mode", "target_working_mode"):
             if options.get(key) is not None:
-                options[key] = _mode(options[key], key)
+                options[key] = mode_option(options[key], key)
         ms, mt = options.get("working_mode"), options.get("target_working_mode")
         if ms is not None and mt is not None and ms == mt:
             raise ValueError(
@@ -352,10 +337,10 @@ class ModeChangeTask(Task):
     def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
         tx, ty, tth = spec["target"]
         self._target = (float(tx), float(ty), float(tth))
-        self._target_mode = _mode(spec["target_working_mode"], "target_working_mode")
+        self._target_mode = mode_option(spec["target_working_mode"], "target_working_mode")
         rho = kinematics.inverse(self.env.design, self._target, self._target_mode).rho
         self._target_rho = (float(rho[0]), float(rho[1]), float(rho[2]))
-        mode = _mode(spec["working_mode"], "working_mode")
+        mode = mode_option(spec["working_mode"], "working_mode")
         return np.asarray(spec["start"], dtype=np.float64), mode
 
     # ------------------------------------------------------------------ per step
