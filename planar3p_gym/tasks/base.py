@@ -56,7 +56,6 @@ Contract every task must meet (the fixed benchmark suites and the tests rely on 
 
 from __future__ import annotations
 
-import math
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -69,7 +68,7 @@ from ..scalar_kinematics import ConfigurationMeasures
 if TYPE_CHECKING:
     from ..env import Planar3PEnv
 
-__all__ = ["ModeTriple", "Pose", "Task", "mode_option", "pose_list"]
+__all__ = ["ModeTriple", "Pose", "Task", "finite_numbers", "mode_option", "pose_list"]
 
 #: A pose ``(x, y, theta)`` (m, m, rad).
 Pose = tuple[float, float, float]
@@ -80,6 +79,18 @@ ModeTriple = tuple[int, int, int]
 def pose_list(pose: Any) -> list[float]:
     """A pose as a JSON-friendly list of three Python floats (exact: float64 round-trips)."""
     return [float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3).tolist()]
+
+
+def finite_numbers(value: Any, size: int, name: str, meaning: str = "") -> np.ndarray:
+    """``value`` as a float64 array of ``size`` finite numbers, or ``ValueError`` naming
+    ``name`` (``meaning``, e.g. ``" (x, y, theta)"``, follows "numbers" in the message)."""
+    try:
+        p = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be {size} numbers{meaning}, got {value!r}") from exc
+    if p.shape != (size,) or not np.isfinite(p).all():
+        raise ValueError(f"{name} must be {size} finite numbers{meaning}, got {value!r}")
+    return p
 
 
 def mode_option(arg: Any, name: str) -> ModeTriple:
@@ -263,10 +274,4 @@ class Task:
     @staticmethod
     def finite_pose(pose: Any, name: str) -> np.ndarray:
         """``pose`` as a float64 array of 3 finite numbers, or ``ValueError`` naming ``name``."""
-        try:
-            p = np.asarray(pose, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{name} must be 3 numbers (x, y, theta), got {pose!r}") from exc
-        if p.shape != (3,) or not all(math.isfinite(v) for v in p.tolist()):
-            raise ValueError(f"{name} must be 3 finite numbers (x, y, theta), got {pose!r}")
-        return p
+        return finite_numbers(pose, 3, name, " (x, y, theta)")

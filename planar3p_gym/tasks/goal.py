@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..rewards import RewardWeights
 from ..task import TaskConfig
-from .base import Pose
+from .base import Pose, finite_numbers
 from .reach import ReachTask
 
 __all__ = [
@@ -78,17 +78,6 @@ def pose_of_goal(goal: ArrayLike) -> Pose:
     if g.size not in (4, GOAL_SIZE):
         raise ValueError(f"a goal has {GOAL_SIZE} entries (x, y, cos, sin, v), got {g.size}")
     return float(g[0]), float(g[1]), math.atan2(float(g[3]), float(g[2]))
-
-
-def _finite_goal(value: Any, name: str) -> np.ndarray:
-    """``value`` as a float64 array of ``GOAL_SIZE`` finite numbers, or ``ValueError``."""
-    try:
-        g = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be {GOAL_SIZE} numbers, got {value!r}") from exc
-    if g.shape != (GOAL_SIZE,) or not np.isfinite(g).all():
-        raise ValueError(f"{name} must be {GOAL_SIZE} finite numbers, got {value!r}")
-    return g
 
 
 def _goals(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndarray, bool]:
@@ -247,7 +236,7 @@ class GoalTask(ReachTask):
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         goal = options.pop("desired_goal", None)
         if goal is not None:
-            g = _finite_goal(goal, "desired_goal").astype(np.float32)
+            g = finite_numbers(goal, GOAL_SIZE, "desired_goal").astype(np.float32)
             if not 0.5 <= float(np.hypot(g[2], g[3])) <= 2.0:
                 raise ValueError(
                     "desired_goal must be (x, y, cos theta, sin theta, v) with (cos, sin) near "
