@@ -120,7 +120,9 @@ def test_infeasible_requests_raise(env):
 
 def test_success_requires_the_target_working_mode():
     e = Planar3PModeChangeEnv()
-    _, info = e.reset(seed=0)
+    # any episode shows it; seed 3 is drawn in ~10 ms (seed 0 takes ~0.5 s of certificate
+    # attempts and is already among test_many_resets_give_certified_mode_changes' seeds)
+    _, info = e.reset(seed=3)
     state = e.unwrapped.sim.state
     task = e.unwrapped.task
     # at the start pose, seen as a target with zero error, the legs are in the start mode
