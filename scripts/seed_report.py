@@ -1,0 +1,61 @@
+"""Success across training seeds from a benchmark's ``episodes.csv`` (rliable's method).
+
+Examples::
+
+    python scripts/benchmark.py --suites standard,hard,far --out results/ppo-seeds \
+        --policies runs/ppo-v1-s1/model.zip:stats=runs/ppo-v1-s1/vecnormalize.pkl,...
+    python scripts/seed_report.py results/ppo-seeds/episodes.csv --out results/ppo-seeds/seeds.md
+
+Policies whose labels differ only by the run's seed token (``-s<n>``) are pooled; each training
+seed gives one success rate per suite; the table shows them, their interquartile mean and its
+95 % stratified-bootstrap interval (:mod:`agents.seed_statistics`).  Bad input: exit 2 with one
+line, nothing written.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from agents import seed_statistics
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("episodes_csv", help="episodes.csv written by scripts/benchmark.py")
+    parser.add_argument("--out", help="write the markdown table here (atomically)")
+    parser.add_argument("--resamples", type=int, default=2000, help="bootstrap resamples")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the resampling")
+    args = parser.parse_args(argv)
+    try:
+        if args.resamples < 1:
+            raise ValueError(f"--resamples must be at least 1, got {args.resamples}")
+        if args.seed < 0:
+            raise ValueError(f"--seed must be >= 0, got {args.seed}")
+        if args.out and not Path(args.out).resolve().parent.is_dir():
+            raise ValueError(f"--out: directory {Path(args.out).resolve().parent} does not exist")
+        groups = seed_statistics.from_csv(args.episodes_csv)
+        if not groups:
+            raise ValueError(f"{args.episodes_csv} has no rows with a training seed")
+        rows = seed_statistics.seed_table(groups, n_resamples=args.resamples, seed=args.seed)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    text = seed_statistics.markdown(rows)
+    print(text)
+    if args.out:
+        out = Path(args.out)
+        fd, tmp = tempfile.mkstemp(dir=out.resolve().parent, suffix=".tmp")
+        with os.fdopen(fd, "w") as fh:
+            fh.write(text + "\n")
+        os.replace(tmp, out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

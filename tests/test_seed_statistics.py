@@ -1,0 +1,109 @@
+"""Tests of results across training seeds (agents.seed_statistics, scripts/seed_report.py)."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+from script_loader import load_script
+
+from agents import seed_statistics as ss
+
+seed_report = load_script("seed_report")
+
+
+def test_iqm_point_is_the_mean_of_the_middle_half():
+    # 8 runs x 1 task: IQM drops the 2 lowest and 2 highest
+    scores = [0.0, 0.1, 0.5, 0.6, 0.7, 0.8, 0.95, 1.0]
+    point, lo, hi = ss.stratified_bootstrap_iqm(scores, n_resamples=500)
+    assert point == pytest.approx(np.mean([0.5, 0.6, 0.7, 0.8]))
+    assert 0.0 <= lo <= point <= hi <= 1.0
+
+
+def test_identical_runs_and_a_single_run_give_point_intervals():
+    assert ss.stratified_bootstrap_iqm([0.9] * 5) == pytest.approx((0.9, 0.9, 0.9))
+    assert ss.stratified_bootstrap_iqm([[0.3, 0.7]]) == pytest.approx((0.5, 0.5, 0.5))
+
+
+def test_resampling_is_stratified_by_task():
+    """Every resample keeps each task's runs: with tasks scoring 0 and 1 for every run, the IQM
+    over the pooled scores is exactly 0.5 in every resample (an unstratified bootstrap of the
+    pooled scores would vary)."""
+    scores = np.array([[0.0, 1.0]] * 6)
+    point, lo, hi = ss.stratified_bootstrap_iqm(scores, n_resamples=300, seed=4)
+    assert (point, lo, hi) == (0.5, 0.5, 0.5)
+
+
+def test_interval_is_reproducible_and_covers_the_spread():
+    rng = np.random.default_rng(0)
+    scores = rng.uniform(0.6, 1.0, size=(10, 3))
+    a = ss.stratified_bootstrap_iqm(scores, seed=1)
+    assert a == ss.stratified_bootstrap_iqm(scores, seed=1)
+    assert scores.min() < a[1] < a[0] < a[2] < scores.max()
+
+
+@pytest.mark.parametrize("bad", [[], [[np.nan, 1.0]], np.zeros((2, 2, 2))])
+def test_bad_scores_raise(bad):
+    with pytest.raises(ValueError):
+        ss.stratified_bootstrap_iqm(bad)
+
+
+def test_group_label_drops_the_seed_token_only():
+    assert ss.group_label("runs/ppo-v1-s3/model") == "runs/ppo-v1/model"
+    assert ss.group_label("ppo-v1-s12") == "ppo-v1"
+    assert ss.group_label("runs/s3-ppo/model") == "runs/s3-ppo/model"
+
+
+def _write_csv(path: Path) -> None:
+    rows = []
+    for seed, rates in ((1, (1.0, 0.5)), (2, (0.5, 0.5)), (3, (1.0, 1.0))):
+        for suite, rate in zip(("standard", "hard"), rates, strict=True):
+            for i in range(4):
+                rows.append(
+                    {"policy": f"runs/ppo-s{seed}/model", "training_seed": seed, "suite": suite,
+                     "index": i, "success": i < 4 * rate}
+                )  # fmt: skip
+    for i in range(4):
+        rows.append(
+            {"policy": "analytic-simultaneous", "training_seed": "", "suite": "standard",
+             "index": i, "success": True}
+        )  # fmt: skip
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+
+
+def test_table_from_episodes_csv(tmp_path: Path):
+    path = tmp_path / "episodes.csv"
+    _write_csv(path)
+    groups = ss.from_csv(path)
+    assert set(groups) == {"runs/ppo/model"}  # the analytic controller has no training seed
+    assert groups["runs/ppo/model"]["standard"] == {1: 1.0, 2: 0.5, 3: 1.0}
+    rows = ss.seed_table(groups, n_resamples=200)
+    by_suite = {r["suite"]: r for r in rows}
+    assert by_suite["standard"]["seeds"] == [1, 2, 3]
+    # 3 runs: trim_mean(0.25) trims nothing (floor(3/4) = 0), so the IQM is the mean
+    assert by_suite["standard"]["iqm"] == pytest.approx(2.5 / 3)
+    assert by_suite["all (stratified by suite)"]["iqm"] == pytest.approx(
+        np.mean([1, 0.5, 1, 0.5, 0.5, 1])
+    )
+    assert "| runs/ppo/model | standard | 1, 2, 3 | 100 / 50 / 100 |" in ss.markdown(rows)
+
+
+def test_script_writes_the_table_and_rejects_bad_input(tmp_path: Path, capsys):
+    path = tmp_path / "episodes.csv"
+    _write_csv(path)
+    out = tmp_path / "seeds.md"
+    assert seed_report.main([str(path), "--out", str(out), "--resamples", "100"]) == 0
+    assert "runs/ppo/model" in out.read_text()
+    for argv in (
+        [str(tmp_path / "missing.csv")],
+        [str(path), "--resamples", "0"],
+        [str(path), "--out", str(tmp_path / "no" / "dir.md")],
+    ):
+        assert seed_report.main(argv) == 2
+        assert capsys.readouterr().err.startswith("error:")
+    assert not (tmp_path / "no").exists()
