@@ -70,12 +70,20 @@ def training_time(path: Path) -> float | None:
 def _group_curves(
     runs: list[dict], key: str
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Mean, min and max over the seeds that reached each evaluation step."""
+    """IQM over the seeds that reached each evaluation step and its 95 % bootstrap interval
+    over seeds (:func:`agents.seed_statistics.stratified_bootstrap_iqm`, one task)."""
+    from .seed_statistics import stratified_bootstrap_iqm
+
     steps = np.unique(np.concatenate([r["timesteps"] for r in runs]))
     values = np.full((len(runs), len(steps)), np.nan)
     for i, r in enumerate(runs):
         values[i, np.searchsorted(steps, r["timesteps"])] = r[key]
-    return steps, np.nanmean(values, 0), np.nanmin(values, 0), np.nanmax(values, 0)
+    out = np.full((3, len(steps)), np.nan)
+    for j in range(len(steps)):
+        column = values[:, j][np.isfinite(values[:, j])]
+        if column.size:
+            out[:, j] = stratified_bootstrap_iqm(column, n_resamples=1000)
+    return steps, out[0], out[1], out[2]
 
 
 def group_name(run: dict) -> str:
@@ -84,7 +92,8 @@ def group_name(run: dict) -> str:
 
 
 def plot(runs: list[dict], out: Path) -> None:
-    """Success rate and return against steps, one line per group of seeds (mean, range)."""
+    """Success rate and return against steps, one line per group of seeds (IQM over seeds,
+    95 % bootstrap interval shaded)."""
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 4))
@@ -94,8 +103,8 @@ def plot(runs: list[dict], out: Path) -> None:
         for ax, key in zip(axes, ("successes", "returns"), strict=True):
             if any(r[key] is None for r in members):
                 continue
-            steps, mean, lo, hi = _group_curves(members, key)
-            ax.plot(steps, mean, label=label)
+            steps, centre, lo, hi = _group_curves(members, key)
+            ax.plot(steps, centre, label=label)
             ax.fill_between(steps, lo, hi, alpha=0.2)
     axes[0].set(xlabel="environment steps", ylabel="evaluation success rate", ylim=(-0.02, 1.02))
     axes[0].set_title("Success rate (deterministic evaluation)")
@@ -104,7 +113,7 @@ def plot(runs: list[dict], out: Path) -> None:
     for ax in axes:
         ax.grid(alpha=0.3)
         ax.legend()
-    fig.suptitle("Planar3P-v0 learning curves (mean over seeds, range shaded)")
+    fig.suptitle("Learning curves (IQM over seeds, 95 % stratified-bootstrap CI shaded)")
     fig.tight_layout()
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)

@@ -107,3 +107,18 @@ def test_script_writes_the_table_and_rejects_bad_input(tmp_path: Path, capsys):
         assert seed_report.main(argv) == 2
         assert capsys.readouterr().err.startswith("error:")
     assert not (tmp_path / "no").exists()
+
+
+def test_learning_curves_show_the_iqm_over_the_seeds_at_each_step():
+    from agents.learning_curves import _group_curves
+
+    runs = [
+        {"timesteps": np.array([10, 20]), "successes": np.array([0.2, 0.8])},
+        {"timesteps": np.array([10, 20]), "successes": np.array([0.4, 1.0])},
+        {"timesteps": np.array([10]), "successes": np.array([0.3])},  # stopped earlier
+    ]
+    steps, centre, lo, hi = _group_curves(runs, "successes")
+    assert steps.tolist() == [10, 20]
+    assert centre == pytest.approx([0.3, 0.9])  # 2-3 seeds: trim_mean trims nothing
+    assert np.all(lo <= centre) and np.all(centre <= hi)
+    assert lo[0] >= 0.2 and hi[0] <= 0.4
