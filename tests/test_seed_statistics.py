@@ -121,4 +121,4 @@ def test_learning_curves_show_the_iqm_over_the_seeds_at_each_step():
     assert steps.tolist() == [10, 20]
     assert centre == pytest.approx([0.3, 0.9])  # 2-3 seeds: trim_mean trims nothing
     assert np.all(lo <= centre) and np.all(centre <= hi)
-    assert lo[0] >= 0.2 and hi[0] <= 0.4
+    assert lo[0] >= 0.2 - 1e-12 and hi[0] <= 0.4 + 1e-12  # means of resampled seeds
