@@ -7,7 +7,7 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
-from task_helpers import assert_seeded_and_replayable, checker_warnings
+from task_helpers import assert_seeded_and_replayable
 
 import planar3p_gym  # noqa: F401
 from planar3p_gym import Design, kinematics
@@ -23,17 +23,6 @@ def env():
     e = gym.make(ENV_ID)
     yield e
     e.close()
-
-
-def test_gymnasium_check_env():
-    from gymnasium.utils.env_checker import check_env
-
-    assert not checker_warnings(check_env, gym.make(ENV_ID).unwrapped)
-
-
-def test_sb3_check_env():
-    checker = pytest.importorskip("stable_baselines3.common.env_checker")
-    assert not checker_warnings(checker.check_env, gym.make(ENV_ID), warn=True)
 
 
 def test_many_resets_give_certified_mode_changes(env):

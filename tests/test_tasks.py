@@ -8,7 +8,7 @@ import json
 import gymnasium as gym
 import numpy as np
 import pytest
-from task_helpers import flat, rollout
+from task_helpers import checker_warnings, flat, rollout
 
 import planar3p_gym
 from planar3p_gym.env import Planar3PEnv
@@ -81,6 +81,26 @@ def test_reach_spec_has_the_v0_reset_options():
     assert set(spec) == {"task", *ReachTask.option_keys}
     _, info2 = env.reset(options={k: spec[k] for k in ReachTask.option_keys})
     assert info2["episode_spec"] == spec
+
+
+#: The task ids with a flat (Box) observation, with the make arguments that select a variant.
+FLAT_TASK_IDS = [
+    ("Planar3PModeChange-v0", {}),
+    ("Planar3PAssemblyChange-v0", {}),
+    (planar3p_gym.TRACK_ENV_ID, {"reference": "segments"}),
+    (planar3p_gym.TRACK_ENV_ID, {"reference": "figure_eight"}),
+]
+
+
+@pytest.mark.parametrize(("env_id", "kwargs"), FLAT_TASK_IDS, ids=lambda v: str(v or ""))
+def test_env_checkers_pass_without_warnings(env_id, kwargs):
+    """Gymnasium's and SB3's env checkers on every flat-observation task id (the goal ids:
+    tests/test_goal_env.py)."""
+    from gymnasium.utils.env_checker import check_env
+
+    sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")
+    assert not checker_warnings(check_env, gym.make(env_id, **kwargs).unwrapped)
+    assert not checker_warnings(sb3_checker.check_env, gym.make(env_id, **kwargs), warn=True)
 
 
 class _HoldTask(ReachTask):
