@@ -23,6 +23,7 @@ import planar3p_gym  # noqa: F401  (registers the ids)
 from agents.analytic import AnalyticController
 from agents.crossing import CrossingController, crossing_fidelity
 from agents.planner import BaseObservation, JointPathPlanner
+from agents.statistics import success_interval
 
 __all__ = [
     "BASELINES",
@@ -32,7 +33,6 @@ __all__ = [
     "run_fidelity",
     "run_reach_fidelity",
     "verification_rate",
-    "wilson",
 ]
 
 #: Baseline policy names per id.
@@ -54,17 +54,6 @@ def make_baseline(name: str, env: Any) -> Any:
     raise ValueError(f"unknown baseline {name!r}; known: planner, crossing, analytic-simultaneous")
 
 
-def wilson(successes: int, n: int, z: float = 1.959964) -> tuple[float, float]:
-    """95 % Wilson score interval of a success rate (fractions)."""
-    if n == 0:
-        return math.nan, math.nan
-    p = successes / n
-    den = 1.0 + z * z / n
-    mid = (p + z * z / (2 * n)) / den
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
-    return max(0.0, mid - half), min(1.0, mid + half)
-
-
 @dataclass
 class TaskResult:
     """Outcome of one policy on one id's episodes."""
@@ -79,7 +68,7 @@ class TaskResult:
     reasons: Counter = field(default_factory=Counter)
 
     def row(self) -> str:
-        lo, hi = wilson(self.successes, self.episodes)
+        lo, hi = success_interval(self.successes, self.episodes)
         t = float(np.median(self.times)) if self.times else math.nan
         return (
             f"| {self.env_id} | {self.policy} | {self.episodes} | "

@@ -10,7 +10,7 @@ from task_helpers import play_episode
 import planar3p_gym  # noqa: F401
 from agents.crossing import CrossingController
 from agents.planner import BaseObservation, JointPathPlanner
-from agents.task_baselines import make_baseline, run_baselines, wilson
+from agents.task_baselines import make_baseline, run_baselines
 
 
 def _play(env, policy, seed):
@@ -64,13 +64,6 @@ def test_bad_input():
     with pytest.raises(ValueError, match="speed_fraction"):
         JointPathPlanner(speed_fraction=0.0)
     assert isinstance(make_baseline("analytic-simultaneous", env), BaseObservation)
-
-
-def test_wilson_interval():
-    lo, hi = wilson(50, 50)
-    assert abs(hi - 1.0) < 1e-12 and abs(lo - 0.9287) < 1e-3  # 50/50: [92.9, 100] %
-    lo, hi = wilson(0, 50)
-    assert lo == 0.0 and abs(hi - 0.0713) < 1e-3
 
 
 def test_verification_rate_on_the_horizontal_machine():
