@@ -105,6 +105,18 @@ class Projected(NamedTuple):
     newton_steps: int
 
 
+def _at_stop(
+    travel: float, rate: float, setpoint: float, stroke: float
+) -> tuple[float, float, float]:
+    """A slider found past an end of its stroke: ``(travel, rate, inverse mass)`` put back just
+    into the stop (:data:`STOP_CONTACT`, m) and held (inverse mass 0).  It is at rest while its
+    servo's ``setpoint`` (m) is beyond the stop (pushing into it), else it keeps only its
+    velocity away from the stop (m/s)."""
+    if travel < 0.0:
+        return -STOP_CONTACT, (0.0 if setpoint <= 0.0 else max(rate, 0.0)), 0.0
+    return stroke + STOP_CONTACT, (0.0 if setpoint >= stroke else min(rate, 0.0)), 0.0
+
+
 class LoopProjector:
     """Mass-weighted projection of a simulated 3-PRR state onto its constraint manifold.
 
@@ -166,28 +178,14 @@ class LoopProjector:
         p1, p2, p3 = v[6] - a1, v[24] - a2, v[42] - a3
         d1, d2, d3 = v[9], v[27], v[45]
         if not (0.0 <= p1 <= stroke and 0.0 <= p2 <= stroke and 0.0 <= p3 <= stroke):
-            # A slider past an end stop (rare path): back just into the stop and held; at rest
-            # while its servo's setpoint is beyond the stop (pushing into it), else it keeps
-            # only its velocity away from the stop.
-            pen = STOP_CONTACT
+            # A slider past an end stop (rare path): into the stop and held (the argument
+            # after its rate is its servo's setpoint).
             if p1 < 0.0 or p1 > stroke:
-                s1 = v[12] - a1  # the servo's setpoint
-                if p1 < 0.0:
-                    p1, d1, i1 = -pen, (0.0 if s1 <= 0.0 else max(d1, 0.0)), 0.0
-                else:
-                    p1, d1, i1 = stroke + pen, (0.0 if s1 >= stroke else min(d1, 0.0)), 0.0
+                p1, d1, i1 = _at_stop(p1, d1, v[12] - a1, stroke)
             if p2 < 0.0 or p2 > stroke:
-                s2 = v[30] - a2  # the servo's setpoint
-                if p2 < 0.0:
-                    p2, d2, i2 = -pen, (0.0 if s2 <= 0.0 else max(d2, 0.0)), 0.0
-                else:
-                    p2, d2, i2 = stroke + pen, (0.0 if s2 >= stroke else min(d2, 0.0)), 0.0
+                p2, d2, i2 = _at_stop(p2, d2, v[30] - a2, stroke)
             if p3 < 0.0 or p3 > stroke:
-                s3 = v[48] - a3  # the servo's setpoint
-                if p3 < 0.0:
-                    p3, d3, i3 = -pen, (0.0 if s3 <= 0.0 else max(d3, 0.0)), 0.0
-                else:
-                    p3, d3, i3 = stroke + pen, (0.0 if s3 >= stroke else min(d3, 0.0)), 0.0
+                p3, d3, i3 = _at_stop(p3, d3, v[48] - a3, stroke)
             hold = True
 
         start = (p1, p2, p3, qx, qy, th, c, s)
