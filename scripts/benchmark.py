@@ -76,7 +76,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
     p.add_argument(
         "--suites",
         default=",".join(su.SUITE_NAMES),
-        help=f"comma-separated reach suites among {', '.join(su.SUITE_NAMES)} (Planar3P-v0) "
+        help=f"comma-separated reach suites among {', '.join(su.SUITE_NAMES)} (--reach-env) "
         f"and task suites among {', '.join(TASK_SUITES)}",
     )
     p.add_argument(
@@ -84,6 +84,14 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         type=int,
         default=None,
         help=f"episodes per suite (default {DEFAULT_EPISODES}, {QUICK_EPISODES} with --quick)",
+    )
+    p.add_argument(
+        "--reach-env",
+        default=planar3p_gym.ENV_ID,
+        choices=(planar3p_gym.ENV_ID, planar3p_gym.ENV_ID_V1),
+        help="environment the reach suites are played in: the plain physics of "
+        f"{planar3p_gym.ENV_ID} or the projected physics of {planar3p_gym.ENV_ID_V1} (play a "
+        "policy on the physics it was trained on)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the suites and of the policies")
     p.add_argument("--out", default="results/benchmark", help="output directory")
@@ -163,7 +171,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
     mode = _parse_mode(args.working_mode)
     if not _split(args.policies):
         raise InputError("--policies is empty")
-    env = gym.make(planar3p_gym.ENV_ID)
+    env = gym.make(args.reach_env)
     design = env.unwrapped.design
     try:
         out = bm.check_output_dir(args.out, args.force)

@@ -195,6 +195,24 @@ def test_script_end_to_end(tmp_path, bench, capsys):
     assert first == _csv(out2 / "episodes.csv")
 
 
+def test_script_plays_reach_suites_on_the_projected_physics(tmp_path, bench):
+    """``--reach-env Planar3P-v1``: the same suite (same episodes), played and recorded in the
+    projected physics, where the loop closes to round-off (closure error <= 1e-9 m)."""
+    runs = {}
+    for env_id in ("Planar3P-v0", "Planar3P-v1"):
+        out = tmp_path / env_id
+        args = _quick_args(out, "--suites", "standard", "--policies", "analytic-simultaneous")
+        assert bench.main([*args, "--reach-env", env_id, "--no-plots"]) == 0
+        runs[env_id] = out
+    suites = [json.loads((runs[e] / "suites.json").read_text()) for e in runs]
+    assert suites[0] == suites[1]
+    settings = json.loads((runs["Planar3P-v1"] / "summary.json").read_text())["settings"]
+    assert settings["env"]["projection"] is True
+    rows = _csv(runs["Planar3P-v1"] / "episodes.csv")
+    assert all(r["success"] == "True" for r in rows)
+    assert max(float(r["max_closure_error"]) for r in rows) <= 1e-9
+
+
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
