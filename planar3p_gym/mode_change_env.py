@@ -70,7 +70,9 @@ class Planar3PModeChangeEnv(Planar3PEnv):
     ``reward_weights``, ``task_config``, ``breakdown_threshold``, ``render_mode``,
     ``render_size``, ...), plus ``flips`` (legs to flip, 1 to 3; default 1) and
     ``path_limits`` (:class:`~planar3p_gym.tasks.joint_paths.PathLimits` or a dict of its
-    fields: the certificate's margins).
+    fields: the certificate's margins) and ``travel_shaping`` (weight of an optional reward
+    term ``-w sum_i |rho_i - rho_i^t| / L`` towards the target's slider travels; default 0, no
+    such term; for training, it does not change the success test).
 
     ## Version History
     - v0: initial release.
@@ -82,10 +84,15 @@ class Planar3PModeChangeEnv(Planar3PEnv):
         *,
         flips: int = 1,
         path_limits: PathLimits | dict | None = None,
+        travel_shaping: float = 0.0,
         **kwargs: Any,
     ) -> None:
         if "task" in kwargs:
             raise ValueError("Planar3PModeChangeEnv makes its own task; do not pass task=")
         if isinstance(path_limits, dict):
             path_limits = PathLimits(**path_limits)
-        super().__init__(design, task=ModeChangeTask(flips=flips, limits=path_limits), **kwargs)
+        super().__init__(
+            design,
+            task=ModeChangeTask(flips=flips, limits=path_limits, travel_shaping=travel_shaping),
+            **kwargs,
+        )

@@ -46,7 +46,12 @@ target mode).  Success: the reach test (pose within tolerances, at rest) and ``i
 
 Reward: the reach reward's terms (:mod:`planar3p_gym.rewards`) except that the serial-margin
 barrier is left out (the task requires passing a serial singularity; the parallel-margin
-barrier stays).
+barrier stays).  With ``travel_shaping = w > 0`` a term ``travel = -w * sum_i |rho_i -
+rho_i^t| / L`` (``rho^t`` the target's travels in ``sigma_t``, ``L`` the design's
+characteristic length) is added: the pose error alone pulls towards the target pose in the
+*current* working mode, the travel term towards the travels that put the leg in ``sigma_t``.
+It changes only the reward (the success test is the same); the default 0 leaves the id's
+reward as documented above.
 """
 
 from __future__ import annotations
@@ -58,7 +63,10 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .. import kinematics, task
+from ..checks import as_finite_float as finite_number
 from ..physics import SimState
+from ..rewards import MAX_WEIGHT
+from ..scalar_kinematics import ConfigurationMeasures
 from .base import ModeTriple, Pose, Task, mode_option, pose_list
 from .joint_paths import JointPath, PathLimits, find_joint_path
 
@@ -94,6 +102,8 @@ class ModeChangeTask(Task):
         limits: :class:`~planar3p_gym.tasks.joint_paths.PathLimits` of the feasibility
             certificate.
         pair_tries: certificate attempts per start pose before another start is drawn.
+        travel_shaping: weight ``w >= 0`` of the travel term of the reward (dimensionless, per
+            step; 0: no such term).
     """
 
     name: ClassVar[str] = "mode_change"
@@ -112,7 +122,11 @@ class ModeChangeTask(Task):
     serial_barrier: ClassVar[bool] = False
 
     def __init__(
-        self, flips: int = 1, limits: PathLimits | None = None, pair_tries: int = 8
+        self,
+        flips: int = 1,
+        limits: PathLimits | None = None,
+        pair_tries: int = 8,
+        travel_shaping: float = 0.0,
     ) -> None:
         if not (isinstance(flips, int) and not isinstance(flips, bool) and 1 <= flips <= 3):
             raise ValueError(f"flips must be 1, 2 or 3 (legs to flip), got {flips!r}")
@@ -120,19 +134,30 @@ class ModeChangeTask(Task):
             raise ValueError(f"pair_tries must be an int >= 1, got {pair_tries!r}")
         if limits is not None and not isinstance(limits, PathLimits):
             raise ValueError(f"limits must be a PathLimits, got {limits!r}")
+        shaping = finite_number(travel_shaping)
+        if shaping is None or not 0.0 <= shaping <= MAX_WEIGHT:
+            raise ValueError(
+                f"travel_shaping must be a finite number in [0, {MAX_WEIGHT:g}], got "
+                f"{travel_shaping!r}"
+            )
         self.flips = flips
         self.limits = limits or PathLimits()
         self.pair_tries = pair_tries
+        self.travel_shaping = shaping
 
     # ------------------------------------------------------------------ set-up
     def arguments(self) -> dict[str, Any]:
-        return {"flips": self.flips, "limits": asdict(self.limits), "pair_tries": self.pair_tries}
+        out = {"flips": self.flips, "limits": asdict(self.limits), "pair_tries": self.pair_tries}
+        if self.travel_shaping:
+            out["travel_shaping"] = self.travel_shaping
+        return out
 
     def bind(self, env: Any) -> None:
         super().bind(env)
         self._target: Pose = (0.0, 0.0, 0.0)
         self._target_mode: ModeTriple = (1, 1, 1)
         self._target_rho: tuple[float, float, float] = (0.0, 0.0, 0.0)
+        self._rho: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._checked: dict[tuple[ModeTriple, ModeTriple], bool] = {}
         self.pairs = self._viable_pairs()
         if not self.pairs:
@@ -341,7 +366,10 @@ class ModeChangeTask(Task):
         rho = kinematics.inverse(self.env.design, self._target, self._target_mode).rho
         self._target_rho = (float(rho[0]), float(rho[1]), float(rho[2]))
         mode = mode_option(spec["working_mode"], "working_mode")
-        return np.asarray(spec["start"], dtype=np.float64), mode
+        start = np.asarray(spec["start"], dtype=np.float64)
+        rho0 = kinematics.inverse(self.env.design, start, mode).rho
+        self._rho = (float(rho0[0]), float(rho0[1]), float(rho0[2]))
+        return start, mode
 
     # ------------------------------------------------------------------ per step
     def reference(self, step: int) -> Pose:
@@ -352,6 +380,24 @@ class ModeChangeTask(Task):
 
     def observation_extra(self, step: int) -> list[float]:
         return [*self._target_rho, *(float(m) for m in self._target_mode)]
+
+    def termination(
+        self,
+        state: SimState,
+        measures: ConfigurationMeasures,
+        errors: tuple[float, float],
+        assembly: int,
+    ) -> str | None:
+        self._rho = state.rho  # for the travel term of this step's reward
+        return super().termination(state, measures, errors, assembly)
+
+    def reward_terms(self, **kwargs: Any) -> dict[str, float]:
+        terms = super().reward_terms(**kwargs)
+        if self.travel_shaping:
+            distance = sum(abs(a - b) for a, b in zip(self._rho, self._target_rho, strict=True))
+            length = self.env.design.characteristic_length
+            terms["travel"] = -self.travel_shaping * distance / length
+        return terms
 
     def is_success(self, state: SimState, errors: tuple[float, float]) -> bool:
         return super().is_success(state, errors) and leg_modes(state.leg_angles) == (
