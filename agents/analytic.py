@@ -41,6 +41,8 @@ from numpy.typing import ArrayLike, NDArray
 from planar3p_gym.design import Design
 from planar3p_gym.observation import OBS_SIZE, SLICES
 
+from .policy_base import BatchPolicy
+
 __all__ = [
     "MODES",
     "PHASES",
@@ -87,7 +89,7 @@ def simple_motion_basis(
     return horizontal, np.broadcast_to(vertical, horizontal.shape), rotation
 
 
-class AnalyticController:
+class AnalyticController(BatchPolicy):
     """Simple-motion controller with the calling convention of an SB3 policy.
 
     Args:
@@ -184,52 +186,36 @@ class AnalyticController:
         """Forget the remembered phases (a new episode starts in the rotation phase)."""
         self._phase = None
 
-    def predict(
-        self,
-        observation: ArrayLike,
-        state: Any = None,
-        episode_start: ArrayLike | None = None,
-        deterministic: bool = True,
+    def act(
+        self, obs: FloatArray, state: Any, starts: NDArray[np.bool_], deterministic: bool
     ) -> tuple[np.ndarray, Any]:
-        """Action(s) for observation(s) ``(31,)`` or ``(n, 31)``.
+        """Actions for the batch ``obs`` ``(n, obs_size)`` (through :meth:`predict`).
 
         ``state`` is the phase index per environment (sequential mode; ``None`` for the
         simultaneous mode, like an SB3 feed-forward policy).  If ``state`` is ``None`` the
         controller uses the phases it remembers from its last call (same batch size), so a
-        plain loop that ignores the returned state still works.  ``episode_start`` (bool per
-        environment) resets the phase of the environments that start a new episode.
+        plain loop that ignores the returned state still works.  ``starts`` (SB3's
+        ``episode_start``) resets the phase of the environments that start a new episode.
         ``deterministic`` is accepted for compatibility (the controller is deterministic).
         """
-        obs = np.asarray(observation, dtype=np.float64)
-        single = obs.ndim == 1
-        obs2 = obs[None, :] if single else obs
-        size = self.obs_size
-        if obs2.ndim != 2 or obs2.shape[1] != size:
-            raise ValueError(
-                f"observation must have shape ({size},) or (n, {size}), got {obs.shape}"
-            )
-        n = obs2.shape[0]
+        n = obs.shape[0]
         # A non-finite reading (a sensor fault) must not propagate into the command.
-        obs2 = np.nan_to_num(obs2, nan=0.0, posinf=0.0, neginf=0.0)
-        phase = self._phases(state, episode_start, n)
+        obs2 = np.nan_to_num(obs, nan=0.0, posinf=0.0, neginf=0.0)
+        phase = self._phases(state, starts, n)
         rates, phase = self._rates(obs2, phase)
         action = np.clip(rates / self.design.max_speed, -1.0, 1.0)
         action = np.where(np.isfinite(action), action, 0.0).astype(np.float32)
         if self.mode == "sequential":
             self._phase = phase.copy()
-            new_state: Any = phase.copy()
-        else:
-            new_state = None
-        if single:
-            return action[0], new_state
-        return action, new_state
+            return action, phase.copy()
+        return action, None
 
     def __call__(self, observation: ArrayLike) -> np.ndarray:
         """The action for ``observation`` (stateless use; the sequential phase is remembered)."""
         return self.predict(observation)[0]
 
     # ------------------------------------------------------------------ internals
-    def _phases(self, state: Any, episode_start: ArrayLike | None, n: int) -> NDArray[np.int64]:
+    def _phases(self, state: Any, starts: NDArray[np.bool_], n: int) -> NDArray[np.int64]:
         if self.mode != "sequential":
             return np.zeros(n, dtype=np.int64)
         if state is not None:
@@ -241,13 +227,7 @@ class AnalyticController:
         else:
             phase = np.zeros(n, dtype=np.int64)
         phase = np.clip(phase, ROTATE, HORIZONTAL)
-        if episode_start is not None:
-            starts = np.asarray(episode_start, dtype=bool).reshape(-1)
-            if starts.size == 1:
-                starts = np.full(n, bool(starts[0]))
-            if starts.shape != (n,):
-                raise ValueError(f"episode_start must hold one flag per observation ({n})")
-            phase[starts] = ROTATE
+        phase[starts] = ROTATE
         return phase
 
     def _rates(

@@ -1,7 +1,7 @@
 """Floor references: a uniformly random policy and a zero (do-nothing) policy.
 
-Both follow Stable-Baselines3's ``predict`` convention and accept single observations
-``(obs_dim,)`` or batches ``(n, obs_dim)``.
+Both follow Stable-Baselines3's ``predict`` convention (:class:`agents.policy_base.BatchPolicy`)
+and accept single observations ``(obs_dim,)`` or batches ``(n, obs_dim)`` of any length.
 """
 
 from __future__ import annotations
@@ -9,19 +9,14 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import NDArray
+
+from .policy_base import BatchPolicy
 
 __all__ = ["RandomPolicy", "ZeroPolicy"]
 
 
-def _batch(observation: ArrayLike) -> tuple[int, bool]:
-    obs = np.asarray(observation)
-    if obs.ndim not in (1, 2):
-        raise ValueError(f"observation must have shape (d,) or (n, d), got {obs.shape}")
-    return (1, True) if obs.ndim == 1 else (obs.shape[0], False)
-
-
-class RandomPolicy:
+class RandomPolicy(BatchPolicy):
     """Actions drawn uniformly from ``[low, high]`` (default the ``Box(-1, 1, (3,))`` actions).
 
     Reproducible: every number comes from its own ``numpy`` generator, seeded by ``seed`` and
@@ -48,32 +43,22 @@ class RandomPolicy:
         """Re-seed the generator."""
         self.rng = np.random.default_rng(seed)
 
-    def predict(
-        self,
-        observation: ArrayLike,
-        state: Any = None,
-        episode_start: ArrayLike | None = None,
-        deterministic: bool = True,
+    def act(
+        self, obs: NDArray[np.float64], state: Any, starts: NDArray[np.bool_], deterministic: bool
     ) -> tuple[np.ndarray, Any]:
-        n, single = _batch(observation)
-        action = self.rng.uniform(self.low, self.high, size=(n, *self.low.shape))
-        action = action.astype(np.float32)
-        return (action[0] if single else action), None
+        """Uniform actions, one row per observation."""
+        action = self.rng.uniform(self.low, self.high, size=(obs.shape[0], *self.low.shape))
+        return action.astype(np.float32), None
 
 
-class ZeroPolicy:
+class ZeroPolicy(BatchPolicy):
     """Always commands zero slider velocity: the machine holds still (against gravity)."""
 
     def __init__(self, action_dim: int = 3) -> None:
         self.action_dim = int(action_dim)
 
-    def predict(
-        self,
-        observation: ArrayLike,
-        state: Any = None,
-        episode_start: ArrayLike | None = None,
-        deterministic: bool = True,
+    def act(
+        self, obs: NDArray[np.float64], state: Any, starts: NDArray[np.bool_], deterministic: bool
     ) -> tuple[np.ndarray, Any]:
-        n, single = _batch(observation)
-        action = np.zeros((n, self.action_dim), dtype=np.float32)
-        return (action[0] if single else action), None
+        """Zeros, one row per observation."""
+        return np.zeros((obs.shape[0], self.action_dim), dtype=np.float32), None

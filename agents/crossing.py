@@ -6,8 +6,8 @@ the path crosses ``det A = 0``), turns it into slider travels with the exact inv
 of the working mode (smooth and finite through the parallel singularity: only ``A`` loses rank
 there, not ``B``), and follows those travels with a minimum-jerk time law at up to the full
 slider speed (feed-forward rates plus a proportional correction of the travel error):
-:func:`planar3p_gym.tasks.assembly_change.demonstration_travels` and
-:class:`~planar3p_gym.tasks.assembly_change.TravelCurve`, the motion the task's sampler
+:func:`planar3p_gym.tasks.travel_motion.demonstration_travels` and
+:class:`~planar3p_gym.tasks.travel_motion.TravelCurve`, the motion the task's sampler
 verifies in simulation.  Near the singularity the servos saturate and the platform passes the
 singular pose on its momentum, onto the other branch of the direct kinematics, which the
 travel references then lead to the target.  Once the references have arrived, the paper's
@@ -24,23 +24,17 @@ import math
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import NDArray
 
-from agents.analytic import AnalyticController
-from agents.planner import (
-    check_follower_arguments,
-    episode_starts,
-    observation_batch,
-    observed_configuration,
-)
+from agents.travel_follower import TravelFollower, observed_configuration
 from planar3p_gym.design import Design
-from planar3p_gym.observation import OBS_SIZE, SLICES
-from planar3p_gym.tasks.assembly_change import TravelCurve, demonstration_travels
+from planar3p_gym.observation import SLICES
+from planar3p_gym.tasks.travel_motion import TravelCurve, demonstration_travels
 
 __all__ = ["CROSSING_MARGIN", "CrossingController", "crossing_fidelity", "mechanical_energy"]
 
 
-class CrossingController:
+class CrossingController(TravelFollower):
     """Travel-space motion through the parallel singularity, then simple motions.
 
     Args:
@@ -58,14 +52,12 @@ class CrossingController:
         speed_fraction: float = 1.0,
         travel_gain: float = 10.0,
     ) -> None:
-        self.design = design if design is not None else Design.fig8(gravity=0.0)
-        check_follower_arguments(self.design, dt, speed_fraction, travel_gain)
-        self.dt = float(dt)
-        self.speed_fraction = float(speed_fraction)
-        self.travel_gain = float(travel_gain)
-        self.finisher = AnalyticController(self.design, "simultaneous")
-        self._curves: list[TravelCurve | None] = []
-        self._times: list[float] = []
+        super().__init__(
+            design if design is not None else Design.fig8(gravity=0.0),
+            dt=dt,
+            speed_fraction=speed_fraction,
+            travel_gain=travel_gain,
+        )
 
     @classmethod
     def from_env(cls, env: Any, **kwargs: Any) -> CrossingController:
@@ -78,52 +70,24 @@ class CrossingController:
             kwargs.setdefault("travel_gain", limits.travel_gain)
         return cls(base.design, dt=base.dt, **kwargs)
 
-    def reset(self, seed: int | None = None) -> None:
-        """Forget the plans (the next observation starts a new episode)."""
-        self._curves, self._times = [], []
-
-    def predict(
-        self,
-        observation: ArrayLike,
-        state: Any = None,
-        episode_start: ArrayLike | None = None,
-        deterministic: bool = True,
-    ) -> tuple[np.ndarray, Any]:
-        """Action(s) in ``[-1, 1]`` for observation(s) (at least the 31 base entries)."""
-        obs2, single = observation_batch(
-            observation, OBS_SIZE, f"(m,) or (n, m) with m >= {OBS_SIZE}"
+    def plan(self, i: int, obs: NDArray[np.float64]) -> TravelCurve:
+        """The demonstration's travel curve from ``obs`` to its target."""
+        cfg = observed_configuration(obs)
+        travels = demonstration_travels(
+            self.design, cfg["rho"], cfg["pose"], cfg["target"], cfg["mode"]
         )
-        n = obs2.shape[0]
-        if len(self._curves) != n:
-            self._curves, self._times = [None] * n, [0.0] * n
-        starts = episode_starts(episode_start, n)
+        return TravelCurve(travels, self.speed_fraction * self.design.max_speed)
+
+    def follow(
+        self, plan: TravelCurve, t: float, obs: NDArray[np.float64]
+    ) -> NDArray[np.float64] | None:
+        """The curve's command one period ahead (until one period after it ends), over
+        ``max_speed``."""
+        t = t + self.dt
+        if t > plan.duration + self.dt:
+            return None
         vmax = self.design.max_speed
-        actions = np.zeros((n, 3), dtype=np.float32)
-        for i in range(n):
-            o = np.nan_to_num(obs2[i], nan=0.0, posinf=0.0, neginf=0.0)
-            if starts[i] or self._curves[i] is None:
-                cfg = observed_configuration(o)
-                travels = demonstration_travels(
-                    self.design, cfg["rho"], cfg["pose"], cfg["target"], cfg["mode"]
-                )
-                self._curves[i] = TravelCurve(travels, self.speed_fraction * vmax)
-                self._times[i] = 0.0
-            curve = self._curves[i]
-            assert curve is not None
-            t = self._times[i] + self.dt
-            self._times[i] = t
-            if t > curve.duration + self.dt:
-                actions[i] = self.finisher.predict(o[:OBS_SIZE])[0]
-                continue
-            cmd = curve.command(t, o[SLICES["rho"]], self.travel_gain, vmax)
-            actions[i] = cmd / vmax
-        return (actions[0] if single else actions), None
-
-    def __repr__(self) -> str:
-        return (
-            f"CrossingController(speed_fraction={self.speed_fraction}, "
-            f"travel_gain={self.travel_gain})"
-        )
+        return plan.command(t, obs[SLICES["rho"]], self.travel_gain, vmax) / vmax
 
 
 # ---------------------------------------------------------------------------- fidelity study

@@ -5,15 +5,17 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 from numpy.typing import ArrayLike
 
 from agents.analytic import AnalyticController
+from agents.policy_base import PolicyAdapter
 from planar3p_gym.goal_env import flat_observation
 
 __all__ = ["GoalAdapter", "goal_baseline"]
 
 
-class GoalAdapter:
+class GoalAdapter(PolicyAdapter):
     """SB3-style ``predict`` on ``Dict`` goal observations, by rebuilding the 31-entry flat
     observation (:func:`planar3p_gym.goal_env.flat_observation`) and calling ``policy``.
 
@@ -25,11 +27,9 @@ class GoalAdapter:
     """
 
     def __init__(self, policy: Any, length: float) -> None:
-        if not callable(getattr(policy, "predict", None)):
-            raise ValueError(f"policy must have a predict method, got {policy!r}")
+        super().__init__(policy)
         if not length > 0:
             raise ValueError(f"length must be > 0 (m), got {length!r}")
-        self.policy = policy
         self.length = float(length)
 
     @classmethod
@@ -38,27 +38,14 @@ class GoalAdapter:
         design = env.unwrapped.design
         return cls(AnalyticController(design, mode, **kwargs), design.characteristic_length)
 
-    def reset(self) -> None:
-        """Reset the wrapped policy's memory, if it has one."""
-        if callable(getattr(self.policy, "reset", None)):
-            self.policy.reset()
-
-    def predict(
-        self,
-        observation: dict[str, ArrayLike],
-        state: Any = None,
-        episode_start: ArrayLike | None = None,
-        deterministic: bool = True,
-    ) -> tuple[Any, Any]:
-        """Action(s) for a goal observation (single or batched ``Dict`` entries)."""
+    def adapt(self, observation: dict[str, ArrayLike]) -> np.ndarray:
+        """The flat observation(s) of a goal observation (single or batched ``Dict``
+        entries)."""
         if not isinstance(observation, dict) or not {"observation", "desired_goal"} <= set(
             observation
         ):
             raise ValueError("observation must be a goal env's dict (observation, desired_goal)")
-        flat = flat_observation(observation, self.length)
-        return self.policy.predict(
-            flat, state=state, episode_start=episode_start, deterministic=deterministic
-        )
+        return flat_observation(observation, self.length)
 
 
 def goal_baseline(env_id: str, episodes: int, seed: int) -> dict[str, float]:
@@ -66,7 +53,6 @@ def goal_baseline(env_id: str, episodes: int, seed: int) -> dict[str, float]:
     controller (through :class:`GoalAdapter`) on a goal id, over ``episodes`` episodes
     (reset with ``seed`` once, then unseeded)."""
     import gymnasium as gym
-    import numpy as np
 
     if not (isinstance(episodes, int) and episodes >= 1):
         raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")

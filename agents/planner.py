@@ -18,103 +18,32 @@ episode is recognised by ``episode_start`` (as SB3's evaluation loops pass it) o
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from agents.analytic import AnalyticController
+from agents.policy_base import PolicyAdapter
+from agents.travel_follower import TravelFollower, observed_configuration
 from planar3p_gym.design import Design
 from planar3p_gym.observation import OBS_SIZE, SLICES
 from planar3p_gym.tasks.joint_paths import PathLimits, find_joint_path
+from planar3p_gym.tasks.travel_motion import minimum_jerk
 
-__all__ = [
-    "BaseObservation",
-    "JointPathPlanner",
-    "check_follower_arguments",
-    "episode_starts",
-    "observation_batch",
-    "observed_configuration",
-]
+__all__ = ["BaseObservation", "JointPathPlanner"]
 
 #: Index of the target travels and target working mode in the mode-change observation.
 TARGET_TRAVELS = slice(OBS_SIZE, OBS_SIZE + 3)
 TARGET_MODE = slice(OBS_SIZE + 3, OBS_SIZE + 6)
 
 
-def observed_configuration(obs: ArrayLike) -> dict[str, NDArray[np.float64]]:
-    """Travels ``rho`` (m), pose (m, m, rad), working mode (``sign cos alpha_i``) and target
-    pose read from a flat observation (at least the 31 ``Planar3P-v0`` entries)."""
-    o = np.asarray(obs, dtype=np.float64)
-    pos, ori = o[SLICES["position"]], o[SLICES["orientation"]]
-    tpos, tori = o[SLICES["target_position"]], o[SLICES["target_orientation"]]
-    cos_a = o[SLICES["legs"]][0::2]
-    return {
-        "rho": o[SLICES["rho"]].copy(),
-        "pose": np.array([pos[0], pos[1], math.atan2(ori[1], ori[0])]),
-        "mode": np.where(cos_a >= 0.0, 1.0, -1.0),
-        "target": np.array([tpos[0], tpos[1], math.atan2(tori[1], tori[0])]),
-    }
-
-
-def check_follower_arguments(
-    design: Any, dt: float, speed_fraction: float, travel_gain: float
-) -> None:
-    """``ValueError`` unless ``design`` is a :class:`~planar3p_gym.design.Design`, ``dt`` (s)
-    and ``travel_gain`` (1/s) are finite and > 0 and ``speed_fraction`` is in ``(0, 1]`` (the
-    arguments of the travel-following baselines)."""
-    if not isinstance(design, Design):
-        raise ValueError(f"design must be a planar3p_gym.Design, got {type(design).__name__}")
-    for name, value in (("dt", dt), ("travel_gain", travel_gain)):
-        if not (math.isfinite(value) and value > 0):
-            raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-    if not 0 < speed_fraction <= 1:
-        raise ValueError(f"speed_fraction must be in (0, 1], got {speed_fraction!r}")
-
-
-def observation_batch(
-    observation: ArrayLike, min_size: int, expected: str
-) -> tuple[NDArray[np.float64], bool]:
-    """``observation`` as a float64 batch ``(n, m)`` and whether it was a single ``(m,)`` one;
-    ``ValueError`` ("observation must have shape ``expected``, got ...") unless ``m >=
-    min_size``."""
-    obs = np.asarray(observation, dtype=np.float64)
-    single = obs.ndim == 1
-    obs2 = obs[None, :] if single else obs
-    if obs2.ndim != 2 or obs2.shape[1] < min_size:
-        raise ValueError(f"observation must have shape {expected}, got {obs.shape}")
-    return obs2, single
-
-
-def episode_starts(episode_start: ArrayLike | None, n: int) -> NDArray[np.bool_]:
-    """SB3's ``episode_start`` as one bool per environment (``None``: no new episode)."""
-    if episode_start is None:
-        return np.zeros(n, dtype=bool)
-    return np.broadcast_to(np.asarray(episode_start, dtype=bool).reshape(-1), (n,))
-
-
-class BaseObservation:
+class BaseObservation(PolicyAdapter):
     """``policy`` (SB3-style ``predict`` on the 31-entry observation) applied to the first 31
     entries of a longer observation."""
 
-    def __init__(self, policy: Any) -> None:
-        self.policy = policy
-
-    def reset(self, seed: int | None = None) -> None:
-        """Reset the wrapped policy if it can be reset."""
-        if hasattr(self.policy, "reset"):
-            self.policy.reset()
-
-    def predict(
-        self,
-        observation: ArrayLike,
-        state: Any = None,
-        episode_start: ArrayLike | None = None,
-        deterministic: bool = True,
-    ) -> tuple[np.ndarray, Any]:
-        obs = np.asarray(observation)
-        return self.policy.predict(obs[..., :OBS_SIZE], state, episode_start, deterministic)
+    def adapt(self, observation: Any) -> np.ndarray:
+        """The first 31 entries of each observation."""
+        return np.asarray(observation)[..., :OBS_SIZE]
 
 
 class _Plan:
@@ -137,15 +66,12 @@ class _Plan:
             return self.travels[-1], np.zeros(3)
         k = int(np.searchsorted(self.ends, t, side="right"))
         t0 = self.ends[k] - self.durations[k]
-        T = self.durations[k]
-        u = min(max((t - t0) / T, 0.0), 1.0)
-        s = u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
-        s_dot = 30.0 * u * u * (1.0 - u) ** 2 / T
+        s, s_dot = minimum_jerk(t - t0, self.durations[k])
         a, b = self.travels[k], self.travels[k + 1]
         return a + s * (b - a), s_dot * (b - a)
 
 
-class JointPathPlanner:
+class JointPathPlanner(TravelFollower):
     """Travel-space planner through the leg's upright position, then simple motions.
 
     Args:
@@ -160,6 +86,9 @@ class JointPathPlanner:
     observation).  If no certified path exists from there, the straight travel line is used.
     """
 
+    obs_size = OBS_SIZE + 6
+    obs_expected = f"({OBS_SIZE + 6},) or (n, {OBS_SIZE + 6}) (the mode-change observation)"
+
     def __init__(
         self,
         design: Design | None = None,
@@ -169,17 +98,13 @@ class JointPathPlanner:
         travel_gain: float = 10.0,
         limits: PathLimits | None = None,
     ) -> None:
-        self.design = design if design is not None else Design.fig8()
-        check_follower_arguments(self.design, dt, speed_fraction, travel_gain)
-        self.dt = float(dt)
-        self.speed_fraction = float(speed_fraction)
-        self.travel_gain = float(travel_gain)
+        super().__init__(
+            design if design is not None else Design.fig8(),
+            dt=dt,
+            speed_fraction=speed_fraction,
+            travel_gain=travel_gain,
+        )
         self.limits = limits or PathLimits()
-        self.finisher = AnalyticController(self.design, "simultaneous")
-        self._plans: list[_Plan | None] = []
-        self._times: list[float] = []
-        #: Whether the last plan of each environment was certified (``find_joint_path``).
-        self.certified: list[bool] = []
 
     @classmethod
     def from_env(cls, env: Any, **kwargs: Any) -> JointPathPlanner:
@@ -187,11 +112,15 @@ class JointPathPlanner:
         base = env.unwrapped
         return cls(base.design, dt=base.dt, **kwargs)
 
-    def reset(self, seed: int | None = None) -> None:
-        """Forget the plans (the next observation starts a new episode)."""
-        self._plans, self._times, self.certified = [], [], []
+    def new_batch(self, n: int) -> None:
+        """No plan yet for ``n`` environments (none certified)."""
+        super().new_batch(n)
+        #: Whether the last plan of each environment was certified (``find_joint_path``).
+        self.certified: list[bool] = [False] * n
 
-    def _plan(self, obs: NDArray[np.float64]) -> tuple[_Plan, bool]:
+    def plan(self, i: int, obs: NDArray[np.float64]) -> _Plan:
+        """The certified travel path from ``obs`` to its target (the straight travel line if
+        none exists)."""
         cfg = observed_configuration(obs)
         target_mode = np.where(obs[TARGET_MODE] >= 0.0, 1.0, -1.0)
         path, _ = find_joint_path(
@@ -200,51 +129,15 @@ class JointPathPlanner:
         if path is not None:
             travels = path.travels.copy()
             travels[0] = cfg["rho"]
-            certified = True
         else:
             travels = np.stack([cfg["rho"], obs[TARGET_TRAVELS].astype(np.float64)])
-            certified = False
-        return _Plan(travels, self.speed_fraction * self.design.max_speed), certified
+        self.certified[i] = path is not None
+        return _Plan(travels, self.speed_fraction * self.design.max_speed)
 
-    def predict(
-        self,
-        observation: ArrayLike,
-        state: Any = None,
-        episode_start: ArrayLike | None = None,
-        deterministic: bool = True,
-    ) -> tuple[np.ndarray, Any]:
-        """Action(s) in ``[-1, 1]`` for observation(s) ``(37,)`` or ``(n, 37)``."""
-        size = OBS_SIZE + 6
-        obs2, single = observation_batch(
-            observation, size, f"({size},) or (n, {size}) (the mode-change observation)"
-        )
-        n = obs2.shape[0]
-        # a new batch size starts every plan afresh (they are all None)
-        if len(self._plans) != n:
-            self._plans, self._times, self.certified = [None] * n, [0.0] * n, [False] * n
-        starts = episode_starts(episode_start, n)
-        vmax = self.design.max_speed
-        actions = np.zeros((n, 3), dtype=np.float32)
-        for i in range(n):
-            o = np.nan_to_num(obs2[i], nan=0.0, posinf=0.0, neginf=0.0)
-            if starts[i] or self._plans[i] is None:
-                self._plans[i], self.certified[i] = self._plan(o)
-                self._times[i] = 0.0
-            plan = self._plans[i]
-            assert plan is not None
-            t = self._times[i]
-            self._times[i] = t + self.dt
-            if t >= plan.duration:
-                actions[i] = self.finisher.predict(o[:OBS_SIZE])[0]
-                continue
-            ref, rate = plan.reference(t + self.dt)
-            rho = o[SLICES["rho"]]
-            cmd = rate + self.travel_gain * (ref - rho)
-            actions[i] = np.clip(cmd / vmax, -1.0, 1.0)
-        return (actions[0] if single else actions), None
-
-    def __repr__(self) -> str:
-        return (
-            f"JointPathPlanner(speed_fraction={self.speed_fraction}, "
-            f"travel_gain={self.travel_gain})"
-        )
+    def follow(self, plan: _Plan, t: float, obs: NDArray[np.float64]) -> NDArray[np.float64] | None:
+        """Reference rate one period ahead plus the travel-error correction, in ``[-1, 1]``."""
+        if t >= plan.duration:
+            return None
+        ref, rate = plan.reference(t + self.dt)
+        cmd = rate + self.travel_gain * (ref - obs[SLICES["rho"]])
+        return np.clip(cmd / self.design.max_speed, -1.0, 1.0)

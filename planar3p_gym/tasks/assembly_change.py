@@ -57,27 +57,33 @@ within tolerances, at rest) in the target's assembly mode.
 
 Reward: the reach reward's terms except the parallel-margin barrier (the task is to pass the
 parallel singularity; the serial-margin barrier stays).
+
+This module holds the task; the feasibility checks are in
+:mod:`planar3p_gym.tasks.crossing_checks`, the demonstration motion in
+:mod:`planar3p_gym.tasks.travel_motion` and the gravity analysis in
+:mod:`planar3p_gym.tasks.singular_gravity` (their names are re-exported here).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from typing import Any, ClassVar
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
 
 from .. import kinematics, task
-from ..design import Design
 from ..physics import Planar3PSim, SimState
 from ..scalar_kinematics import ConfigurationMeasures, ScalarKinematics
 from .base import ModeTriple, Pose, Task, mode_option, pose_list
+from .crossing_checks import CrossingLimits, SimFactory, crossing_path, verify_crossing
+from .singular_gravity import gravity_alignment
+from .travel_motion import TravelCurve, demonstration_travels, pose_path_travels
 
 __all__ = [
     "AssemblyChangeTask",
     "CrossingLimits",
+    "SimFactory",
     "TravelCurve",
     "crossing_path",
     "demonstration_travels",
@@ -86,7 +92,6 @@ __all__ = [
     "verify_crossing",
 ]
 
-FloatArray = NDArray[np.float64]
 #: Candidate pairs tried per working mode at construction to show that episodes exist.
 BIND_TRIES = 10
 #: ... drawn from this many independent samplers (fixed seeds 0, 1, ...).
@@ -94,200 +99,6 @@ BIND_SEEDS = 5
 #: Smallest fraction of feasible candidates for a working mode to be used (below it sampling
 #: would be slow and could fail).
 MIN_FEASIBLE_RATE = 0.5
-#: Builds a simulation from a pose and a working mode.
-SimFactory = Callable[[np.ndarray, tuple[int, int, int]], Planar3PSim]
-
-
-@dataclass(frozen=True)
-class CrossingLimits:
-    """Feasibility conditions of an assembly change.
-
-    Attributes:
-        points: poses checked along the straight pose path (>= 2).
-        min_serial_margin: serial margin kept along the path (dimensionless).
-        travel_margin: fraction of the stroke kept free at both ends along the path.
-        verify: simulate the demonstration motion for every sampled pair.
-        speed_fraction: peak slider rate of the demonstration as a fraction of ``max_speed``.
-        travel_gain: proportional gain of the demonstration on the travel error (1/s).
-        verify_tolerance: the demonstration must end within this pose distance
-            ``|(dx, dy, L_ref dtheta)|`` of the target (m).
-    """
-
-    points: int = 48
-    min_serial_margin: float = 0.1
-    travel_margin: float = 0.03
-    verify: bool = True
-    speed_fraction: float = 1.0
-    travel_gain: float = 10.0
-    verify_tolerance: float = 0.01
-
-    def __post_init__(self) -> None:
-        if not (isinstance(self.points, int) and self.points >= 2):
-            raise ValueError(f"CrossingLimits.points must be an int >= 2, got {self.points!r}")
-        if not isinstance(self.verify, bool):
-            raise ValueError(f"CrossingLimits.verify must be a bool, got {self.verify!r}")
-        for name, lo, hi in (
-            ("min_serial_margin", 0.0, 1.0),
-            ("travel_margin", 0.0, 0.5),
-        ):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and lo <= v < hi):
-                raise ValueError(f"CrossingLimits.{name} must be in [{lo}, {hi}), got {v!r}")
-        for name in ("travel_gain", "verify_tolerance"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"CrossingLimits.{name} must be finite and > 0, got {v!r}")
-        if not (isinstance(self.speed_fraction, (int, float)) and 0 < self.speed_fraction <= 1):
-            raise ValueError(
-                f"CrossingLimits.speed_fraction must be in (0, 1], got {self.speed_fraction!r}"
-            )
-
-
-def _straight(start: ArrayLike, target: ArrayLike, points: int) -> FloatArray:
-    s = np.asarray(start, dtype=np.float64)
-    t = np.asarray(target, dtype=np.float64)
-    delta = t - s
-    delta[2] = (delta[2] + math.pi) % (2.0 * math.pi) - math.pi
-    u = np.linspace(0.0, 1.0, points)[:, None]
-    return s + u * delta
-
-
-def pose_path_travels(
-    design: Design, start: ArrayLike, target: ArrayLike, mode: ArrayLike, points: int = 200
-) -> FloatArray:
-    """Travels (m) ``(points, 3)`` along the straight pose path from ``start`` to ``target``
-    (poses, m, m, rad; shortest rotation) in working mode ``mode``; NaN where a leg cannot
-    close.  Smooth through a parallel singularity (only ``A`` loses rank there)."""
-    path = _straight(start, target, points)
-    return kinematics.inverse(design, path, np.asarray(mode, dtype=np.float64)).rho
-
-
-def crossing_path(
-    design: Design, start: ArrayLike, target: ArrayLike, mode: ArrayLike, limits: CrossingLimits
-) -> tuple[bool, str]:
-    """Kinematic condition of an assembly change: ``(ok, reason)``; ``reason`` is ``"ok"``,
-    ``"stroke"`` (a pose of the straight path leaves the stroke or cannot close),
-    ``"serial_margin"`` or ``"crossings"`` (``sign det A`` does not change exactly once)."""
-    path = _straight(start, target, limits.points)
-    m = np.asarray(mode, dtype=np.float64)
-    lo, hi = limits.travel_margin * design.stroke, (1.0 - limits.travel_margin) * design.stroke
-    rho = kinematics.inverse(design, path, m).rho
-    if not (np.isfinite(rho).all() and (rho >= lo).all() and (rho <= hi).all()):
-        return False, "stroke"
-    marg = kinematics.margins(design, path, rho)
-    if float(marg.serial.min()) < limits.min_serial_margin:
-        return False, "serial_margin"
-    signs = marg.assembly.astype(np.int64)
-    if (signs == 0).any() or int(np.count_nonzero(np.diff(signs))) != 1:
-        return False, "crossings"
-    return True, "ok"
-
-
-class TravelCurve:
-    """Minimum-jerk motion along a sampled travel curve ``(n, 3)`` (m), whose peak slider rate
-    is ``peak`` (m/s)."""
-
-    def __init__(self, travels: FloatArray, peak: float) -> None:
-        travels = np.asarray(travels, dtype=np.float64)
-        n = len(travels)
-        if travels.ndim != 2 or travels.shape[1] != 3 or n < 2:
-            raise ValueError(f"travels must have shape (n >= 2, 3), got {travels.shape}")
-        if not (math.isfinite(peak) and peak > 0):
-            raise ValueError(f"peak must be finite and > 0 (m/s), got {peak!r}")
-        self.travels = travels
-        self.slopes = np.gradient(travels, 1.0 / (n - 1), axis=0)  # d rho / d s (m)
-        # the minimum-jerk s(t) peaks at s_dot = 1.875 / T
-        self.duration = max(1.875 * float(np.abs(self.slopes).max()) / peak, 1e-3)
-        self._n = n
-
-    def reference(self, t: float) -> tuple[FloatArray, FloatArray]:
-        """Travels (m) and rates (m/s) of the reference at time ``t`` (s)."""
-        u = min(max(t / self.duration, 0.0), 1.0)
-        s = u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
-        s_dot = 30.0 * u * u * (1.0 - u) ** 2 / self.duration
-        x = s * (self._n - 1)
-        j = min(int(x), self._n - 2)
-        w = x - j
-        rho = (1.0 - w) * self.travels[j] + w * self.travels[j + 1]
-        slope = (1.0 - w) * self.slopes[j] + w * self.slopes[j + 1]
-        return rho, s_dot * slope
-
-    def command(self, t: float, rho: ArrayLike, gain: float, max_speed: float) -> FloatArray:
-        """Slider velocity command (m/s) at time ``t`` (s) for measured travels ``rho`` (m):
-        the reference rate one control period ahead plus ``gain`` times the travel error,
-        clipped to ``max_speed``."""
-        ref, rate = self.reference(t)
-        return np.clip(rate + gain * (ref - np.asarray(rho)), -max_speed, max_speed)
-
-
-def demonstration_travels(
-    design: Design, start_rho: ArrayLike, start: ArrayLike, target: ArrayLike, mode: ArrayLike
-) -> FloatArray:
-    """The demonstration's travel curve ``(200, 3)`` (m): the straight pose path's travels in
-    ``mode``, beginning at the measured travels ``start_rho``; where a leg cannot close on the
-    way, the straight travel line to the target's travels instead."""
-    travels = pose_path_travels(design, start, target, mode)
-    r0 = np.asarray(start_rho, dtype=np.float64)
-    if not np.isfinite(travels).all():
-        end = kinematics.inverse(design, target, np.asarray(mode, dtype=np.float64)).rho
-        end = np.where(np.isfinite(end), end, r0)
-        u = np.linspace(0.0, 1.0, len(travels))[:, None]
-        travels = r0 + u * (end - r0)
-    travels[0] = r0
-    return travels
-
-
-def verify_crossing(
-    design: Design,
-    start: ArrayLike,
-    target: ArrayLike,
-    mode: ModeTriple,
-    limits: CrossingLimits,
-    make_sim: SimFactory,
-    breakdown_distance: float,
-) -> tuple[bool, dict[str, float]]:
-    """Run the demonstration motion from ``start`` in a simulation built by ``make_sim`` and
-    report whether it ends in the target's assembly mode within ``limits.verify_tolerance``
-    (m) of the target without the closure error exceeding ``breakdown_distance`` (m).
-
-    Returns ``(ok, figures)`` with ``figures``: ``end_distance`` (m), ``end_assembly``,
-    ``max_closure_error`` (m), ``steps``."""
-    s = np.asarray(start, dtype=np.float64)
-    t = np.asarray(target, dtype=np.float64)
-    sim = make_sim(s, mode)
-    kin = ScalarKinematics(design)
-    state = sim.state
-    target_asm = -kin.measures(state.pose, state.rho).det_sign
-    curve = TravelCurve(
-        demonstration_travels(design, state.rho, s, t, mode),
-        limits.speed_fraction * design.max_speed,
-    )
-    steps = int(math.ceil(curve.duration / sim.dt)) + 1
-    worst = 0.0
-    for k in range(steps):
-        v0, v1, v2 = curve.command(
-            (k + 1) * sim.dt, state.rho, limits.travel_gain, design.max_speed
-        ).tolist()
-        state = sim.step_unchecked(v0, v1, v2)
-        if not state.finite or state.closure_error > breakdown_distance:
-            return False, {
-                "end_distance": math.inf,
-                "end_assembly": 0,
-                "max_closure_error": math.inf,
-                "steps": k + 1,
-            }
-        worst = max(worst, state.closure_error)
-    asm = kin.measures(state.pose, state.rho).det_sign
-    d = np.asarray(state.pose) - t
-    d[2] = ((d[2] + math.pi) % (2.0 * math.pi) - math.pi) * design.characteristic_length
-    dist = float(np.linalg.norm(d))
-    ok = asm == target_asm and dist <= limits.verify_tolerance
-    return ok, {
-        "end_distance": dist,
-        "end_assembly": asm,
-        "max_closure_error": worst,
-        "steps": steps,
-    }
 
 
 class AssemblyChangeTask(Task):
@@ -550,86 +361,3 @@ class AssemblyChangeTask(Task):
             "in_target_assembly": self._last_sign == self._target_asm,
             "crossings": self._crossings,
         }
-
-
-def gravity_alignment(
-    design: Design,
-    mode: ArrayLike,
-    min_serial: float = 0.1,
-    thetas: int = 721,
-    heights: int = 1201,
-) -> tuple[float, tuple[float, float]]:
-    """How much gravity pushes along the free motion at the parallel singularities of a
-    working mode: ``(min cos, (y, theta))``.
-
-    At a parallel singularity the platform has a free motion ``n`` (``A n = 0``: no slider
-    moves); the weight's generalised force along it is ``n . c`` (``c`` as in
-    :mod:`planar3p_gym.statics`, ``g c`` is the gradient of the potential energy).  The
-    returned value is the smallest ``|cos|`` between ``n`` and ``c`` over the singular set
-    (with the angle scaled by the characteristic length, so the cosine is dimensionless), and
-    where it occurs (m, rad).  ``det A`` and ``n . c`` do not depend on ``x``, so the singular
-    set is a curve in ``(y, theta)``: found on a grid of ``thetas`` angles and ``heights``
-    heights (``|y| <= max_i (L_i + L_iG)``), refined by bisection; singular poses with a serial
-    margin below ``min_serial`` are left out (where a leg is also upright the free motion can
-    be a horizontal translation, which gravity does not push).  If the minimum is not 0,
-    no singular pose can be held at rest: a quasi-static crossing does not exist and the
-    actuators must let the platform accelerate along ``n`` (they cannot resist it there).
-    """
-    sigma = np.asarray(mode, dtype=np.float64)
-    k = np.asarray(design.joint_offsets)
-    legs = np.asarray(design.leg_lengths)
-    ref = design.characteristic_length
-    reach = float((legs + k).max())
-    th = np.linspace(-math.pi, math.pi, thetas, endpoint=False)[:, None]
-    y = np.linspace(-reach, reach, heights)[None, :]
-
-    def det_and_n(yy: FloatArray, tt: FloatArray) -> tuple[FloatArray, FloatArray]:
-        cy = yy[..., None] + k * np.sin(tt)[..., None]
-        disc = legs**2 - cy**2
-        with np.errstate(invalid="ignore"):
-            ux = sigma * np.sqrt(np.where(disc >= 0.0, disc, np.nan))
-        third = k * (cy * np.cos(tt)[..., None] - ux * np.sin(tt)[..., None])
-        rows = np.stack([ux, cy, third], axis=-1)  # (..., 3 legs, 3)
-        det = np.linalg.det(np.nan_to_num(rows))
-        det = np.where(np.isfinite(ux).all(axis=-1), det, np.nan)
-        crosses = np.stack(
-            [np.cross(rows[..., a, :], rows[..., b, :]) for a, b in ((0, 1), (0, 2), (1, 2))]
-        )
-        best = np.argmax(np.linalg.norm(crosses, axis=-1), axis=0)
-        n = np.take_along_axis(crosses, best[None, ..., None], axis=0)[0]
-        return det, n
-
-    tt = np.broadcast_to(th, (thetas, heights))
-    det, _ = det_and_n(np.broadcast_to(y, (thetas, heights)), tt)
-    a, b = det[:, :-1], det[:, 1:]
-    rows_, cols = np.nonzero(np.isfinite(a) & np.isfinite(b) & (np.sign(a) != np.sign(b)))
-    if rows_.size == 0:
-        return math.nan, (math.nan, math.nan)
-    lo, hi = y[0, cols].copy(), y[0, cols + 1].copy()
-    t_root = th[rows_, 0]
-    d_lo = det[rows_, cols]
-    for _ in range(50):
-        mid = 0.5 * (lo + hi)
-        d_mid, _ = det_and_n(mid, t_root)
-        same = np.sign(d_mid) == np.sign(d_lo)
-        lo = np.where(same, mid, lo)
-        hi = np.where(same, hi, mid)
-    y_root = 0.5 * (lo + hi)
-    _, n = det_and_n(y_root, t_root)
-    cy_root = y_root[:, None] + k * np.sin(t_root)[:, None]
-    with np.errstate(invalid="ignore"):
-        serial = np.sqrt(np.clip(1.0 - (cy_root / legs) ** 2, 0.0, 1.0)).min(axis=1)
-    keep = serial >= min_serial
-    if not keep.any():
-        return math.nan, (math.nan, math.nan)
-    y_root, t_root, n = y_root[keep], t_root[keep], n[keep]
-    c_y = design.platform_mass + 1.5 * design.leg_mass
-    c_t = (0.5 * design.platform_mass * k[0] + 0.5 * design.leg_mass * k.sum()) * np.cos(t_root)
-    # dimensionless: angle components scaled by the characteristic length
-    n_s = np.stack([n[:, 0], n[:, 1], ref * n[:, 2]], axis=-1)
-    c_s = np.stack([np.zeros_like(c_t), np.full_like(c_t, c_y), c_t / ref], axis=-1)
-    cos = np.abs((n_s * c_s).sum(-1)) / (
-        np.linalg.norm(n_s, axis=-1) * np.linalg.norm(c_s, axis=-1)
-    )
-    j = int(np.nanargmin(cos))
-    return float(cos[j]), (float(y_root[j]), float(t_root[j]))

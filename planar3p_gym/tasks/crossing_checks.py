@@ -1,0 +1,144 @@
+"""Whether an assembly change can be made: the kinematic check of the straight pose path and
+the simulated demonstration crossing (the sampler's feasibility test of
+:class:`planar3p_gym.tasks.assembly_change.AssemblyChangeTask`; see that module's docstring).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .. import kinematics
+from ..design import Design
+from ..physics import Planar3PSim
+from ..scalar_kinematics import ScalarKinematics
+from .base import ModeTriple
+from .travel_motion import TravelCurve, demonstration_travels, straight_pose_path
+
+__all__ = ["CrossingLimits", "SimFactory", "crossing_path", "verify_crossing"]
+
+#: Builds a simulation from a pose and a working mode.
+SimFactory = Callable[[np.ndarray, tuple[int, int, int]], Planar3PSim]
+
+
+@dataclass(frozen=True)
+class CrossingLimits:
+    """Feasibility conditions of an assembly change.
+
+    Attributes:
+        points: poses checked along the straight pose path (>= 2).
+        min_serial_margin: serial margin kept along the path (dimensionless).
+        travel_margin: fraction of the stroke kept free at both ends along the path.
+        verify: simulate the demonstration motion for every sampled pair.
+        speed_fraction: peak slider rate of the demonstration as a fraction of ``max_speed``.
+        travel_gain: proportional gain of the demonstration on the travel error (1/s).
+        verify_tolerance: the demonstration must end within this pose distance
+            ``|(dx, dy, L_ref dtheta)|`` of the target (m).
+    """
+
+    points: int = 48
+    min_serial_margin: float = 0.1
+    travel_margin: float = 0.03
+    verify: bool = True
+    speed_fraction: float = 1.0
+    travel_gain: float = 10.0
+    verify_tolerance: float = 0.01
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.points, int) and self.points >= 2):
+            raise ValueError(f"CrossingLimits.points must be an int >= 2, got {self.points!r}")
+        if not isinstance(self.verify, bool):
+            raise ValueError(f"CrossingLimits.verify must be a bool, got {self.verify!r}")
+        for name, lo, hi in (
+            ("min_serial_margin", 0.0, 1.0),
+            ("travel_margin", 0.0, 0.5),
+        ):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and lo <= v < hi):
+                raise ValueError(f"CrossingLimits.{name} must be in [{lo}, {hi}), got {v!r}")
+        for name in ("travel_gain", "verify_tolerance"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"CrossingLimits.{name} must be finite and > 0, got {v!r}")
+        if not (isinstance(self.speed_fraction, (int, float)) and 0 < self.speed_fraction <= 1):
+            raise ValueError(
+                f"CrossingLimits.speed_fraction must be in (0, 1], got {self.speed_fraction!r}"
+            )
+
+
+def crossing_path(
+    design: Design, start: ArrayLike, target: ArrayLike, mode: ArrayLike, limits: CrossingLimits
+) -> tuple[bool, str]:
+    """Kinematic condition of an assembly change: ``(ok, reason)``; ``reason`` is ``"ok"``,
+    ``"stroke"`` (a pose of the straight path leaves the stroke or cannot close),
+    ``"serial_margin"`` or ``"crossings"`` (``sign det A`` does not change exactly once)."""
+    path = straight_pose_path(start, target, limits.points)
+    m = np.asarray(mode, dtype=np.float64)
+    lo, hi = limits.travel_margin * design.stroke, (1.0 - limits.travel_margin) * design.stroke
+    rho = kinematics.inverse(design, path, m).rho
+    if not (np.isfinite(rho).all() and (rho >= lo).all() and (rho <= hi).all()):
+        return False, "stroke"
+    marg = kinematics.margins(design, path, rho)
+    if float(marg.serial.min()) < limits.min_serial_margin:
+        return False, "serial_margin"
+    signs = marg.assembly.astype(np.int64)
+    if (signs == 0).any() or int(np.count_nonzero(np.diff(signs))) != 1:
+        return False, "crossings"
+    return True, "ok"
+
+
+def verify_crossing(
+    design: Design,
+    start: ArrayLike,
+    target: ArrayLike,
+    mode: ModeTriple,
+    limits: CrossingLimits,
+    make_sim: SimFactory,
+    breakdown_distance: float,
+) -> tuple[bool, dict[str, float]]:
+    """Run the demonstration motion from ``start`` in a simulation built by ``make_sim`` and
+    report whether it ends in the target's assembly mode within ``limits.verify_tolerance``
+    (m) of the target without the closure error exceeding ``breakdown_distance`` (m).
+
+    Returns ``(ok, figures)`` with ``figures``: ``end_distance`` (m), ``end_assembly``,
+    ``max_closure_error`` (m), ``steps``."""
+    s = np.asarray(start, dtype=np.float64)
+    t = np.asarray(target, dtype=np.float64)
+    sim = make_sim(s, mode)
+    kin = ScalarKinematics(design)
+    state = sim.state
+    target_asm = -kin.measures(state.pose, state.rho).det_sign
+    curve = TravelCurve(
+        demonstration_travels(design, state.rho, s, t, mode),
+        limits.speed_fraction * design.max_speed,
+    )
+    steps = int(math.ceil(curve.duration / sim.dt)) + 1
+    worst = 0.0
+    for k in range(steps):
+        v0, v1, v2 = curve.command(
+            (k + 1) * sim.dt, state.rho, limits.travel_gain, design.max_speed
+        ).tolist()
+        state = sim.step_unchecked(v0, v1, v2)
+        if not state.finite or state.closure_error > breakdown_distance:
+            return False, {
+                "end_distance": math.inf,
+                "end_assembly": 0,
+                "max_closure_error": math.inf,
+                "steps": k + 1,
+            }
+        worst = max(worst, state.closure_error)
+    asm = kin.measures(state.pose, state.rho).det_sign
+    d = np.asarray(state.pose) - t
+    d[2] = ((d[2] + math.pi) % (2.0 * math.pi) - math.pi) * design.characteristic_length
+    dist = float(np.linalg.norm(d))
+    ok = asm == target_asm and dist <= limits.verify_tolerance
+    return ok, {
+        "end_distance": dist,
+        "end_assembly": asm,
+        "max_closure_error": worst,
+        "steps": steps,
+    }
