@@ -14,7 +14,7 @@
    ``<n>`` is the experiment id (``--exp-id``; enjoy's default is the highest): a re-shipped
    name keeps its id, a new name gets the next one.
 
-Afterwards the checksum manifest (:func:`agents.policies.write_manifest`) is rewritten.
+Afterwards the checksum manifest (:func:`agents.pretrained_manifest.write_manifest`) is rewritten.
 rl-zoo3's own packaging (``rl_zoo3.push_to_hub``) uploads to the Hugging Face hub and needs
 its training layout, so it does not do this job; the zoo layout written here is what its
 ``enjoy`` / ``record_video`` read.  Files are written atomically.
@@ -29,7 +29,8 @@ from typing import Any
 
 import yaml
 
-from .policies import PRETRAINED_DIR, write_manifest
+from .policy_spec import PRETRAINED_DIR
+from .pretrained_manifest import write_manifest
 
 __all__ = ["MODELS", "ship", "zoo_layout"]
 

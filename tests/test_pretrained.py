@@ -14,7 +14,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import planar3p_gym  # noqa: F401
-from agents import policies
+from agents import policy_spec
 from agents.policies import (
     MANIFEST,
     PRETRAINED_DIR,
@@ -103,7 +103,7 @@ def test_a_corrupted_shipped_file_is_refused(tmp_path, monkeypatch, suffix) -> N
     target.write_bytes(bytes(data))
     with pytest.raises(PolicyError, match=f"checksum mismatch for shipped file .*{suffix}"):
         verify_pretrained(name, copy)
-    monkeypatch.setattr(policies, "PRETRAINED_DIR", copy)
+    monkeypatch.setattr(policy_spec, "PRETRAINED_DIR", copy)
     with pytest.raises(PolicyError, match="checksum mismatch"):
         load_policy(f"pretrained:{name}", env=gym.make("Planar3P-v0"))
 
@@ -113,7 +113,7 @@ def test_a_shipped_file_replaced_by_code_is_never_unpickled(tmp_path, monkeypatc
     copy = _shipped_copy(tmp_path)
     marker = tmp_path / "ran.txt"
     (copy / f"{name}_vecnormalize.pkl").write_bytes(pickle.dumps(_RunsCode(marker)))
-    monkeypatch.setattr(policies, "PRETRAINED_DIR", copy)
+    monkeypatch.setattr(policy_spec, "PRETRAINED_DIR", copy)
     with pytest.raises(PolicyError, match="checksum mismatch"):
         load_policy(f"pretrained:{name}")
     assert not marker.exists()
