@@ -18,6 +18,7 @@ from . import task as task_module
 from .design import Design
 from .observation import bounds, build_observation, wrap_angle
 from .physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PSim, SimState
+from .reach_step import ReachStep
 from .rewards import RewardWeights
 from .scalar_kinematics import ConfigurationMeasures, ScalarKinematics
 from .task import TaskConfig
@@ -89,6 +90,14 @@ def parse_action(action: Any) -> tuple[float, float, float]:
     Accepts a sequence or array of 3 real numbers (Python or NumPy ints and floats); rejects
     strings, booleans, complex numbers, wrong shapes, NaN/inf and values too large for a float.
     """
+    if type(action) is np.ndarray and action.shape == (3,) and action.dtype.char in "fd":
+        a0, a1, a2 = action.tolist()  # the common case, without the general checks' overhead
+        if a0 * 0.0 == 0.0 and a1 * 0.0 == 0.0 and a2 * 0.0 == 0.0:  # finite (inf, NaN: NaN)
+            return (
+                -1.0 if a0 < -1.0 else (1.0 if a0 > 1.0 else a0),
+                -1.0 if a1 < -1.0 else (1.0 if a1 > 1.0 else a1),
+                -1.0 if a2 < -1.0 else (1.0 if a2 > 1.0 else a2),
+            )
     if isinstance(action, (list, tuple)) and any(
         isinstance(v, (bool, np.bool_, str, bytes)) for v in action
     ):  # NumPy would turn [True, 0, 0] into integers and keep "1" as a string
@@ -344,6 +353,11 @@ class Planar3PEnv(gym.Env):
         )
         self._sim: Planar3PSim | None = None
         self._target = (0.0, 0.0, 0.0)
+        self._target_cs = (1.0, 0.0)  # cos, sin of the target angle (fused reach step)
+        # The reach task on the projected physics takes the fused step (reach_step.py).
+        self._reach_step = (
+            ReachStep(self) if self.projection and type(self.task) is ReachTask else None
+        )
         self._steps = 0
         self._spec: dict[str, Any] = {}
         self._mode = self._modes[0]
@@ -431,6 +445,7 @@ class Planar3PEnv(gym.Env):
         self._steps = 0
         self._mode = mode
         self._target = self.task.reference(0)
+        self._target_cs = (math.cos(self._target[2]), math.sin(self._target[2]))
         self._sim = Planar3PSim(
             self.design,
             start,
@@ -459,6 +474,12 @@ class Planar3PEnv(gym.Env):
         vmax = self.design.max_speed
         state = sim.step_unchecked(a0 * vmax, a1 * vmax, a2 * vmax)
         self._steps += 1
+        if (
+            self._reach_step is not None
+            and state.finite
+            and state.closure_error <= self.breakdown_distance
+        ):  # (the reach task's reference is its fixed target)
+            return self._fused_step(state, (a0, a1, a2))
         self._target = self.task.reference(self._steps)
 
         reason = None
@@ -502,6 +523,27 @@ class Planar3PEnv(gym.Env):
         if self.render_mode == "human":
             self.render()
         return self._obs.copy(), reward, reason is not None, False, info
+
+    def _fused_step(
+        self, state: SimState, action: tuple[float, float, float]
+    ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """The rest of :meth:`step` for the reach task on the projected physics, through
+        :class:`planar3p_gym.reach_step.ReachStep` (same results to float64 rounding)."""
+        obs, measures, reason, terms, pos_err, ang_err = self._reach_step.outputs(  # type: ignore[union-attr]
+            state,
+            self._sim.geometry,
+            self._target,
+            self._target_cs,
+            self._assembly,
+            action,  # type: ignore[union-attr]
+        )
+        self._obs = obs
+        info = self._info(state, measures, reason, terms, reason == "success", (pos_err, ang_err))
+        self._measures = measures
+        self._last_info = info
+        if self.render_mode == "human":
+            self.render()
+        return obs.copy(), float(sum(terms.values())), reason is not None, False, info
 
     def get_keys_to_action(self) -> dict[tuple[str, ...], np.ndarray]:
         """Keyboard mapping for :func:`gymnasium.utils.play.play`: ``q``/``a`` drive slider 1
@@ -561,6 +603,7 @@ class Planar3PEnv(gym.Env):
         "_steps",
         "_mode",
         "_target",
+        "_target_cs",
         "_assembly",
         "_obs",
         "_measures",

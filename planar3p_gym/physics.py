@@ -284,6 +284,9 @@ class Planar3PSim:
             },
         )
         self._commands = array("d")
+        #: ``(u_1x, u_1y, u_2x, u_2y, u_3x, u_3y, cos theta, sin theta)`` after the last
+        #: projected step (:class:`planar3p_gym.projection.Projected`); None without one.
+        self.geometry: tuple[float, ...] | None = None
         self._build(p, rho, error_bias, platform_error_bias)
 
     # ------------------------------------------------------------------ construction
@@ -379,9 +382,10 @@ class Planar3PSim:
         the public API's readout here."""
         if not _FAST:
             return None
-        # The C arrays are freed when these handles are garbage collected.
+        # The C arrays are freed when these handles are garbage collected.  Twice the room a
+        # readout needs: the array then never grows (moves), so a view of it stays valid.
         array = _ffi.gc(
-            _cp.pmFloatArrayNew(_BODY_FIELDS * (len(self._bodies) + 1)), _cp.pmFloatArrayFree
+            _cp.pmFloatArrayNew(2 * _BODY_FIELDS * (len(self._bodies) + 1)), _cp.pmFloatArrayFree
         )
         unused = _ffi.gc(_cp.pmIntArrayNew(0), _cp.pmIntArrayFree)
         request = _ffi.new("pmBatchedData *")
@@ -395,6 +399,7 @@ class Planar3PSim:
             tuple(b._body for b in drives),
             unused,
             _ffi.addressof(_cp, "pmSpaceBodySetIteratorFuncBatched"),
+            memoryview(_ffi.buffer(array.arr, 8 * _BODY_FIELDS * len(self._bodies))).cast("d"),
         )
         if Planar3PSim._batch_layout_ok is None:  # checked once per process
             public = self._public_values()
@@ -488,7 +493,7 @@ class Planar3PSim:
             array_, request, iterator = fast[2]
             array_.num = 0
             _cp.cpSpaceEachBody(fast[0], iterator, request)
-            v = _ffi.unpack(array_.arr, array_.num)
+            v = fast[6].tolist()  # (the readout's first 60 numbers, through a view)
         pr = self._projector.project(v, self._saturated)  # type: ignore[union-attr]
         out = pr.bodies
         # The drives' setpoints for the next step (:meth:`_limit_following_error`, here on the
@@ -512,10 +517,11 @@ class Planar3PSim:
                 body.velocity = (out[o + 3], out[o + 4])
                 body.angular_velocity = out[o + 5]
         else:
-            array_.arr[0 : len(out)] = out
+            fast[6][:] = array("d", out)  # (through the view: one copy)
             array_.num = 0
             _cp.cpSpaceEachBody(fast[0], fast[5], request)
         self._setpoints = [out[12], out[30], out[48]]
+        self.geometry = pr.geometry
         return SimState(
             self._time,
             pr.rho,

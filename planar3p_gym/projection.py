@@ -93,6 +93,9 @@ class Projected(NamedTuple):
         closure_error: largest leg-length error ``| |C_i - B_i| - L_i |`` after the projection
             (m); the joints at ``B_i`` and the rails are closed exactly by construction.
         newton_steps: position Newton steps taken.
+        geometry: ``(u_1x, u_1y, u_2x, u_2y, u_3x, u_3y, cos theta, sin theta)``: the leg
+            vectors ``u_i = C_i - B_i`` (m) at the projected pose (what the configuration
+            measures and the observation are computed from on the fast paths).
     """
 
     bodies: list[float]
@@ -103,6 +106,7 @@ class Projected(NamedTuple):
     leg_angles: tuple[float, float, float]
     closure_error: float
     newton_steps: int
+    geometry: tuple[float, float, float, float, float, float, float, float]
 
 
 def _at_stop(
@@ -188,6 +192,9 @@ class LoopProjector:
                 p3, d3, i3 = _at_stop(p3, d3, v[48] - a3, stroke)
             hold = True
 
+        # All three held: the rho block of J W^-1 J^T and the travel updates vanish; skipping
+        # them gives the same numbers (0 * x added to a float leaves it unchanged).
+        held3 = i1 == 0.0 and i2 == 0.0 and i3 == 0.0
         start = (p1, p2, p3, qx, qy, th, c, s)
         limit = HELD_NEWTON_STEPS if hold else MAX_NEWTON_STEPS
         steps = 0
@@ -196,14 +203,19 @@ class LoopProjector:
             x1, y1 = qx + r1 * c - a1 - p1, qy + r1 * s
             x2, y2 = qx + r2 * c - a2 - p2, qy + r2 * s
             x3, y3 = qx + r3 * c - a3 - p3, qy + r3 * s
-            f1 = x1 * x1 + y1 * y1 - ll1
-            f2 = x2 * x2 + y2 * y2 - ll2
-            f3 = x3 * x3 + y3 * y3 - ll3
+            xx1, xx2, xx3 = x1 * x1, x2 * x2, x3 * x3
+            n1, n2, n3 = xx1 + y1 * y1, xx2 + y2 * y2, xx3 + y3 * y3  # |u_i|^2
+            f1, f2, f3 = n1 - ll1, n2 - ll2, n3 - ll3
             # Row i of J: -x_i at rho_i, then (x_i, y_i, t_i); G = J W^-1 J^T (symmetric).
             t1, t2, t3 = r1 * (y1 * c - x1 * s), r2 * (y2 * c - x2 * s), r3 * (y3 * c - x3 * s)
-            g11 = x1 * x1 * i1 + (x1 * x1 + y1 * y1) * ip + t1 * t1 * ii
-            g22 = x2 * x2 * i2 + (x2 * x2 + y2 * y2) * ip + t2 * t2 * ii
-            g33 = x3 * x3 * i3 + (x3 * x3 + y3 * y3) * ip + t3 * t3 * ii
+            if held3:  # every slider held (the usual case): x_i^2 i_i = 0 drops out exactly
+                g11 = n1 * ip + t1 * t1 * ii
+                g22 = n2 * ip + t2 * t2 * ii
+                g33 = n3 * ip + t3 * t3 * ii
+            else:
+                g11 = xx1 * i1 + n1 * ip + t1 * t1 * ii
+                g22 = xx2 * i2 + n2 * ip + t2 * t2 * ii
+                g33 = xx3 * i3 + n3 * ip + t3 * t3 * ii
             g12 = (x1 * x2 + y1 * y2) * ip + t1 * t2 * ii
             g13 = (x1 * x3 + y1 * y3) * ip + t1 * t3 * ii
             g23 = (x2 * x3 + y2 * y3) * ip + t2 * t3 * ii
@@ -220,7 +232,7 @@ class LoopProjector:
                 # for the held travels): start again with every slider free.
                 p1, p2, p3, qx, qy, th, c, s = start
                 i1 = i2 = i3 = free
-                hold = False
+                hold = held3 = False
                 limit = steps + MAX_NEWTON_STEPS
                 continue
             if converged or steps >= limit or det <= 0.0:
@@ -233,15 +245,15 @@ class LoopProjector:
             m1 = (h11 * f1 + h12 * f2 + h13 * f3) * k
             m2 = (h12 * f1 + h22 * f2 + h23 * f3) * k
             m3 = (h13 * f1 + h23 * f2 + h33 * f3) * k
-            p1 += x1 * m1 * i1
-            p2 += x2 * m2 * i2
-            p3 += x3 * m3 * i3
+            if not held3:
+                p1 += x1 * m1 * i1
+                p2 += x2 * m2 * i2
+                p3 += x3 * m3 * i3
             qx -= (x1 * m1 + x2 * m2 + x3 * m3) * ip
             qy -= (y1 * m1 + y2 * m2 + y3 * m3) * ip
             th -= (t1 * m1 + t2 * m2 + t3 * m3) * ii
             c, s = math.cos(th), math.sin(th)
             steps += 1
-        n1, n2, n3 = x1 * x1 + y1 * y1, x2 * x2 + y2 * y2, x3 * x3 + y3 * y3
         closure = max(abs(math.sqrt(n1) - l1), abs(math.sqrt(n2) - l2), abs(math.sqrt(n3) - l3))
 
         # Velocities: q_dot' = q_dot - W^-1 J^T G^-1 J q_dot, with J at the projected q.
@@ -295,4 +307,5 @@ class LoopProjector:
             (al1, al2, al3),
             closure,
             steps,
+            (x1, y1, x2, y2, x3, y3, c, s),
         )
