@@ -30,27 +30,39 @@ def flat(obs: Any) -> np.ndarray:
     return np.asarray(obs, np.float64)
 
 
-def rollout(env: gym.Env, actions: np.ndarray, **reset_kwargs: Any) -> np.ndarray:
+def rollout(
+    env: gym.Env, actions: np.ndarray, info_keys: tuple[str, ...] = (), **reset_kwargs: Any
+) -> np.ndarray:
     """Reset with ``reset_kwargs``, then step ``actions`` until the episode ends: the reset
-    observation and every step's observation, reward and ``terminated``, as one array."""
+    observation and every step's observation, reward, ``terminated`` and the ``info`` entries
+    ``info_keys``, as one array.  Every step's numbers must be finite."""
     obs, _ = env.reset(**reset_kwargs)
     out = [flat(obs)]
     for a in actions:
-        obs, reward, terminated, truncated, _info = env.step(a)
-        out.append(np.concatenate([flat(obs), [reward, terminated]]))
+        obs, reward, terminated, truncated, info = env.step(a)
+        row = np.concatenate([flat(obs), [reward, terminated], [info[k] for k in info_keys]])
+        assert np.isfinite(row).all()
+        out.append(row)
         if terminated or truncated:
             break
     return np.concatenate(out)
 
 
-def assert_seeded_and_replayable(env: gym.Env, actions: np.ndarray, seed: int) -> None:
-    """The same seed gives the same episode, and ``reset(options=spec)`` with the seeded
-    episode's spec (after a JSON round trip) replays it bit for bit."""
-    first = rollout(env, actions, seed=seed)
-    assert np.array_equal(first, rollout(env, actions, seed=seed))
+def assert_seeded_and_replayable(
+    env: gym.Env,
+    actions: np.ndarray,
+    seed: int,
+    info_keys: tuple[str, ...] = (),
+    fresh: gym.Env | None = None,
+) -> None:
+    """The same seed gives the same episode (again in ``env``, or in ``fresh``, a newly made
+    environment of the same id), and ``reset(options=spec)`` with the seeded episode's spec
+    (after a JSON round trip) replays it bit for bit (see :func:`rollout`)."""
+    first = rollout(env, actions, info_keys, seed=seed)
+    assert np.array_equal(first, rollout(fresh or env, actions, info_keys, seed=seed))
     _, info = env.reset(seed=seed)
     spec = json.loads(json.dumps(info["episode_spec"]))
-    assert np.array_equal(first, rollout(env, actions, options=spec))
+    assert np.array_equal(first, rollout(env, actions, info_keys, options=spec))
 
 
 def play_episode(env: gym.Env, policy: Any, seed: int | None = None) -> list[dict[str, Any]]:

@@ -29,13 +29,6 @@ EASY_START = np.array([0.006, 0.158, -0.16])
 EASY_TARGET = np.array([0.023, 0.194, -0.50])
 
 
-@pytest.fixture(scope="module")
-def env():
-    e = gym.make(planar3p_gym.ENV_ID)
-    yield e
-    e.close()
-
-
 def _obs_for(pose, target, mode=MODE) -> np.ndarray:
     """The environment's observation of the mechanism at rest at ``pose``."""
     e = gym.make(planar3p_gym.ENV_ID)

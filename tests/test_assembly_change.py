@@ -3,7 +3,6 @@ signed servo forces of the fidelity study, bad input."""
 
 from __future__ import annotations
 
-import gymnasium as gym
 import numpy as np
 import pytest
 from task_helpers import assert_seeded_and_replayable, play_episode
@@ -18,13 +17,6 @@ from planar3p_gym.statics import holding_forces
 from planar3p_gym.tasks.assembly_change import CrossingLimits, crossing_path
 
 ENV_ID = "Planar3PAssemblyChange-v0"
-
-
-@pytest.fixture(scope="module")
-def env():
-    e = gym.make(ENV_ID)
-    yield e
-    e.close()
 
 
 def test_many_resets_give_opposite_assembly_modes(env):

@@ -3,8 +3,6 @@ scripts/benchmark.py)."""
 
 from __future__ import annotations
 
-import csv
-import importlib.util
 import json
 import pickle
 from pathlib import Path
@@ -12,11 +10,11 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
+from bench_helpers import read_csv, replay
 
 import planar3p_gym
 from agents import benchmark as bm
 from agents import episodes as ep
-from agents import suites as su
 from agents.analytic import AnalyticController
 from agents.baselines import RandomPolicy, ZeroPolicy
 from agents.policies import (
@@ -32,30 +30,6 @@ from planar3p_gym import Design
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = Design.fig8()
-
-
-def _load_script():
-    spec = importlib.util.spec_from_file_location("benchmark_script", ROOT / "scripts/benchmark.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-@pytest.fixture(scope="module")
-def bench():
-    return _load_script()
-
-
-@pytest.fixture(scope="module")
-def env():
-    e = gym.make(planar3p_gym.ENV_ID)
-    yield e
-    e.close()
-
-
-@pytest.fixture(scope="module")
-def suites():
-    return {name: su.make_suite(name, 4, seed=7) for name in su.SUITE_NAMES}
 
 
 # =============================================================================== runner
@@ -148,11 +122,6 @@ def test_loads_sb3_model_with_vecnormalize(tmp_path, env, bench, capsys):
 
 
 # =============================================================================== script
-def _csv(path):
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
-
-
 def _quick_args(out, *extra):
     return ["--episodes", "2", "--seed", "3", "--out", str(out), "--no-progress", *extra]
 
@@ -169,30 +138,14 @@ def test_script_end_to_end(tmp_path, bench, capsys):
         assert (out / name).is_file()
     for name in ("success_rate.png", "errors.png", "trajectories.png"):
         assert (out / name).stat().st_size > 1000
-    rows = _csv(out / "episodes.csv")
+    rows = read_csv(out / "episodes.csv")
     assert len(rows) == 2 * 2 * 2
     assert all(r["training_seed"] == "" for r in rows)  # built-in policies: no training seed
     summary = json.loads((out / "summary.json").read_text())
     assert len(summary["summaries"]) == 4
     # Replaying the saved suites gives the same episodes and results.
-    out2 = tmp_path / "replay"
-    code = bench.main(
-        [
-            "--suite-file",
-            str(out / "suites.json"),
-            "--suites",
-            "standard",
-            "--policies",
-            "analytic-simultaneous",
-            "--out",
-            str(out2),
-            "--no-progress",
-            "--no-plots",
-        ]
-    )
-    assert code == 0
     first = [r for r in rows if (r["policy"], r["suite"]) == ("analytic-simultaneous", "standard")]
-    assert first == _csv(out2 / "episodes.csv")
+    assert first == replay(bench, out, "standard", "analytic-simultaneous", tmp_path / "replay")
 
 
 def test_script_plays_reach_suites_on_the_projected_physics(tmp_path, bench):
@@ -208,7 +161,7 @@ def test_script_plays_reach_suites_on_the_projected_physics(tmp_path, bench):
     assert suites[0] == suites[1]
     settings = json.loads((runs["Planar3P-v1"] / "summary.json").read_text())["settings"]
     assert settings["env"]["projection"] is True
-    rows = _csv(runs["Planar3P-v1"] / "episodes.csv")
+    rows = read_csv(runs["Planar3P-v1"] / "episodes.csv")
     assert all(r["success"] == "True" for r in rows)
     assert max(float(r["max_closure_error"]) for r in rows) <= 1e-9
 
@@ -257,7 +210,7 @@ def test_script_keeps_results_when_a_policy_fails(tmp_path, bench, capsys, monke
     )
     assert code == 1
     assert "evaluation failed" in capsys.readouterr().err
-    rows = _csv(out / "episodes.csv")
+    rows = read_csv(out / "episodes.csv")
     assert len(rows) == 2 and all(r["policy"] == "zero" for r in rows)
     assert "Incomplete run" in (out / "report.md").read_text()
 
@@ -370,7 +323,7 @@ def test_episodes_csv_carries_the_training_seed(tmp_path, bench):
     policies = f"zero,{run / 'model.zip'}"
     args = _quick_args(out, "--suites", "standard", "--policies", policies, "--no-plots")
     assert bench.main([*args, "--episodes", "1"]) == 0
-    seeds = {r["policy"]: r["training_seed"] for r in _csv(out / "episodes.csv")}
+    seeds = {r["policy"]: r["training_seed"] for r in read_csv(out / "episodes.csv")}
     assert seeds == {"zero": "", "run-s4/model": "4"}
     summary = json.loads((out / "summary.json").read_text())
     assert summary["settings"]["training_seeds"] == {"run-s4/model": 4}

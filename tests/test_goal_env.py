@@ -4,12 +4,12 @@ conformance, exact relabelling, replay from episode specs, input validation, HER
 from __future__ import annotations
 
 import json
-import math
 import warnings
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from task_helpers import assert_seeded_and_replayable
 
 import planar3p_gym
 from agents.goal_adapter import GoalAdapter
@@ -121,35 +121,10 @@ def test_relabelled_rewards_match_a_replay_with_that_goal(env_id, relabel_at):
 
 @pytest.mark.parametrize("env_id", IDS)
 def test_deterministic_finite_and_spec_replay(env_id):
-    """Same seed -> same episode; no NaN under random actions; ``reset(options=spec)`` (after
-    a JSON round trip) replays the episode bit for bit."""
+    """Same seed -> same episode (also in a new environment); no NaN under random actions;
+    ``reset(options=spec)`` (after a JSON round trip) replays the episode bit for bit."""
     actions = np.random.default_rng(0).uniform(-1, 1, (120, 3)).astype(np.float32)
-
-    def run(env, **reset_kwargs):
-        obs, info = env.reset(**reset_kwargs)
-        out = [obs]
-        for a in actions:
-            obs, reward, terminated, truncated, info = env.step(a)
-            out.append((obs, reward, terminated))
-            for v in obs.values():
-                assert np.isfinite(v).all()
-            assert math.isfinite(reward)
-            if terminated or truncated:
-                break
-        return out, info
-
-    env = gym.make(env_id)
-    first, _ = run(env, seed=11)
-    spec = json.loads(json.dumps(env.unwrapped.episode_spec))
-    second, _ = run(gym.make(env_id), seed=11)
-    replay, _ = run(env, options=spec)
-    for a, b, c in zip(first, second, replay, strict=True):
-        for x, y in ((a, b), (a, c)):
-            if isinstance(x, dict):
-                assert all(np.array_equal(x[k], y[k]) for k in x)
-            else:
-                assert all(np.array_equal(x[0][k], y[0][k]) for k in x[0])
-                assert x[1:] == y[1:]
+    assert_seeded_and_replayable(gym.make(env_id), actions, seed=11, fresh=gym.make(env_id))
 
 
 @pytest.mark.parametrize("env_id", IDS)

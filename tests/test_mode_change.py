@@ -18,13 +18,6 @@ from planar3p_gym.tasks.mode_change import leg_modes, single_flip_modes
 ENV_ID = "Planar3PModeChange-v0"
 
 
-@pytest.fixture(scope="module")
-def env():
-    e = gym.make(ENV_ID)
-    yield e
-    e.close()
-
-
 def test_many_resets_give_certified_mode_changes(env):
     design = env.unwrapped.design
     for seed in range(25):

@@ -6,29 +6,15 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import gymnasium as gym
 import numpy as np
 import pytest
 
-import planar3p_gym
 from agents import suites as su
 from planar3p_gym import Design, kinematics
 from planar3p_gym.statics import holding_forces
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = Design.fig8()
-
-
-@pytest.fixture(scope="module")
-def env():
-    e = gym.make(planar3p_gym.ENV_ID)
-    yield e
-    e.close()
-
-
-@pytest.fixture(scope="module")
-def suites():
-    return {name: su.make_suite(name, 4, seed=7) for name in su.SUITE_NAMES}
 
 
 def test_suites_identical_for_the_same_seed(suites):

@@ -3,8 +3,6 @@ their baselines, and the benchmark script on them."""
 
 from __future__ import annotations
 
-import csv
-import importlib.util
 import json
 import math
 from pathlib import Path
@@ -12,6 +10,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
+from bench_helpers import read_csv, replay
 
 import planar3p_gym
 from agents import benchmark as bm
@@ -21,14 +20,6 @@ from agents import suites as su
 from agents import task_suites as ts
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-@pytest.fixture(scope="module")
-def bench():
-    spec = importlib.util.spec_from_file_location("benchmark_script", ROOT / "scripts/benchmark.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def test_generic_mechanism_on_planar3p_v0(monkeypatch):
@@ -96,11 +87,6 @@ def test_tracking_suite_metrics_and_replay():
     assert rms_ff < 0.2 * rms_fb
 
 
-def _csv(path):
-    with open(path, newline="") as f:
-        return list(csv.DictReader(f))
-
-
 def test_script_on_task_suites_and_replay(tmp_path, bench, capsys):
     out = tmp_path / "tasks"
     args = ["--suites", "goal,track-segments", "--episodes", "1", "--seed", "2", "--no-progress"]
@@ -110,7 +96,7 @@ def test_script_on_task_suites_and_replay(tmp_path, bench, capsys):
     assert "| analytic-feedforward | track-segments | 1 | – |" in printed
     report = (out / "report.md").read_text()
     assert "Task suites at a glance" in report and "tracking rms error mm" in report
-    rows = _csv(out / "episodes.csv")
+    rows = read_csv(out / "episodes.csv")
     assert {(r["policy"], r["suite"]) for r in rows} == {
         ("analytic-simultaneous", "goal"),
         ("analytic-simultaneous", "track-segments"),
@@ -118,24 +104,8 @@ def test_script_on_task_suites_and_replay(tmp_path, bench, capsys):
         ("zero", "track-segments"),
     }
     assert all(r["tracking_rms_error"] for r in rows if r["suite"] == "track-segments")
-    replay = tmp_path / "replay"
-    code = bench.main(
-        [
-            "--suite-file",
-            str(out / "suites.json"),
-            "--suites",
-            "track-segments",
-            "--policies",
-            "analytic-feedforward",
-            "--out",
-            str(replay),
-            "--no-progress",
-            "--no-plots",
-        ]
-    )
-    assert code == 0
     first = [r for r in rows if r["policy"] == "analytic-feedforward"]
-    assert _csv(replay / "episodes.csv") == first
+    assert replay(bench, out, "track-segments", "analytic-feedforward", tmp_path / "r") == first
 
 
 def test_script_policies_that_do_not_apply(tmp_path, bench, capsys):
@@ -145,7 +115,7 @@ def test_script_policies_that_do_not_apply(tmp_path, bench, capsys):
     assert "no policy" in capsys.readouterr().err and not out.exists()
     assert bench.main([*base, "--policies", "baselines,random", "--no-plots"]) == 0
     assert "random does not apply to task suite goal" in capsys.readouterr().err
-    assert [r["policy"] for r in _csv(out / "episodes.csv")] == ["analytic-simultaneous"]
+    assert [r["policy"] for r in read_csv(out / "episodes.csv")] == ["analytic-simultaneous"]
 
 
 def test_load_suite_policies_shares_reach_policies():

@@ -9,6 +9,7 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+from task_helpers import assert_seeded_and_replayable
 
 import planar3p_gym
 from agents.tracking import TrackingController, run_tracking_episodes, summarize_tracking
@@ -100,27 +101,8 @@ def test_metrics_are_rms_and_max_of_the_step_errors(kind):
 @pytest.mark.parametrize("kind", KINDS)
 def test_deterministic_finite_and_spec_replay(kind):
     actions = np.random.default_rng(3).uniform(-1, 1, (150, 3)).astype(np.float32)
-
-    def run(env, **kw):
-        obs, _ = env.reset(**kw)
-        out = [obs]
-        for a in actions:
-            obs, reward, terminated, truncated, info = env.step(a)
-            assert np.isfinite(obs).all() and math.isfinite(reward)
-            out.append((obs, reward, terminated, info["tracking_rms_error"]))
-            if terminated or truncated:
-                break
-        return out
-
-    env = make(kind)
-    first = run(env, seed=7)
-    spec = json.loads(json.dumps(env.unwrapped.episode_spec))
-    second = run(make(kind), seed=7)
-    replay = run(env, options=spec)
-    assert np.array_equal(first[0], second[0]) and np.array_equal(first[0], replay[0])
-    for a, b, c in zip(first[1:], second[1:], replay[1:], strict=True):
-        for x in (b, c):
-            assert np.array_equal(a[0], x[0]) and a[1:] == x[1:]
+    keys = ("tracking_rms_error",)
+    assert_seeded_and_replayable(make(kind), actions, seed=7, info_keys=keys, fresh=make(kind))
 
 
 @pytest.mark.parametrize("kind", KINDS)
