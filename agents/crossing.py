@@ -21,7 +21,7 @@ Calling convention: Stable-Baselines3's ``predict``; a new episode is recognised
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 from numpy.typing import NDArray
@@ -60,15 +60,14 @@ class CrossingController(TravelFollower):
         )
 
     @classmethod
-    def from_env(cls, env: Any, **kwargs: Any) -> CrossingController:
+    def from_env(cls, env: Any, **kwargs: Any) -> Self:
         """A controller for the design and control period of ``env`` (possibly wrapped); the
         speed and gain default to those the environment's task verifies with."""
-        base = env.unwrapped
-        limits = getattr(base.task, "limits", None)
+        limits = getattr(env.unwrapped.task, "limits", None)
         if limits is not None and hasattr(limits, "travel_gain"):
             kwargs.setdefault("speed_fraction", limits.speed_fraction)
             kwargs.setdefault("travel_gain", limits.travel_gain)
-        return cls(base.design, dt=base.dt, **kwargs)
+        return super().from_env(env, **kwargs)
 
     def plan(self, i: int, obs: NDArray[np.float64]) -> TravelCurve:
         """The demonstration's travel curve from ``obs`` to its target."""

@@ -1,10 +1,11 @@
 """Diagnostics of the path between a start and a target pose: what a suite records per episode.
 
 :func:`path_profiles` checks the straight line in pose space (the path of the simultaneous
-simple motions), :func:`sequential_path_profiles` the rotation-vertical-horizontal path of the
-sequential simple motions.  Both are vectorised over pairs and report reachability within the
-stroke, the smallest parallel and serial margins met, whether ``sign det A`` changes (a
-parallel singularity crossed), and whether the path passes the environment's clear-path test.
+simple motions); :func:`profile` of :func:`sequential_path` checks the
+rotation-vertical-horizontal path of the sequential simple motions.  Both are vectorised over
+pairs and report reachability within the stroke, the smallest parallel and serial margins met,
+whether ``sign det A`` changes (a parallel singularity crossed), and whether the path passes
+the environment's clear-path test.
 Lengths in m, angles in rad, margins dimensionless.
 """
 
@@ -19,7 +20,7 @@ from numpy.typing import ArrayLike, NDArray
 from planar3p_gym import kinematics, task
 from planar3p_gym.design import Design
 
-__all__ = ["path_dict", "path_profiles", "profile", "sequential_path_profiles", "with_sequential"]
+__all__ = ["path_dict", "path_profiles", "profile", "sequential_path", "with_sequential"]
 
 FloatArray = NDArray[np.float64]
 
@@ -47,16 +48,9 @@ def path_profiles(
     return out
 
 
-def sequential_path_profiles(
-    design: Design,
-    starts: ArrayLike,
-    targets: ArrayLike,
-    mode: ArrayLike,
-    n_points: int = 64,
-    cfg: task.TaskConfig | None = None,
-) -> dict[str, np.ndarray]:
-    """The diagnostics of :func:`path_profiles` for the path of the sequential simple motions:
-    rotation about ``G`` to the target angle, then vertical, then horizontal translation."""
+def sequential_path(starts: ArrayLike, targets: ArrayLike, n_points: int = 64) -> FloatArray:
+    """Poses ``(N, 3 n_points, 3)`` along the path of the sequential simple motions: rotation
+    about ``G`` to the target angle, then vertical, then horizontal translation."""
     s = np.atleast_2d(np.asarray(starts, dtype=np.float64))
     t = np.atleast_2d(np.asarray(targets, dtype=np.float64))
     dth = (t[:, 2] - s[:, 2] + math.pi) % (2.0 * math.pi) - math.pi
@@ -66,10 +60,9 @@ def sequential_path_profiles(
     w2[:, 1] = t[:, 1]
     w3 = t.copy()
     w3[:, 2] = w1[:, 2]
-    path = np.concatenate(
+    return np.concatenate(
         [task.interpolate(a, b, n_points) for a, b in ((s, w1), (w1, w2), (w2, w3))], axis=-2
     )
-    return profile(design, path, mode, cfg)
 
 
 def profile(
@@ -128,7 +121,7 @@ def with_sequential(
     path: dict[str, Any],
 ) -> dict[str, Any]:
     """``path`` plus the sequential path's diagnostics under ``sequential_<key>``."""
-    seq = sequential_path_profiles(design, s, t, mode, cfg=cfg)
+    seq = profile(design, sequential_path(s, t), mode, cfg)
     out = dict(path)
     out.update({f"sequential_{k}": v for k, v in path_dict(seq, 0).items()})
     return out

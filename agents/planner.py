@@ -106,12 +106,6 @@ class JointPathPlanner(TravelFollower):
         )
         self.limits = limits or PathLimits()
 
-    @classmethod
-    def from_env(cls, env: Any, **kwargs: Any) -> JointPathPlanner:
-        """A planner for the design and control period of ``env`` (possibly wrapped)."""
-        base = env.unwrapped
-        return cls(base.design, dt=base.dt, **kwargs)
-
     def new_batch(self, n: int) -> None:
         """No plan yet for ``n`` environments (none certified)."""
         super().new_batch(n)

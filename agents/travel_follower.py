@@ -10,7 +10,7 @@ time (:meth:`TravelFollower.follow`).
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Self
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -80,6 +80,13 @@ class TravelFollower(BatchPolicy):
         self.travel_gain = float(travel_gain)
         self.finisher = AnalyticController(self.design, "simultaneous")
         self.new_batch(0)
+
+    @classmethod
+    def from_env(cls, env: Any, **kwargs: Any) -> Self:
+        """A follower for the design and control period of ``env`` (possibly wrapped);
+        ``kwargs``: the other constructor arguments."""
+        base = env.unwrapped
+        return cls(base.design, dt=base.dt, **kwargs)
 
     def new_batch(self, n: int) -> None:
         """No plan yet for ``n`` environments."""

@@ -15,36 +15,14 @@ ENV_ID = "Planar3P-v0"
 #: Time limit of ``Planar3P-v0`` in control steps (5 s at the default 50 Hz).
 MAX_EPISODE_STEPS = 250
 
-if ENV_ID not in registry:
-    register(
-        id=ENV_ID,
-        entry_point="planar3p_gym.env:Planar3PEnv",
-        vector_entry_point="planar3p_gym.vector_env:Planar3PVectorEnv",
-        max_episode_steps=MAX_EPISODE_STEPS,
-    )
-
 # H1 (issue 12): the same task on the projected physics (exact loop closure, faster).
 #: The reach task with ``projection=True`` and the projected solver settings.
 ENV_ID_V1 = "Planar3P-v1"
-if ENV_ID_V1 not in registry:
-    from .physics import PROJECTED_ITERATIONS, PROJECTED_SUBSTEPS
-
-    register(
-        id=ENV_ID_V1,
-        entry_point="planar3p_gym.env:Planar3PEnv",
-        vector_entry_point="planar3p_gym.vector_env:Planar3PVectorEnv",
-        max_episode_steps=MAX_EPISODE_STEPS,
-        kwargs={
-            "projection": True,
-            "substeps": PROJECTED_SUBSTEPS,
-            "solver_iterations": PROJECTED_ITERATIONS,
-        },
-    )
 
 
-# H2 (issue 10): goal-conditioned reach and trajectory tracking, on the projected physics.
 def _projected_physics() -> dict:
-    """Constructor arguments of the projected physics (H1's settings, shared by the ids below)."""
+    """Constructor arguments of the projected physics (H1's settings, shared by ``Planar3P-v1``
+    and the task ids below)."""
     from .physics import PROJECTED_ITERATIONS, PROJECTED_SUBSTEPS
 
     return {
@@ -55,6 +33,17 @@ def _projected_physics() -> dict:
 
 
 _PROJECTED = _projected_physics()
+for _id, _kwargs in ((ENV_ID, {}), (ENV_ID_V1, _PROJECTED)):
+    if _id not in registry:
+        register(
+            id=_id,
+            entry_point="planar3p_gym.env:Planar3PEnv",
+            vector_entry_point="planar3p_gym.vector_env:Planar3PVectorEnv",
+            max_episode_steps=MAX_EPISODE_STEPS,
+            kwargs=dict(_kwargs),
+        )
+
+# H2 (issue 10): goal-conditioned reach and trajectory tracking, on the projected physics.
 #: Goal-conditioned reach ids (sparse and dense reward).
 GOAL_ENV_ID = "Planar3PGoal-v0"
 GOAL_DENSE_ENV_ID = "Planar3PGoalDense-v0"

@@ -171,28 +171,22 @@ def goal_reward(
     weights: RewardWeights,
     length: float,
     reward_type: str,
+    *,
+    checked: bool = False,
 ) -> NDArray[np.float64]:
     """The reward per goal pair, shape ``(n,)``: its goal-dependent part plus
     ``info["goal_free_reward"]``.
 
     Sparse: ``-1`` unless successful (``0``).  Dense: ``-w_pose e - w_precision (1 -
     exp(-d / s)) + w_success [success]`` with ``d = |dp| + length |dtheta|`` (m), ``e = d /
-    length`` (the reach reward's goal terms, :mod:`planar3p_gym.rewards`).
+    length`` (the reach reward's goal terms, :mod:`planar3p_gym.rewards`).  ``checked``: the
+    goals are float64 arrays ``(n, 5)`` known to be valid (the input checks are skipped, the
+    arithmetic is the same).
     """
-    a, d, _ = _goals(achieved, desired)
-    return _reward(a, d, info, cfg, weights, length, reward_type)
-
-
-def _reward(
-    a: np.ndarray,
-    d: np.ndarray,
-    info: Any,
-    cfg: TaskConfig,
-    weights: RewardWeights,
-    length: float,
-    reward_type: str,
-) -> NDArray[np.float64]:
-    """:func:`goal_reward` of validated ``(n, 5)`` float64 goals."""
+    if checked:
+        a, d = np.asarray(achieved), np.asarray(desired)
+    else:
+        a, d, _ = _goals(achieved, desired)
     pos, ang, success = _evaluate(a, d, info, cfg)
     free = _info_field(info, "goal_free_reward", pos.shape[0])
     if reward_type == "sparse":
@@ -287,7 +281,7 @@ class GoalTask(ReachTask):
         environment returns (without the public function's input checks)."""
         env = self.env
         return float(
-            _reward(
+            goal_reward(
                 achieved.astype(np.float64)[None, :],
                 self.desired.astype(np.float64)[None, :],
                 info,
@@ -295,6 +289,7 @@ class GoalTask(ReachTask):
                 env.reward_weights,
                 env.design.characteristic_length,
                 self.reward_type,
+                checked=True,
             )[0]
         )
 
