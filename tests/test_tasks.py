@@ -8,7 +8,7 @@ import json
 import gymnasium as gym
 import numpy as np
 import pytest
-from task_helpers import checker_warnings, flat, rollout
+from task_helpers import assert_seeded_and_replayable, checker_warnings, flat, rollout
 
 import planar3p_gym
 from planar3p_gym.env import Planar3PEnv
@@ -41,6 +41,28 @@ def test_episode_spec_is_json_and_replays_the_episode(env_id, kwargs):
         again = rollout(env, actions, options=json.loads(text))
         assert np.array_equal(first, again)
         assert env.unwrapped.episode_spec == spec
+
+
+#: (id, make kwargs, seed, steps) of the seeded-episode check: every task id.
+SEEDED = [
+    (planar3p_gym.GOAL_ENV_ID, {}, 11, 120),
+    (planar3p_gym.GOAL_DENSE_ENV_ID, {}, 11, 120),
+    (planar3p_gym.TRACK_ENV_ID, {"reference": "segments"}, 7, 150),
+    (planar3p_gym.TRACK_ENV_ID, {"reference": "figure_eight"}, 7, 150),
+    (planar3p_gym.MODE_CHANGE_ENV_ID, {}, 11, 15),
+    (planar3p_gym.ASSEMBLY_CHANGE_ENV_ID, {}, 5, 15),
+]
+
+
+@pytest.mark.parametrize(("env_id", "kwargs", "seed", "steps"), SEEDED)
+def test_seeded_episodes_repeat_and_replay(env_id, kwargs, seed, steps):
+    """Same seed -> same episode, also in a newly made environment; finite numbers under
+    random actions; ``reset(options=spec)`` (after a JSON round trip) replays it bit for bit
+    (tracking: with its rms error)."""
+    actions = np.random.default_rng(seed).uniform(-1, 1, (steps, 3)).astype(np.float32)
+    keys = ("tracking_rms_error",) if env_id == planar3p_gym.TRACK_ENV_ID else ()
+    env, fresh = gym.make(env_id, **kwargs), gym.make(env_id, **kwargs)
+    assert_seeded_and_replayable(env, actions, seed, info_keys=keys, fresh=fresh)
 
 
 @pytest.mark.parametrize(("env_id", "kwargs"), CASES)
