@@ -15,6 +15,7 @@ from agents.tracking import TrackingController, run_tracking_episodes, summarize
 from planar3p_gym import kinematics
 from planar3p_gym.observation import OBS_SIZE, SLICES
 from planar3p_gym.tasks.track import TRACKING_METRICS
+from planar3p_gym.tasks.track_references import parse_reference
 
 KINDS = ("segments", "figure_eight")
 ID = planar3p_gym.TRACK_ENV_ID
@@ -44,7 +45,7 @@ def test_reference_is_feasible_smooth_and_within_the_speed_budget(kind):
         _, info = env.reset()
         spec = info["episode_spec"]
         mode = tuple(spec["working_mode"])
-        assert t._reference_problem(t._parse_reference(spec["reference"]), mode) is None
+        assert t._reference_problem(parse_reference(spec["reference"]), mode) is None
         steps = np.arange(0, 600)
         ref = [t._reference_at(spec["reference"], k) for k in steps]
         poses = np.array([p for p, _ in ref])

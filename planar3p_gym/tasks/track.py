@@ -42,6 +42,9 @@ Episode spec: ``{"task": "track", "working_mode": [...], "start": [x, y, theta],
 "amplitude": [ax, ay, atheta], "period": T, "ramp": Tr}`` (m, rad, s).  Reset options:
 ``working_mode``, ``start`` (the reference begins there) and ``reference`` (validated:
 ``ValueError`` if it leaves the workspace or its margins).
+
+The references themselves (their form and the pose and velocity at a time) are in
+:mod:`planar3p_gym.tasks.track_references`; this module draws, checks and tracks them.
 """
 
 from __future__ import annotations
@@ -56,11 +59,18 @@ from .. import kinematics, task
 from ..observation import SPEED_BOUND_FACTOR
 from ..physics import SimState
 from .base import Pose, Task, pose_list
+from .track_references import (
+    CHECK_POINTS,
+    MIN_DURATION,
+    REFERENCE_KINDS,
+    eight_curve,
+    parse_reference,
+    reference_at,
+    wrap_angle,
+)
 
 __all__ = ["EIGHT_AMPLITUDES", "REFERENCE_KINDS", "TRACKING_METRICS", "TrackTask"]
 
-#: Reference kinds.
-REFERENCE_KINDS = ("segments", "figure_eight")
 #: Ranges the figure-eight amplitudes are drawn from: ``ax`` (m), ``ay`` (m), ``|atheta|`` (rad).
 EIGHT_AMPLITUDES = ((0.02, 0.06), (0.01, 0.03), (0.0, 0.25))
 #: Scales tried on drawn figure-eight amplitudes that do not fit, in order.
@@ -69,10 +79,6 @@ EIGHT_SCALES = (1.0, 0.7, 0.5, 0.35, 0.25)
 #: :data:`EIGHT_MODE_TRIALS` drawn eights fit in it.
 EIGHT_MODE_ACCEPTS = 3
 EIGHT_MODE_TRIALS = 16
-#: Points at which a segment or the figure-eight is checked and its rates bounded.
-CHECK_POINTS = 65
-#: Shortest segment or period (s).
-MIN_DURATION = 0.5
 #: Figure-eight ramp-up time from rest (s).
 EIGHT_RAMP = 1.0
 #: Peak of ``ds/du`` of the minimum-jerk law (at ``u = 1/2``).
@@ -87,20 +93,6 @@ TRACKING_METRICS = (
     "tracking_rms_orientation_error",
     "tracking_max_orientation_error",
 )
-
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
-
-
-def _eight(centre: np.ndarray, amp: np.ndarray, phi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Poses ``(n, 3)`` of the figure-eight at phases ``phi`` ``(n,)`` and their derivatives
-    with respect to the phase."""
-    s, c = np.sin(phi), np.cos(phi)
-    s2, c2 = np.sin(2.0 * phi), np.cos(2.0 * phi)
-    pose = centre + np.column_stack([amp[0] * s, amp[1] * s2, amp[2] * s])
-    dpose = np.column_stack([amp[0] * c, 2.0 * amp[1] * c2, amp[2] * c])
-    return pose, dpose
 
 
 class TrackTask(Task):
@@ -178,11 +170,11 @@ class TrackTask(Task):
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         ref = options.get("reference")
         if ref is not None:
-            options["reference"] = self._parse_reference(ref)
+            options["reference"] = parse_reference(ref)
             start = self._reference_at(options["reference"], 0)[0]
             if options.get("start") is not None:
                 given = self.finite_pose(options["start"], "start")
-                if np.abs(_wrap(given - start)).max() > 1e-9:
+                if np.abs(wrap_angle(given - start)).max() > 1e-9:
                     raise ValueError(
                         f"start {given.tolist()} is not the reference's initial pose "
                         f"{start.tolist()}"
@@ -230,7 +222,7 @@ class TrackTask(Task):
         }
 
     def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
-        self._ref = self._parse_reference(spec["reference"])
+        self._ref = parse_reference(spec["reference"])
         self._pose_cache = None
         self._sums = np.zeros(3)
         self._maxes = np.zeros(3)
@@ -239,78 +231,9 @@ class TrackTask(Task):
         return np.asarray(spec["start"], dtype=np.float64), mode  # type: ignore[return-value]
 
     # ------------------------------------------------------------------ reference
-    def _parse_reference(self, ref: Any) -> dict[str, Any]:
-        """A reference dict checked for form (not feasibility), as plain JSON data."""
-        if not isinstance(ref, dict) or ref.get("kind") not in REFERENCE_KINDS:
-            raise ValueError(
-                f"reference must be a dict with kind in {REFERENCE_KINDS}, got {ref!r:.200}"
-            )
-        if ref["kind"] == "segments":
-            if set(ref) != {"kind", "waypoints", "durations"}:
-                raise ValueError("a segments reference has keys kind, waypoints, durations")
-            wps = [self.finite_pose(w, "reference waypoint") for w in ref["waypoints"]]
-            try:
-                dur = [float(d) for d in ref["durations"]]
-            except (TypeError, ValueError) as exc:
-                raise ValueError("reference durations must be numbers (s)") from exc
-            if len(wps) < 2 or len(dur) != len(wps) - 1:
-                raise ValueError(
-                    "a segments reference needs >= 2 waypoints and one duration per segment"
-                )
-            if not all(math.isfinite(d) and d >= MIN_DURATION * 0.5 for d in dur):
-                raise ValueError(f"reference durations must be >= {MIN_DURATION * 0.5} s")
-            return {
-                "kind": "segments",
-                "waypoints": [pose_list(w) for w in wps],
-                "durations": dur,
-            }
-        if set(ref) != {"kind", "centre", "amplitude", "period", "ramp"}:
-            raise ValueError(
-                "a figure_eight reference has keys kind, centre, amplitude, period, ramp"
-            )
-        centre = self.finite_pose(ref["centre"], "reference centre")
-        amp = self.finite_pose(ref["amplitude"], "reference amplitude")
-        try:
-            period, ramp = float(ref["period"]), float(ref["ramp"])
-        except (TypeError, ValueError) as exc:
-            raise ValueError("reference period and ramp must be numbers (s)") from exc
-        if not (math.isfinite(period) and period >= MIN_DURATION):
-            raise ValueError(f"reference period must be >= {MIN_DURATION} s, got {period!r}")
-        if not (math.isfinite(ramp) and 0 < ramp <= 60):
-            raise ValueError(f"reference ramp must be in (0, 60] s, got {ramp!r}")
-        return {
-            "kind": "figure_eight",
-            "centre": pose_list(centre),
-            "amplitude": pose_list(amp),
-            "period": period,
-            "ramp": ramp,
-        }
-
     def _reference_at(self, ref: dict[str, Any], step: int) -> tuple[np.ndarray, np.ndarray]:
         """Reference pose and velocity at ``step`` control steps (m, rad; m/s, rad/s)."""
-        t = step * self.env.dt
-        if ref["kind"] == "segments":
-            wps = np.asarray(ref["waypoints"])
-            for a, b, dur in zip(wps[:-1], wps[1:], ref["durations"], strict=True):
-                if t < dur:
-                    delta = b - a
-                    delta[2] = _wrap(delta[2])
-                    u = t / dur
-                    s = u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
-                    s_dot = 30.0 * u * u * (1.0 - u) ** 2 / dur
-                    return a + s * delta, s_dot * delta
-                t -= dur
-            return wps[-1].copy(), np.zeros(3)
-        omega = 2.0 * math.pi / ref["period"]
-        ramp = ref["ramp"]
-        u = min(t / ramp, 1.0)
-        # Phase time g(t) with g' = smoothstep(t / ramp): from rest to full speed, C^1.
-        g = ramp * (u**3 - 0.5 * u**4) + max(t - ramp, 0.0)
-        g_dot = 3.0 * u * u - 2.0 * u**3
-        pose, dpose = _eight(
-            np.asarray(ref["centre"]), np.asarray(ref["amplitude"]), np.array([omega * g])
-        )
-        return pose[0], dpose[0] * omega * g_dot
+        return reference_at(ref, step * self.env.dt)
 
     def _current(self, step: int) -> tuple[np.ndarray, np.ndarray]:
         if self._pose_cache is None or self._pose_cache[0] != step:
@@ -358,15 +281,10 @@ class TrackTask(Task):
                 if not self._screen(path, mode, asm):
                     return f"segment {i} leaves the stroke, its margins or the assembly mode"
             return None
-        curve = self._eight_curve(ref)
+        curve = eight_curve(ref)
         if not self._screen(curve, mode, self._assembly(curve[0], mode)):
             return "the curve leaves the stroke, its margins or the assembly mode"
         return None
-
-    @staticmethod
-    def _eight_curve(ref: dict[str, Any]) -> np.ndarray:
-        phi = np.linspace(0.0, 2.0 * math.pi, 4 * CHECK_POINTS)
-        return _eight(np.asarray(ref["centre"]), np.asarray(ref["amplitude"]), phi)[0]
 
     # ------------------------------------------------------------------ sampling
     def _draw_start(self, rng: np.random.Generator, mode: Any, start: Any) -> np.ndarray:
@@ -427,7 +345,7 @@ class TrackTask(Task):
             }
             for scale in EIGHT_SCALES
         ]
-        curves = np.stack([self._eight_curve(r) for r in refs])
+        curves = np.stack([eight_curve(r) for r in refs])
         fits = self._screen(curves, mode, self._assembly(centre, mode))
         if not fits.any():
             return None

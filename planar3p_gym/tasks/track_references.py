@@ -1,0 +1,129 @@
+"""The references of :mod:`planar3p_gym.tasks.track`: their JSON form, checked
+(:func:`parse_reference`), and the pose and velocity they prescribe at a time
+(:func:`reference_at`).  Random segments follow the minimum-jerk time law
+(:func:`planar3p_gym.tasks.travel_motion.minimum_jerk`) between waypoints; the figure-eight is
+``x = cx + ax sin phi``, ``y = cy + ay sin 2 phi``, ``theta = ctheta + atheta sin phi`` with a
+smooth ramp of the phase from rest.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from .base import Task, pose_list
+from .travel_motion import minimum_jerk
+
+__all__ = [
+    "CHECK_POINTS",
+    "MIN_DURATION",
+    "REFERENCE_KINDS",
+    "eight_curve",
+    "figure_eight",
+    "parse_reference",
+    "reference_at",
+    "wrap_angle",
+]
+
+#: Reference kinds.
+REFERENCE_KINDS = ("segments", "figure_eight")
+#: Points at which a segment or the figure-eight is checked and its rates bounded.
+CHECK_POINTS = 65
+#: Shortest segment or period (s).
+MIN_DURATION = 0.5
+
+
+def wrap_angle(a: np.ndarray) -> np.ndarray:
+    """Angles (rad) wrapped to ``[-pi, pi)``."""
+    return (a + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def figure_eight(
+    centre: np.ndarray, amp: np.ndarray, phi: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Poses ``(n, 3)`` of the figure-eight at phases ``phi`` ``(n,)`` and their derivatives
+    with respect to the phase."""
+    s, c = np.sin(phi), np.cos(phi)
+    s2, c2 = np.sin(2.0 * phi), np.cos(2.0 * phi)
+    pose = centre + np.column_stack([amp[0] * s, amp[1] * s2, amp[2] * s])
+    dpose = np.column_stack([amp[0] * c, 2.0 * amp[1] * c2, amp[2] * c])
+    return pose, dpose
+
+
+def parse_reference(ref: Any) -> dict[str, Any]:
+    """A reference dict checked for form (not feasibility), as plain JSON data."""
+    if not isinstance(ref, dict) or ref.get("kind") not in REFERENCE_KINDS:
+        raise ValueError(
+            f"reference must be a dict with kind in {REFERENCE_KINDS}, got {ref!r:.200}"
+        )
+    if ref["kind"] == "segments":
+        if set(ref) != {"kind", "waypoints", "durations"}:
+            raise ValueError("a segments reference has keys kind, waypoints, durations")
+        wps = [Task.finite_pose(w, "reference waypoint") for w in ref["waypoints"]]
+        try:
+            dur = [float(d) for d in ref["durations"]]
+        except (TypeError, ValueError) as exc:
+            raise ValueError("reference durations must be numbers (s)") from exc
+        if len(wps) < 2 or len(dur) != len(wps) - 1:
+            raise ValueError(
+                "a segments reference needs >= 2 waypoints and one duration per segment"
+            )
+        if not all(math.isfinite(d) and d >= MIN_DURATION * 0.5 for d in dur):
+            raise ValueError(f"reference durations must be >= {MIN_DURATION * 0.5} s")
+        return {
+            "kind": "segments",
+            "waypoints": [pose_list(w) for w in wps],
+            "durations": dur,
+        }
+    if set(ref) != {"kind", "centre", "amplitude", "period", "ramp"}:
+        raise ValueError("a figure_eight reference has keys kind, centre, amplitude, period, ramp")
+    centre = Task.finite_pose(ref["centre"], "reference centre")
+    amp = Task.finite_pose(ref["amplitude"], "reference amplitude")
+    try:
+        period, ramp = float(ref["period"]), float(ref["ramp"])
+    except (TypeError, ValueError) as exc:
+        raise ValueError("reference period and ramp must be numbers (s)") from exc
+    if not (math.isfinite(period) and period >= MIN_DURATION):
+        raise ValueError(f"reference period must be >= {MIN_DURATION} s, got {period!r}")
+    if not (math.isfinite(ramp) and 0 < ramp <= 60):
+        raise ValueError(f"reference ramp must be in (0, 60] s, got {ramp!r}")
+    return {
+        "kind": "figure_eight",
+        "centre": pose_list(centre),
+        "amplitude": pose_list(amp),
+        "period": period,
+        "ramp": ramp,
+    }
+
+
+def reference_at(ref: dict[str, Any], t: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pose and velocity (m, m, rad; m/s, m/s, rad/s) of the parsed reference ``ref`` at
+    time ``t`` (s) from its start."""
+    if ref["kind"] == "segments":
+        wps = np.asarray(ref["waypoints"])
+        for a, b, dur in zip(wps[:-1], wps[1:], ref["durations"], strict=True):
+            if t < dur:
+                delta = b - a
+                delta[2] = wrap_angle(delta[2])
+                s, s_dot = minimum_jerk(t, dur)
+                return a + s * delta, s_dot * delta
+            t -= dur
+        return wps[-1].copy(), np.zeros(3)
+    omega = 2.0 * math.pi / ref["period"]
+    ramp = ref["ramp"]
+    u = min(t / ramp, 1.0)
+    # Phase time g(t) with g' = smoothstep(t / ramp): from rest to full speed, C^1.
+    g = ramp * (u**3 - 0.5 * u**4) + max(t - ramp, 0.0)
+    g_dot = 3.0 * u * u - 2.0 * u**3
+    pose, dpose = figure_eight(
+        np.asarray(ref["centre"]), np.asarray(ref["amplitude"]), np.array([omega * g])
+    )
+    return pose[0], dpose[0] * omega * g_dot
+
+
+def eight_curve(ref: dict[str, Any]) -> np.ndarray:
+    """Poses ``(4 CHECK_POINTS, 3)`` around the whole closed figure-eight ``ref``."""
+    phi = np.linspace(0.0, 2.0 * math.pi, 4 * CHECK_POINTS)
+    return figure_eight(np.asarray(ref["centre"]), np.asarray(ref["amplitude"]), phi)[0]
