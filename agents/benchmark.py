@@ -337,9 +337,10 @@ def run_benchmark(
         written.append(plot_success(out, summaries, done))
         written.append(plot_errors(out, results, done))
         mapped = [s for s in done if suites[s].params.get("task") in (None, "goal")]
-        traj = plot_trajectories(out, design, {s: suites[s] for s in mapped}, results)
-        if mapped and traj:
-            written.append(traj)
+        if mapped:  # trajectories are drawn on the reach workspace maps only
+            traj = plot_trajectories(out, design, {s: suites[s] for s in mapped}, results)
+            if traj:
+                written.append(traj)
     table = write_report(
         out,
         settings["command"],

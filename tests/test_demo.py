@@ -1,0 +1,84 @@
+"""The demo's pieces: GIF recording of one fixed episode, and benchmarks of task suites alone."""
+
+from __future__ import annotations
+
+import csv
+import json
+
+import imageio.v2 as imageio
+import pytest
+
+from agents.baselines import ZeroPolicy
+from agents.episode_gif import GIF_SIZE, record_gif
+from agents.task_suites import TASK_SUITES, make_task_suite, task_baseline
+
+
+@pytest.fixture(scope="module")
+def mode_change_episode():
+    return make_task_suite("mode-change", 1, seed=0).episodes[0]
+
+
+def test_record_gif_plays_the_fixed_episode(tmp_path, mode_change_episode, monkeypatch):
+    """The planner reaches the target (a certified mode change); the frames handed to the GIF
+    writer are the reset, every ``frame_every``-th step, the last one, and 12 copies of it (a
+    pause), at the render size, shown at ``render_fps / frame_every`` (50 / 3 Hz)."""
+    saved = {}
+
+    def capture(path, frames, **kwargs):
+        saved.update(path=path, frames=list(frames), **kwargs)
+
+    monkeypatch.setattr(imageio, "mimsave", capture)
+    env_id = TASK_SUITES["mode-change"].env_id
+    outcome = record_gif(
+        env_id,
+        lambda env: task_baseline("planner", "mode-change", env),
+        mode_change_episode.reset_options(),
+        tmp_path / "planner.gif",
+        frame_every=3,
+    )
+    assert outcome["success"] and outcome["reason"] == "success"
+    assert outcome["position_error_mm"] <= 2.0  # the task's position tolerance, 2 mm
+    steps = outcome["steps"]
+    assert len(saved["frames"]) == 1 + steps // 3 + (steps % 3 != 0) + 12
+    assert saved["frames"][0].shape == (GIF_SIZE[1], GIF_SIZE[0], 3)
+    assert saved["duration"] == pytest.approx(3 / 50)
+    assert saved["loop"] == 0
+
+
+def test_record_gif_reports_a_timeout(tmp_path, mode_change_episode):
+    """Zero velocity never reaches the target: the time limit ends the episode (400 steps)."""
+    outcome = record_gif(
+        TASK_SUITES["mode-change"].env_id,
+        lambda env: ZeroPolicy(),
+        mode_change_episode.reset_options(),
+        tmp_path / "zero.gif",
+        frame_every=50,
+    )
+    assert outcome == {
+        "steps": 400,
+        "reason": "time limit",
+        "success": False,
+        "position_error_mm": pytest.approx(outcome["position_error_mm"]),
+    }
+    assert outcome["position_error_mm"] > 2.0
+    first = imageio.mimread(tmp_path / "zero.gif", memtest=False)[0]
+    assert first.shape[:2] == (GIF_SIZE[1], GIF_SIZE[0])
+    with pytest.raises(ValueError, match="frame_every"):
+        record_gif("Planar3P-v0", lambda env: ZeroPolicy(), {}, tmp_path / "x.gif", frame_every=0)
+
+
+def test_benchmark_of_a_task_suite_alone_writes_its_plots(tmp_path, bench):
+    """A run with only a task suite (no reach suite, so no trajectory map) completes and writes
+    its success and error plots (it used to fail drawing an empty trajectory figure)."""
+    out = tmp_path / "mc"
+    argv = ["--suites", "mode-change", "--policies", "planner,zero", "--episodes", "2"]
+    assert bench.main([*argv, "--out", str(out), "--no-progress"]) == 0
+    rows = list(csv.DictReader((out / "episodes.csv").open()))
+    assert [(r["policy"], r["success"]) for r in rows] == [("planner", "True")] * 2 + [
+        ("zero", "False")
+    ] * 2
+    summary = json.loads((out / "summary.json").read_text())
+    assert len(summary["summaries"]) == 2
+    assert (out / "success_rate.png").stat().st_size > 1000
+    assert not (out / "trajectories.png").exists()
+
