@@ -14,7 +14,10 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["group_name", "load_run", "plot", "table", "training_time"]
+__all__ = ["group_name", "load_run", "plot", "table", "time_to_success", "training_time"]
+
+#: Success rate a run must reach in its evaluations for :func:`time_to_success`.
+SUCCESS_LEVEL = 0.9
 
 
 def load_run(path: Path) -> dict:
@@ -39,6 +42,7 @@ def load_run(path: Path) -> dict:
     return {
         "name": path.name,
         "train_time": training_time(path),
+        "time_to_level": time_to_success(path),
         "kickstart": kick,
         "algo": config["algo"],
         "seed": config["seed"],
@@ -65,6 +69,33 @@ def training_time(path: Path) -> float | None:
             total += max(stamps) - min(stamps)
             found = True
     return total if found else None
+
+
+def time_to_success(path: Path, level: float = SUCCESS_LEVEL) -> tuple[int, float] | None:
+    """The first evaluation of the run at ``path`` with success rate ``>= level``: its
+    environment step and the wall time from the run's first logged scalar to it (s), from the
+    TensorBoard logs (``eval/success_rate``, compared with a float32 round-off allowance);
+    ``None`` if no evaluation got there.  A resumed
+    run's pause between sessions is not counted."""
+    try:
+        from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+    except ImportError:  # pragma: no cover - tensorboard is in the train extra
+        return None
+    elapsed = 0.0
+    for log in sorted((path / "tb").glob("*")):
+        acc = EventAccumulator(str(log), size_guidance={"scalars": 0})
+        acc.Reload()
+        tags = acc.Tags()["scalars"]
+        stamps = [e.wall_time for tag in tags for e in acc.Scalars(tag)]
+        if not stamps:
+            continue
+        start = min(stamps)
+        if "eval/success_rate" in tags:
+            for e in acc.Scalars("eval/success_rate"):
+                if e.value >= level - 1e-6:  # TensorBoard stores float32: 0.9 -> 0.89999998
+                    return int(e.step), elapsed + e.wall_time - start
+        elapsed += max(stamps) - start
+    return None
 
 
 def _group_curves(
@@ -124,8 +155,9 @@ def table(runs: list[dict]) -> str:
     """Markdown table of the runs (training wall time from the TensorBoard logs)."""
     lines = [
         "| run | algo | seed | kick-started | env steps | training wall time (min) | steps/s "
+        f"| first evaluation >= {SUCCESS_LEVEL:.0%} (steps, min) "
         "| final success (100 episodes) | final return |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in runs:
         m = r["metrics"]
@@ -135,9 +167,11 @@ def table(runs: list[dict]) -> str:
         kick = "yes" if r["kickstart"] else "no"
         rate = f"{steps / wall:.0f}" if wall else "?"
         minutes = f"{wall / 60:.1f}" if wall else "?"
+        reached = r.get("time_to_level")
+        first = f"{reached[0]}, {reached[1] / 60:.1f}" if reached else "never"
         lines.append(
             f"| {r['name']} | {r['algo'].upper()} | {r['seed']} | {kick} | {steps} | {minutes} "
-            f"| {rate} | {fe.get('success_rate', float('nan')):.2f} "
+            f"| {rate} | {first} | {fe.get('success_rate', float('nan')):.2f} "
             f"| {fe.get('mean_return', float('nan')):.1f} |"
         )
     return "\n".join(lines)
