@@ -480,6 +480,13 @@ class Planar3PEnv(gym.Env):
             and state.closure_error <= self.breakdown_distance
         ):  # (the reach task's reference is its fixed target)
             return self._fused_step(state, (a0, a1, a2))
+        return self._general_step(state, (a0, a1, a2))
+
+    def _general_step(
+        self, state: SimState, action: tuple[float, float, float]
+    ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """The rest of :meth:`step` after the physics, through the task's hooks."""
+        a0, a1, a2 = action
         self._target = self.task.reference(self._steps)
 
         reason = None

@@ -9,7 +9,7 @@ import pytest
 from gymnasium.vector import AutoresetMode
 
 import planar3p_gym
-from planar3p_gym.vector_env import INFO_KEYS, Planar3PVectorEnv
+from planar3p_gym.vector_env import INFO_KEYS, NUMPY_BATCH_MIN, Planar3PVectorEnv
 
 
 @pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v1"])
@@ -24,16 +24,30 @@ def test_make_vec_gives_the_native_vector_env(env_id):
     venv.close()
 
 
-@pytest.mark.parametrize(("env_id", "kwargs"), [("Planar3P-v1", {}), ("Planar3P-v0", {})])
-def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs):
+@pytest.mark.parametrize(
+    ("env_id", "kwargs", "batch"),
+    [
+        ("Planar3P-v1", {}, "scalar"),
+        ("Planar3P-v1", {}, "numpy"),
+        ("Planar3P-v1", {"working_mode": "random"}, "numpy"),
+        # Every step past a closure of 1e-15 of the shortest leg counts as a physics breakdown:
+        # episodes end through the single env's general step, in both batch modes.
+        ("Planar3P-v1", {"breakdown_threshold": 1e-15}, "scalar"),
+        ("Planar3P-v1", {"breakdown_threshold": 1e-15}, "numpy"),
+        ("Planar3P-v0", {}, "auto"),
+    ],
+)
+def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, batch):
     """Bit for bit: observations, rewards, flags and info entries of ``num_envs`` single
     envs made with ``gym.make`` (time limit included), reset with ``seed + i`` and autoreset
     on the next step after an episode ends, as the vector env does.  A short time limit makes
-    several episodes end (truncations) and restart within the test."""
+    several episodes end (truncations) and restart within the test; saturating actions in
+    some steps drive sliders into their end stops and the servos to their force limit."""
     n, steps, limit = 3, 130, 40
-    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit, **kwargs)
+    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit, batch=batch, **kwargs)
     singles = [gym.make(env_id, max_episode_steps=limit, **kwargs) for _ in range(n)]
     actions = np.random.default_rng(7).uniform(-1.0, 1.0, (steps, n, 3)).astype(np.float32)
+    actions[60:90] = np.sign(actions[60:90]) * 1.5  # (clipped to +-1: bang-bang)
     obs, infos = venv.reset(seed=21)
     expected = [env.reset(seed=21 + i) for i, env in enumerate(singles)]
     np.testing.assert_array_equal(obs, np.stack([o for o, _ in expected]))
@@ -55,7 +69,22 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs):
                 assert infos[key][i] == info[key], key
                 assert infos["_" + key][i]
     assert ends >= n * 2
+    # The single envs' own attributes are brought up to date on access.
+    for env, single in zip(venv.envs, singles, strict=True):
+        assert env.sim.state == single.unwrapped.sim.state
+        assert env._last_info.keys() == single.unwrapped._last_info.keys()
+        for key, value in single.unwrapped._last_info.items():
+            if key != "reward_terms":
+                assert env._last_info[key] == value, key
     venv.close()
+
+
+def test_batch_modes_and_their_choice():
+    assert gym.make_vec("Planar3P-v1", num_envs=2)._core.numpy is False
+    assert gym.make_vec("Planar3P-v1", num_envs=NUMPY_BATCH_MIN)._core.numpy is True
+    assert gym.make_vec("Planar3P-v0", num_envs=2)._core is None  # per-environment steps
+    with pytest.raises(ValueError, match="batch"):
+        Planar3PVectorEnv(num_envs=2, batch="fast")
 
 
 def test_reset_accepts_a_list_of_seeds_and_options():
@@ -91,14 +120,16 @@ def test_step_rejects_bad_actions_without_stepping():
     assert [env.sim.state for env in venv.envs] == before
 
 
-def test_vector_snapshot_restores_the_batch():
-    venv = Planar3PVectorEnv(num_envs=2, max_episode_steps=20, projection=True)
+@pytest.mark.parametrize("batch", ["scalar", "numpy"])
+def test_vector_snapshot_restores_the_batch(batch):
+    kwargs = {"projection": True, "substeps": 1, "solver_iterations": 4, "batch": batch}
+    venv = Planar3PVectorEnv(num_envs=2, max_episode_steps=20, **kwargs)
     venv.reset(seed=3)
     rng = np.random.default_rng(0)
     for _ in range(15):
         venv.step(rng.uniform(-1, 1, (2, 3)))
     snap = venv.get_state()
-    twin = Planar3PVectorEnv(num_envs=2, max_episode_steps=20, projection=True)
+    twin = Planar3PVectorEnv(num_envs=2, max_episode_steps=20, **kwargs)
     twin.set_state(snap)
     for a in rng.uniform(-1, 1, (30, 2, 3)):
         x, y = venv.step(a), twin.step(a)
