@@ -155,14 +155,12 @@ class SimState(NamedTuple):
     def finite(self) -> bool:
         """True when every number of the state is finite."""
         # A NaN or inf anywhere makes the sum non-finite (inf - inf is NaN).
+        (r1, r2, r3), (d1, d2, d3), (x, y, th) = self.rho, self.rho_dot, self.pose
+        (vx, vy, w), (a1, a2, a3) = self.twist, self.leg_angles
         return math.isfinite(
-            sum(self.rho)
-            + sum(self.rho_dot)
-            + sum(self.pose)
-            + sum(self.twist)
-            + sum(self.leg_angles)
+            r1 + r2 + r3 + d1 + d2 + d3 + x + y + th + vx + vy + w + a1 + a2 + a3
             + self.closure_error
-        )
+        )  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -263,6 +261,8 @@ class Planar3PSim:
         self.substeps = int(substeps)
         self.iterations = int(iterations)
         self._h = self.dt / self.substeps
+        self._force_scale = 1.0 / (self.substeps * self._h)  # impulse sum -> mean force (1/s)
+        self._force_limit = 0.999 * design.max_force * self._h  # saturated impulse (N s)
         self._k = design.joint_offsets
         self._legs = design.leg_lengths
         self._origins = design.rail_origins
@@ -477,9 +477,9 @@ class Planar3PSim:
                 if j2 > m2:
                     m2 = j2
         self._time += self.dt
-        scale = 1.0 / (self.substeps * h)
+        scale = self._force_scale
         self._forces = (f0 * scale, f1 * scale, f2 * scale)
-        limit = 0.999 * self.design.max_force * h
+        limit = self._force_limit
         self._saturated = (m0 >= limit, m1 >= limit, m2 >= limit)
         self._state = self._read() if self._projector is None else self._project()
         return self._state
@@ -499,12 +499,19 @@ class Planar3PSim:
         # The drives' setpoints for the next step (:meth:`_limit_following_error`, here on the
         # values written back: drive x at 12, 30, 48; its slider's x 6 numbers before).
         lim = FOLLOWING_ERROR_LIMIT
-        for o in (12, 30, 48):
-            slider_x = out[o - 6]
-            if out[o] - slider_x > lim:
-                out[o] = slider_x + lim
-            elif slider_x - out[o] > lim:
-                out[o] = slider_x - lim
+        s1, s2, s3 = out[6], out[24], out[42]
+        if out[12] - s1 > lim:
+            out[12] = s1 + lim
+        elif s1 - out[12] > lim:
+            out[12] = s1 - lim
+        if out[30] - s2 > lim:
+            out[30] = s2 + lim
+        elif s2 - out[30] > lim:
+            out[30] = s2 - lim
+        if out[48] - s3 > lim:
+            out[48] = s3 + lim
+        elif s3 - out[48] > lim:
+            out[48] = s3 - lim
         if fast is None:
             for n, body in enumerate(self._bodies):
                 o = 6 * n

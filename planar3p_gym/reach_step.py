@@ -91,6 +91,23 @@ class ReachStep:
     ) -> tuple[np.ndarray, ConfigurationMeasures, str | None, dict[str, float], float, float]:
         """``(observation, measures, termination reason, reward terms, position error (m),
         orientation error (rad))`` of a finite state after a step with ``action``."""
+        out = self.values(state, geometry, target, target_cs, assembly, action)
+        obs = np.array(out[0], dtype=np.float32)
+        np.minimum(obs, self.high, out=obs)
+        np.maximum(obs, self.low, out=obs)
+        return obs, *out[1:]  # type: ignore[return-value]
+
+    def values(
+        self,
+        state: SimState,
+        geometry: tuple[float, ...],
+        target: tuple[float, float, float],
+        target_cs: tuple[float, float],
+        assembly: int,
+        action: tuple[float, float, float],
+    ) -> tuple[list[float], ConfigurationMeasures, str | None, dict[str, float], float, float]:
+        """:meth:`outputs` with the observation as its 31 float64 values, not yet converted
+        to float32 and clipped to the bounds (what a vector env does over the batch)."""
         parallel, serial, sign, n1, n2, n3 = leg_measures(geometry, self.k, self.legs, self.ref)
         x1, y1, x2, y2, x3, y3, c, s = geometry
         px, py, th = state.pose
@@ -108,9 +125,6 @@ class ReachStep:
             math.tanh(dy / FINE_ERROR_SCALE),
             math.tanh(length * dth / FINE_ERROR_SCALE),
         ]  # fmt: skip
-        obs = np.array(values, dtype=np.float32)
-        np.minimum(obs, self.high, out=obs)
-        np.maximum(obs, self.low, out=obs)
         pos_err = math.sqrt(dx * dx + dy * dy)
         pos_tol, ang_tol, rest = self.tolerances
         if sign == -assembly:
@@ -125,7 +139,7 @@ class ReachStep:
             reason = None
         terms = reward_terms(self.weights, pos_err, dth, length, parallel, serial, action, reason)
         measures = ConfigurationMeasures(parallel, serial, sign, state.leg_angles)
-        return obs, measures, reason, terms, pos_err, dth
+        return values, measures, reason, terms, pos_err, dth
 
 
 def _barrier(margin: float, ref: float) -> float:

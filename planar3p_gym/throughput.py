@@ -149,16 +149,23 @@ def vector_rates(
     seed: int,
     reference: str | None = None,
 ) -> list[float] | tuple[list[float], list[float]]:
-    """Total env steps/s of a ``kind`` vector env (``"native"``, ``"sync"`` or ``"async"``)
-    of ``num_envs`` copies of ``env_id``, ``n_steps`` batch steps per repeat.  With
+    """Total env steps/s of a ``kind`` vector env (``"native"``, ``"native-numpy"``: the
+    native one with ``batch="numpy"``, ``"sync"`` or ``"async"``) of ``num_envs`` copies of
+    ``env_id``, ``n_steps`` batch steps per repeat.  With
     ``reference`` (an env id), also the single-env steps/s of that id measured right before
     each repeat, as many env steps with actions sampled up front, for paired ratios."""
-    modes = {"native": "vector_entry_point", "sync": "sync", "async": "async"}
+    modes = {
+        "native": "vector_entry_point",
+        "native-numpy": "vector_entry_point",
+        "sync": "sync",
+        "async": "async",
+    }
     if kind not in modes:
         raise ValueError(f"kind must be one of {sorted(modes)}, got {kind!r}")
+    extra = {"batch": "numpy"} if kind == "native-numpy" else {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        venv = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode=modes[kind])
+        venv = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode=modes[kind], **extra)
     try:
         venv.action_space.seed(seed)
         actions = [venv.action_space.sample() for _ in range(n_steps)]
@@ -197,46 +204,48 @@ def profile_step(env_id: str, n_steps: int, seed: int) -> dict[str, float]:
     env stepped in lockstep with the whole step (same actions, so the same states):
     ``wrapped_step`` (``gym.make(...).step``), ``env_step`` (unwrapped), ``physics``
     (``Planar3PSim.step_unchecked``: pymunk, and the projection where it is on),
-    ``measures`` (margins, assembly mode), ``observation``, ``reward`` (the task's reward
-    terms); ``other`` is the rest of ``env_step`` (action parsing, termination, info)."""
+    ``outputs`` (configuration measures, observation, errors, termination and reward terms:
+    the fused :class:`planar3p_gym.reach_step.ReachStep` where the env uses it, else the
+    general step's pieces); ``other`` is the rest of ``env_step`` (action parsing, ``info``)."""
     rng = np.random.default_rng(seed)
     actions = rng.uniform(-1.0, 1.0, size=(n_steps, 3)).astype(np.float32)
     wrapped, raw, parts = make_env(env_id), make_env(env_id).unwrapped, make_env(env_id).unwrapped
     vmax = parts.design.max_speed
-    keys = ("wrapped_step", "env_step", "physics", "measures", "observation", "reward")
+    keys = ("wrapped_step", "env_step", "physics", "outputs")
     samples = np.zeros((n_steps, len(keys)), dtype=np.int64)
     clock = time.perf_counter_ns
     for env in (wrapped, raw, parts):
         env.reset(seed=seed)
+    fused = parts._reach_step
     for n, a in enumerate(actions):
         t0 = clock()
         _, _, terminated, truncated, _ = wrapped.step(a)
         t1 = clock()
         raw.step(a)
         t2 = clock()
-        state = parts.sim.step_unchecked(float(a[0]) * vmax, float(a[1]) * vmax, float(a[2]) * vmax)
+        act = (float(a[0]), float(a[1]), float(a[2]))
+        state = parts.sim.step_unchecked(act[0] * vmax, act[1] * vmax, act[2] * vmax)
         t3 = clock()
-        measures = parts._kin.measures(state.pose, state.rho)
+        if fused is not None:
+            geometry, target = parts.sim.geometry, parts._target
+            fused.outputs(state, geometry, target, parts._target_cs, parts._assembly, act)
+        else:
+            measures = parts._kin.measures(state.pose, state.rho)
+            parts._observe(state, measures)
+            errors = parts._errors(state.pose)
+            parts.task.termination(state, measures, errors, parts._assembly)
+            parts.task.reward_terms(
+                errors=errors, measures=measures, action=act, success=False, failure=False
+            )
         t4 = clock()
-        parts._observe(state, measures)
-        t5 = clock()
-        parts.task.reward_terms(
-            errors=parts._errors(state.pose),
-            measures=measures,
-            action=(float(a[0]), float(a[1]), float(a[2])),
-            success=False,
-            failure=False,
-        )
-        t6 = clock()
-        samples[n] = (t1 - t0, t2 - t1, t3 - t2, t4 - t3, t5 - t4, t6 - t5)
+        samples[n] = (t1 - t0, t2 - t1, t3 - t2, t4 - t3)
         if terminated or truncated:
             for env in (wrapped, raw, parts):
                 env.reset()
     wrapped.close()
     med = np.median(samples, axis=0) / 1e3
     out = {k: float(v) for k, v in zip(keys, med, strict=True)}
-    out["other"] = out["env_step"] - out["physics"] - out["measures"] - out["observation"]
-    out["other"] -= out["reward"]
+    out["other"] = out["env_step"] - out["physics"] - out["outputs"]
     return out
 
 

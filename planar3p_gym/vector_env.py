@@ -318,6 +318,7 @@ class _BatchCore:
         self.force_limit = 0.999 * env.design.max_force * self.h
         self.breakdown = env.breakdown_distance
         self.reach = BatchReach(env._reach_step)
+        self.low, self.high = env._obs_low, env._obs_high
         self.projector: BatchProjector | None = None  # made from the first simulation
         ffi, cp = physics._ffi, physics._cp
         self.buf = np.zeros((n, _ROW))
@@ -496,6 +497,8 @@ class _BatchCore:
         envs, obs_out, breakdown = venv._envs, venv._obs, self.breakdown
         commands, actions = (a * self.vmax).tolist(), a.tolist()
         pending = self.pending_info
+        rows: list[list[float]] = []  # observations before float32 and the bounds
+        stepped: list[int] = []  # the envs whose row is in rows
         rew, term, success, reasons = [], [], [], []
         pos, ang, parallel, serial, sign, closure = [], [], [], [], [], []
         for i in idx:
@@ -506,10 +509,11 @@ class _BatchCore:
             env._steps += 1
             act = actions[i]
             if state.finite and state.closure_error <= breakdown:
-                obs, measures, reason, terms, pe, ae = env._reach_step.outputs(  # type: ignore[union-attr]
+                row, measures, reason, terms, pe, ae = env._reach_step.values(  # type: ignore[union-attr]
                     state, sim.geometry, env._target, env._target_cs, env._assembly, act
                 )
-                env._obs = obs
+                rows.append(row)
+                stepped.append(i)
                 env._measures = measures
                 pending[i] = (state, measures, reason, terms, reason == "success", (pe, ae))
                 self.pending[i] = True
@@ -526,7 +530,7 @@ class _BatchCore:
                 )
                 rew.append(r)
                 cl = full["closure_error"]
-            obs_out[i] = obs
+                obs_out[i] = obs
             term.append(reason is not None)
             success.append(reason == "success")
             reasons.append(reason)
@@ -536,6 +540,13 @@ class _BatchCore:
             serial.append(measures.serial_margin)
             sign.append(measures.det_sign)
             closure.append(cl)
+        if rows:  # float32 and the bounds over the batch (elementwise: the single env's)
+            obs = np.array(rows, dtype=np.float32)
+            np.minimum(obs, self.high, out=obs)
+            np.maximum(obs, self.low, out=obs)
+            obs_out[stepped] = obs
+            for k, i in enumerate(stepped):
+                envs[i]._obs = obs[k]
         venv._elapsed[idx] += 1
         rewards[idx] = rew
         terminated[idx] = term

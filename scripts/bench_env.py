@@ -7,9 +7,10 @@ Prints, from one run (the logic is :mod:`planar3p_gym.throughput`):
   ``--repeats`` with medians, and the ratios to ``Reacher-v5`` and ``Pendulum-v1`` (medians of
   per-repeat ratios);
 * the median time of single steps;
-* the native vector env (``gym.make_vec(id, num_envs=--num-envs)``) of v0 and v1, total env
-  steps/s, against Reacher's single-env rate measured in the same repeats (actions sampled up
-  front for both); ``SyncVectorEnv`` for comparison;
+* the native vector env (``gym.make_vec(id, num_envs=--num-envs)``) of v0 and v1 (v1 also with
+  ``batch="numpy"``: projection and outputs in numpy over the batch), total env steps/s,
+  against Reacher's single-env rate measured in the same repeats (actions sampled up front
+  for both); ``SyncVectorEnv`` for comparison;
 * the fastest-block rates (:func:`planar3p_gym.throughput.best_block_rates`: single and vector
   envs in short round-robin blocks, actions sampled up front): the ratios that hold on a busy
   shared machine, where whole-run rates vary several-fold;
@@ -141,16 +142,16 @@ def main(argv: list[str] | None = None) -> int:
     print(f"\nvector envs, {n} envs x {vec_steps} steps x {vec_repeats} repeats (total steps/s):")
     ref = REACHER if REACHER in rates else None
     results["vector"] = {}
-    for e in (V0, V1):
-        for kind in ("native", "sync"):
-            got = throughput.vector_rates(e, kind, n, vec_steps, vec_repeats, args.seed, ref)
-            v, extra = (got[0], "") if ref else (got, "")
-            if ref:
-                ratio = throughput.paired_ratio(got[0], got[1])
-                extra = f"  {ratio:.2f}x Reacher-v5 single (paired)"
-                results["vector"][f"{e}/{kind}/reacher_ratio"] = ratio
-            results["vector"][f"{e}/{kind}"] = v
-            print(f"  {e} {kind:<7} {_rates(v)}{extra}")
+    kinds = ((V0, "native"), (V0, "sync"), (V1, "native"), (V1, "native-numpy"), (V1, "sync"))
+    for e, kind in kinds:
+        got = throughput.vector_rates(e, kind, n, vec_steps, vec_repeats, args.seed, ref)
+        v, extra = (got[0], "") if ref else (got, "")
+        if ref:
+            ratio = throughput.paired_ratio(got[0], got[1])
+            extra = f"  {ratio:.2f}x Reacher-v5 single (paired)"
+            results["vector"][f"{e}/{kind}/reacher_ratio"] = ratio
+        results["vector"][f"{e}/{kind}"] = v
+        print(f"  {e} {kind:<12} {_rates(v)}{extra}")
 
     print(f"\nfastest blocks ({args.blocks} blocks of 200 steps, round-robin; 90th percentile):")
     makers = {e: (lambda e=e: throughput.make_env(e)) for e in env_ids}
@@ -170,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
         results["profile_us"][e] = prof
         parts = "  ".join(
             f"{k} {prof[k]:.1f}"
-            for k in ("physics", "measures", "observation", "reward", "other", "wrapped_step")
+            for k in ("physics", "outputs", "other", "env_step", "wrapped_step")
         )
         print(f"  {e}: {parts}")
 
