@@ -19,6 +19,7 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium.envs.registration import load_env_creator
 from gymnasium.vector import AutoresetMode
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices
 
@@ -33,14 +34,17 @@ def make_native_vec_env(
     seed: int | None = None,
     env_kwargs: dict[str, Any] | None = None,
 ) -> NativeVecEnv:
-    """An SB3 ``VecEnv`` of ``n_envs`` copies of the registered ``env_id`` (``Planar3P-v0`` or
-    ``Planar3P-v1``), with its time limit; ``seed`` seeds env ``i`` with ``seed + i`` at the
-    first reset (as SB3's ``make_vec_env`` does)."""
+    """An SB3 ``VecEnv`` of ``n_envs`` copies of the registered ``env_id`` (an id whose
+    vector entry point is a :class:`Planar3PVectorEnv`: ``Planar3P-v0``, ``Planar3P-v1`` and
+    the flat-observation task ids), with its time limit; ``seed`` seeds env ``i`` with
+    ``seed + i`` at the first reset (as SB3's ``make_vec_env`` does)."""
     spec = gym.spec(env_id)
-    if spec.vector_entry_point != "planar3p_gym.vector_env:Planar3PVectorEnv":
+    entry = spec.vector_entry_point
+    cls = load_env_creator(entry) if isinstance(entry, str) else entry
+    if not (isinstance(cls, type) and issubclass(cls, Planar3PVectorEnv)):
         raise ValueError(f"{env_id} has no native vector env; use DummyVecEnv/SubprocVecEnv")
     kwargs = {**spec.kwargs, **(env_kwargs or {})}
-    venv = Planar3PVectorEnv(
+    venv = cls(
         num_envs=n_envs,
         max_episode_steps=spec.max_episode_steps,
         autoreset_mode=AutoresetMode.SAME_STEP,

@@ -66,6 +66,7 @@ if TRACK_ENV_ID not in registry:
     register(
         id=TRACK_ENV_ID,
         entry_point="planar3p_gym.track_env:Planar3PTrackEnv",
+        vector_entry_point="planar3p_gym.vector_env:Planar3PTrackVectorEnv",  # H1 (issue 12)
         max_episode_steps=TRACK_MAX_EPISODE_STEPS,
         kwargs=dict(_PROJECTED),
     )
@@ -89,6 +90,9 @@ for _id, _entry, _steps in (
         register(
             id=_id,
             entry_point=f"planar3p_gym.{_entry}",
+            # H1 (issue 12): the native vector env, environment by environment.
+            vector_entry_point="planar3p_gym.vector_env:"
+            + _entry.split(":")[1].replace("Env", "VectorEnv"),
             max_episode_steps=_steps,
             kwargs=dict(_PROJECTED),
         )

@@ -27,9 +27,12 @@ In numpy mode the projected bodies are written back into pymunk at the start of 
 :attr:`Planar3PVectorEnv.envs` or :meth:`Planar3PVectorEnv.get_state` is used, and a state
 that fails the physics-breakdown test takes the single environment's own (general) step.
 
-**Per-environment step** (every other configuration, e.g. ``Planar3P-v0``): each
-environment steps through :meth:`Planar3PEnv.step`; what the vector env saves there is the
-per-step overhead of ``gym.make``'s wrappers and of ``SyncVectorEnv``.
+**Per-environment step** (every other configuration, e.g. ``Planar3P-v0``, and the task ids
+``Planar3PTrack-v0``, ``Planar3PModeChange-v0``, ``Planar3PAssemblyChange-v0`` through the
+subclasses at the end of this module): each environment steps through its own ``step``; what
+the vector env saves there is the per-step overhead of ``gym.make``'s wrappers and of
+``SyncVectorEnv``.  (The goal ids' dictionary observations have no batch array here: they use
+``SyncVectorEnv``.)
 """
 
 from __future__ import annotations
@@ -42,12 +45,22 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from . import physics
+from .assembly_change_env import Planar3PAssemblyChangeEnv
 from .batch_step import BatchProjector, BatchReach, BatchState
 from .env import Planar3PEnv
+from .mode_change_env import Planar3PModeChangeEnv
 from .physics import SimState
 from .scalar_kinematics import ConfigurationMeasures
+from .track_env import Planar3PTrackEnv
 
-__all__ = ["INFO_KEYS", "NUMPY_BATCH_MIN", "Planar3PVectorEnv"]
+__all__ = [
+    "INFO_KEYS",
+    "NUMPY_BATCH_MIN",
+    "Planar3PAssemblyChangeVectorEnv",
+    "Planar3PModeChangeVectorEnv",
+    "Planar3PTrackVectorEnv",
+    "Planar3PVectorEnv",
+]
 
 #: Batch size from which ``batch="auto"`` computes the projection and the outputs in numpy
 #: over the batch rather than environment by environment in plain floats: numpy's overhead of
@@ -100,6 +113,8 @@ class Planar3PVectorEnv(VectorEnv):
     """
 
     metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+    #: The single environment's class (subclasses below: the task ids' environments).
+    env_class: type[Planar3PEnv] = Planar3PEnv
 
     def __init__(
         self,
@@ -133,7 +148,7 @@ class Planar3PVectorEnv(VectorEnv):
         if kwargs.get("render_mode") is not None:
             raise ValueError("Planar3PVectorEnv does not render; use gym.make for rendering")
         self.num_envs = int(num_envs)
-        self._envs = [Planar3PEnv(**kwargs) for _ in range(self.num_envs)]
+        self._envs = [self.env_class(**kwargs) for _ in range(self.num_envs)]
         self.max_episode_steps = (
             None if max_episode_steps in (None, -1) else int(max_episode_steps)  # type: ignore[arg-type]
         )
@@ -686,3 +701,21 @@ class _BatchCore:
             self.arrays[i].num = 0
             physics._cp.cpSpaceEachBody(self.handles[i][0], self.set, self.requests[i])
             self.pending[i] = False
+
+
+class Planar3PTrackVectorEnv(Planar3PVectorEnv):
+    """``Planar3PTrack-v0``'s native vector env (environment by environment)."""
+
+    env_class = Planar3PTrackEnv
+
+
+class Planar3PModeChangeVectorEnv(Planar3PVectorEnv):
+    """``Planar3PModeChange-v0``'s native vector env (environment by environment)."""
+
+    env_class = Planar3PModeChangeEnv
+
+
+class Planar3PAssemblyChangeVectorEnv(Planar3PVectorEnv):
+    """``Planar3PAssemblyChange-v0``'s native vector env (environment by environment)."""
+
+    env_class = Planar3PAssemblyChangeEnv

@@ -15,7 +15,7 @@ from planar3p_gym.vector_env import INFO_KEYS, NUMPY_BATCH_MIN, Planar3PVectorEn
 @pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v1"])
 def test_make_vec_gives_the_native_vector_env(env_id):
     venv = gym.make_vec(env_id, num_envs=3)
-    assert isinstance(venv, Planar3PVectorEnv)
+    assert type(venv) is Planar3PVectorEnv
     assert venv.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
     assert venv.observation_space.shape == (3, 31)
     assert venv.action_space.shape == (3, 3)
@@ -35,6 +35,10 @@ def test_make_vec_gives_the_native_vector_env(env_id):
         ("Planar3P-v1", {"breakdown_threshold": 1e-15}, "scalar"),
         ("Planar3P-v1", {"breakdown_threshold": 1e-15}, "numpy"),
         ("Planar3P-v0", {}, "auto"),
+        # The task ids on the projected physics: environment by environment.
+        ("Planar3PTrack-v0", {}, "auto"),
+        ("Planar3PModeChange-v0", {}, "auto"),
+        ("Planar3PAssemblyChange-v0", {}, "auto"),
     ],
 )
 def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, batch):
