@@ -21,7 +21,8 @@ import numpy as np
 
 import planar3p_gym  # noqa: F401  (registers the ids)
 from agents.analytic import AnalyticController
-from agents.crossing import CrossingController, crossing_fidelity
+from agents.crossing import CrossingController
+from agents.crossing_fidelity import crossing_fidelity
 from agents.planner import BaseObservation, JointPathPlanner
 from agents.statistics import success_interval
 
@@ -149,7 +150,7 @@ def run_reach_fidelity(
 def run_fidelity(
     episodes: int, seed: int, projection: bool, gravity: float | None = None
 ) -> dict[str, float]:
-    """Medians and extremes of :func:`agents.crossing.crossing_fidelity` over ``episodes``
+    """Medians and extremes of :func:`agents.crossing_fidelity.crossing_fidelity` over ``episodes``
     seeded episodes of ``Planar3PAssemblyChange-v0`` played by the crossing controller, with
     the projected physics (the id's) or the plain solver (8 substeps, 18 iterations).
     ``gravity`` (m/s^2) replaces the design's (the sampler's simulated check is then turned

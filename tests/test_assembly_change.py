@@ -8,7 +8,8 @@ import pytest
 from task_helpers import play_episode
 
 import planar3p_gym  # noqa: F401
-from agents.crossing import CrossingController, _ServoReader, crossing_fidelity
+from agents.crossing import CrossingController
+from agents.crossing_fidelity import _ServoReader, crossing_fidelity
 from planar3p_gym import Design, kinematics, task
 from planar3p_gym.assembly_change_env import Planar3PAssemblyChangeEnv
 from planar3p_gym.physics import Planar3PSim
