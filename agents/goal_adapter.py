@@ -1,5 +1,6 @@
 """Run policies written for the flat observation of ``Planar3P-v0`` (e.g. the analytic
-controller) on the goal-conditioned envs (``Planar3PGoal-v0``, ``Planar3PGoalDense-v0``)."""
+controller) on the goal-conditioned envs (``Planar3PGoal-v0``, ``Planar3PGoalDense-v0``); its
+measurements there are in :mod:`agents.goal_track_baselines`."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from agents.analytic import AnalyticController
 from agents.policy_base import PolicyAdapter
 from planar3p_gym.goal_env import flat_observation
 
-__all__ = ["GoalAdapter", "goal_baseline"]
+__all__ = ["GoalAdapter"]
 
 
 class GoalAdapter(PolicyAdapter):
@@ -46,37 +47,3 @@ class GoalAdapter(PolicyAdapter):
         ):
             raise ValueError("observation must be a goal env's dict (observation, desired_goal)")
         return flat_observation(observation, self.length)
-
-
-def goal_baseline(env_id: str, episodes: int, seed: int) -> dict[str, float]:
-    """Success rate, mean steps of the successful episodes and mean return of the analytic
-    controller (through :class:`GoalAdapter`) on a goal id, over ``episodes`` episodes
-    (reset with ``seed`` once, then unseeded)."""
-    import gymnasium as gym
-
-    if not (isinstance(episodes, int) and episodes >= 1):
-        raise ValueError(f"episodes must be an integer >= 1, got {episodes!r}")
-    env = gym.make(env_id)
-    ctrl = GoalAdapter.analytic(env)
-    obs, _ = env.reset(seed=seed)
-    wins, steps, returns = 0, [], []
-    for _ in range(episodes):
-        ctrl.reset()
-        total, n = 0.0, 0
-        while True:
-            obs, reward, terminated, truncated, info = env.step(ctrl.predict(obs)[0])
-            total += reward
-            n += 1
-            if terminated or truncated:
-                break
-        if info["is_success"]:
-            wins += 1
-            steps.append(n)
-        returns.append(total)
-        obs, _ = env.reset()
-    return {
-        "episodes": episodes,
-        "success_rate": wins / episodes,
-        "steps_to_success_mean": float(np.mean(steps)) if steps else float("nan"),
-        "return_mean": float(np.mean(returns)),
-    }

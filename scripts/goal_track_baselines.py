@@ -22,8 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 def main(argv: list[str] | None = None) -> int:
     import planar3p_gym
-    from agents.goal_adapter import goal_baseline
-    from agents.tracking import tracking_baselines
+    from agents.goal_track_baselines import goal_baseline, tracking_baselines
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=100, help="episodes per id and policy")

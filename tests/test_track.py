@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 import planar3p_gym
-from agents.tracking import TrackingController, run_tracking_episodes, summarize_tracking
+from agents.goal_track_baselines import run_tracking_episodes, summarize_tracking
+from agents.tracking import TrackingController
 from planar3p_gym import kinematics
 from planar3p_gym.observation import OBS_SIZE, SLICES
 from planar3p_gym.tasks.track import TRACKING_METRICS
