@@ -148,6 +148,21 @@ class LoopProjector:
         self.legs = design.leg_lengths
         self.origins = design.rail_origins
         self.stroke = design.stroke
+        l1, l2, l3 = self.legs
+        self._constants = (
+            self.origins,
+            self.r,
+            self.legs,
+            (l1 * l1, l2 * l2, l3 * l3),
+            # Convergence test on f_i = |u_i|^2 - L_i^2 ~ 2 L_i (|u_i| - L_i).
+            tuple(2.0 * li * POSITION_TOLERANCE for li in self.legs),
+            self.d_centre,
+            self.k_q,
+            self.stroke,
+            1.0 / self.m_platform,
+            1.0 / self.i_q,
+            1.0 / self.m_rho,
+        )
 
     def project(
         self, v: list[float], saturated: tuple[bool, bool, bool] = (True, True, True)
@@ -157,19 +172,10 @@ class LoopProjector:
 
         ``saturated[i]`` says whether servo ``i`` was at its force limit (its slider then
         moves with its own mass; otherwise its servo holds it, see the module docstring)."""
-        a1, a2, a3 = self.origins
-        r1, r2, r3 = self.r
-        l1, l2, l3 = self.legs
-        dc, kq, stroke = self.d_centre, self.k_q, self.stroke
-        ll1, ll2, ll3 = l1 * l1, l2 * l2, l3 * l3
-        # Convergence test on f_i = |u_i|^2 - L_i^2 ~ 2 L_i (|u_i| - L_i).
-        ft1, ft2, ft3 = (
-            2.0 * l1 * POSITION_TOLERANCE,
-            2.0 * l2 * POSITION_TOLERANCE,
-            (2.0 * l3 * POSITION_TOLERANCE),
-        )
-        ip, ii = 1.0 / self.m_platform, 1.0 / self.i_q
-        free = 1.0 / self.m_rho
+        (
+            (a1, a2, a3), (r1, r2, r3), (l1, l2, l3), (ll1, ll2, ll3), (ft1, ft2, ft3),
+            dc, kq, stroke, ip, ii, free,
+        ) = self._constants  # fmt: skip
         i1 = free if saturated[0] else 0.0
         i2 = free if saturated[1] else 0.0
         i3 = free if saturated[2] else 0.0

@@ -58,7 +58,7 @@ def leg_measures(
         abs(x2) / n2 if n2 > 0.0 else 0.0,
         abs(x3) / n3 if n3 > 0.0 else 0.0,
     )
-    parallel = _inverse_condition([(a, b, cc), (d, e, f), (g, h, i)], det)
+    parallel = _inverse_condition(((a, b, cc), (d, e, f), (g, h, i)), det)  # type: ignore[arg-type]
     return parallel, serial, int(det > 0.0) - int(det < 0.0), n1, n2, n3
 
 

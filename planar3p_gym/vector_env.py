@@ -81,6 +81,16 @@ INFO_KEYS = (
     "closure_error",
 )
 _DTYPES = {"is_success": np.bool_, "termination_reason": object, "assembly_mode": np.int64}
+#: The info entries of the scalar batch's per-env results, after the reward.
+_RESULT_KEYS = (
+    "termination_reason",
+    "position_error",
+    "orientation_error",
+    "parallel_margin",
+    "serial_margin",
+    "assembly_mode",
+    "closure_error",
+)
 #: ``termination_reason`` codes of the batched step.
 _REASONS = np.array([None, "success", "singularity_crossing", "physics_breakdown"], dtype=object)
 #: Numbers per simulation in the shared body buffer: room for twice a readout (11 bodies x 6),
@@ -511,50 +521,38 @@ class _BatchCore:
         venv = self.venv
         envs, obs_out, breakdown = venv._envs, venv._obs, self.breakdown
         commands, actions = (a * self.vmax).tolist(), a.tolist()
-        pending = self.pending_info
+        pending, flags = self.pending_info, self.pending
         rows: list[list[float]] = []  # observations before float32 and the bounds
         stepped: list[int] = []  # the envs whose row is in rows
-        rew, term, success, reasons = [], [], [], []
-        pos, ang, parallel, serial, sign, closure = [], [], [], [], [], []
+        # One tuple per env: reward, reason, errors, margins, sign, closure error.
+        results: list[tuple] = []
         for i in idx:
             env = envs[i]
             sim = env._sim
             v0, v1, v2 = commands[i]
             state = sim.step_unchecked(v0, v1, v2)
             env._steps += 1
-            act = actions[i]
             if state.finite and state.closure_error <= breakdown:
-                row, measures, reason, terms, pe, ae = env._reach_step.values(  # type: ignore[union-attr]
-                    state, sim.geometry, env._target, env._target_cs, env._assembly, act
+                row, m, reason, terms, pe, ae = env._reach_step.values(  # type: ignore[union-attr]
+                    state, sim.geometry, env._target, env._target_cs, env._assembly, actions[i]
                 )
                 rows.append(row)
                 stepped.append(i)
-                env._measures = measures
-                pending[i] = (state, measures, reason, terms, reason == "success", (pe, ae))
-                self.pending[i] = True
-                rew.append(sum(terms.values()))
-                cl = state.closure_error
-            else:  # physics breakdown: the single env's general step
-                if self.pending[i]:
-                    self.sync(i)
-                obs, r, _, _, full = env._general_step(state, (act[0], act[1], act[2]))
-                reason = full["termination_reason"]
-                pe, ae = full["position_error"], full["orientation_error"]
-                measures = ConfigurationMeasures(
-                    full["parallel_margin"], full["serial_margin"], full["assembly_mode"], ()
+                env._measures = m
+                pending[i] = (state, m, reason, terms, reason == "success", (pe, ae))
+                flags[i] = True
+                results.append(
+                    (sum(terms.values()), reason, pe, ae, m[0], m[1], m[2], state.closure_error)
                 )
-                rew.append(r)
-                cl = full["closure_error"]
+            else:  # physics breakdown: the single env's general step
+                if flags[i]:
+                    self.sync(i)
+                act = actions[i]
+                obs, r, _, _, full = env._general_step(state, (act[0], act[1], act[2]))
                 obs_out[i] = obs
-            term.append(reason is not None)
-            success.append(reason == "success")
-            reasons.append(reason)
-            pos.append(pe)
-            ang.append(ae)
-            parallel.append(measures.parallel_margin)
-            serial.append(measures.serial_margin)
-            sign.append(measures.det_sign)
-            closure.append(cl)
+                results.append(
+                    (r, *(full[key] for key in _RESULT_KEYS))  # type: ignore[arg-type]
+                )
         if rows:  # float32 and the bounds over the batch (elementwise: the single env's)
             obs = np.array(rows, dtype=np.float32)
             np.minimum(obs, self.high, out=obs)
@@ -562,20 +560,16 @@ class _BatchCore:
             obs_out[stepped] = obs
             for k, i in enumerate(stepped):
                 envs[i]._obs = obs[k]
-        venv._elapsed[idx] += 1
-        rewards[idx] = rew
-        terminated[idx] = term
-        for key, values in (
-            ("is_success", success),
-            ("termination_reason", reasons),
-            ("position_error", pos),
-            ("orientation_error", ang),
-            ("parallel_margin", parallel),
-            ("serial_margin", serial),
-            ("assembly_mode", sign),
-            ("closure_error", closure),
-        ):
-            info[key][idx] = values
+        sel = slice(None) if len(idx) == len(envs) else idx
+        venv._elapsed[sel] += 1
+        rew, reasons, *columns = zip(*results, strict=True)
+        rewards[sel] = rew
+        reason_a = np.array(reasons, dtype=object)
+        terminated[sel] = reason_a != None  # noqa: E711  (elementwise)
+        info["is_success"][sel] = reason_a == "success"
+        info["termination_reason"][sel] = reason_a
+        for key, values in zip(_RESULT_KEYS[1:], columns, strict=True):
+            info[key][sel] = values
 
     def _reset(self, i: int, info: dict[str, Any]) -> None:
         venv = self.venv
