@@ -76,10 +76,14 @@ def test_throughput_measures_run_and_are_positive():
     assert throughput.paired_ratio([2.0, 4.0], [1.0, 1.0]) == 3.0
     assert throughput.median_step_us("Planar3P-v1", 20, 0) > 0
     assert min(throughput.vector_rates("Planar3P-v1", "native", 2, 5, 1, 0)) > 0
+    assert min(throughput.vector_rates("Planar3P-v1", "native-numpy", 2, 5, 1, 0)) > 0
     vec, ref = throughput.vector_rates("Planar3P-v1", "native", 2, 5, 2, 0, "Pendulum-v1")
     assert len(vec) == len(ref) == 2 and min(ref) > 0
     prof = throughput.profile_step("Planar3P-v1", 20, 0)
     assert prof["physics"] > 0 and prof["wrapped_step"] >= prof["physics"]
+    assert prof["outputs"] > 0 and set(prof) == {
+        "wrapped_step", "env_step", "physics", "outputs", "other"
+    }  # fmt: skip
     with pytest.raises(ValueError):
         throughput.vector_rates("Planar3P-v1", "threads", 2, 5, 1, 0)
     best = throughput.best_block_rates(
