@@ -81,4 +81,3 @@ def test_benchmark_of_a_task_suite_alone_writes_its_plots(tmp_path, bench):
     assert len(summary["summaries"]) == 2
     assert (out / "success_rate.png").stat().st_size > 1000
     assert not (out / "trajectories.png").exists()
-

@@ -162,8 +162,9 @@ def test_native_vector_env_trains(tmp_path: Path) -> None:
 def test_native_vector_env_refuses_other_ids(tmp_path: Path, capsys) -> None:
     run = tmp_path / "r"
     hp = tmp_path / "ppo.yml"
-    hp.write_text("Planar3PTrack-v0:\n  n_steps: 64\n  batch_size: 64\n")
-    argv = ["--algo", "ppo", "--env", "Planar3PTrack-v0", "--vec-env", "native"]
+    # The goal ids (Dict observations) have no native vector env (the flat-observation ids do).
+    hp.write_text("Planar3PGoal-v0:\n  policy: MultiInputPolicy\n  n_steps: 64\n  batch_size: 64\n")
+    argv = ["--algo", "ppo", "--env", "Planar3PGoal-v0", "--vec-env", "native"]
     argv += ["--hyperparams", str(hp)]
     assert train_script.main([*argv, "--run-dir", str(run)]) == 2
     assert "--vec-env native" in capsys.readouterr().err and not run.exists()
