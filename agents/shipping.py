@@ -23,11 +23,12 @@ its training layout, so it does not do this job; the zoo layout written here is 
 from __future__ import annotations
 
 import json
-import shutil
 from pathlib import Path
 from typing import Any
 
 import yaml
+
+from planar3p_gym.atomic_files import copy_atomic, write_atomic
 
 from .policy_spec import PRETRAINED_DIR
 from .pretrained_manifest import write_manifest
@@ -46,16 +47,12 @@ _LEGACY_BEST = ("best_model.zip", "best_vecnormalize.pkl")
 
 def _copy(src: Path, dst: Path) -> None:
     dst.parent.mkdir(parents=True, exist_ok=True)
-    tmp = dst.with_name(f".{dst.name}.tmp")
-    shutil.copyfile(src, tmp)
-    tmp.replace(dst)
+    copy_atomic(src, dst)
 
 
 def _write(dst: Path, text: str) -> None:
     dst.parent.mkdir(parents=True, exist_ok=True)
-    tmp = dst.with_name(f".{dst.name}.tmp")
-    tmp.write_text(text)
-    tmp.replace(dst)
+    write_atomic(dst, text)
 
 
 def _check_name(name: str) -> None:

@@ -38,6 +38,8 @@ from typing import Any
 
 import numpy as np
 
+from planar3p_gym.atomic_files import write_atomic
+
 from .train_run import RunOptions, execute, plan_run
 
 __all__ = [
@@ -340,8 +342,8 @@ def run_sweep(
             )
         rows.append(row)
     rows.sort(key=lambda r: (str(r["config"]), str(r["training_seed"])))
-    _write_atomic(out / "results.csv", _csv(rows))
-    _write_atomic(out / "results.md", results_markdown(rows, spec))
+    write_atomic(out / "results.csv", _csv(rows))
+    write_atomic(out / "results.md", results_markdown(rows, spec))
     return rows
 
 
@@ -351,12 +353,6 @@ def _csv(rows: Sequence[Mapping[str, Any]]) -> str:
     writer.writeheader()
     writer.writerows(rows)
     return buf.getvalue()
-
-
-def _write_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text)
-    tmp.replace(path)
 
 
 def _fmt(value: Any, digits: int = 2) -> str:

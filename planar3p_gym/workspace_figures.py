@@ -19,6 +19,7 @@ from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch, Rectangle
 
+from .atomic_files import write_atomic
 from .design import Design
 from .workspace import (
     DEFAULT_MIN_PARALLEL,
@@ -32,7 +33,7 @@ from .workspace import (
     singularity_segments,
     workspace,
 )
-from .workspace_report import StudySettings, write_atomic
+from .workspace_report import StudySettings
 
 __all__ = [
     "FIGURES",

@@ -11,7 +11,6 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -20,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from .atomic_files import write_atomic
 from .design import Design
 from .kinematics import ALL_MODES, inverse
 from .workspace import (
@@ -44,7 +44,6 @@ __all__ = [
     "time_study",
     "timed",
     "verify",
-    "write_atomic",
     "write_tables",
 ]
 
@@ -317,18 +316,6 @@ def tables(res: dict[str, Any]) -> tuple[str, str]:
         "",
     ]
     return buf.getvalue(), "\n".join(lines)
-
-
-def write_atomic(path: Path, data: str | bytes) -> None:
-    """Write ``path`` through a temporary file in the same directory, so a reader (or an
-    interrupted run) never sees it half written."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    if isinstance(data, bytes):
-        tmp.write_bytes(data)
-    else:
-        with open(tmp, "w", newline="") as fh:
-            fh.write(data)
-    tmp.replace(path)
 
 
 def write_tables(out: Path, res: dict[str, Any]) -> tuple[Path, Path]:

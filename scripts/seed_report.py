@@ -15,14 +15,13 @@ line, nothing written.
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from agents import seed_statistics
+from planar3p_gym.atomic_files import write_atomic
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -49,11 +48,7 @@ def main(argv: list[str] | None = None) -> int:
     text = seed_statistics.markdown(rows)
     print(text)
     if args.out:
-        out = Path(args.out)
-        fd, tmp = tempfile.mkstemp(dir=out.resolve().parent, suffix=".tmp")
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text + "\n")
-        os.replace(tmp, out)
+        write_atomic(args.out, text + "\n")
     return 0
 
 
