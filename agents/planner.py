@@ -26,9 +26,9 @@ from numpy.typing import NDArray
 from agents.policy_base import PolicyAdapter
 from agents.travel_follower import TravelFollower, observed_configuration
 from planar3p_gym.design import Design
+from planar3p_gym.motions import minimum_jerk
 from planar3p_gym.observation import OBS_SIZE, SLICES
 from planar3p_gym.tasks.joint_paths import PathLimits, find_joint_path
-from planar3p_gym.tasks.travel_motion import minimum_jerk
 
 __all__ = ["BaseObservation", "JointPathPlanner"]
 

@@ -1,10 +1,14 @@
-"""Smooth reference motions (open-loop slider commands along straight pose paths), and the
-gap between a simulated pose and the exact direct kinematics of its travels.
+"""Smooth reference motions (the minimum-jerk time law, open-loop slider commands along
+straight pose paths), and the gap between a simulated pose and the exact direct kinematics of
+its travels.
 
 Used to measure the physics model's fidelity (``tests/test_physics.py``,
 ``scripts/fidelity.py``): the commands follow the paper's simple-motion rates
 (:func:`planar3p_gym.kinematics.simple_motion_rates`) along the straight path in pose space with
-a minimum-jerk time law, so speeds and accelerations are zero at both ends and bounded between.
+the minimum-jerk time law (:func:`minimum_jerk`), so speeds and accelerations are zero at both
+ends and bounded between.  The same law times the task references and baselines
+(:mod:`planar3p_gym.tasks.travel_motion`, :mod:`planar3p_gym.tasks.track_references`,
+:class:`agents.planner.JointPathPlanner`).
 """
 
 from __future__ import annotations
@@ -17,7 +21,13 @@ from numpy.typing import ArrayLike, NDArray
 from . import kinematics, task
 from .design import Design
 
-__all__ = ["WELL_CONDITIONED", "min_jerk_commands", "nearest_dk", "well_conditioned_pairs"]
+__all__ = [
+    "WELL_CONDITIONED",
+    "min_jerk_commands",
+    "minimum_jerk",
+    "nearest_dk",
+    "well_conditioned_pairs",
+]
 
 #: Task margins of well-conditioned poses and paths (above the environment's defaults): the
 #: domain on which the fidelity bound is stated.
@@ -31,6 +41,16 @@ WELL_CONDITIONED = task.TaskConfig(
 )
 
 
+def minimum_jerk(t: float, duration: float) -> tuple[float, float]:
+    """The minimum-jerk time law at time ``t`` (s) of a motion lasting ``duration`` (s):
+    progress ``s = 10 u^3 - 15 u^4 + 6 u^5`` in ``[0, 1]`` and its rate ``ds/dt`` (1/s), with
+    ``u = t / duration`` clipped to ``[0, 1]``."""
+    u = min(max(t / duration, 0.0), 1.0)
+    s = u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
+    s_dot = 30.0 * u * u * (1.0 - u) ** 2 / duration
+    return s, s_dot
+
+
 def min_jerk_commands(
     design: Design,
     mode: ArrayLike,
@@ -41,8 +61,8 @@ def min_jerk_commands(
 ) -> NDArray[np.float64]:
     """Slider velocity commands (m/s), shape ``(n, 3)``, one per control period ``dt`` (s), that
     move the platform from ``start`` to ``target`` (poses, m, m, rad) along the straight path with
-    the time law ``s(u) = 10 u^3 - 15 u^4 + 6 u^5``; the rates are taken at the middle of each
-    period and the duration makes the largest command ``peak`` (m/s) or a little less."""
+    the time law :func:`minimum_jerk`; the rates are taken at the middle of each period and the
+    duration makes the largest command ``peak`` (m/s) or a little less."""
     start, target = np.asarray(start, float), np.asarray(target, float)
     delta = target - start
     delta[2] = (delta[2] + math.pi) % (2.0 * math.pi) - math.pi
@@ -52,9 +72,7 @@ def min_jerk_commands(
     def commands(duration: float) -> NDArray[np.float64]:
         out = []
         for k in range(int(math.ceil(duration / dt))):
-            u = min((k + 0.5) * dt / duration, 1.0)
-            s = u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
-            s_dot = 30.0 * u * u * (1.0 - u) ** 2 / duration
+            s, s_dot = minimum_jerk((k + 0.5) * dt, duration)
             p = start + s * delta
             rho = kinematics.inverse(design, p, mode).rho
             out.append(kinematics.simple_motion_rates(design, p, rho, s_dot * delta))

@@ -2,8 +2,8 @@
 followed with a minimum-jerk time law (:mod:`planar3p_gym.tasks.assembly_change`).
 
 Used by the task's sampler (:func:`planar3p_gym.tasks.crossing_checks.verify_crossing`) and by
-the crossing baseline (:class:`agents.crossing.CrossingController`); :func:`minimum_jerk` is
-also the time law of the mode-change baseline (:class:`agents.planner.JointPathPlanner`).
+the crossing baseline (:class:`agents.crossing.CrossingController`).  The time law,
+:func:`planar3p_gym.motions.minimum_jerk`, is re-exported here under its old name.
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .. import kinematics, task
 from ..design import Design
+from ..motions import minimum_jerk
 
 __all__ = [
     "TravelCurve",
@@ -25,16 +26,6 @@ __all__ = [
 ]
 
 FloatArray = NDArray[np.float64]
-
-
-def minimum_jerk(t: float, duration: float) -> tuple[float, float]:
-    """The minimum-jerk time law at time ``t`` (s) of a motion lasting ``duration`` (s):
-    progress ``s = 10 u^3 - 15 u^4 + 6 u^5`` in ``[0, 1]`` and its rate ``ds/dt`` (1/s), with
-    ``u = t / duration`` clipped to ``[0, 1]``."""
-    u = min(max(t / duration, 0.0), 1.0)
-    s = u**3 * (10.0 - 15.0 * u + 6.0 * u * u)
-    s_dot = 30.0 * u * u * (1.0 - u) ** 2 / duration
-    return s, s_dot
 
 
 def straight_pose_path(start: ArrayLike, target: ArrayLike, points: int) -> FloatArray:
