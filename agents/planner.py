@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from agents.policy_base import PolicyAdapter
 from agents.travel_follower import TravelFollower, observed_configuration
 from planar3p_gym.design import Design
-from planar3p_gym.motions import minimum_jerk
+from planar3p_gym.motions import MIN_JERK_PEAK, minimum_jerk
 from planar3p_gym.observation import OBS_SIZE, SLICES
 from planar3p_gym.tasks.joint_paths import PathLimits, find_joint_path
 
@@ -52,8 +52,7 @@ class _Plan:
     def __init__(self, travels: NDArray[np.float64], peak: float) -> None:
         self.travels = travels
         steps = np.abs(np.diff(travels, axis=0)).max(axis=1)
-        # the minimum-jerk profile peaks at 1.875 times the mean rate
-        self.durations = np.maximum(1.875 * steps / peak, 1e-3)
+        self.durations = np.maximum(MIN_JERK_PEAK * steps / peak, 1e-3)
         self.ends = np.cumsum(self.durations)
 
     @property

@@ -22,6 +22,7 @@ from . import kinematics, task
 from .design import Design
 
 __all__ = [
+    "MIN_JERK_PEAK",
     "WELL_CONDITIONED",
     "min_jerk_commands",
     "minimum_jerk",
@@ -39,6 +40,10 @@ WELL_CONDITIONED = task.TaskConfig(
     min_distance=0.08,
     travel_margin=0.05,
 )
+
+#: Peak of ``ds/du`` of the minimum-jerk law (at ``u = 1/2``): its largest rate is
+#: ``MIN_JERK_PEAK / duration`` times the distance covered.
+MIN_JERK_PEAK = 1.875
 
 
 def minimum_jerk(t: float, duration: float) -> tuple[float, float]:

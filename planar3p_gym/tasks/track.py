@@ -56,6 +56,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .. import kinematics, task
+from ..motions import MIN_JERK_PEAK
 from ..observation import SPEED_BOUND_FACTOR
 from ..physics import SimState
 from .base import Pose, Task, pose_list
@@ -81,8 +82,6 @@ EIGHT_MODE_ACCEPTS = 3
 EIGHT_MODE_TRIALS = 16
 #: Figure-eight ramp-up time from rest (s).
 EIGHT_RAMP = 1.0
-#: Peak of ``ds/du`` of the minimum-jerk law (at ``u = 1/2``).
-MIN_JERK_PEAK = 1.875
 #: ``info`` keys of the tracking metrics.
 TRACKING_METRICS = (
     "tracking_error",

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .. import kinematics, task
 from ..design import Design
-from ..motions import minimum_jerk
+from ..motions import MIN_JERK_PEAK, minimum_jerk
 
 __all__ = [
     "TravelCurve",
@@ -59,8 +59,7 @@ class TravelCurve:
             raise ValueError(f"peak must be finite and > 0 (m/s), got {peak!r}")
         self.travels = travels
         self.slopes = np.gradient(travels, 1.0 / (n - 1), axis=0)  # d rho / d s (m)
-        # the minimum-jerk s(t) peaks at s_dot = 1.875 / T
-        self.duration = max(1.875 * float(np.abs(self.slopes).max()) / peak, 1e-3)
+        self.duration = max(MIN_JERK_PEAK * float(np.abs(self.slopes).max()) / peak, 1e-3)
         self._n = n
 
     def reference(self, t: float) -> tuple[FloatArray, FloatArray]:
