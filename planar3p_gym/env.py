@@ -5,8 +5,7 @@ from __future__ import annotations
 import copy
 import itertools
 import math
-from collections.abc import Mapping
-from dataclasses import asdict, fields
+from dataclasses import asdict
 from typing import Any
 
 import gymnasium as gym
@@ -15,6 +14,16 @@ from gymnasium import spaces
 
 from . import kinematics
 from . import task as task_module
+from .arguments import (
+    RESET_OPTIONS,
+    check_reset_options,
+    config_from,
+    design_from,
+    is_int,
+    is_number,
+    mode_from,
+    parse_action,
+)
 from .design import Design
 from .observation import bounds, build_observation, wrap_angle
 from .physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PSim, SimState
@@ -40,145 +49,10 @@ DEFAULT_WORKING_MODE: tuple[int, int, int] = (1, 1, -1)
 TERMINATION_REASONS = ("success", "singularity_crossing", "physics_breakdown")
 
 
-def _design_from(arg: Design | dict | str | None) -> Design:
-    if arg is None:
-        return Design.fig8()
-    if isinstance(arg, Design):
-        return arg
-    if isinstance(arg, dict):
-        return Design.from_dict(arg)
-    if isinstance(arg, str):
-        presets = {"fig8": Design.fig8, "fig7": Design.fig7}
-        if arg not in presets:
-            raise ValueError(f"unknown design preset {arg!r}; known: {sorted(presets)}")
-        return presets[arg]()
-    raise ValueError(f"design must be a Design, a dict of its fields or a preset name, got {arg!r}")
-
-
-def _is_number(value: Any) -> bool:
-    """A finite real number (``bool`` excluded)."""
-    return (
-        isinstance(value, (int, float, np.integer, np.floating))
-        and not isinstance(value, (bool, np.bool_))
-        and math.isfinite(value)
-    )
-
-
-def _is_int(value: Any) -> bool:
-    """An integer (``bool`` excluded)."""
-    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
-
-
-def _config_from(arg: Any, cls: type, name: str) -> Any:
-    """A config dataclass from ``None`` (defaults), an instance, or a dict of its fields."""
-    if arg is None:
-        return cls()
-    if isinstance(arg, cls):
-        return arg
-    if isinstance(arg, dict):
-        known = {f.name for f in fields(cls)}
-        unknown = set(arg) - known
-        if unknown:
-            raise ValueError(f"unknown {name} fields {sorted(unknown)}; known: {sorted(known)}")
-        return cls(**arg)
-    raise ValueError(f"{name} must be a {cls.__name__} or a dict of its fields, got {arg!r}")
-
-
-def parse_action(action: Any) -> tuple[float, float, float]:
-    """An action as three finite floats clipped to ``[-1, 1]``, or ``ValueError``.
-
-    Accepts a sequence or array of 3 real numbers (Python or NumPy ints and floats); rejects
-    strings, booleans, complex numbers, wrong shapes, NaN/inf and values too large for a float.
-    """
-    if type(action) is np.ndarray and action.shape == (3,) and action.dtype.char in "fd":
-        a0, a1, a2 = action.tolist()  # the common case, without the general checks' overhead
-        if a0 * 0.0 == 0.0 and a1 * 0.0 == 0.0 and a2 * 0.0 == 0.0:  # finite (inf, NaN: NaN)
-            return (
-                -1.0 if a0 < -1.0 else (1.0 if a0 > 1.0 else a0),
-                -1.0 if a1 < -1.0 else (1.0 if a1 > 1.0 else a1),
-                -1.0 if a2 < -1.0 else (1.0 if a2 > 1.0 else a2),
-            )
-    if isinstance(action, (list, tuple)) and any(
-        isinstance(v, (bool, np.bool_, str, bytes)) for v in action
-    ):  # NumPy would turn [True, 0, 0] into integers and keep "1" as a string
-        raise ValueError(f"action must be 3 real numbers in [-1, 1], got {_short(action)}")
-    try:
-        arr = np.asarray(action)
-    except (TypeError, ValueError, OverflowError) as exc:
-        raise ValueError(f"action must be 3 real numbers in [-1, 1], got {_short(action)}") from exc
-    if arr.dtype.kind == "O" and arr.shape == (3,):  # e.g. Python ints beyond int64
-        arr = np.array([_real_to_float(v) for v in arr.tolist()])
-    if arr.dtype.kind not in "fiu":
-        raise ValueError(f"action must be 3 real numbers in [-1, 1], got {_short(action)}")
-    if arr.shape != (3,):
-        raise ValueError(f"action must have shape (3,), got shape {arr.shape}")
-    a0, a1, a2 = arr.astype(np.float64).tolist()
-    if not (math.isfinite(a0) and math.isfinite(a1) and math.isfinite(a2)):
-        raise ValueError(f"action must be finite, got {_short(action)}")
-    a0 = -1.0 if a0 < -1.0 else (1.0 if a0 > 1.0 else a0)
-    a1 = -1.0 if a1 < -1.0 else (1.0 if a1 > 1.0 else a1)
-    a2 = -1.0 if a2 < -1.0 else (1.0 if a2 > 1.0 else a2)
-    return a0, a1, a2
-
-
-def _real_to_float(value: Any) -> Any:
-    """A real number as a float (``inf`` if too large); anything else unchanged (rejected)."""
-    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
-        value, (bool, np.bool_)
-    ):
-        try:
-            return float(value)
-        except OverflowError:
-            return math.inf if value > 0 else -math.inf
-    return value
-
-
-def _short(value: Any, limit: int = 80) -> str:
-    """``repr(value)`` cut to ``limit`` characters (for error messages)."""
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
-
-
 #: Keys of :meth:`Planar3PEnv.get_keys_to_action`: (+x, -x) for sliders 1, 2, 3.
 KEYBOARD_KEYS = (("q", "a"), ("w", "s"), ("e", "d"))
 #: Speed commanded by a pressed key, as a fraction of ``max_speed``.
 KEYBOARD_SPEED = 0.5
-
-#: Keys ``reset(options=...)`` understands.
-RESET_OPTIONS = ("start", "target", "working_mode")
-
-
-def check_reset_options(options: Any, keys: tuple[str, ...] = RESET_OPTIONS) -> dict[str, Any]:
-    """``reset``'s ``options`` as a plain dict with only ``keys``, or ``ValueError``.
-
-    Checks the container and keys and parses ``working_mode``; the poses are checked later
-    against the episode's working mode.  Called before the environment is seeded, so a
-    rejected reset leaves the random stream untouched.
-    """
-    if options is None:
-        return {}
-    if not isinstance(options, Mapping):
-        raise ValueError(f"reset options must be a dict (keys: {', '.join(keys)}), got {options!r}")
-    out = dict(options)
-    unknown = [k for k in out if k not in keys]
-    if unknown:
-        raise ValueError(
-            f"unknown reset options {sorted(map(str, unknown))}; known: {', '.join(keys)}"
-        )
-    if out.get("working_mode") is not None:
-        out["working_mode"] = _mode_from(out["working_mode"])
-    return out
-
-
-def _mode_from(arg: Any) -> tuple[int, int, int]:
-    try:
-        m = tuple(int(v) for v in arg)
-        ok = len(m) == 3 and all(v in (1, -1) for v in m) and all(float(v) == int(v) for v in arg)
-    except (TypeError, ValueError):
-        ok = False
-    if not ok:
-        raise ValueError(f"working_mode must be three entries of +1 or -1, got {arg!r}")
-    return m  # type: ignore[return-value]
 
 
 class Planar3PEnv(gym.Env):
@@ -289,7 +163,7 @@ class Planar3PEnv(gym.Env):
         if not isinstance(task, Task):
             raise ValueError(f"task must be a planar3p_gym.tasks.Task, got {task!r}")
         self.task = task
-        self.design = _design_from(design)
+        self.design = design_from(design)
         if isinstance(working_mode, str):
             if working_mode != "random":
                 raise ValueError(
@@ -297,29 +171,29 @@ class Planar3PEnv(gym.Env):
                 )
             self._fixed_mode = None
         else:
-            self._fixed_mode = _mode_from(working_mode)
-        if not (_is_number(control_frequency) and 1.0 <= control_frequency <= 10_000.0):
+            self._fixed_mode = mode_from(working_mode)
+        if not (is_number(control_frequency) and 1.0 <= control_frequency <= 10_000.0):
             raise ValueError(
                 f"control_frequency must be a number in [1, 10000] (Hz), got {control_frequency!r}"
             )
         for name, value in (("substeps", substeps), ("solver_iterations", solver_iterations)):
-            if not (_is_int(value) and 1 <= value <= 1000):
+            if not (is_int(value) and 1 <= value <= 1000):
                 raise ValueError(f"{name} must be an integer in [1, 1000], got {value!r}")
         if not isinstance(projection, (bool, np.bool_)):
             raise ValueError(f"projection must be True or False, got {projection!r}")
-        if not (_is_number(breakdown_threshold) and 0 < breakdown_threshold < 1):
+        if not (is_number(breakdown_threshold) and 0 < breakdown_threshold < 1):
             raise ValueError(f"breakdown_threshold must be in (0, 1), got {breakdown_threshold!r}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(
                 f"render_mode must be one of {self.metadata['render_modes']} or None, "
                 f"got {render_mode!r}"
             )
-        self.reward_weights = _config_from(reward_weights, RewardWeights, "reward_weights")
-        self.task_config = _config_from(task_config, TaskConfig, "task_config")
+        self.reward_weights = config_from(reward_weights, RewardWeights, "reward_weights")
+        self.task_config = config_from(task_config, TaskConfig, "task_config")
         if not (
             isinstance(render_size, (tuple, list))
             and len(render_size) == 2
-            and all(_is_int(v) and 16 <= v <= 8192 for v in render_size)
+            and all(is_int(v) and 16 <= v <= 8192 for v in render_size)
         ):
             raise ValueError(
                 f"render_size must be (width, height) in pixels, 16..8192, got {render_size!r}"
