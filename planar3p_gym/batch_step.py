@@ -394,7 +394,7 @@ class BatchReach:
 
 
 def _barrier(margin: np.ndarray, ref: float) -> np.ndarray:
-    """:func:`planar3p_gym.reach_step._barrier` elementwise."""
+    """:func:`planar3p_gym.rewards.barrier` elementwise."""
     with np.errstate(divide="ignore"):
         inner = ref / margin - 1.0
     return np.where(

@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .observation import FINE_ERROR_SCALE, wrap_angle
-from .rewards import BARRIER_CAP
+from .rewards import barrier as _barrier
 from .scalar_kinematics import ConfigurationMeasures, _inverse_condition
 
 if TYPE_CHECKING:
@@ -140,15 +140,6 @@ class ReachStep:
         terms = reward_terms(self.weights, pos_err, dth, length, parallel, serial, action, reason)
         measures = ConfigurationMeasures(parallel, serial, sign, state.leg_angles)
         return values, measures, reason, terms, pos_err, dth
-
-
-def _barrier(margin: float, ref: float) -> float:
-    """:func:`planar3p_gym.rewards._barrier`."""
-    if margin >= ref:
-        return 0.0
-    if margin <= ref / (BARRIER_CAP + 1.0):
-        return BARRIER_CAP
-    return ref / margin - 1.0
 
 
 def reward_terms(

@@ -24,6 +24,7 @@ __all__ = [
     "MAX_WEIGHT",
     "RewardWeights",
     "action_effort",
+    "barrier",
     "pose_error",
     "precision_penalty",
     "reward_terms",
@@ -116,7 +117,9 @@ def precision_penalty(
     return 1.0 - math.exp(-(position_error + length * abs(orientation_error)) / scale)
 
 
-def _barrier(margin: float, ref: float) -> float:
+def barrier(margin: float, ref: float) -> float:
+    """Singularity barrier of one margin (dimensionless): 0 at or above ``ref``, ``ref/margin -
+    1`` below it, capped at :data:`BARRIER_CAP` (reached at ``margin = ref / (cap + 1)``)."""
     if margin >= ref:
         return 0.0
     if margin <= ref / (BARRIER_CAP + 1.0):
@@ -129,7 +132,7 @@ def singularity_penalty(
 ) -> float:
     """``(ref/m - 1)`` for each margin ``m`` below its reference, capped: 0 far from
     singularities, rising like ``1/m`` as a margin shrinks to 0."""
-    return _barrier(parallel_margin, parallel_ref) + _barrier(serial_margin, serial_ref)
+    return barrier(parallel_margin, parallel_ref) + barrier(serial_margin, serial_ref)
 
 
 def action_effort(action: tuple[float, float, float]) -> float:

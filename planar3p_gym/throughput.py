@@ -26,15 +26,15 @@ from __future__ import annotations
 import json
 import os
 import statistics
-import tempfile
 import time
 import warnings
-from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium.utils.performance import benchmark_step
+
+from .atomic_files import write_atomic
 
 __all__ = [
     "best_block_rates",
@@ -279,15 +279,7 @@ def ppo_rates(env_id: str, n_envs: int, timesteps: int, seed: int) -> dict[str, 
 
 
 def write_json_atomic(path: str | os.PathLike, data: Any) -> None:
-    """Write ``data`` as JSON to ``path`` atomically (a temporary file in the same directory,
-    then ``os.replace``): a reader never sees a partial file, and a failure leaves the old
-    file as it was."""
-    target = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            json.dump(data, fh, indent=2)
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """Write ``data`` as JSON to ``path`` atomically (:func:`planar3p_gym.atomic_files.
+    write_atomic`): a reader never sees a partial file, and a failure (also data that is not
+    JSON) leaves the old file as it was."""
+    write_atomic(path, json.dumps(data, indent=2))

@@ -81,16 +81,9 @@ INFO_KEYS = (
     "closure_error",
 )
 _DTYPES = {"is_success": np.bool_, "termination_reason": object, "assembly_mode": np.int64}
-#: The info entries of the scalar batch's per-env results, after the reward.
-_RESULT_KEYS = (
-    "termination_reason",
-    "position_error",
-    "orientation_error",
-    "parallel_margin",
-    "serial_margin",
-    "assembly_mode",
-    "closure_error",
-)
+#: The info entries of the scalar batch's per-env results, after the reward (all but the
+#: first of :data:`INFO_KEYS`).
+_RESULT_KEYS = INFO_KEYS[1:]
 #: ``termination_reason`` codes of the batched step.
 _REASONS = np.array([None, "success", "singularity_crossing", "physics_breakdown"], dtype=object)
 #: Numbers per simulation in the shared body buffer: room for twice a readout (11 bodies x 6),
