@@ -49,7 +49,7 @@ from __future__ import annotations
 import math
 from array import array
 from dataclasses import dataclass
-from typing import ClassVar, NamedTuple
+from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 import pymunk
@@ -190,6 +190,29 @@ class SimSnapshot:
 def _wrap(angle: float) -> float:
     """Angle wrapped into ``(-pi, pi]``."""
     return math.pi - (math.pi - angle) % (2.0 * math.pi)
+
+
+def substep_impulses(
+    space_ptr: Any, servos: tuple[Any, Any, Any], h: float, substeps: int
+) -> tuple[float, float, float, float, float, float]:
+    """Step the chipmunk space ``space_ptr`` ``substeps`` times by ``h`` (s) and return the
+    servos' summed impulses and their largest single-substep impulse, ``(f0, f1, f2, m0, m1,
+    m2)`` (N s), read through chipmunk's C API (the hot path of every step)."""
+    cp_step, impulse = _cp.cpSpaceStep, _cp.cpConstraintGetImpulse
+    s0, s1, s2 = servos
+    f0 = f1 = f2 = m0 = m1 = m2 = 0.0
+    for _ in range(substeps):
+        cp_step(space_ptr, h)
+        j0, j1, j2 = impulse(s0), impulse(s1), impulse(s2)
+        f0, f1, f2 = f0 + j0, f1 + j1, f2 + j2
+        # (comparisons instead of max(): this loop is the hot path)
+        if j0 > m0:
+            m0 = j0
+        if j1 > m1:
+            m1 = j1
+        if j2 > m2:
+            m2 = j2
+    return f0, f1, f2, m0, m1, m2
 
 
 class Planar3PSim:
@@ -463,19 +486,9 @@ class Planar3PSim:
                 f0, f1, f2 = f0 + j0, f1 + j1, f2 + j2
                 m0, m1, m2 = max(m0, j0), max(m1, j1), max(m2, j2)
         else:
-            space_ptr, (s0, s1, s2) = self._fast[0], self._fast[1]
-            cp_step, impulse = _cp.cpSpaceStep, _cp.cpConstraintGetImpulse
-            for _ in range(self.substeps):
-                cp_step(space_ptr, h)
-                j0, j1, j2 = impulse(s0), impulse(s1), impulse(s2)
-                f0, f1, f2 = f0 + j0, f1 + j1, f2 + j2
-                # (comparisons instead of max(): this loop is the hot path)
-                if j0 > m0:
-                    m0 = j0
-                if j1 > m1:
-                    m1 = j1
-                if j2 > m2:
-                    m2 = j2
+            f0, f1, f2, m0, m1, m2 = substep_impulses(
+                self._fast[0], self._fast[1], h, self.substeps
+            )
         self._time += self.dt
         scale = self._force_scale
         self._forces = (f0 * scale, f1 * scale, f2 * scale)

@@ -581,8 +581,7 @@ class _BatchCore:
         for k, col in enumerate(_DRIVE_VX):
             buf[idx, col] = v[idx, k]
         commands = v.tolist()
-        each, step, impulse = physics._cp.cpSpaceEachBody, physics._cp.cpSpaceStep, None
-        impulse = physics._cp.cpConstraintGetImpulse
+        each = physics._cp.cpSpaceEachBody
         get, put, arrays, requests = self.get, self.set, self.arrays, self.requests
         h, substeps = self.h, self.substeps
         fm = []
@@ -591,21 +590,10 @@ class _BatchCore:
             arr, req = arrays[i], requests[i]
             arr.num = 0
             each(space, put, req)
-            f0 = f1 = f2 = m0 = m1 = m2 = 0.0
-            for _ in range(substeps):
-                step(space, h)
-                j0, j1, j2 = impulse(s0), impulse(s1), impulse(s2)
-                f0, f1, f2 = f0 + j0, f1 + j1, f2 + j2
-                if j0 > m0:
-                    m0 = j0
-                if j1 > m1:
-                    m1 = j1
-                if j2 > m2:
-                    m2 = j2
+            fm.append(physics.substep_impulses(space, (s0, s1, s2), h, substeps))
             arr.num = 0
             each(space, get, req)
             record.extend(commands[i])
-            fm.append((f0, f1, f2, m0, m1, m2))
         self.venv._elapsed[idx] += 1
         self.time[idx] += self.dt
         fm_a = np.array(fm)
