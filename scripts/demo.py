@@ -1,12 +1,18 @@
 #!/usr/bin/env python
-"""The main job: the shipped learned policy against the analytic controller, on a quick suite.
+"""The main job: shipped learned policies against the analytic controller, on quick suites.
 
-Runs ``scripts/benchmark.py --quick`` on the shipped pretrained policy (``agents/pretrained/``)
-and the paper's simultaneous simple-motion controller, then records one episode of each as an
-animated GIF (the same start and target for both), and prints where everything is.  Trains
-nothing; a few minutes on a laptop-class CPU.
+1. Reach: ``scripts/benchmark.py --quick`` on the shipped pretrained reach policy
+   (``agents/pretrained/``) and the paper's simultaneous simple-motion controller.
+2. Working-mode change, where the simple motions fail by construction (they never pass the
+   serial singularity a leg must cross): the shipped ``ppo_mode_change`` policy against the
+   simple motions and the certified travel-space planner, on the quick ``mode-change`` suite.
 
-    python scripts/demo.py [--out results/demo] [--policy pretrained:NAME] [--seed 0]
+Each part records one episode of the learned and of the analytic policy as animated GIFs (the
+same start and target for both) and prints where everything is.  Trains nothing; about a
+minute or two on a laptop-class CPU.
+
+    python scripts/demo.py [--out results/demo] [--policy pretrained:NAME]
+                           [--mode-change-policy pretrained:NAME] [--seed 0]
 """
 
 from __future__ import annotations
@@ -24,10 +30,10 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 import gymnasium as gym  # noqa: E402
-import numpy as np  # noqa: E402
 
 import planar3p_gym  # noqa: E402
 from agents import suites as su  # noqa: E402
+from agents.episode_gif import record_gif  # noqa: E402
 from agents.policies import (  # noqa: E402
     TRUSTED_FILES_NOTE,
     PolicyError,
@@ -35,8 +41,11 @@ from agents.policies import (  # noqa: E402
     load_policy,
     policy_label,
 )
+from agents.task_suites import TASK_SUITES, make_task_suite, task_baseline  # noqa: E402
 
 ANALYTIC = "analytic-simultaneous"
+MODE_CHANGE = "mode-change"
+MODE_CHANGE_POLICY = "pretrained:ppo_mode_change"
 
 
 def _benchmark_main():
@@ -49,34 +58,38 @@ def _benchmark_main():
     return module.main
 
 
-def record_gif(policy_spec: str, episode: su.EpisodeSpec, path: Path, seed: int) -> dict:
-    """Play ``episode`` with the policy, rendering every other frame into an animated GIF."""
-    import imageio.v2 as imageio
+def _maker(spec: str, suite: str | None, seed: int):
+    """``env -> policy`` for a GIF: a task baseline on a task suite, else :func:`load_policy`."""
+    if suite is not None and spec in TASK_SUITES[suite].baselines:
+        return lambda env: task_baseline(spec, suite, env)
+    return lambda env: load_policy(spec, env=env, seed=seed)
 
-    env = gym.make(planar3p_gym.ENV_ID, render_mode="rgb_array", render_size=(480, 320))
-    policy = load_policy(policy_spec, env=env, seed=seed)
-    if hasattr(policy, "reset"):
-        policy.reset()
-    obs, info = env.reset(seed=seed, options=episode.reset_options())
-    frames = [env.render()]
-    state, start, steps, terminated, truncated = None, True, 0, False, False
-    while not (terminated or truncated):
-        action, state = policy.predict(obs, state=state, episode_start=np.array([start]))
-        start = False
-        obs, _, terminated, truncated, info = env.step(action)
-        steps += 1
-        if steps % 2 == 0 or terminated or truncated:
-            frames.append(env.render())
-    frames.extend([frames[-1]] * 12)  # hold the last picture for a moment
-    fps = env.metadata["render_fps"] / 2
-    env.close()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    imageio.mimsave(path, frames, duration=1.0 / fps, loop=0)
-    return {
-        "steps": steps,
-        "reason": info.get("termination_reason") or "time limit",
-        "position_error_mm": 1000 * info["position_error"],
-    }
+
+def _part(title, bench_args, policies, env_id, episode, suite, out, seed) -> dict | None:
+    """Benchmark ``policies`` (``bench_args`` picks the suites) into ``out/benchmark`` and
+    record ``episode`` with each policy; ``None`` if the benchmark failed."""
+    print(f"{title}: benchmarking {', '.join(policies)} ...", flush=True)
+    argv = [*bench_args, "--quick", "--policies", ",".join(policies), "--seed", str(seed)]
+    # --force: the demo's own directory, a rerun replaces its results.
+    if _benchmark_main()([*argv, "--out", str(out / "benchmark"), "--force"]) != 0:
+        return None
+    gifs = {}
+    for spec in policies[:2]:
+        path = out / f"{policy_label(spec).replace(':', '_').replace('/', '_')}.gif"
+        outcome = record_gif(env_id, _maker(spec, suite, seed), episode.reset_options(), path, seed)
+        gifs[spec] = (path, outcome)
+    return gifs
+
+
+def _print(out: Path, gifs: dict) -> None:
+    print(f"  report:        {out / 'benchmark' / 'report.md'}")
+    print(f"  per episode:   {out / 'benchmark' / 'episodes.csv'}")
+    print(f"  plots:         {out / 'benchmark'}/*.png")
+    for spec, (path, outcome) in gifs.items():
+        print(
+            f"  animation:     {path}  ({spec}: {outcome['reason']} after "
+            f"{outcome['steps']} steps, final error {outcome['position_error_mm']:.1f} mm)"
+        )
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -86,7 +99,8 @@ def main(argv: list[str] | None = None) -> int:
         epilog=TRUSTED_FILES_NOTE,
     )
     p.add_argument("--out", type=Path, default=ROOT / "results" / "demo")
-    p.add_argument("--policy", default=None, help="learned policy (default: the shipped one)")
+    p.add_argument("--policy", default=None, help="learned reach policy (default: shipped one)")
+    p.add_argument("--mode-change-policy", default=MODE_CHANGE_POLICY, help="learned policy")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
 
@@ -97,46 +111,42 @@ def main(argv: list[str] | None = None) -> int:
             print("error: no pretrained policy in agents/pretrained/", file=sys.stderr)
             return 2
         learned = f"pretrained:{shipped[0]}"
+    mc_env = TASK_SUITES[MODE_CHANGE].env_id
     try:
         load_policy(learned, env=gym.make(planar3p_gym.ENV_ID))
+        load_policy(args.mode_change_policy, env=gym.make(mc_env))
     except PolicyError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
 
-    policies = [learned, ANALYTIC]
-    bench_dir = args.out / "benchmark"
-    print(f"Benchmarking {', '.join(policies)} on the quick suites ...", flush=True)
-    status = _benchmark_main()(
-        [
-            "--quick",
-            "--policies",
-            ",".join(policies),
-            "--seed",
-            str(args.seed),
-            "--out",
-            str(bench_dir),
-            "--force",  # the demo's own directory: a rerun replaces its results
-        ]
+    reach = _part(
+        "Reach",
+        ["--suites", ",".join(su.SUITE_NAMES)],
+        [learned, ANALYTIC],
+        planar3p_gym.ENV_ID,
+        su.make_suite("standard", 1, args.seed).episodes[0],
+        None,
+        args.out / "reach",
+        args.seed,
     )
-    if status != 0:
-        return status
-
-    episode = su.make_suite("standard", 1, args.seed).episodes[0]
-    gifs = {}
-    for spec in policies:
-        path = args.out / f"{policy_label(spec).replace(':', '_').replace('/', '_')}.gif"
-        outcome = record_gif(spec, episode, path, args.seed)
-        gifs[spec] = (path, outcome)
-
-    print("\nDone.")
-    print(f"  report:        {bench_dir / 'report.md'}")
-    print(f"  per episode:   {bench_dir / 'episodes.csv'}")
-    print(f"  plots:         {bench_dir}/*.png")
-    for spec, (path, outcome) in gifs.items():
-        print(
-            f"  animation:     {path}  ({spec}: {outcome['reason']} after "
-            f"{outcome['steps']} steps, final error {outcome['position_error_mm']:.1f} mm)"
-        )
+    if reach is None:
+        return 1
+    mode_change = _part(
+        "Working-mode change",
+        ["--suites", MODE_CHANGE],
+        [args.mode_change_policy, ANALYTIC, "planner"],
+        mc_env,
+        make_task_suite(MODE_CHANGE, 1, args.seed).episodes[0],
+        MODE_CHANGE,
+        args.out / "mode-change",
+        args.seed,
+    )
+    if mode_change is None:
+        return 1
+    print("\nDone.\nReach:")
+    _print(args.out / "reach", reach)
+    print("Working-mode change (the simple motions cannot pass the serial singularity):")
+    _print(args.out / "mode-change", mode_change)
     return 0
 
 

@@ -7,6 +7,7 @@ import json
 
 import imageio.v2 as imageio
 import pytest
+from conftest import load_script
 
 from agents.baselines import ZeroPolicy
 from agents.episode_gif import GIF_SIZE, record_gif
@@ -81,3 +82,11 @@ def test_benchmark_of_a_task_suite_alone_writes_its_plots(tmp_path, bench):
     assert len(summary["summaries"]) == 2
     assert (out / "success_rate.png").stat().st_size > 1000
     assert not (out / "trajectories.png").exists()
+
+
+def test_demo_refuses_an_unknown_policy(tmp_path, capsys):
+    demo = load_script("demo")
+    code = demo.main(["--out", str(tmp_path), "--mode-change-policy", "pretrained:no_such"])
+    assert code == 2
+    assert "unknown pretrained model" in capsys.readouterr().err
+    assert not any(tmp_path.iterdir())  # nothing written

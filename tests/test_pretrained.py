@@ -42,7 +42,9 @@ def test_a_policy_is_shipped_small_with_its_statistics_and_provenance() -> None:
 
 @pytest.mark.parametrize("name", SHIPPED)
 def test_pretrained_policy_loads_and_acts(name: str) -> None:
-    env = gym.make("Planar3P-v0")
+    """Played in the id it was trained on (its provenance), without training-only kwargs."""
+    record = json.loads((PRETRAINED_DIR / f"{name}.json").read_text())
+    env = gym.make(record["run"]["config"]["env_id"])
     policy = load_policy(f"pretrained:{name}", env=env)
     obs, info = env.reset(seed=11)
     start_error = info["position_error"]
