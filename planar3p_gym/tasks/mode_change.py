@@ -66,7 +66,6 @@ from .. import kinematics, task
 from ..checks import as_finite_float as finite_number
 from ..physics import SimState
 from ..rewards import MAX_WEIGHT
-from ..scalar_kinematics import ConfigurationMeasures
 from .base import ModeTriple, Pose, Task, mode_option, pose_list
 from .joint_paths import JointPath, PathLimits, find_joint_path
 
@@ -381,19 +380,12 @@ class ModeChangeTask(Task):
     def observation_extra(self, step: int) -> list[float]:
         return [*self._target_rho, *(float(m) for m in self._target_mode)]
 
-    def termination(
-        self,
-        state: SimState,
-        measures: ConfigurationMeasures,
-        errors: tuple[float, float],
-        assembly: int,
-    ) -> str | None:
-        self._rho = state.rho  # for the travel term of this step's reward
-        return super().termination(state, measures, errors, assembly)
-
     def reward_terms(self, **kwargs: Any) -> dict[str, float]:
         terms = super().reward_terms(**kwargs)
         if self.travel_shaping:
+            rho = self.env.sim.state.rho
+            if all(math.isfinite(r) for r in rho):  # (a broken-down state keeps the last travels)
+                self._rho = rho
             distance = sum(abs(a - b) for a, b in zip(self._rho, self._target_rho, strict=True))
             length = self.env.design.characteristic_length
             terms["travel"] = -self.travel_shaping * distance / length
