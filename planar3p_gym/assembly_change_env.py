@@ -85,7 +85,9 @@ class Planar3PAssemblyChangeEnv(Planar3PEnv):
     ``solver_iterations``, ``reward_weights``, ``task_config``, ``breakdown_threshold``,
     ``render_mode``, ``render_size``, ...), plus ``crossing_limits``
     (:class:`~planar3p_gym.tasks.assembly_change.CrossingLimits` or a dict of its fields,
-    e.g. ``{"verify": False}`` to skip the simulated check at reset).
+    e.g. ``{"verify": False}`` to skip the simulated check at reset) and ``travel_shaping``
+    (weight of an optional reward term ``-w sum_i |rho_i - rho_i^t| / L`` towards the target's
+    slider travels, :mod:`planar3p_gym.tasks.travel_shaping`; default 0, no such term).
 
     ## Version History
     - v0: initial release.
@@ -97,6 +99,7 @@ class Planar3PAssemblyChangeEnv(Planar3PEnv):
         *,
         working_mode: Any = ASSEMBLY_CHANGE_MODE,
         crossing_limits: CrossingLimits | dict | None = None,
+        travel_shaping: float = 0.0,
         **kwargs: Any,
     ) -> None:
         if "task" in kwargs:
@@ -104,6 +107,6 @@ class Planar3PAssemblyChangeEnv(Planar3PEnv):
         super().__init__(
             assembly_change_design() if design is None else design,
             working_mode=working_mode,
-            task=AssemblyChangeTask(limits=crossing_limits),
+            task=AssemblyChangeTask(limits=crossing_limits, travel_shaping=travel_shaping),
             **kwargs,
         )

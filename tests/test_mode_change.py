@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 
-import gymnasium as gym
 import numpy as np
 import pytest
 
@@ -137,36 +136,3 @@ def test_an_unsampled_pair_of_working_modes_fails_fast(env):
     with pytest.raises(ValueError, match="no certified mode change"):
         env.reset(options={"working_mode": [1, 1, 1], "target_working_mode": [-1, -1, -1]})
     assert time.perf_counter() - t0 < 30.0  # a bounded check, not the sampler's long search
-
-
-def test_travel_shaping_adds_only_the_travel_term():
-    """``travel_shaping=w``: the reward gains ``-w sum_i |rho_i - rho_i^t| / L`` (target travels
-    by inverse kinematics in the target working mode) and nothing else changes; 0 adds no
-    term."""
-    plain, shaped = gym.make(ENV_ID), gym.make(ENV_ID, travel_shaping=2.0)
-    design = plain.unwrapped.design
-    rng = np.random.default_rng(5)
-    _, info0 = plain.reset(seed=11)
-    _, info1 = shaped.reset(seed=11)
-    spec = info1["episode_spec"]
-    assert spec == info0["episode_spec"]
-    target_rho = kinematics.inverse(
-        design, np.asarray(spec["target"]), tuple(spec["target_working_mode"])
-    ).rho
-    for _ in range(40):
-        action = rng.uniform(-1.0, 1.0, 3)
-        obs0, r0, *_, info0 = plain.step(action)
-        obs1, r1, *_, info1 = shaped.step(action)
-        np.testing.assert_array_equal(obs0, obs1)
-        assert "travel" not in info0["reward_terms"]
-        expected = -2.0 * np.abs(np.asarray(info1["rho"]) - target_rho).sum()
-        expected /= design.characteristic_length
-        assert info1["reward_terms"]["travel"] == pytest.approx(expected, rel=1e-12, abs=1e-15)
-        assert r1 - info1["reward_terms"]["travel"] == pytest.approx(r0, rel=1e-12, abs=1e-12)
-    assert shaped.unwrapped.config()["task_arguments"]["travel_shaping"] == 2.0
-
-
-@pytest.mark.parametrize("bad", [-1.0, math.nan, math.inf, "2", 1e7])
-def test_travel_shaping_rejects_bad_weights(bad):
-    with pytest.raises(ValueError, match="travel_shaping"):
-        Planar3PModeChangeEnv(travel_shaping=bad)

@@ -79,6 +79,7 @@ from .base import ModeTriple, Pose, Task, mode_option, pose_list
 from .crossing_checks import CrossingLimits, SimFactory, crossing_path, verify_crossing
 from .singular_gravity import gravity_alignment
 from .travel_motion import TravelCurve, demonstration_travels, pose_path_travels
+from .travel_shaping import TravelShaping, check_travel_shaping
 
 __all__ = [
     "AssemblyChangeTask",
@@ -101,12 +102,14 @@ BIND_SEEDS = 5
 MIN_FEASIBLE_RATE = 0.5
 
 
-class AssemblyChangeTask(Task):
+class AssemblyChangeTask(TravelShaping, Task):
     """Reach a target pose in the other assembly mode (see the module docstring).
 
     Args:
         limits: :class:`CrossingLimits` of the feasibility checks (or a dict of its fields).
         pair_tries: target candidates tried per start pose before another start is drawn.
+        travel_shaping: weight ``w >= 0`` of the optional reward term towards the target's
+            slider travels (:mod:`planar3p_gym.tasks.travel_shaping`; 0: no such term).
     """
 
     name: ClassVar[str] = "assembly_change"
@@ -121,7 +124,12 @@ class AssemblyChangeTask(Task):
     #: Passing the parallel singularity is the task: no parallel barrier in the reward.
     parallel_barrier: ClassVar[bool] = False
 
-    def __init__(self, limits: CrossingLimits | dict | None = None, pair_tries: int = 8) -> None:
+    def __init__(
+        self,
+        limits: CrossingLimits | dict | None = None,
+        pair_tries: int = 8,
+        travel_shaping: float = 0.0,
+    ) -> None:
         if isinstance(limits, dict):
             limits = CrossingLimits(**limits)
         if limits is not None and not isinstance(limits, CrossingLimits):
@@ -130,10 +138,14 @@ class AssemblyChangeTask(Task):
             raise ValueError(f"pair_tries must be an int >= 1, got {pair_tries!r}")
         self.limits = limits or CrossingLimits()
         self.pair_tries = pair_tries
+        self.travel_shaping = check_travel_shaping(travel_shaping)
 
     # ------------------------------------------------------------------ set-up
     def arguments(self) -> dict[str, Any]:
-        return {"limits": asdict(self.limits), "pair_tries": self.pair_tries}
+        out = {"limits": asdict(self.limits), "pair_tries": self.pair_tries}
+        if self.travel_shaping:
+            out["travel_shaping"] = self.travel_shaping
+        return out
 
     def bind(self, env: Any) -> None:
         super().bind(env)
@@ -321,7 +333,9 @@ class AssemblyChangeTask(Task):
         self._target_asm = self._assembly(np.asarray(self._target), mode)
         self._last_sign = -self._target_asm
         self._crossings = 0
-        return np.asarray(spec["start"], dtype=np.float64), mode
+        start = np.asarray(spec["start"], dtype=np.float64)
+        self.start_travels(kinematics.inverse(self.env.design, start, mode).rho)
+        return start, mode
 
     # ------------------------------------------------------------------ per step
     def reference(self, step: int) -> Pose:

@@ -63,11 +63,10 @@ from typing import Any, ClassVar
 import numpy as np
 
 from .. import kinematics, task
-from ..checks import as_finite_float as finite_number
 from ..physics import SimState
-from ..rewards import MAX_WEIGHT
 from .base import ModeTriple, Pose, Task, mode_option, pose_list
 from .joint_paths import JointPath, PathLimits, find_joint_path
+from .travel_shaping import TravelShaping, check_travel_shaping
 
 __all__ = ["ModeChangeTask", "leg_modes", "single_flip_modes"]
 
@@ -93,7 +92,7 @@ class _Pair:
     path: JointPath
 
 
-class ModeChangeTask(Task):
+class ModeChangeTask(TravelShaping, Task):
     """Reach a target pose in another working mode (see the module docstring).
 
     Args:
@@ -133,12 +132,7 @@ class ModeChangeTask(Task):
             raise ValueError(f"pair_tries must be an int >= 1, got {pair_tries!r}")
         if limits is not None and not isinstance(limits, PathLimits):
             raise ValueError(f"limits must be a PathLimits, got {limits!r}")
-        shaping = finite_number(travel_shaping)
-        if shaping is None or not 0.0 <= shaping <= MAX_WEIGHT:
-            raise ValueError(
-                f"travel_shaping must be a finite number in [0, {MAX_WEIGHT:g}], got "
-                f"{travel_shaping!r}"
-            )
+        shaping = check_travel_shaping(travel_shaping)
         self.flips = flips
         self.limits = limits or PathLimits()
         self.pair_tries = pair_tries
@@ -156,7 +150,6 @@ class ModeChangeTask(Task):
         self._target: Pose = (0.0, 0.0, 0.0)
         self._target_mode: ModeTriple = (1, 1, 1)
         self._target_rho: tuple[float, float, float] = (0.0, 0.0, 0.0)
-        self._rho: tuple[float, float, float] = (0.0, 0.0, 0.0)
         self._checked: dict[tuple[ModeTriple, ModeTriple], bool] = {}
         self.pairs = self._viable_pairs()
         if not self.pairs:
@@ -366,8 +359,7 @@ class ModeChangeTask(Task):
         self._target_rho = (float(rho[0]), float(rho[1]), float(rho[2]))
         mode = mode_option(spec["working_mode"], "working_mode")
         start = np.asarray(spec["start"], dtype=np.float64)
-        rho0 = kinematics.inverse(self.env.design, start, mode).rho
-        self._rho = (float(rho0[0]), float(rho0[1]), float(rho0[2]))
+        self.start_travels(kinematics.inverse(self.env.design, start, mode).rho)
         return start, mode
 
     # ------------------------------------------------------------------ per step
@@ -379,17 +371,6 @@ class ModeChangeTask(Task):
 
     def observation_extra(self, step: int) -> list[float]:
         return [*self._target_rho, *(float(m) for m in self._target_mode)]
-
-    def reward_terms(self, **kwargs: Any) -> dict[str, float]:
-        terms = super().reward_terms(**kwargs)
-        if self.travel_shaping:
-            rho = self.env.sim.state.rho
-            if all(math.isfinite(r) for r in rho):  # (a broken-down state keeps the last travels)
-                self._rho = rho
-            distance = sum(abs(a - b) for a, b in zip(self._rho, self._target_rho, strict=True))
-            length = self.env.design.characteristic_length
-            terms["travel"] = -self.travel_shaping * distance / length
-        return terms
 
     def is_success(self, state: SimState, errors: tuple[float, float]) -> bool:
         return super().is_success(state, errors) and leg_modes(state.leg_angles) == (

@@ -1,0 +1,56 @@
+"""The optional travel term of the mode- and assembly-change rewards (``travel_shaping``)."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import planar3p_gym  # noqa: F401
+from planar3p_gym import kinematics
+from planar3p_gym.assembly_change_env import Planar3PAssemblyChangeEnv
+from planar3p_gym.mode_change_env import Planar3PModeChangeEnv
+
+IDS = ("Planar3PModeChange-v0", "Planar3PAssemblyChange-v0")
+
+
+def _target_mode(spec: dict) -> tuple[int, int, int]:
+    return tuple(spec.get("target_working_mode", spec["working_mode"]))  # type: ignore[return-value]
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_travel_shaping_adds_only_the_travel_term(env_id):
+    """``travel_shaping=w``: the reward gains ``-w sum_i |rho_i - rho_i^t| / L`` (target travels
+    by inverse kinematics in the target's working mode) and nothing else changes (same
+    observations, the other terms bit for bit); 0 adds no term."""
+    plain, shaped = gym.make(env_id), gym.make(env_id, travel_shaping=2.0)
+    design = plain.unwrapped.design
+    rng = np.random.default_rng(5)
+    _, info0 = plain.reset(seed=11)
+    _, info1 = shaped.reset(seed=11)
+    spec = info1["episode_spec"]
+    assert spec == info0["episode_spec"]
+    target_rho = kinematics.inverse(design, np.asarray(spec["target"]), _target_mode(spec)).rho
+    for _ in range(40):
+        action = rng.uniform(-1.0, 1.0, 3)
+        obs0, r0, *_, info0 = plain.step(action)
+        obs1, r1, *_, info1 = shaped.step(action)
+        np.testing.assert_array_equal(obs0, obs1)
+        assert "travel" not in info0["reward_terms"]
+        others = {k: v for k, v in info1["reward_terms"].items() if k != "travel"}
+        assert others == info0["reward_terms"]
+        expected = -2.0 * np.abs(np.asarray(info1["rho"]) - target_rho).sum()
+        expected /= design.characteristic_length
+        assert info1["reward_terms"]["travel"] == pytest.approx(expected, rel=1e-12, abs=1e-15)
+        assert r1 - info1["reward_terms"]["travel"] == pytest.approx(r0, rel=1e-12, abs=1e-12)
+    assert shaped.unwrapped.config()["task_arguments"]["travel_shaping"] == 2.0
+    assert "travel_shaping" not in plain.unwrapped.config()["task_arguments"]
+
+
+@pytest.mark.parametrize("make", [Planar3PModeChangeEnv, Planar3PAssemblyChangeEnv])
+@pytest.mark.parametrize("bad", [-1.0, math.nan, math.inf, "2", 1e7])
+def test_travel_shaping_rejects_bad_weights(make, bad):
+    with pytest.raises(ValueError, match="travel_shaping"):
+        make(travel_shaping=bad)
