@@ -79,7 +79,7 @@ from .base import ModeTriple, Pose, Task, mode_option, pose_list
 from .crossing_checks import CrossingLimits, SimFactory, crossing_path, verify_crossing
 from .singular_gravity import gravity_alignment
 from .travel_motion import TravelCurve, demonstration_travels, pose_path_travels
-from .travel_shaping import TravelShaping, check_travel_shaping
+from .travel_shaping import TravelShaping
 
 __all__ = [
     "AssemblyChangeTask",
@@ -134,18 +134,12 @@ class AssemblyChangeTask(TravelShaping, Task):
             limits = CrossingLimits(**limits)
         if limits is not None and not isinstance(limits, CrossingLimits):
             raise ValueError(f"limits must be a CrossingLimits or a dict, got {limits!r}")
-        if not (isinstance(pair_tries, int) and pair_tries >= 1):
-            raise ValueError(f"pair_tries must be an int >= 1, got {pair_tries!r}")
+        self.init_pairs(pair_tries, travel_shaping)
         self.limits = limits or CrossingLimits()
-        self.pair_tries = pair_tries
-        self.travel_shaping = check_travel_shaping(travel_shaping)
 
     # ------------------------------------------------------------------ set-up
     def arguments(self) -> dict[str, Any]:
-        out = {"limits": asdict(self.limits), "pair_tries": self.pair_tries}
-        if self.travel_shaping:
-            out["travel_shaping"] = self.travel_shaping
-        return out
+        return {"limits": asdict(self.limits), **self.shaping_arguments()}
 
     def bind(self, env: Any) -> None:
         super().bind(env)

@@ -66,7 +66,7 @@ from .. import kinematics, task
 from ..physics import SimState
 from .base import ModeTriple, Pose, Task, mode_option, pose_list
 from .joint_paths import JointPath, PathLimits, find_joint_path
-from .travel_shaping import TravelShaping, check_travel_shaping
+from .travel_shaping import TravelShaping
 
 __all__ = ["ModeChangeTask", "leg_modes", "single_flip_modes"]
 
@@ -128,22 +128,15 @@ class ModeChangeTask(TravelShaping, Task):
     ) -> None:
         if not (isinstance(flips, int) and not isinstance(flips, bool) and 1 <= flips <= 3):
             raise ValueError(f"flips must be 1, 2 or 3 (legs to flip), got {flips!r}")
-        if not (isinstance(pair_tries, int) and pair_tries >= 1):
-            raise ValueError(f"pair_tries must be an int >= 1, got {pair_tries!r}")
         if limits is not None and not isinstance(limits, PathLimits):
             raise ValueError(f"limits must be a PathLimits, got {limits!r}")
-        shaping = check_travel_shaping(travel_shaping)
+        self.init_pairs(pair_tries, travel_shaping)
         self.flips = flips
         self.limits = limits or PathLimits()
-        self.pair_tries = pair_tries
-        self.travel_shaping = shaping
 
     # ------------------------------------------------------------------ set-up
     def arguments(self) -> dict[str, Any]:
-        out = {"flips": self.flips, "limits": asdict(self.limits), "pair_tries": self.pair_tries}
-        if self.travel_shaping:
-            out["travel_shaping"] = self.travel_shaping
-        return out
+        return {"flips": self.flips, "limits": asdict(self.limits), **self.shaping_arguments()}
 
     def bind(self, env: Any) -> None:
         super().bind(env)
