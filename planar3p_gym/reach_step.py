@@ -23,8 +23,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from . import rewards
 from .observation import FINE_ERROR_SCALE, wrap_angle
-from .rewards import barrier as _barrier
 from .scalar_kinematics import ConfigurationMeasures, _inverse_condition
 
 if TYPE_CHECKING:
@@ -153,15 +153,16 @@ def reward_terms(
     reason: str | None,
 ) -> dict[str, float]:
     """:func:`planar3p_gym.rewards.reward_terms` of the reach task (both barriers on) for
-    weights ``w``, errors (m, rad), margins and the termination ``reason``."""
+    weights ``w``, errors (m, rad), margins and the termination ``reason`` (the pose distance
+    is formed once for the pose and precision terms)."""
     distance = pos_err + length * abs(ang_err)
-    a0, a1, a2 = action
-    return {
-        "pose": -w.pose * (distance / length),
-        "precision": -w.precision * (1.0 - math.exp(-distance / w.precision_scale)),
-        "singularity": -w.singularity
-        * (_barrier(parallel, w.parallel_margin_ref) + _barrier(serial, w.serial_margin_ref)),
-        "action": -w.action * ((a0**2 + a1**2 + a2**2) / 3.0),
-        "success": w.success if reason == "success" else 0.0,
-        "failure": -w.failure if reason == "singularity_crossing" else 0.0,
-    }
+    return rewards.reward_terms(
+        w,
+        pose_err=distance / length,
+        precision_err=1.0 - math.exp(-distance / w.precision_scale),
+        parallel_margin=parallel,
+        serial_margin=serial,
+        action=action,
+        success=reason == "success",
+        failure=reason == "singularity_crossing",
+    )
