@@ -14,7 +14,15 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["group_name", "load_run", "plot", "table", "time_to_success", "training_time"]
+__all__ = [
+    "group_name",
+    "load_run",
+    "plot",
+    "read_sessions",
+    "table",
+    "time_to_success",
+    "training_time",
+]
 
 #: Success rate a run must reach in its evaluations for :func:`time_to_success`.
 SUCCESS_LEVEL = 0.9
@@ -34,6 +42,7 @@ def load_run(path: Path) -> dict:
     returns = curve["results"].mean(axis=1)
     successes = curve["successes"].mean(axis=1) if "successes" in curve else None
     kick = json.loads((path / "config.json").read_text()).get("kickstart")
+    sessions = read_sessions(path)  # the TensorBoard logs, read once
     if kick and kick.get("evaluation"):  # the cloned policy before RL, at step 0
         timesteps = np.concatenate([[0], timesteps])
         returns = np.concatenate([[kick["evaluation"]["mean_return"]], returns])
@@ -41,8 +50,8 @@ def load_run(path: Path) -> dict:
             successes = np.concatenate([[kick["evaluation"]["success_rate"]], successes])
     return {
         "name": path.name,
-        "train_time": training_time(path),
-        "time_to_level": time_to_success(path),
+        "train_time": training_time(path, sessions),
+        "time_to_level": time_to_success(path, sessions=sessions),
         "kickstart": kick,
         "algo": config["algo"],
         "seed": config["seed"],
@@ -53,47 +62,56 @@ def load_run(path: Path) -> dict:
     }
 
 
-def training_time(path: Path) -> float | None:
-    """Wall time spent training (s): the span of each TensorBoard log of the run, summed over
-    sessions (a resumed run has one log per session)."""
+#: One TensorBoard log (training session) of a run: the wall times of all its scalars (s), and
+#: its ``eval/success_rate`` events as ``(step, value, wall time)``.
+Session = tuple[list[float], list[tuple[int, float, float]]]
+
+
+def read_sessions(path: Path) -> list[Session] | None:
+    """The TensorBoard logs of the run at ``path``, one per training session (a resumed run
+    has several), read once; ``None`` without tensorboard (the train extra)."""
     try:
         from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
     except ImportError:  # pragma: no cover - tensorboard is in the train extra
         return None
-    total, found = 0.0, False
-    for log in sorted((path / "tb").glob("*")):
-        acc = EventAccumulator(str(log), size_guidance={"scalars": 0})
-        acc.Reload()
-        stamps = [e.wall_time for tag in acc.Tags()["scalars"] for e in acc.Scalars(tag)]
-        if len(stamps) > 1:
-            total += max(stamps) - min(stamps)
-            found = True
-    return total if found else None
-
-
-def time_to_success(path: Path, level: float = SUCCESS_LEVEL) -> tuple[int, float] | None:
-    """The first evaluation of the run at ``path`` with success rate ``>= level``: its
-    environment step and the wall time from the run's first logged scalar to it (s), from the
-    TensorBoard logs (``eval/success_rate``, compared with a float32 round-off allowance);
-    ``None`` if no evaluation got there.  A resumed
-    run's pause between sessions is not counted."""
-    try:
-        from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
-    except ImportError:  # pragma: no cover - tensorboard is in the train extra
-        return None
-    elapsed = 0.0
+    sessions: list[Session] = []
     for log in sorted((path / "tb").glob("*")):
         acc = EventAccumulator(str(log), size_guidance={"scalars": 0})
         acc.Reload()
         tags = acc.Tags()["scalars"]
         stamps = [e.wall_time for tag in tags for e in acc.Scalars(tag)]
+        evals = []
+        if "eval/success_rate" in tags:
+            evals = [(int(e.step), e.value, e.wall_time) for e in acc.Scalars("eval/success_rate")]
+        sessions.append((stamps, evals))
+    return sessions
+
+
+def training_time(path: Path, sessions: list[Session] | None = None) -> float | None:
+    """Wall time spent training (s): the span of each TensorBoard log of the run, summed over
+    sessions (``sessions``: :func:`read_sessions` of ``path``, read if not given)."""
+    sessions = read_sessions(path) if sessions is None else sessions
+    spans = [max(stamps) - min(stamps) for stamps, _ in sessions or [] if len(stamps) > 1]
+    return sum(spans) if spans else None
+
+
+def time_to_success(
+    path: Path, level: float = SUCCESS_LEVEL, sessions: list[Session] | None = None
+) -> tuple[int, float] | None:
+    """The first evaluation of the run at ``path`` with success rate ``>= level``: its
+    environment step and the wall time from the run's first logged scalar to it (s), from the
+    TensorBoard logs (``eval/success_rate``, compared with a float32 round-off allowance;
+    ``sessions`` as for :func:`training_time`); ``None`` if no evaluation got there.  A resumed
+    run's pause between sessions is not counted."""
+    sessions = read_sessions(path) if sessions is None else sessions
+    elapsed = 0.0
+    for stamps, evals in sessions or []:
         if not stamps:
             continue
         start = min(stamps)
-        if "eval/success_rate" in tags:
-            for e in acc.Scalars("eval/success_rate"):
-                if e.value >= level - 1e-6:  # TensorBoard stores float32: 0.9 -> 0.89999998
-                    return int(e.step), elapsed + e.wall_time - start
+        for step, value, wall in evals:
+            if value >= level - 1e-6:  # TensorBoard stores float32: 0.9 -> 0.89999998
+                return step, elapsed + wall - start
         elapsed += max(stamps) - start
     return None
 
