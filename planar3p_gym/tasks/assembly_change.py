@@ -75,11 +75,11 @@ import numpy as np
 from .. import kinematics, task
 from ..physics import Planar3PSim, SimState
 from ..scalar_kinematics import ConfigurationMeasures, ScalarKinematics
-from .base import ModeTriple, Pose, Task, mode_option, pose_list
+from .base import ModeTriple, Pose, Task, count_option, mode_option, pose_list
 from .crossing_checks import CrossingLimits, SimFactory, crossing_path, verify_crossing
 from .singular_gravity import gravity_alignment
 from .travel_motion import TravelCurve, demonstration_travels, pose_path_travels
-from .travel_shaping import TravelShaping
+from .travel_shaping import TravelShaping, check_travel_shaping
 
 __all__ = [
     "AssemblyChangeTask",
@@ -134,12 +134,17 @@ class AssemblyChangeTask(TravelShaping, Task):
             limits = CrossingLimits(**limits)
         if limits is not None and not isinstance(limits, CrossingLimits):
             raise ValueError(f"limits must be a CrossingLimits or a dict, got {limits!r}")
-        self.init_pairs(pair_tries, travel_shaping)
+        self.pair_tries = count_option(pair_tries, "pair_tries")
+        self.travel_shaping = check_travel_shaping(travel_shaping)
         self.limits = limits or CrossingLimits()
 
     # ------------------------------------------------------------------ set-up
     def arguments(self) -> dict[str, Any]:
-        return {"limits": asdict(self.limits), **self.shaping_arguments()}
+        return {
+            "limits": asdict(self.limits),
+            "pair_tries": self.pair_tries,
+            **self.shaping_arguments(),
+        }
 
     def bind(self, env: Any) -> None:
         super().bind(env)

@@ -68,7 +68,15 @@ from ..scalar_kinematics import ConfigurationMeasures
 if TYPE_CHECKING:
     from ..env import Planar3PEnv
 
-__all__ = ["ModeTriple", "Pose", "Task", "finite_numbers", "mode_option", "pose_list"]
+__all__ = [
+    "ModeTriple",
+    "Pose",
+    "Task",
+    "count_option",
+    "finite_numbers",
+    "mode_option",
+    "pose_list",
+]
 
 #: A pose ``(x, y, theta)`` (m, m, rad).
 Pose = tuple[float, float, float]
@@ -91,6 +99,13 @@ def finite_numbers(value: Any, size: int, name: str, meaning: str = "") -> np.nd
     if p.shape != (size,) or not np.isfinite(p).all():
         raise ValueError(f"{name} must be {size} finite numbers{meaning}, got {value!r}")
     return p
+
+
+def count_option(value: Any, name: str) -> int:
+    """``value`` if it is an int >= 1 (not a bool), else ``ValueError`` naming ``name``."""
+    if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
+        raise ValueError(f"{name} must be an int >= 1, got {value!r}")
+    return value
 
 
 def mode_option(arg: Any, name: str) -> ModeTriple:

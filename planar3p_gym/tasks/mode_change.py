@@ -64,9 +64,9 @@ import numpy as np
 
 from .. import kinematics, task
 from ..physics import SimState
-from .base import ModeTriple, Pose, Task, mode_option, pose_list
+from .base import ModeTriple, Pose, Task, count_option, mode_option, pose_list
 from .joint_paths import JointPath, PathLimits, find_joint_path
-from .travel_shaping import TravelShaping
+from .travel_shaping import TravelShaping, check_travel_shaping
 
 __all__ = ["ModeChangeTask", "leg_modes", "single_flip_modes"]
 
@@ -130,13 +130,19 @@ class ModeChangeTask(TravelShaping, Task):
             raise ValueError(f"flips must be 1, 2 or 3 (legs to flip), got {flips!r}")
         if limits is not None and not isinstance(limits, PathLimits):
             raise ValueError(f"limits must be a PathLimits, got {limits!r}")
-        self.init_pairs(pair_tries, travel_shaping)
+        self.pair_tries = count_option(pair_tries, "pair_tries")
+        self.travel_shaping = check_travel_shaping(travel_shaping)
         self.flips = flips
         self.limits = limits or PathLimits()
 
     # ------------------------------------------------------------------ set-up
     def arguments(self) -> dict[str, Any]:
-        return {"flips": self.flips, "limits": asdict(self.limits), **self.shaping_arguments()}
+        return {
+            "flips": self.flips,
+            "limits": asdict(self.limits),
+            "pair_tries": self.pair_tries,
+            **self.shaping_arguments(),
+        }
 
     def bind(self, env: Any) -> None:
         super().bind(env)

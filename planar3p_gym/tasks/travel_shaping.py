@@ -39,23 +39,10 @@ class TravelShaping:
     _target_rho: tuple[float, float, float]
     env: Any
 
-    def init_pairs(self, pair_tries: Any, travel_shaping: Any) -> None:
-        """Check and keep the two constructor arguments the mode- and assembly-change tasks
-        share: ``pair_tries`` (candidate targets per start pose, an int >= 1) and
-        ``travel_shaping`` (:func:`check_travel_shaping`); ``ValueError`` otherwise."""
-        if not (
-            isinstance(pair_tries, int) and not isinstance(pair_tries, bool) and pair_tries >= 1
-        ):
-            raise ValueError(f"pair_tries must be an int >= 1, got {pair_tries!r}")
-        self.pair_tries = pair_tries
-        self.travel_shaping = check_travel_shaping(travel_shaping)
-
     def shaping_arguments(self) -> dict[str, Any]:
-        """``pair_tries``, and ``travel_shaping`` when it is on, for :meth:`Task.arguments`."""
-        out: dict[str, Any] = {"pair_tries": self.pair_tries}
-        if self.travel_shaping:
-            out["travel_shaping"] = self.travel_shaping
-        return out
+        """``{"travel_shaping": w}`` when the term is on, else ``{}`` (for
+        :meth:`Task.arguments`)."""
+        return {"travel_shaping": self.travel_shaping} if self.travel_shaping else {}
 
     def start_travels(self, rho: Any) -> None:
         """The travels at the episode's start (m): the term's fallback while no finite state
