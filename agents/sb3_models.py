@@ -164,12 +164,34 @@ class SB3Policy(PolicyAdapter):
     def reset(self, seed: Any = None) -> None:
         """Nothing to reset (kept for the benchmark's uniform calling convention)."""
 
-    def adapt(self, observation: ArrayLike) -> np.ndarray:
-        """The observation as float32, normalised with the statistics if any."""
+    def adapt(self, observation: ArrayLike) -> Any:
+        """The observation as float32 (each entry of a ``Dict`` one), normalised with the
+        statistics if any."""
+        if isinstance(observation, dict):
+            obs: Any = {k: np.asarray(v, dtype=np.float32) for k, v in observation.items()}
+            if self.vecnormalize is not None:
+                obs = self.vecnormalize.normalize_obs(obs)
+                obs = {k: np.asarray(v, dtype=np.float32) for k, v in obs.items()}
+            return obs
         obs = np.asarray(observation, dtype=np.float32)
         if self.vecnormalize is not None:
             obs = self.vecnormalize.normalize_obs(obs).astype(np.float32)
         return obs
+
+
+def _shapes(space: Any) -> Any:
+    """A space's shape, or ``{key: shape}`` for a ``Dict`` space."""
+    sub = getattr(space, "spaces", None)
+    if isinstance(sub, dict):
+        return {k: v.shape for k, v in sub.items()}
+    return space.shape
+
+
+def _stats_shapes(obs_rms: Any) -> Any:
+    """The observation shape(s) ``VecNormalize`` statistics are for (``Dict``: per key)."""
+    if isinstance(obs_rms, dict):
+        return {k: v.mean.shape for k, v in obs_rms.items()}
+    return obs_rms.mean.shape
 
 
 def load_sb3_model(
@@ -209,8 +231,15 @@ def load_sb3_model(
         import stable_baselines3 as algorithms
 
     cls = getattr(algorithms, SB3_ALGORITHMS[key])
+    # Playing needs no replay buffer: an off-policy model gets a one-entry plain buffer instead
+    # of the saved one (a HER buffer cannot even be built without the training env).
+    no_buffer = (
+        {"replay_buffer_class": None, "replay_buffer_kwargs": {}, "buffer_size": 1}
+        if key in ("sac", "td3", "tqc", "ddpg")
+        else {}
+    )
     try:
-        model = cls.load(p, device=device)
+        model = cls.load(p, device=device, **no_buffer)
     except Exception as exc:  # SB3/torch raise many types on corrupt or foreign files
         raise PolicyError(
             f"cannot load {p} as a {SB3_ALGORITHMS[key]} model: {type(exc).__name__}: {exc}"
@@ -219,19 +248,19 @@ def load_sb3_model(
     if check_env is not None:
         obs_space = check_env.observation_space
         act_space = check_env.action_space
-        if model.observation_space.shape != obs_space.shape:
+        if _shapes(model.observation_space) != _shapes(obs_space):
             raise PolicyError(
-                f"model {p} expects observations of shape {model.observation_space.shape}, "
-                f"the environment gives {obs_space.shape}"
+                f"model {p} expects observations of shape {_shapes(model.observation_space)}, "
+                f"the environment gives {_shapes(obs_space)}"
             )
         if model.action_space.shape != act_space.shape:
             raise PolicyError(
                 f"model {p} outputs actions of shape {model.action_space.shape}, "
                 f"the environment takes {act_space.shape}"
             )
-        if vn is not None and vn.obs_rms.mean.shape != obs_space.shape:
+        if vn is not None and _stats_shapes(vn.obs_rms) != _shapes(obs_space):
             raise PolicyError(
                 f"VecNormalize statistics {vn_path} are for observations of shape "
-                f"{vn.obs_rms.mean.shape}, the environment gives {obs_space.shape}"
+                f"{_stats_shapes(vn.obs_rms)}, the environment gives {_shapes(obs_space)}"
             )
     return SB3Policy(model, vn, name or p.stem, run_env_kwargs(p), vn_path)

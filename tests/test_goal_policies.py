@@ -1,0 +1,120 @@
+"""Learned policies on the goal-conditioned ids (``Dict`` observations): SAC+HER and PPO
+``MultiInputPolicy`` models load without their training env, play ``Dict`` observations with
+``Dict`` normalisation statistics, and the shipped hyperparameters resolve."""
+
+from __future__ import annotations
+
+import pickle
+import warnings
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+import planar3p_gym
+from agents import training
+from agents.policies import PolicyError, load_policy
+from agents.sb3_models import load_sb3_model
+
+GOAL = planar3p_gym.GOAL_ENV_ID
+DENSE = planar3p_gym.GOAL_DENSE_ENV_ID
+
+
+def _tiny_her_model(path: Path) -> None:
+    """A SAC + HER model after a few hundred steps on the sparse goal id, saved to ``path``."""
+    from stable_baselines3 import SAC, HerReplayBuffer
+
+    env = gym.make(GOAL)
+    model = SAC(
+        "MultiInputPolicy",
+        env,
+        replay_buffer_class=HerReplayBuffer,
+        replay_buffer_kwargs={"goal_selection_strategy": "future", "n_sampled_goal": 2},
+        buffer_size=1000,
+        learning_starts=100,
+        batch_size=32,
+        policy_kwargs={"net_arch": [16]},
+        seed=0,
+        device="cpu",
+    )
+    model.learn(200)
+    model.save(path)
+
+
+def test_her_model_plays_without_its_training_env(tmp_path: Path) -> None:
+    """A HER model cannot be rebuilt without an env by SB3's ``load``; the loader gives it a
+    one-entry plain buffer instead and plays exactly the saved actor."""
+    from stable_baselines3 import SAC
+
+    path = tmp_path / "her.zip"
+    _tiny_her_model(path)
+    env = gym.make(GOAL)
+    policy = load_sb3_model(path, check_env=env)
+    assert policy.model.replay_buffer.buffer_size == 1
+    reference = SAC.load(path, env=gym.make(GOAL), buffer_size=1000)
+    obs, _ = env.reset(seed=5)
+    for _ in range(20):
+        action, _ = policy.predict(obs, deterministic=True)
+        expected, _ = reference.predict(obs, deterministic=True)
+        assert action.shape == (3,)
+        np.testing.assert_array_equal(action, expected)
+        obs, *_ = env.step(action)
+    with pytest.raises(PolicyError, match="expects observations"):
+        load_sb3_model(path, check_env=gym.make("Planar3P-v1"))
+
+
+def test_ppo_dict_policy_uses_its_dict_statistics(tmp_path: Path) -> None:
+    """PPO ``MultiInputPolicy`` with ``Dict`` VecNormalize statistics: the loaded policy acts
+    on the normalised observation, exactly as the model on ``normalize_obs``."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    venv = VecNormalize(make_vec_env(DENSE, n_envs=2, seed=0), norm_reward=False)
+    model = PPO("MultiInputPolicy", venv, n_steps=32, batch_size=32, n_epochs=1, seed=0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model.learn(64)
+    model.save(tmp_path / "ppo.zip")
+    venv.save(tmp_path / "vn.pkl")
+    assert set(venv.obs_rms) == {"observation", "achieved_goal", "desired_goal"}
+
+    env = gym.make(DENSE)
+    policy = load_policy(f"{tmp_path / 'ppo.zip'}:stats={tmp_path / 'vn.pkl'}", env=env)
+    with (tmp_path / "vn.pkl").open("rb") as f:
+        stats = pickle.load(f)
+    obs, _ = env.reset(seed=2)
+    action, _ = policy.predict(obs, deterministic=True)
+    expected, _ = model.predict(stats.normalize_obs(obs), deterministic=True)
+    np.testing.assert_allclose(action, expected, rtol=0, atol=1e-6)
+    # The statistics changed what the policy sees (the raw observation gives another action).
+    raw, _ = model.predict(obs, deterministic=True)
+    assert not np.allclose(raw, expected)
+    # Flat statistics of another id are refused for the Dict env.
+    flat = VecNormalize(make_vec_env("Planar3P-v1", n_envs=1, seed=0))
+    flat.save(tmp_path / "flat.pkl")
+    with pytest.raises(PolicyError, match="statistics"):
+        load_policy(f"{tmp_path / 'ppo.zip'}:stats={tmp_path / 'flat.pkl'}", env=env)
+
+
+def test_shipped_goal_hyperparameters_resolve() -> None:
+    """The goal entries of ppo.yml and sac.yml: Dict policies, HER with the info dicts copied
+    (exact failure penalties), SAC trained once per 8 transitions."""
+    from stable_baselines3 import HerReplayBuffer
+
+    ppo = training.resolve(
+        "ppo",
+        DENSE,
+        0,
+        training.load_hyperparams(training.HYPERPARAMS_DIR / "ppo.yml", DENSE, "ppo"),
+    )
+    assert ppo.policy == "MultiInputPolicy" and ppo.n_envs == 16 and ppo.normalize == {}
+    sac = training.resolve(
+        "sac", GOAL, 0, training.load_hyperparams(training.HYPERPARAMS_DIR / "sac.yml", GOAL, "sac")
+    )
+    assert sac.algo_kwargs["replay_buffer_class"] is HerReplayBuffer
+    assert sac.algo_kwargs["replay_buffer_kwargs"]["copy_info_dict"] is True
+    assert sac.n_envs * sac.algo_kwargs["train_freq"] / sac.algo_kwargs["gradient_steps"] == 8
