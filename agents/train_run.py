@@ -331,7 +331,13 @@ def _make_envs(cfg: TrainConfig, vec_env: str, stats: Path | None) -> tuple[Any,
             venv.training = True
         else:
             venv = VecNormalize(venv, gamma=gamma, **cfg.normalize)
-        eval_env = VecNormalize(eval_env, training=False, norm_reward=False, gamma=gamma)
+        eval_env = VecNormalize(
+            eval_env,
+            training=False,
+            norm_obs_keys=cfg.normalize.get("norm_obs_keys"),  # Dict observations: same keys
+            norm_reward=False,
+            gamma=gamma,
+        )
     return venv, eval_env
 
 

@@ -117,6 +117,8 @@ def _literal(text: str, what: str) -> Any:
 
 
 _ACTIVATIONS = {"ReLU", "Tanh", "ELU", "LeakyReLU", "SiLU", "GELU"}
+#: The project's feature extractors a YAML entry may name in ``policy_kwargs`` (name -> module).
+_FEATURE_EXTRACTORS = {"GoalErrorExtractor": "agents.goal_features"}
 
 
 def _eval_node(node: ast.AST, what: str) -> Any:
@@ -146,6 +148,10 @@ def _eval_node(node: ast.AST, what: str) -> Any:
         import torch.nn as nn
 
         return getattr(nn, node.attr)
+    if isinstance(node, ast.Name) and node.id in _FEATURE_EXTRACTORS:
+        import importlib
+
+        return getattr(importlib.import_module(_FEATURE_EXTRACTORS[node.id]), node.id)
     raise ValueError(f"{what}: unsupported expression {ast.dump(node)[:80]}")
 
 
