@@ -3,9 +3,11 @@
 A learned policy's result is a distribution over training seeds, not one number. Following
 Agarwal et al. (2021, *Deep RL at the Edge of the Statistical Precipice*, the method of the
 ``rliable`` library), each training run contributes one score per task (here: its success rate
-on a benchmark suite), the aggregate is the interquartile mean (IQM) of all run-task scores, and
-its 95 % interval comes from a *stratified* bootstrap: runs are resampled with replacement
-independently within each task, and the percentile interval of the resampled IQMs is reported.
+on a benchmark suite, or for a continuous metric of :data:`METRICS` such as the tracking RMS
+error the median over the suite's episodes), the aggregate is the interquartile mean (IQM) of
+all run-task scores, and its 95 % interval comes from a *stratified* bootstrap: runs are
+resampled with replacement independently within each task, and the percentile interval of the
+resampled IQMs is reported.
 
 ``rliable`` itself is not a dependency (it pins ``pandas<3`` and ``arch<7.2``); the computation
 is a few lines of numpy on top of :func:`agents.statistics.iqm` (SciPy's ``trim_mean``).
@@ -26,7 +28,24 @@ from numpy.typing import ArrayLike
 
 from .statistics import iqm
 
+#: Metrics a seed table can aggregate: ``episodes.csv`` column -> (what a seed's score is, the
+#: unit shown, the factor from the column's unit to it).  ``success`` is the rate over the
+#: suite's episodes; the others are the median over its episodes (rows without a value skipped).
+METRICS: dict[str, tuple[str, str, float]] = {
+    "success": ("success", "%", 100.0),
+    "episode_return": ("median return", "", 1.0),
+    "tracking_rms_error": ("median tracking RMS error", "mm", 1000.0),
+    "tracking_max_error": ("median tracking max error", "mm", 1000.0),
+    "tracking_rms_position_error": ("median tracking RMS position error", "mm", 1000.0),
+    "tracking_rms_orientation_error": (
+        "median tracking RMS orientation error",
+        "deg",
+        57.29577951308232,
+    ),
+}
+
 __all__ = [
+    "METRICS",
     "SeedGroup",
     "from_csv",
     "group_label",
@@ -80,21 +99,41 @@ def group_label(policy: str) -> str:
 SeedGroup = dict[str, dict[int, float]]
 
 
-def read_seed_scores(rows: Iterable[Mapping[str, Any]]) -> dict[str, SeedGroup]:
-    """Success rate per (group, suite, training seed) from benchmark ``episodes.csv`` rows
-    (columns ``policy``, ``training_seed``, ``suite``, ``success``); rows without a training
-    seed (analytic controllers, unknown models) are skipped."""
-    counts: dict[tuple[str, str, int], list[int]] = {}
+def _check_metric(metric: str) -> None:
+    if metric not in METRICS:
+        raise ValueError(f"unknown metric {metric!r}; known: {', '.join(METRICS)}")
+
+
+def read_seed_scores(
+    rows: Iterable[Mapping[str, Any]], metric: str = "success"
+) -> dict[str, SeedGroup]:
+    """One score per (group, suite, training seed) from benchmark ``episodes.csv`` rows
+    (columns ``policy``, ``training_seed``, ``suite`` and ``metric``): the success rate, or
+    the median of a continuous :data:`METRICS` column over the episodes that have a value (in
+    the column's own unit).  Rows without a training seed (analytic controllers, unknown
+    models) are skipped; ``ValueError`` for an unknown metric or a non-numeric value."""
+    _check_metric(metric)
+    values: dict[tuple[str, str, int], list[float]] = {}
     for row in rows:
         seed = str(row.get("training_seed", "")).strip()
         if not seed:
             continue
-        success = str(row["success"]).strip().lower() in ("true", "1", "1.0")
+        text = str(row.get(metric, "")).strip()
+        if metric == "success":
+            value = float(text.lower() in ("true", "1", "1.0"))
+        elif not text:
+            continue
+        else:
+            try:
+                value = float(text)
+            except ValueError:
+                raise ValueError(f"{metric} value {text!r} is not a number") from None
         key = (group_label(str(row["policy"])), str(row["suite"]), int(seed))
-        counts.setdefault(key, []).append(int(success))
+        values.setdefault(key, []).append(value)
     out: dict[str, SeedGroup] = {}
-    for (group, suite, seed), flags in sorted(counts.items()):
-        out.setdefault(group, {}).setdefault(suite, {})[seed] = sum(flags) / len(flags)
+    for (group, suite, seed), vals in sorted(values.items()):
+        score = float(np.mean(vals)) if metric == "success" else float(np.median(vals))
+        out.setdefault(group, {}).setdefault(suite, {})[seed] = score
     return out
 
 
@@ -127,31 +166,38 @@ def seed_table(
     return rows
 
 
-def markdown(rows: list[dict[str, Any]]) -> str:
-    """The :func:`seed_table` rows as a markdown table (success rates in %)."""
+def markdown(rows: list[dict[str, Any]], metric: str = "success") -> str:
+    """The :func:`seed_table` rows of ``metric`` as a markdown table (success rates in %,
+    tracking errors in mm: the unit of :data:`METRICS`)."""
+    _check_metric(metric)
+    name, unit, factor = METRICS[metric]
+    what = f"{name} {unit}".strip()
+    digits = (0, 1) if metric == "success" else (3, 3) if unit in ("mm", "deg") else (1, 1)
     lines = [
-        "| policy (seeds pooled) | suite | training seeds | success % per seed "
-        "| IQM success % [95 % stratified-bootstrap CI] |",
+        f"| policy (seeds pooled) | suite | training seeds | {what} per seed "
+        f"| IQM {what} [95 % stratified-bootstrap CI] |",
         "|---|---|---|---|---|",
     ]
     for r in rows:
-        per_seed = " / ".join(f"{100 * v:.0f}" for v in r["scores"]) or "–"
+        per_seed = " / ".join(f"{factor * v:.{digits[0]}f}" for v in r["scores"]) or "–"
         lines.append(
             f"| {r['group']} | {r['suite']} | {', '.join(map(str, r['seeds']))} | {per_seed} "
-            f"| {100 * r['iqm']:.1f} [{100 * r['low']:.1f}, {100 * r['high']:.1f}] |"
+            f"| {factor * r['iqm']:.{digits[1]}f} [{factor * r['low']:.{digits[1]}f}, "
+            f"{factor * r['high']:.{digits[1]}f}] |"
         )
     return "\n".join(lines)
 
 
-def from_csv(path: str | Path) -> dict[str, SeedGroup]:
-    """:func:`read_seed_scores` of a benchmark's ``episodes.csv`` (``ValueError`` if it is
-    missing or lacks the needed columns)."""
+def from_csv(path: str | Path, metric: str = "success") -> dict[str, SeedGroup]:
+    """:func:`read_seed_scores` of ``metric`` from a benchmark's ``episodes.csv``
+    (``ValueError`` if it is missing or lacks the needed columns)."""
+    _check_metric(metric)
     p = Path(path)
     if not p.is_file():
         raise ValueError(f"no such file: {p}")
     with p.open(newline="") as fh:
         reader = csv.DictReader(fh)
-        need = {"policy", "training_seed", "suite", "success"}
+        need = {"policy", "training_seed", "suite", metric}
         if not need <= set(reader.fieldnames or ()):
             raise ValueError(f"{p} lacks columns {sorted(need - set(reader.fieldnames or ()))}")
-        return read_seed_scores(list(reader))
+        return read_seed_scores(list(reader), metric)

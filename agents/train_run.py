@@ -37,6 +37,7 @@ from .training import (
     load_hyperparams,
     parse_env_kwargs,
     parse_overrides,
+    policy_class,
     resolve,
     to_jsonable,
     versions,
@@ -181,7 +182,7 @@ def _check_model(cfg: TrainConfig) -> Any:
             warnings.simplefilter("ignore")
             if cfg.normalize is not None:
                 venv = VecNormalize(venv, gamma=cfg.algo_kwargs.get("gamma", 0.99), **cfg.normalize)
-            return cls(cfg.policy, venv, device="cpu", **_model_kwargs(cfg, venv))
+            return cls(policy_class(cfg.policy), venv, device="cpu", **_model_kwargs(cfg, venv))
     except Exception as exc:  # SB3 raises many kinds (TypeError, AssertionError, ...)
         raise ValueError(f"invalid hyperparameters for {cfg.algo.upper()}: {exc!r}") from exc
     finally:
@@ -331,9 +332,12 @@ def _make_envs(cfg: TrainConfig, vec_env: str, stats: Path | None) -> tuple[Any,
             venv.training = True
         else:
             venv = VecNormalize(venv, gamma=gamma, **cfg.normalize)
+        # The evaluation env normalises observations exactly when the training env does.
+        norm_obs = bool(cfg.normalize.get("norm_obs", True))
         eval_env = VecNormalize(
             eval_env,
             training=False,
+            norm_obs=norm_obs,
             norm_obs_keys=cfg.normalize.get("norm_obs_keys"),  # Dict observations: same keys
             norm_reward=False,
             gamma=gamma,
@@ -448,7 +452,7 @@ def execute(plan: RunPlan) -> dict[str, Any]:
             model.load_replay_buffer(str(buffer))
     else:
         model = algo_cls(
-            cfg.policy,
+            policy_class(cfg.policy),
             venv,
             seed=cfg.seed,
             verbose=opt.verbose,
@@ -502,7 +506,8 @@ def execute(plan: RunPlan) -> dict[str, Any]:
     model.save(str(run_dir / "model.zip"))
     if isinstance(venv, VecNormalize):
         venv.save(str(run_dir / "vecnormalize.pkl"))
-        eval_env.obs_rms = venv.obs_rms
+        if venv.norm_obs:  # statistics saved with norm_obs=False have no obs_rms
+            eval_env.obs_rms = venv.obs_rms
     metrics = {
         "final_evaluation": evaluate(model, eval_env, opt.final_eval_episodes),
         "timesteps": int(model.num_timesteps),

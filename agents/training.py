@@ -52,6 +52,7 @@ __all__ = [
     "ALGORITHMS",
     "HYPERPARAMS_DIR",
     "OFF_POLICY",
+    "PROJECT_POLICIES",
     "REPLAY_BUFFERS",
     "EnvFactory",
     "TrainConfig",
@@ -59,6 +60,7 @@ __all__ = [
     "load_hyperparams",
     "parse_env_kwargs",
     "parse_overrides",
+    "policy_class",
     "versions",
 ]
 
@@ -71,6 +73,22 @@ REPLAY_BUFFERS = ("HerReplayBuffer",)
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 
 _ZOO_KEYS = {"n_timesteps", "policy", "n_envs", "normalize", "noise_type", "noise_std"}
+#: Policy classes of this project a YAML entry's ``policy`` may name, besides SB3's aliases
+#: (``MlpPolicy``, ...): name -> (module, class), imported only when named.
+PROJECT_POLICIES: dict[str, tuple[str, str]] = {
+    "ResidualTrackPolicy": ("agents.residual", "ResidualTrackPolicy"),
+}
+
+
+def policy_class(name: str) -> Any:
+    """What SB3 is given as ``policy``: a project class of :data:`PROJECT_POLICIES`, else
+    ``name`` itself (an SB3 alias such as ``MlpPolicy``, checked by SB3)."""
+    if name in PROJECT_POLICIES:
+        import importlib
+
+        module, cls = PROJECT_POLICIES[name]
+        return getattr(importlib.import_module(module), cls)
+    return name
 
 
 @dataclass

@@ -52,7 +52,8 @@ class Planar3PTrackEnv(Planar3PEnv):
     the last ``info`` of an episode holds the episode's values.
 
     ## Arguments
-    ``reference`` (``"segments"`` or ``"figure_eight"``), ``speed_fraction`` (default 0.5),
+    ``reference`` (``"segments"`` or ``"figure_eight"``; ``"mixed"`` draws either per episode,
+    a training aid), ``speed_fraction`` (default 0.5),
     ``duration`` of the random segments (s, default 10), and every argument of
     :class:`planar3p_gym.env.Planar3PEnv` except ``task``.
 

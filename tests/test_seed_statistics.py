@@ -122,3 +122,36 @@ def test_learning_curves_show_the_iqm_over_the_seeds_at_each_step():
     assert centre == pytest.approx([0.3, 0.9])  # 2-3 seeds: trim_mean trims nothing
     assert np.all(lo <= centre) and np.all(centre <= hi)
     assert lo[0] >= 0.2 - 1e-12 and hi[0] <= 0.4 + 1e-12  # means of resampled seeds
+
+
+def test_continuous_metric_is_the_median_per_seed_in_its_unit(tmp_path: Path, capsys):
+    """--metric tracking_rms_error: each seed's score is the median over the suite's
+    episodes (rows without a value skipped), shown in mm."""
+    rows = []
+    for seed, values in ((1, (0.1e-3, 0.2e-3, 0.9e-3)), (2, (0.3e-3, 0.3e-3, 0.4e-3))):
+        for i, v in enumerate(values):
+            rows.append(
+                {"policy": f"runs/trk-s{seed}/model", "training_seed": seed,
+                 "suite": "track-segments", "index": i, "success": "",
+                 "tracking_rms_error": v}
+            )  # fmt: skip
+    rows.append(
+        {"policy": "runs/trk-s2/model", "training_seed": 2, "suite": "track-segments",
+         "index": 3, "success": "", "tracking_rms_error": ""}
+    )  # fmt: skip
+    path = tmp_path / "episodes.csv"
+    with path.open("w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        writer.writeheader()
+        writer.writerows(rows)
+    groups = ss.from_csv(path, "tracking_rms_error")
+    assert groups["runs/trk/model"]["track-segments"] == pytest.approx({1: 0.2e-3, 2: 0.3e-3})
+    table = ss.markdown(ss.seed_table(groups, n_resamples=100), "tracking_rms_error")
+    assert "median tracking RMS error mm per seed" in table
+    assert "| 0.200 / 0.300 | 0.250 [0.200, 0.300] |" in table
+    assert seed_report.main([str(path), "--metric", "tracking_rms_error"]) == 0
+    assert "0.200 / 0.300" in capsys.readouterr().out
+    assert seed_report.main([str(path), "--metric", "nope"]) == 2
+    assert "unknown metric" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="unknown metric"):
+        ss.read_seed_scores([], "nope")

@@ -20,6 +20,9 @@ Two kinds of reference (constructor argument ``reference``):
   eights hardly fit (on the default design (1, -1, 1) and (-1, 1, -1), whose reachable regions
   are too thin for an eight of more than a few millimetres) are left out of the random draw, and
   a fixed one is rejected in the constructor.
+* ``"mixed"`` (a training aid): each episode draws one of the two kinds above with equal
+  probability (from the episode's random stream, before its working mode), so one policy can
+  be trained on both; replayed episodes carry their own kind.
 
 The episode starts at rest at the reference's initial pose.  Observation: the 31 entries of
 ``Planar3P-v0`` against the current reference pose (target position/orientation = reference,
@@ -70,7 +73,19 @@ from .track_references import (
     wrap_angle,
 )
 
-__all__ = ["EIGHT_AMPLITUDES", "REFERENCE_KINDS", "TRACKING_METRICS", "TrackTask"]
+__all__ = [
+    "DRAW_KINDS",
+    "EIGHT_AMPLITUDES",
+    "MIXED",
+    "REFERENCE_KINDS",
+    "TRACKING_METRICS",
+    "TrackTask",
+]
+
+#: The constructor's ``reference`` value that draws either kind per episode.
+MIXED = "mixed"
+#: Accepted values of the constructor's ``reference``.
+DRAW_KINDS = (*REFERENCE_KINDS, MIXED)
 
 #: Ranges the figure-eight amplitudes are drawn from: ``ax`` (m), ``ay`` (m), ``|atheta|`` (rad).
 EIGHT_AMPLITUDES = ((0.02, 0.06), (0.01, 0.03), (0.0, 0.25))
@@ -98,7 +113,7 @@ class TrackTask(Task):
     """Follow a moving reference pose (see the module docstring).
 
     Args:
-        reference: ``"segments"`` or ``"figure_eight"``.
+        reference: ``"segments"``, ``"figure_eight"`` or ``"mixed"`` (either, per episode).
         speed_fraction: largest slider rate the reference needs, as a fraction of
             ``max_speed`` (leaves the rest for feedback), in ``(0, 1]``.
         duration: time covered by random segments (s); the reference then rests.
@@ -112,8 +127,8 @@ class TrackTask(Task):
     def __init__(
         self, reference: str = "segments", speed_fraction: float = 0.5, duration: float = 10.0
     ) -> None:
-        if reference not in REFERENCE_KINDS:
-            raise ValueError(f"reference must be one of {REFERENCE_KINDS}, got {reference!r}")
+        if reference not in DRAW_KINDS:
+            raise ValueError(f"reference must be one of {DRAW_KINDS}, got {reference!r}")
         if not (isinstance(speed_fraction, (int, float)) and 0 < speed_fraction <= 1):
             raise ValueError(f"speed_fraction must be in (0, 1], got {speed_fraction!r}")
         if not (isinstance(duration, (int, float)) and MIN_DURATION <= duration <= 3600):
@@ -137,15 +152,16 @@ class TrackTask(Task):
         self._sums = np.zeros(3)
         self._maxes = np.zeros(3)
         self._count = 0
-        self._draw_modes = self._reference_modes()
+        kinds = REFERENCE_KINDS if self.kind == MIXED else (self.kind,)
+        self._draw_modes = {kind: self._reference_modes(kind) for kind in kinds}
 
-    def _reference_modes(self) -> list[tuple[int, int, int]]:
-        """The env's working modes in which references of this kind are drawn: all of them for
+    def _reference_modes(self, kind: str) -> list[tuple[int, int, int]]:
+        """The env's working modes in which references of ``kind`` are drawn: all of them for
         segments; for the figure-eight those where at least :data:`EIGHT_MODE_ACCEPTS` of
         :data:`EIGHT_MODE_TRIALS` drawn eights fit (fixed internal seed, so the list never
         depends on, or consumes, the episode's random stream); ``ValueError`` if none."""
         modes = list(self.env.modes)
-        if self.kind == "segments":
+        if kind == "segments":
             return modes
         rng = np.random.default_rng(0)
         usable = []
@@ -193,14 +209,17 @@ class TrackTask(Task):
                 raise ValueError(f"reference is not feasible in working mode {mode}: {problem}")
 
     def episode_spec(self, rng: np.random.Generator, options: dict[str, Any]) -> dict[str, Any]:
+        ref = options.get("reference")
+        kind = self.kind
+        if kind == MIXED:
+            kind = ref["kind"] if ref is not None else REFERENCE_KINDS[int(rng.integers(2))]
         mode = self.known_mode(options)
         if mode is None:
-            modes = self._draw_modes
+            modes = self._draw_modes[kind]
             mode = modes[int(rng.integers(len(modes)))]
             self._check_start_and_reference(options, mode)
-        ref = options.get("reference")
         if ref is None:
-            draw = self._draw_segments if self.kind == "segments" else self._draw_eight
+            draw = self._draw_segments if kind == "segments" else self._draw_eight
             start = options.get("start")
             ref = None
             for _ in range(1000):
@@ -209,7 +228,7 @@ class TrackTask(Task):
                     break
             if ref is None:
                 raise ValueError(
-                    f"could not build a {self.kind} reference from start {start} in working "
+                    f"could not build a {kind} reference from start {start} in working "
                     f"mode {mode} under the task's margins"
                 )
         start = self._reference_at(ref, 0)[0]

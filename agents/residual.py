@@ -1,0 +1,244 @@
+"""Residual policy learning on top of the feed-forward tracking controller (``Planar3PTrack-v0``).
+
+A residual policy (Silver et al. 2018, Johannink et al. 2019) learns a correction to a fixed
+controller instead of the whole action.  :class:`ResidualTrackPolicy` is a Stable-Baselines3
+actor-critic policy whose Gaussian action distribution has the mean
+
+    ``mean = base(obs) + residual_scale * tanh(net(features))``
+
+with ``base`` the feed-forward tracking controller (:class:`agents.tracking.TrackingController`,
+actions as fractions of ``max_speed``) evaluated on the raw observation, and ``net`` the usual
+MLP head.  The head's output layer starts at zero, so the untrained policy's mean *is* the
+feed-forward controller, and the correction can never exceed ``residual_scale`` of the slider
+speed limit per slider.  PPO's Gaussian noise (``log_std_init``) explores around that mean; the
+environment clips actions to ``[-1, 1]`` as always.
+
+Because the residual lives in the policy, not in a wrapper, the trained model is an ordinary
+SB3 ``PPO`` model of ``Planar3PTrack-v0``: ``scripts/benchmark.py`` plays it on the fixed
+tracking suites exactly like the baselines, and rl-zoo3's ``enjoy`` plays it on the plain id.
+The base controller needs the raw observation, so the policy does not use ``VecNormalize``'s
+observation normalisation (train with ``normalize: "dict(norm_obs=False, norm_reward=True)"``):
+:class:`TrackFeatures` scales the observation by fixed physical scales instead (pose errors per
+:data:`ERROR_SCALE`, speeds per ``max_speed``, travels over the stroke) and appends the base
+action, so the network sees sub-millimetre errors at order one.
+
+Only the design's numbers are stored with a model (``policy_kwargs["design"]``, a
+:meth:`planar3p_gym.design.Design.to_dict` mapping, default ``Design.fig8()``): the design of
+the environment it is played in must be the same.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch as th
+from stable_baselines3.common.distributions import DiagGaussianDistribution, Distribution
+from stable_baselines3.common.policies import ActorCriticPolicy
+from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+from torch import nn
+
+from planar3p_gym.design import Design
+from planar3p_gym.observation import SLICES
+
+from .tracking import TRACK_OBS_SIZE, TrackingController
+
+__all__ = [
+    "ERROR_SCALE",
+    "FEATURE_CLIP",
+    "RESIDUAL_SCALE",
+    "ResidualTrackPolicy",
+    "TrackFeatures",
+    "feature_scaling",
+]
+
+#: Pose error (m) that maps to a feature of 1 (errors of a few tenths of a millimetre are what
+#: the residual has to remove).
+ERROR_SCALE = 1e-3
+#: Scaled features are clipped to ``[-FEATURE_CLIP, FEATURE_CLIP]``.
+FEATURE_CLIP = 10.0
+#: Default largest correction per slider, as a fraction of ``max_speed``.
+RESIDUAL_SCALE = 0.1
+
+
+def _design(design: Design | dict[str, Any] | None) -> Design:
+    if design is None:
+        return Design.fig8()
+    if isinstance(design, Design):
+        return design
+    if isinstance(design, dict):
+        return Design.from_dict(design)
+    raise ValueError(f"design must be a Design, its dict or None, got {type(design).__name__}")
+
+
+def feature_scaling(design: Design) -> tuple[np.ndarray, np.ndarray]:
+    """``(offset, scale)`` of the 34 tracking-observation entries: feature ``(obs - offset) *
+    scale``.  Travels are centred on mid-stroke over half the stroke; slider, gripper and
+    reference speeds are over ``max_speed`` (angular rates times ``L_ref``); positions over
+    ``L_ref``; position errors over :data:`ERROR_SCALE` and the orientation error times
+    ``L_ref / ERROR_SCALE``; dimensionless entries (cos/sin, margins, fine errors) as they are.
+    """
+    length, vmax = design.characteristic_length, design.max_speed
+    offset = np.zeros(TRACK_OBS_SIZE)
+    scale = np.ones(TRACK_OBS_SIZE)
+    offset[SLICES["rho"]] = design.stroke / 2.0
+    scale[SLICES["rho"]] = 2.0 / design.stroke
+    scale[SLICES["rho_dot"]] = 1.0 / vmax
+    scale[SLICES["position"]] = 1.0 / length
+    scale[SLICES["velocity"]] = 1.0 / vmax
+    scale[SLICES["angular_velocity"]] = length / vmax
+    scale[SLICES["target_position"]] = 1.0 / length
+    scale[SLICES["position_error"]] = 1.0 / ERROR_SCALE
+    scale[SLICES["orientation_error"]] = length / ERROR_SCALE
+    ref = slice(TRACK_OBS_SIZE - 3, TRACK_OBS_SIZE)
+    scale[ref] = np.array([1.0 / vmax, 1.0 / vmax, length / vmax])
+    return offset, scale
+
+
+class TrackFeatures(BaseFeaturesExtractor):
+    """The tracking observation scaled by :func:`feature_scaling` (clipped to
+    :data:`FEATURE_CLIP`), followed by the base controller's action: ``37`` features.
+
+    Args:
+        observation_space: ``Box((34,))`` of ``Planar3PTrack-v0``.
+        design: the machine (a :class:`Design`, its dict, or ``None`` for ``Design.fig8()``).
+        feedforward: the base controller's feed-forward scale (1 = full).
+    """
+
+    def __init__(
+        self,
+        observation_space: gym.spaces.Box,
+        design: Design | dict[str, Any] | None = None,
+        feedforward: float = 1.0,
+    ) -> None:
+        if observation_space.shape != (TRACK_OBS_SIZE,):
+            raise ValueError(
+                f"TrackFeatures needs the tracking observation ({TRACK_OBS_SIZE},), got "
+                f"{observation_space.shape}"
+            )
+        super().__init__(observation_space, TRACK_OBS_SIZE + 3)
+        d = _design(design)
+        self.base = TrackingController(d, feedforward=feedforward)
+        offset, scale = feature_scaling(d)
+        self.register_buffer("offset", th.as_tensor(offset, dtype=th.float32))
+        self.register_buffer("scale", th.as_tensor(scale, dtype=th.float32))
+
+    def base_action(self, obs: th.Tensor) -> th.Tensor:
+        """The base controller's actions ``(n, 3)`` for raw observations ``(n, 34)`` (no
+        gradient flows through it: it is a fixed function of the observation)."""
+        raw = obs.detach().cpu().numpy().astype(np.float64)
+        action = self.base.predict(raw)[0]
+        return th.as_tensor(action, dtype=obs.dtype, device=obs.device)
+
+    def forward(self, observations: th.Tensor) -> th.Tensor:
+        scaled = th.clamp((observations - self.offset) * self.scale, -FEATURE_CLIP, FEATURE_CLIP)
+        return th.cat([scaled, self.base_action(observations)], dim=1)
+
+
+class ResidualTrackPolicy(ActorCriticPolicy):
+    """PPO/A2C policy whose action mean is the feed-forward controller plus a bounded learned
+    correction (module docstring).
+
+    Args:
+        observation_space, action_space, lr_schedule: as for SB3's ``ActorCriticPolicy``.
+        residual_scale: largest correction per slider, as a fraction of ``max_speed``, in
+            ``(0, 1]``.
+        design: the machine of the environment (:class:`Design` dict or ``None`` for
+            ``Design.fig8()``); the base controller and the feature scales use it.
+        feedforward: the base controller's feed-forward scale (1 = full).
+        **kwargs: the other arguments of ``ActorCriticPolicy`` (``net_arch``,
+            ``log_std_init``, ...); the features extractor is :class:`TrackFeatures`.
+    """
+
+    def __init__(
+        self,
+        observation_space: gym.spaces.Space,
+        action_space: gym.spaces.Space,
+        lr_schedule: Any,
+        *,
+        residual_scale: float = RESIDUAL_SCALE,
+        design: dict[str, Any] | None = None,
+        feedforward: float = 1.0,
+        **kwargs: Any,
+    ) -> None:
+        if not (np.isfinite(residual_scale) and 0.0 < residual_scale <= 1.0):
+            raise ValueError(f"residual_scale must be in (0, 1], got {residual_scale!r}")
+        if not isinstance(action_space, gym.spaces.Box) or action_space.shape != (3,):
+            raise ValueError(
+                f"ResidualTrackPolicy needs a Box((3,)) action space, got {action_space}"
+            )
+        if kwargs.get("use_sde"):
+            raise ValueError("ResidualTrackPolicy supports the diagonal Gaussian only (no gSDE)")
+        for key in ("features_extractor_class", "features_extractor_kwargs"):
+            if key in kwargs:
+                raise ValueError(f"ResidualTrackPolicy sets its own {key}")
+        self.residual_scale = float(residual_scale)
+        self.design_dict = _design(design).to_dict()
+        self.feedforward = float(feedforward)
+        super().__init__(
+            observation_space,
+            action_space,
+            lr_schedule,
+            features_extractor_class=TrackFeatures,
+            features_extractor_kwargs={"design": self.design_dict, "feedforward": feedforward},
+            **kwargs,
+        )
+        # The untrained correction is exactly zero: the policy starts as the base controller.
+        nn.init.zeros_(self.action_net.weight)
+        nn.init.zeros_(self.action_net.bias)
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        data = super()._get_constructor_parameters()
+        data.pop("features_extractor_class", None)
+        data.pop("features_extractor_kwargs", None)
+        data.update(
+            residual_scale=self.residual_scale,
+            design=self.design_dict,
+            feedforward=self.feedforward,
+        )
+        return data
+
+    # ------------------------------------------------------------------ the residual mean
+    def _distribution(self, features: th.Tensor, latent_pi: th.Tensor) -> Distribution:
+        """Gaussian around ``base + residual_scale * tanh(action_net(latent_pi))``; the base
+        action is the last three features."""
+        correction = self.residual_scale * th.tanh(self.action_net(latent_pi))
+        mean = features[:, -3:] + correction
+        assert isinstance(self.action_dist, DiagGaussianDistribution)
+        return self.action_dist.proba_distribution(mean, self.log_std)
+
+    def forward(
+        self, obs: th.Tensor, deterministic: bool = False
+    ) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
+        features = self.extract_features(obs)
+        latent_pi, latent_vf = self._latents(features)
+        values = self.value_net(latent_vf)
+        distribution = self._distribution(self._pi_features(features), latent_pi)
+        actions = distribution.get_actions(deterministic=deterministic)
+        log_prob = distribution.log_prob(actions)
+        return actions.reshape((-1, *self.action_space.shape)), values, log_prob
+
+    def evaluate_actions(
+        self, obs: th.Tensor, actions: th.Tensor
+    ) -> tuple[th.Tensor, th.Tensor, th.Tensor | None]:
+        features = self.extract_features(obs)
+        latent_pi, latent_vf = self._latents(features)
+        distribution = self._distribution(self._pi_features(features), latent_pi)
+        return self.value_net(latent_vf), distribution.log_prob(actions), distribution.entropy()
+
+    def get_distribution(self, obs: th.Tensor) -> Distribution:
+        features = super(ActorCriticPolicy, self).extract_features(obs, self.pi_features_extractor)
+        return self._distribution(features, self.mlp_extractor.forward_actor(features))
+
+    def _latents(self, features: Any) -> tuple[th.Tensor, th.Tensor]:
+        if self.share_features_extractor:
+            return self.mlp_extractor(features)
+        pi_features, vf_features = features
+        return (
+            self.mlp_extractor.forward_actor(pi_features),
+            self.mlp_extractor.forward_critic(vf_features),
+        )
+
+    def _pi_features(self, features: Any) -> th.Tensor:
+        return features if self.share_features_extractor else features[0]

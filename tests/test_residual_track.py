@@ -1,0 +1,203 @@
+"""Residual tracking policy (agents/residual.py), its training path and the mixed reference."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+import torch as th
+from script_loader import load_script
+from stable_baselines3 import PPO
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+import planar3p_gym
+from agents import training
+from agents.residual import ERROR_SCALE, ResidualTrackPolicy, TrackFeatures
+from agents.tracking import TrackingController
+from planar3p_gym.observation import SLICES
+
+ID = planar3p_gym.TRACK_ENV_ID
+train_script = load_script("train")
+
+
+def _model(scale: float = 0.1, **policy_kwargs) -> PPO:
+    venv = DummyVecEnv([lambda: gym.make(ID)])
+    return PPO(
+        ResidualTrackPolicy,
+        venv,
+        n_steps=64,
+        batch_size=64,
+        seed=0,
+        device="cpu",
+        policy_kwargs={"residual_scale": scale, "log_std_init": -4.0, **policy_kwargs},
+    )
+
+
+def _observations(n_steps: int = 60) -> np.ndarray:
+    """Observations met by the feed-forward controller on a segments and a figure-eight
+    episode (seeded)."""
+    out = []
+    for kind, seed in (("segments", 3), ("figure_eight", 4)):
+        env = gym.make(ID, reference=kind)
+        ctrl = TrackingController.from_env(env)
+        obs, _ = env.reset(seed=seed)
+        for _ in range(n_steps):
+            out.append(obs)
+            obs, *_ = env.step(ctrl(obs))
+        env.close()
+    return np.asarray(out)
+
+
+def test_untrained_policy_is_the_feedforward_controller():
+    """The correction's output layer starts at zero, so the deterministic action is the
+    controller's, bit for bit (float32), on observations of both reference kinds."""
+    obs = _observations()
+    model = _model()
+    actions = model.predict(obs, deterministic=True)[0]
+    expected = TrackingController().predict(obs)[0]
+    np.testing.assert_array_equal(actions, expected)
+    assert np.abs(expected).max() > 0.05  # the reference moves: the comparison is not 0 == 0
+
+
+def test_correction_is_bounded_by_the_residual_scale():
+    """Whatever the head outputs, the mean stays within residual_scale of the base action
+    (tanh), and a large head reaches that bound."""
+    obs = _observations(30)
+    scale = 0.07
+    model = _model(scale)
+    with th.no_grad():
+        model.policy.action_net.weight.normal_(0.0, 50.0)
+        model.policy.action_net.bias.fill_(3.0)
+    actions = model.predict(obs, deterministic=True)[0]
+    base = TrackingController().predict(obs)[0]
+    diff = np.abs(actions - base)
+    assert diff.max() <= scale + 1e-6
+    assert diff.max() > 0.9 * scale
+
+
+def test_round_trip_through_a_model_file(tmp_path: Path):
+    obs = _observations(20)
+    model = _model(0.05, net_arch={"pi": [16], "vf": [16]})
+    with th.no_grad():
+        model.policy.action_net.weight.normal_(0.0, 1.0)
+    model.save(tmp_path / "m.zip")
+    loaded = PPO.load(tmp_path / "m.zip", device="cpu")
+    assert isinstance(loaded.policy, ResidualTrackPolicy)
+    assert loaded.policy.residual_scale == 0.05
+    assert loaded.policy.design_dict == planar3p_gym.Design.fig8().to_dict()
+    np.testing.assert_array_equal(
+        loaded.predict(obs, deterministic=True)[0], model.predict(obs, deterministic=True)[0]
+    )
+
+
+def test_features_scale_a_millimetre_to_one():
+    design = planar3p_gym.Design.fig8()
+    env = gym.make(ID)
+    obs, _ = env.reset(seed=0)
+    feats = TrackFeatures(env.observation_space)
+    x = np.asarray(obs, dtype=np.float64).copy()
+    x[SLICES["position_error"]] = (ERROR_SCALE, -2 * ERROR_SCALE)
+    x[SLICES["orientation_error"]] = ERROR_SCALE / design.characteristic_length
+    x[SLICES["rho"]] = design.stroke / 2
+    x[31:34] = (design.max_speed, 0.0, design.max_speed / design.characteristic_length)
+    f = feats(th.as_tensor(x[None], dtype=th.float32))[0].numpy()
+    assert f.shape == (37,)
+    np.testing.assert_allclose(f[SLICES["position_error"]], [1.0, -2.0], rtol=1e-5)
+    np.testing.assert_allclose(f[SLICES["orientation_error"]], [1.0], rtol=1e-5)
+    np.testing.assert_allclose(f[SLICES["rho"]], 0.0, atol=1e-6)
+    np.testing.assert_allclose(f[31:34], [1.0, 0.0, 1.0], rtol=1e-5)
+    np.testing.assert_allclose(f[34:], TrackingController().predict(x.astype(np.float32))[0])
+    # a large error is clipped
+    x[SLICES["position_error"]] = (1.0, 0.0)
+    assert feats(th.as_tensor(x[None], dtype=th.float32))[0, 23].item() == 10.0
+
+
+def test_bad_arguments_raise():
+    for scale in (0.0, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="residual_scale"):
+            _model(scale)
+    with pytest.raises(ValueError, match="features_extractor_class"):
+        _model(features_extractor_class=TrackFeatures)
+    with pytest.raises(ValueError, match="tracking observation"):
+        TrackFeatures(gym.spaces.Box(-1, 1, (31,)))
+    with pytest.raises(ValueError, match="Box"):
+        ResidualTrackPolicy(
+            gym.spaces.Box(-1, 1, (34,)), gym.spaces.Box(-1, 1, (2,)), lambda _: 1e-3
+        )
+
+
+def test_policy_names_resolve():
+    assert training.policy_class("MlpPolicy") == "MlpPolicy"
+    assert training.policy_class("ResidualTrackPolicy") is ResidualTrackPolicy
+
+
+def test_train_script_trains_the_shipped_entry(tmp_path: Path):
+    """scripts/train.py with the Planar3PTrack-v0 entry of ppo.yml (native vector env, mixed
+    references): a complete run whose model is a residual policy."""
+    run = tmp_path / "track"
+    argv = [
+        "--algo", "ppo", "--env", ID, "--vec-env", "native", "--n-envs", "2",
+        "--env-kwargs", 'reference="mixed"', "--timesteps", "128", "--run-dir", str(run),
+        "--eval-freq", "128", "--eval-episodes", "1", "--final-eval-episodes", "1",
+        "--checkpoint-freq", "128", "--no-progress-bar",
+        "--params", "n_steps=64", "batch_size=64", "n_epochs=1",
+    ]  # fmt: skip
+    assert train_script.main(argv) == 0
+    config = json.loads((run / "config.json").read_text())["config"]
+    assert config["policy"] == "ResidualTrackPolicy"
+    assert config["env_kwargs"] == {"reference": "mixed"}
+    model = PPO.load(run / "model.zip", device="cpu")
+    assert isinstance(model.policy, ResidualTrackPolicy)
+
+
+def test_benchmark_plays_an_untrained_residual_model_like_the_controller(tmp_path: Path):
+    """Loaded through a policy specification and played by the benchmark's episode runner
+    on a tracking suite, the untrained residual model gives the feed-forward controller's
+    tracking errors exactly."""
+    from agents.episodes import evaluate
+    from agents.policies import load_policy
+    from agents.task_suites import make_task_env, make_task_suite
+
+    _model().save(tmp_path / "residual.zip")
+    for suite_name in ("track-segments", "track-figure-eight"):
+        env = make_task_env(suite_name)
+        suite = make_task_suite(suite_name, 1, 0, env=env)
+        learned = load_policy(f"{tmp_path / 'residual.zip'}:stats=none", env=env)
+        ff = TrackingController.from_env(env)
+        a = evaluate(env, learned, suite)[0].task_metrics
+        b = evaluate(env, ff, suite)[0].task_metrics
+        assert a["tracking_rms_error"] == b["tracking_rms_error"] > 0
+        env.close()
+
+
+# ---------------------------------------------------------------------- mixed references
+def test_mixed_reference_draws_both_kinds_and_replays_in_either_env():
+    env = gym.make(ID, reference="mixed")
+    specs = [env.reset(seed=s)[1]["episode_spec"] for s in range(30)]
+    kinds = {s["reference"]["kind"] for s in specs}
+    assert kinds == {"segments", "figure_eight"}
+    # an episode of the mixed env replays exactly in the env of its own kind
+    spec = next(s for s in specs if s["reference"]["kind"] == "figure_eight")
+    other = gym.make(ID, reference="figure_eight")
+    ctrl = TrackingController.from_env(env)
+    runs = []
+    for e in (env, other):
+        obs, _ = e.reset(options=spec)
+        traj = [obs]
+        for _ in range(40):
+            obs, *_ = e.step(ctrl(obs))
+            traj.append(obs)
+        runs.append(np.asarray(traj))
+    np.testing.assert_array_equal(runs[0], runs[1])
+    assert env.unwrapped.config()["task_arguments"]["reference"] == "mixed"
+
+
+def test_unknown_reference_kind_is_refused():
+    with pytest.raises(ValueError, match="mixed"):
+        gym.make(ID, reference="circle")
