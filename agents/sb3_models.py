@@ -258,7 +258,8 @@ def load_sb3_model(
                 f"model {p} outputs actions of shape {model.action_space.shape}, "
                 f"the environment takes {act_space.shape}"
             )
-        if vn is not None and _stats_shapes(vn.obs_rms) != _shapes(obs_space):
+        # Statistics of a run that normalised rewards only (norm_obs=False) have no obs_rms.
+        if vn is not None and vn.norm_obs and _stats_shapes(vn.obs_rms) != _shapes(obs_space):
             raise PolicyError(
                 f"VecNormalize statistics {vn_path} are for observations of shape "
                 f"{_stats_shapes(vn.obs_rms)}, the environment gives {_shapes(obs_space)}"

@@ -154,6 +154,16 @@ def test_train_script_trains_the_shipped_entry(tmp_path: Path):
     assert config["env_kwargs"] == {"reference": "mixed"}
     model = PPO.load(run / "model.zip", device="cpu")
     assert isinstance(model.policy, ResidualTrackPolicy)
+    # Its statistics normalise rewards only; loaded by name they leave observations alone.
+    from agents.policies import load_policy
+
+    env = gym.make(ID)
+    obs = _observations(5)
+    with_stats = load_policy(f"{run / 'model.zip'}:stats={run / 'vecnormalize.pkl'}", env=env)
+    assert not with_stats.vecnormalize.norm_obs
+    np.testing.assert_array_equal(
+        with_stats.predict(obs)[0], model.predict(obs, deterministic=True)[0]
+    )
 
 
 def test_benchmark_plays_an_untrained_residual_model_like_the_controller(tmp_path: Path):
