@@ -211,3 +211,28 @@ def test_mixed_reference_draws_both_kinds_and_replays_in_either_env():
 def test_unknown_reference_kind_is_refused():
     with pytest.raises(ValueError, match="mixed"):
         gym.make(ID, reference="circle")
+
+
+# ---------------------------------------------------------------------- retuned gains
+def test_gain_sweep_plays_the_benchmark_episodes():
+    """At the default gain the sweep gives the benchmark's analytic-feedforward on the same
+    suite episodes; a higher gain shrinks the lag (median RMS error)."""
+    from agents.episodes import evaluate
+    from agents.task_suites import make_task_env, make_task_suite
+    from agents.track_gains import gain_sweep
+
+    rows = gain_sweep([6.0, 25.0], 2, 0, ["track-figure-eight"])
+    env = make_task_env("track-figure-eight")
+    suite = make_task_suite("track-figure-eight", 2, 0, env=env)
+    res = evaluate(env, TrackingController.from_env(env), suite)
+    rms = [r.task_metrics["tracking_rms_error"] for r in res]
+    assert rows[0]["rms_median"] == float(np.median(rms))
+    assert rows[0]["failures"] == rows[1]["failures"] == 0
+    assert rows[1]["rms_median"] < 0.5 * rows[0]["rms_median"]
+
+
+def test_gain_sweep_script_rejects_bad_input(capsys):
+    script = load_script("track_gains")
+    for argv in (["--gains", "6,x"], ["--gains", "-1"], ["--episodes", "0"], ["--suites", "goal"]):
+        assert script.main([*argv, "--episodes", "1"] if "--episodes" not in argv else argv) == 2
+        assert capsys.readouterr().err.startswith("error:")
