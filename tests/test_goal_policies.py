@@ -16,8 +16,11 @@ pytest.importorskip("stable_baselines3")
 
 import planar3p_gym
 from agents import training
+from agents.goal_features import ERROR_FEATURES, GoalErrorExtractor
 from agents.policies import PolicyError, load_policy
 from agents.sb3_models import load_sb3_model
+from planar3p_gym.goal_env import flat_observation
+from planar3p_gym.observation import SLICES
 
 GOAL = planar3p_gym.GOAL_ENV_ID
 DENSE = planar3p_gym.GOAL_DENSE_ENV_ID
@@ -25,7 +28,10 @@ DENSE = planar3p_gym.GOAL_DENSE_ENV_ID
 
 def _tiny_her_model(path: Path) -> None:
     """A SAC + HER model after a few hundred steps on the sparse goal id, saved to ``path``."""
+    import torch as th
     from stable_baselines3 import SAC, HerReplayBuffer
+
+    th.set_num_threads(1)  # many threads on a shared machine are many times slower
 
     env = gym.make(GOAL)
     model = SAC(
@@ -69,10 +75,12 @@ def test_her_model_plays_without_its_training_env(tmp_path: Path) -> None:
 def test_ppo_dict_policy_uses_its_dict_statistics(tmp_path: Path) -> None:
     """PPO ``MultiInputPolicy`` with ``Dict`` VecNormalize statistics: the loaded policy acts
     on the normalised observation, exactly as the model on ``normalize_obs``."""
+    import torch as th
     from stable_baselines3 import PPO
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import VecNormalize
 
+    th.set_num_threads(1)
     venv = VecNormalize(make_vec_env(DENSE, n_envs=2, seed=0), norm_reward=False)
     model = PPO("MultiInputPolicy", venv, n_steps=32, batch_size=32, n_epochs=1, seed=0)
     with warnings.catch_warnings():
@@ -111,10 +119,51 @@ def test_shipped_goal_hyperparameters_resolve() -> None:
         0,
         training.load_hyperparams(training.HYPERPARAMS_DIR / "ppo.yml", DENSE, "ppo"),
     )
-    assert ppo.policy == "MultiInputPolicy" and ppo.n_envs == 16 and ppo.normalize == {}
+    assert ppo.policy == "MultiInputPolicy" and ppo.n_envs == 16
+    # Only the robot entries are normalised: the extractor needs the goals in m.
+    assert ppo.normalize == {"norm_obs_keys": ["observation"]}
+    assert ppo.algo_kwargs["policy_kwargs"]["features_extractor_class"] is GoalErrorExtractor
     sac = training.resolve(
         "sac", GOAL, 0, training.load_hyperparams(training.HYPERPARAMS_DIR / "sac.yml", GOAL, "sac")
     )
     assert sac.algo_kwargs["replay_buffer_class"] is HerReplayBuffer
     assert sac.algo_kwargs["replay_buffer_kwargs"]["copy_info_dict"] is True
     assert sac.n_envs * sac.algo_kwargs["train_freq"] / sac.algo_kwargs["gradient_steps"] == 8
+
+
+def test_goal_error_features_match_the_flat_observation() -> None:
+    """The extractor's error entries are the flat observation's ``position_error``,
+    ``orientation_error`` and ``fine_error`` blocks (float32 rounding), on states along real
+    episodes and on goals with angle errors across +-pi."""
+    import torch as th
+
+    env = gym.make(DENSE)
+    extractor = GoalErrorExtractor(env.observation_space)
+    length = env.unwrapped.design.characteristic_length
+    assert extractor.length == pytest.approx(length)
+    obs, _ = env.reset(seed=3)
+    batch = []
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        batch.append(obs)
+        obs, *_ = env.step(rng.uniform(-1.0, 1.0, 3))
+    stacked = {k: np.stack([o[k] for o in batch]) for k in obs}
+    angles = rng.uniform(-np.pi, np.pi, len(batch))  # desired angles all around the circle
+    stacked["desired_goal"][:, 2], stacked["desired_goal"][:, 3] = np.cos(angles), np.sin(angles)
+    with th.no_grad():
+        feats = extractor({k: th.as_tensor(v) for k, v in stacked.items()}).numpy()
+    assert feats.shape == (len(batch), 21 + 5 + 5 + ERROR_FEATURES)
+    flat = flat_observation(stacked, length)
+    np.testing.assert_array_equal(feats[:, :21], stacked["observation"])
+    np.testing.assert_allclose(feats[:, -6:-4], flat[:, SLICES["position_error"]], atol=1e-6)
+    np.testing.assert_allclose(feats[:, -4], flat[:, SLICES["orientation_error"]][:, 0], atol=1e-5)
+    np.testing.assert_allclose(feats[:, -3:], flat[:, SLICES["fine_error"]], atol=1e-4)
+    with pytest.raises(ValueError, match="Dict space"):
+        GoalErrorExtractor(gym.make("Planar3P-v1").observation_space)
+
+
+def test_yaml_names_only_known_feature_extractors() -> None:
+    kwargs = training._literal("dict(features_extractor_class=GoalErrorExtractor)", "t")
+    assert kwargs["features_extractor_class"] is GoalErrorExtractor
+    with pytest.raises(ValueError, match="unsupported"):
+        training._literal("dict(features_extractor_class=NatureCNN)", "t")
