@@ -236,3 +236,42 @@ def test_gain_sweep_script_rejects_bad_input(capsys):
     for argv in (["--gains", "6,x"], ["--gains", "-1"], ["--episodes", "0"], ["--suites", "goal"]):
         assert script.main([*argv, "--episodes", "1"] if "--episodes" not in argv else argv) == 2
         assert capsys.readouterr().err.startswith("error:")
+
+
+# ---------------------------------------------------------------------- learning curves
+def test_suite_player_plays_the_benchmark_episodes_side_by_side():
+    """Batched play gives the benchmark runner's tracking errors exactly."""
+    from agents.episodes import evaluate
+    from agents.track_curves import SuitePlayer
+
+    player = SuitePlayer("track-segments", 2, 0)
+    batched = player.play(TrackingController())
+    env = player.envs[0]
+    res = evaluate(env, TrackingController.from_env(env), player.suite)
+    assert batched.tolist() == [r.task_metrics["tracking_rms_error"] for r in res]
+    player.close()
+
+
+def test_checkpoints_and_seed_curves(tmp_path: Path):
+    from agents.track_curves import checkpoints, seed_curves
+
+    run = tmp_path / "run"
+    (run / "checkpoints").mkdir(parents=True)
+    config = {"config": {"seed": 1, "normalize": {"norm_obs": False, "norm_reward": True}}}
+    (run / "config.json").write_text(json.dumps(config))
+    with pytest.raises(ValueError, match="no checkpoints"):
+        checkpoints(run)
+    for n in (200, 100):
+        (run / "checkpoints" / f"rl_model_{n}_steps.zip").write_bytes(b"")
+    (run / "model.zip").write_bytes(b"")
+    (run / "metrics.json").write_text(json.dumps({"timesteps": 256}))
+    assert [s for s, _ in checkpoints(run)] == [100, 200, 256]
+    config["config"]["normalize"] = {}
+    (run / "config.json").write_text(json.dumps(config))
+    with pytest.raises(ValueError, match="normalised observations"):
+        checkpoints(run)
+    curves = {1: {"a": {0: 1.0, 5: 0.5}}, 2: {"a": {0: 1.0, 5: 0.3, 9: 0.1}}}
+    rows = seed_curves(curves, n_resamples=50)["a"]
+    assert [r[0] for r in rows] == [0, 5]  # only the steps every seed has
+    assert rows[0][1:] == (1.0, 1.0, 1.0)
+    assert rows[1][1] == pytest.approx(0.4) and 0.3 <= rows[1][2] <= rows[1][3] <= 0.5
