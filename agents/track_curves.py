@@ -26,7 +26,7 @@ import numpy as np
 from .seed_statistics import stratified_bootstrap_iqm
 from .task_suites import make_task_env, make_task_suite
 
-__all__ = ["SuitePlayer", "checkpoints", "plot_curves", "run_curve", "seed_curves"]
+__all__ = ["CACHE", "SuitePlayer", "checkpoints", "plot_curves", "run_curve", "seed_curves"]
 
 _CHECKPOINT = re.compile(r"rl_model_(\d+)_steps\.zip")
 
@@ -97,18 +97,41 @@ class SuitePlayer:
             env.close()
 
 
+#: File in a run directory where :func:`run_curve` keeps its result (``runs/`` is not shipped).
+CACHE = "track_curve.json"
+
+
 def run_curve(run: Path, players: list[SuitePlayer]) -> dict[str, dict[int, float]]:
     """``{suite: {steps: median episode RMS error (m)}}`` over the run's checkpoints; step 0 is
-    the untrained residual policy, which is the feed-forward controller exactly."""
+    the untrained residual policy, which is the feed-forward controller exactly.  The result is
+    kept in ``<run>/track_curve.json`` and reused while the suites, their seed and episode
+    count, and the checkpoint files (names and sizes) are the same."""
     from stable_baselines3 import PPO
 
     from .tracking import TrackingController
 
+    points = checkpoints(run)
+    key = {
+        "suites": [[p.name, len(p.envs), p.seed] for p in players],
+        "checkpoints": [[steps, str(path.relative_to(run)), path.stat().st_size]
+                        for steps, path in points],
+    }  # fmt: skip
+    cache = Path(run) / CACHE
+    if cache.is_file():
+        try:
+            data = json.loads(cache.read_text())
+            if data.get("key") == key:
+                return {
+                    n: {int(k): float(v) for k, v in c.items()} for n, c in data["curve"].items()
+                }
+        except (ValueError, AttributeError, TypeError):
+            pass  # recomputed below
     out: dict[str, dict[int, float]] = {p.name: {} for p in players}
-    for steps, path in [(0, None), *checkpoints(run)]:
+    for steps, path in [(0, None), *points]:
         model = TrackingController() if path is None else PPO.load(path, device="cpu")
         for player in players:
             out[player.name][steps] = float(np.median(player.play(model)))
+    cache.write_text(json.dumps({"key": key, "curve": out}, indent=2))
     return out
 
 

@@ -164,6 +164,17 @@ def test_train_script_trains_the_shipped_entry(tmp_path: Path):
     np.testing.assert_array_equal(
         with_stats.predict(obs)[0], model.predict(obs, deterministic=True)[0]
     )
+    # Its learning curve in tracking error: step 0 is the controller; kept and reused.
+    from agents.track_curves import CACHE, SuitePlayer, run_curve
+
+    player = SuitePlayer("track-segments", 1, 0)
+    curve = run_curve(run, [player])["track-segments"]
+    assert sorted(curve) == [0, 128]
+    assert curve[0] == player.play(TrackingController())[0]
+    assert (run / CACHE).is_file()
+    player.play = None  # a second call must not play again
+    assert run_curve(run, [player]) == {"track-segments": curve}
+    player.close()
 
 
 def test_benchmark_plays_an_untrained_residual_model_like_the_controller(tmp_path: Path):
