@@ -267,6 +267,7 @@ def test_her_training_on_the_goal_env_runs_and_resumes(tmp_path: Path) -> None:
             "--algo", "sac", "--env", "Planar3PGoal-v0", "--timesteps", str(steps),
             "--run-dir", str(run), "--eval-freq", "150", "--eval-episodes", "1",
             "--final-eval-episodes", "1", "--checkpoint-freq", "150", "--no-progress-bar",
+            "--n-envs", "1",  # HER samples after one whole episode: 100 steps, not 4 x 100
             "--params", *small,
         ]  # fmt: skip
 
