@@ -194,6 +194,14 @@ def _stats_shapes(obs_rms: Any) -> Any:
     return obs_rms.mean.shape
 
 
+def _stats_fit(stats: Any, shapes: Any) -> bool:
+    """Statistics fit a space: same shape, or for a ``Dict`` space each normalised key (a
+    subset: ``norm_obs_keys``) with its shape."""
+    if isinstance(stats, dict):
+        return isinstance(shapes, dict) and all(shapes.get(k) == v for k, v in stats.items())
+    return stats == shapes
+
+
 def load_sb3_model(
     path: str | Path,
     algo: str | None = None,
@@ -259,7 +267,12 @@ def load_sb3_model(
                 f"the environment takes {act_space.shape}"
             )
         # Statistics of a run that normalised rewards only (norm_obs=False) have no obs_rms.
-        if vn is not None and vn.norm_obs and _stats_shapes(vn.obs_rms) != _shapes(obs_space):
+        fit = (
+            vn is None
+            or not vn.norm_obs
+            or _stats_fit(_stats_shapes(vn.obs_rms), _shapes(obs_space))
+        )
+        if not fit:
             raise PolicyError(
                 f"VecNormalize statistics {vn_path} are for observations of shape "
                 f"{_stats_shapes(vn.obs_rms)}, the environment gives {_shapes(obs_space)}"

@@ -101,6 +101,10 @@ def test_ppo_dict_policy_uses_its_dict_statistics(tmp_path: Path) -> None:
     # The statistics changed what the policy sees (the raw observation gives another action).
     raw, _ = model.predict(obs, deterministic=True)
     assert not np.allclose(raw, expected)
+    # Statistics of the robot key only (norm_obs_keys, as the shipped recipe) fit the env.
+    only = VecNormalize(make_vec_env(DENSE, n_envs=1, seed=0), norm_obs_keys=["observation"])
+    only.save(tmp_path / "only.pkl")
+    load_policy(f"{tmp_path / 'ppo.zip'}:stats={tmp_path / 'only.pkl'}", env=env)
     # Flat statistics of another id are refused for the Dict env.
     flat = VecNormalize(make_vec_env("Planar3P-v1", n_envs=1, seed=0))
     flat.save(tmp_path / "flat.pkl")
