@@ -37,7 +37,6 @@ from agents.episode_gif import record_gif  # noqa: E402
 from agents.policies import (  # noqa: E402
     TRUSTED_FILES_NOTE,
     PolicyError,
-    list_pretrained,
     load_policy,
     policy_label,
 )
@@ -46,6 +45,8 @@ from agents.task_suites import TASK_SUITES, make_task_suite, task_baseline  # no
 ANALYTIC = "analytic-simultaneous"
 MODE_CHANGE = "mode-change"
 MODE_CHANGE_POLICY = "pretrained:ppo_mode_change"
+#: The shipped reach policy of ``Planar3P-v0`` the demo plays by default.
+REACH_POLICY = "pretrained:ppo_kickstart"
 
 
 def _benchmark_main():
@@ -99,18 +100,12 @@ def main(argv: list[str] | None = None) -> int:
         epilog=TRUSTED_FILES_NOTE,
     )
     p.add_argument("--out", type=Path, default=ROOT / "results" / "demo")
-    p.add_argument("--policy", default=None, help="learned reach policy (default: shipped one)")
+    p.add_argument("--policy", default=REACH_POLICY, help="learned reach policy (Planar3P-v0)")
     p.add_argument("--mode-change-policy", default=MODE_CHANGE_POLICY, help="learned policy")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
 
     learned = args.policy
-    if learned is None:
-        shipped = list_pretrained()
-        if not shipped:
-            print("error: no pretrained policy in agents/pretrained/", file=sys.stderr)
-            return 2
-        learned = f"pretrained:{shipped[0]}"
     mc_env = TASK_SUITES[MODE_CHANGE].env_id
     try:
         load_policy(learned, env=gym.make(planar3p_gym.ENV_ID))

@@ -5,12 +5,15 @@ from __future__ import annotations
 import csv
 import json
 
+import gymnasium as gym
 import imageio.v2 as imageio
 import pytest
 from conftest import load_script
 
+import planar3p_gym
 from agents.baselines import ZeroPolicy
 from agents.episode_gif import GIF_SIZE, record_gif
+from agents.policies import load_policy
 from agents.task_suites import TASK_SUITES, make_task_suite, task_baseline
 
 
@@ -90,3 +93,18 @@ def test_demo_refuses_an_unknown_policy(tmp_path, capsys):
     assert code == 2
     assert "unknown pretrained model" in capsys.readouterr().err
     assert not any(tmp_path.iterdir())  # nothing written
+
+
+def test_demo_default_policies_are_named_and_fit_their_ids():
+    """The demo names its learned policies (not the first shipped file by sort order, which
+    changes as policies are shipped) and each loads on the id its part plays."""
+    demo = load_script("demo")
+    for spec, env_id in (
+        (demo.REACH_POLICY, planar3p_gym.ENV_ID),
+        (demo.MODE_CHANGE_POLICY, TASK_SUITES[demo.MODE_CHANGE].env_id),
+    ):
+        env = gym.make(env_id)
+        policy = load_policy(spec, env=env)
+        obs, _ = env.reset(seed=0)
+        action, _ = policy.predict(obs, deterministic=True)
+        assert env.action_space.contains(action.astype(env.action_space.dtype))
