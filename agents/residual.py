@@ -39,6 +39,7 @@ from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
 
+from planar3p_gym.arguments import design_from
 from planar3p_gym.design import Design
 from planar3p_gym.observation import SLICES
 
@@ -60,16 +61,6 @@ ERROR_SCALE = 1e-3
 FEATURE_CLIP = 10.0
 #: Default largest correction per slider, as a fraction of ``max_speed``.
 RESIDUAL_SCALE = 0.1
-
-
-def _design(design: Design | dict[str, Any] | None) -> Design:
-    if design is None:
-        return Design.fig8()
-    if isinstance(design, Design):
-        return design
-    if isinstance(design, dict):
-        return Design.from_dict(design)
-    raise ValueError(f"design must be a Design, its dict or None, got {type(design).__name__}")
 
 
 def feature_scaling(design: Design) -> tuple[np.ndarray, np.ndarray]:
@@ -118,7 +109,7 @@ class TrackFeatures(BaseFeaturesExtractor):
                 f"{observation_space.shape}"
             )
         super().__init__(observation_space, TRACK_OBS_SIZE + 3)
-        d = _design(design)
+        d = design_from(design)
         self.base = TrackingController(d, feedforward=feedforward)
         offset, scale = feature_scaling(d)
         self.register_buffer("offset", th.as_tensor(offset, dtype=th.float32))
@@ -174,7 +165,7 @@ class ResidualTrackPolicy(ActorCriticPolicy):
             if key in kwargs:
                 raise ValueError(f"ResidualTrackPolicy sets its own {key}")
         self.residual_scale = float(residual_scale)
-        self.design_dict = _design(design).to_dict()
+        self.design_dict = design_from(design).to_dict()
         self.feedforward = float(feedforward)
         super().__init__(
             observation_space,
