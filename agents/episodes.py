@@ -24,7 +24,14 @@ from planar3p_gym.observation import SLICES
 
 from .suites import EpisodeSpec, Suite, suite_id
 
-__all__ = ["FAILURE_CAUSES", "EpisodeResult", "episode_seed", "evaluate", "run_episode"]
+__all__ = [
+    "FAILURE_CAUSES",
+    "EpisodeResult",
+    "episode_seed",
+    "evaluate",
+    "reset_episode",
+    "run_episode",
+]
 
 #: How an episode ended (``EpisodeResult.cause``): success, the two failures the environment
 #: reports, and the diagnoses of a timeout from the final state.  A task that has no success
@@ -104,6 +111,12 @@ def episode_seed(seed: int, suite: str, index: int) -> np.random.SeedSequence:
     return np.random.SeedSequence([int(seed), 0xE915, suite_id(suite), int(index)])
 
 
+def reset_episode(env: Any, spec: EpisodeSpec, seed: int) -> tuple[Any, dict[str, Any]]:
+    """``env.reset`` for episode ``spec`` as the benchmark plays it (environment seed ``seed +
+    spec.index`` and the episode's options): ``(observation, info)``."""
+    return env.reset(seed=int(seed) + spec.index, options=spec.reset_options())
+
+
 def _diagnose(info: dict[str, Any], design: Design, tol: task.TaskConfig) -> str:
     """Why an episode that timed out did not succeed, from its final state."""
     if info["parallel_margin"] < 0.01:
@@ -141,7 +154,7 @@ def run_episode(
     dt = float(base.dt)
     stroke = design.stroke
     _reset_policy(policy, episode_seed(seed, spec.suite, spec.index))
-    obs, info = env.reset(seed=int(seed) + spec.index, options=spec.reset_options())
+    obs, info = reset_episode(env, spec, seed)
     state: Any = None
     start = np.ones(1, dtype=bool)
     total = 0.0

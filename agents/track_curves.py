@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from .episodes import reset_episode
 from .seed_statistics import stratified_bootstrap_iqm
 from .task_suites import make_task_env, make_task_suite
 
@@ -73,10 +74,10 @@ class SuitePlayer:
     def play(self, policy: Any) -> np.ndarray:
         """Episode RMS pose errors (m) of ``policy`` (SB3-style ``predict`` on a batch,
         deterministic; ``inf`` for an episode ended by failure); each episode reset like the
-        benchmark's runner (``seed + index`` and the episode's spec)."""
+        benchmark's runner (:func:`agents.episodes.reset_episode`)."""
         obs = np.stack(
             [
-                env.reset(seed=self.seed + spec.index, options=spec.reset_options())[0]
+                reset_episode(env, spec, self.seed)[0]
                 for env, spec in zip(self.envs, self.suite.episodes, strict=True)
             ]
         )

@@ -34,6 +34,7 @@ import numpy as np
 import planar3p_gym  # noqa: F401  (registers the ids)
 from agents import suites as agent_suites
 from agents.analytic import AnalyticController
+from agents.episodes import reset_episode
 from planar3p_gym import Design, motions, physics
 from planar3p_gym.env import DEFAULT_WORKING_MODE
 from planar3p_gym.physics import Planar3PSim
@@ -85,7 +86,7 @@ def controller_episodes(env_id: str, suites: list[str], n: int, seed: int) -> di
     for name in suites:
         rows = []
         for spec in agent_suites.make_suite(name, n, seed).episodes:
-            obs, info = env.reset(seed=seed + spec.index, options=spec.reset_options())
+            obs, info = reset_episode(env, spec, seed)
             closure = gap = gap_ok = 0.0
             first, done = True, False
             while not done:
