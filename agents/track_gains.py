@@ -15,14 +15,16 @@ from typing import Any
 
 import numpy as np
 
+from planar3p_gym import TRACK_ENV_ID
+
 from .episodes import evaluate
-from .task_suites import make_task_env, make_task_suite
+from .task_suites import TASK_SUITES, make_task_env, make_task_suite
 from .tracking import TrackingController
 
 __all__ = ["TRACK_SUITES", "gain_sweep"]
 
-#: The benchmark's tracking suites.
-TRACK_SUITES = ("track-segments", "track-figure-eight")
+#: The benchmark's tracking suites: the task suites played on the tracking id.
+TRACK_SUITES = tuple(name for name, d in TASK_SUITES.items() if d.env_id == TRACK_ENV_ID)
 
 
 def gain_sweep(
