@@ -399,7 +399,7 @@ def _restore_learning_curve(evaluator: Any, path: Path, up_to: int) -> None:
 
 def _kickstart(plan: RunPlan, model: Any, venv: Any, eval_env: Any) -> dict[str, Any]:
     """Clone the teacher into ``model`` (:mod:`agents.kickstart`), save and evaluate the clone."""
-    from stable_baselines3.common.vec_env import VecNormalize
+    from stable_baselines3.common.vec_env import VecNormalize, sync_envs_normalization
 
     from .kickstart import kickstart_ppo
     from .policies import load_policy
@@ -421,7 +421,7 @@ def _kickstart(plan: RunPlan, model: Any, venv: Any, eval_env: Any) -> dict[str,
     model.save(str(plan.run_dir / "kickstart_model.zip"))
     if isinstance(venv, VecNormalize):
         venv.save(str(plan.run_dir / "kickstart_vecnormalize.pkl"))
-        eval_env.obs_rms = venv.obs_rms
+        sync_envs_normalization(venv, eval_env)
     return {**asdict(report), "evaluation": evaluate(model, eval_env, opt.eval_episodes)}
 
 
@@ -429,7 +429,7 @@ def execute(plan: RunPlan) -> dict[str, Any]:
     """Train as planned and write the run directory; returns the metrics (``metrics.json``)."""
     import torch
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
-    from stable_baselines3.common.vec_env import VecNormalize
+    from stable_baselines3.common.vec_env import VecNormalize, sync_envs_normalization
 
     import_rl_zoo3()
     from rl_zoo3.callbacks import SaveVecNormalizeCallback
@@ -506,8 +506,7 @@ def execute(plan: RunPlan) -> dict[str, Any]:
     model.save(str(run_dir / "model.zip"))
     if isinstance(venv, VecNormalize):
         venv.save(str(run_dir / "vecnormalize.pkl"))
-        if venv.norm_obs:  # statistics saved with norm_obs=False have no obs_rms
-            eval_env.obs_rms = venv.obs_rms
+        sync_envs_normalization(venv, eval_env)  # (no obs_rms with norm_obs=False: skipped)
     metrics = {
         "final_evaluation": evaluate(model, eval_env, opt.final_eval_episodes),
         "timesteps": int(model.num_timesteps),

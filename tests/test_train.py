@@ -335,6 +335,23 @@ def test_kickstart_clones_the_teacher_before_rl(tmp_path: Path) -> None:
     assert err_clone < 0.5 * err_fresh
 
 
+def test_kickstart_with_reward_normalisation_only(tmp_path: Path) -> None:
+    """Statistics without observation normalisation (``norm_obs=False``, as the residual
+    tracking recipe uses) have no ``obs_rms``: the kick-start's evaluation and the final one
+    still run (they used to fail on the missing attribute)."""
+    run = tmp_path / "ks-reward-only"
+    args = _smoke_args("ppo", run, steps=128)
+    args += ["--params", 'normalize="dict(norm_obs=False, norm_reward=True)"']
+    args += ["--kickstart", "analytic-simultaneous", "--kickstart-steps", "300"]
+    args += ["--kickstart-epochs", "2"]
+    assert train_script.main(args) == 0
+    record = json.loads((run / "config.json").read_text())["kickstart"]
+    assert 0.0 <= record["evaluation"]["success_rate"] <= 1.0
+    metrics = json.loads((run / "metrics.json").read_text())
+    assert metrics["final_evaluation"]["episodes"] >= 1
+    assert (run / "kickstart_vecnormalize.pkl").is_file() and (run / "vecnormalize.pkl").is_file()
+
+
 @pytest.mark.parametrize(
     ("extra", "message"),
     [
