@@ -238,12 +238,14 @@ def load_sb3_model(
     else:
         import stable_baselines3 as algorithms
 
+    from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+
     cls = getattr(algorithms, SB3_ALGORITHMS[key])
     # Playing needs no replay buffer: an off-policy model gets a one-entry plain buffer instead
     # of the saved one (a HER buffer cannot even be built without the training env).
     no_buffer = (
         {"replay_buffer_class": None, "replay_buffer_kwargs": {}, "buffer_size": 1}
-        if key in ("sac", "td3", "tqc", "ddpg")
+        if issubclass(cls, OffPolicyAlgorithm)
         else {}
     )
     try:
