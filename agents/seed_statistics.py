@@ -18,6 +18,7 @@ the resampling is written here.
 from __future__ import annotations
 
 import csv
+import math
 import re
 from collections.abc import Iterable, Mapping
 from pathlib import Path
@@ -40,7 +41,7 @@ METRICS: dict[str, tuple[str, str, float]] = {
     "tracking_rms_orientation_error": (
         "median tracking RMS orientation error",
         "deg",
-        57.29577951308232,
+        math.degrees(1.0),
     ),
 }
 
