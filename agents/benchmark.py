@@ -162,6 +162,9 @@ def load_suite_policies(
                 meta.setdefault(label, (text, None))
                 continue
             ps = parse_policy_spec(text)
+            if task and ps.kind == "builtin":  # a retuned analytic controller (:gain=K)
+                warn(f"{text} does not apply to task suite {name} (its baselines: {base})")
+                continue
             if task:
                 pols[label] = load_policy(ps, env=envs[name], seed=seed, device=device)
             else:

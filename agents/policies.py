@@ -3,7 +3,8 @@
 Accepted specifications (:func:`load_policy`):
 
 * built-in names: ``analytic-simultaneous``, ``analytic-sequential`` (:mod:`agents.analytic`),
-  ``random``, ``zero`` (:mod:`agents.baselines`);
+  ``random``, ``zero`` (:mod:`agents.baselines`); an analytic name followed by ``:gain=K`` is
+  that controller with position and orientation gains ``K`` (1/s) instead of the default 6;
 * ``pretrained:<name>``: the model ``agents/pretrained/<name>.zip`` shipped with the package,
   with its statistics ``<name>_vecnormalize.pkl``; both are checked against the SHA-256 sums in
   ``agents/pretrained/SHA256SUMS`` before anything is loaded (:func:`verify_pretrained`);
@@ -106,10 +107,11 @@ def load_policy(
     if design is None and env is not None:
         design = env.unwrapped.design
     if ps.kind == "builtin":
-        if ps.name == "analytic-simultaneous":
-            return AnalyticController(design, "simultaneous")
-        if ps.name == "analytic-sequential":
-            return AnalyticController(design, "sequential")
+        gains = {} if ps.gain is None else {"position_gain": ps.gain, "orientation_gain": ps.gain}
+        if ps.name.startswith("analytic-simultaneous"):
+            return AnalyticController(design, "simultaneous", **gains)
+        if ps.name.startswith("analytic-sequential"):
+            return AnalyticController(design, "sequential", **gains)
         if ps.name == "random":
             return RandomPolicy(env.action_space if env is not None else None, seed=seed)
         return ZeroPolicy()

@@ -7,11 +7,14 @@ The syntax is described in :mod:`agents.policies`, which loads what a specificat
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
 __all__ = [
+    "ANALYTIC_POLICIES",
     "BUILTIN_POLICIES",
+    "GAIN_MARK",
     "NO_STATS",
     "PRETRAINED_DIR",
     "PRETRAINED_PREFIX",
@@ -40,6 +43,11 @@ BUILTIN_POLICIES: dict[str, str] = {
     "random": "uniformly random actions (seeded)",
     "zero": "zero slider velocity",
 }
+#: The built-in analytic controllers, which take ``:gain=K`` (their feedback gains, 1/s).
+ANALYTIC_POLICIES = ("analytic-simultaneous", "analytic-sequential")
+#: ``analytic-simultaneous:gain=12``: the controller with position and orientation gains 12 1/s
+#: (default 6 1/s), e.g. to compare a learned policy with a retuned controller.
+GAIN_MARK = ":gain="
 #: Where ``pretrained:<name>`` models live.
 PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
 #: Stable-Baselines3 algorithms a model file may come from (prefix -> class name).
@@ -73,6 +81,8 @@ class PolicySpec:
         algo: the forced SB3 algorithm key (``ppo``, ...), or ``None`` to detect it.
         stats: the named ``VecNormalize`` statistics file, :data:`NO_STATS`, or ``None``
             (none named).
+        gain: an analytic controller's feedback gain (1/s) named with :data:`GAIN_MARK`, or
+            ``None`` for its default.
     """
 
     text: str
@@ -81,6 +91,7 @@ class PolicySpec:
     path: Path | None = None
     algo: str | None = None
     stats: Path | str | None = None
+    gain: float | None = None
 
 
 def list_pretrained(directory: Path | None = None) -> list[str]:
@@ -93,7 +104,26 @@ def list_pretrained(directory: Path | None = None) -> list[str]:
 
 def _known() -> str:
     names = list(BUILTIN_POLICIES) + [PRETRAINED_PREFIX + n for n in list_pretrained()]
-    return ", ".join(names) + ", or a path to an SB3 model .zip[:stats=STATS.pkl]"
+    return (
+        ", ".join(names)
+        + f", an analytic controller with {GAIN_MARK}K (1/s), or a path to an SB3 model "
+        ".zip[:stats=STATS.pkl]"
+    )
+
+
+def _gain_spec(spec: str) -> PolicySpec | None:
+    """``analytic-...:gain=K`` parsed (``K`` finite and > 0, 1/s), or ``None`` if ``spec`` is
+    not of that form."""
+    head, sep, value = spec.partition(GAIN_MARK)
+    if not sep or head not in ANALYTIC_POLICIES:
+        return None
+    try:
+        gain = float(value)
+    except ValueError:
+        gain = float("nan")
+    if not (math.isfinite(gain) and gain > 0):
+        raise PolicyError(f"the gain of {spec!r} must be a finite number > 0 (1/s)")
+    return PolicySpec(spec, "builtin", spec, gain=gain)
 
 
 def _stats_value(text: str) -> Path | str:
@@ -120,6 +150,9 @@ def parse_policy_spec(text: str) -> PolicySpec:
         raise PolicyError(f"empty policy name; known: {_known()}")
     if spec in BUILTIN_POLICIES:
         return PolicySpec(spec, "builtin", spec)
+    gained = _gain_spec(spec)
+    if gained is not None:
+        return gained
     stats: Path | str | None = None
     if STATS_MARK in spec:
         spec, _, stats_text = spec.rpartition(STATS_MARK)
@@ -166,6 +199,8 @@ def policy_label(text: str) -> str:
     ``model``/``best_model`` and for rl-zoo3's ``<run>/<env id>.zip``)."""
     spec = str(text).strip()
     if spec in BUILTIN_POLICIES or spec.startswith(PRETRAINED_PREFIX):
+        return spec
+    if spec.partition(GAIN_MARK)[0] in ANALYTIC_POLICIES:
         return spec
     if STATS_MARK in spec:
         spec = spec.rpartition(STATS_MARK)[0]

@@ -1,26 +1,32 @@
-"""Residual policy learning on top of the feed-forward tracking controller (``Planar3PTrack-v0``).
+"""Residual policy learning on top of the analytic controllers.
 
 A residual policy (Silver et al. 2018, Johannink et al. 2019) learns a correction to a fixed
-controller instead of the whole action.  :class:`ResidualTrackPolicy` is a Stable-Baselines3
-actor-critic policy whose Gaussian action distribution has the mean
+controller instead of the whole action.  The policies here are Stable-Baselines3 actor-critic
+policies whose Gaussian action distribution has the mean
 
     ``mean = base(obs) + residual_scale * tanh(net(features))``
 
-with ``base`` the feed-forward tracking controller (:class:`agents.tracking.TrackingController`,
-actions as fractions of ``max_speed``) evaluated on the raw observation, and ``net`` the usual
-MLP head.  The head's output layer starts at zero, so the untrained policy's mean *is* the
-feed-forward controller, and the correction can never exceed ``residual_scale`` of the slider
-speed limit per slider.  PPO's Gaussian noise (``log_std_init``) explores around that mean; the
-environment clips actions to ``[-1, 1]`` as always.
+with ``base`` an analytic controller evaluated on the raw observation (actions as fractions of
+``max_speed``) and ``net`` the usual MLP head:
 
-Because the residual lives in the policy, not in a wrapper, the trained model is an ordinary
-SB3 ``PPO`` model of ``Planar3PTrack-v0``: ``scripts/benchmark.py`` plays it on the fixed
-tracking suites exactly like the baselines, and rl-zoo3's ``enjoy`` plays it on the plain id.
-The base controller needs the raw observation, so the policy does not use ``VecNormalize``'s
-observation normalisation (train with ``normalize: "dict(norm_obs=False, norm_reward=True)"``):
-:class:`TrackFeatures` scales the observation by fixed physical scales instead (pose errors per
-:data:`ERROR_SCALE`, speeds per ``max_speed``, travels over the stroke) and appends the base
-action, so the network sees sub-millimetre errors at order one.
+* :class:`ResidualTrackPolicy` (``Planar3PTrack-v0``): ``base`` is the feed-forward tracking
+  controller (:class:`agents.tracking.TrackingController`);
+* :class:`ResidualReachPolicy` (``Planar3P-v0``/``-v1``): ``base`` is the benchmark's
+  ``analytic-simultaneous`` controller (:class:`agents.analytic.AnalyticController` with its
+  default gains), the controller the learned policy is compared with.
+
+The head's output layer starts at zero, so the untrained policy's mean *is* the base controller,
+and the correction can never exceed ``residual_scale`` of the slider speed limit per slider.
+PPO's Gaussian noise (``log_std_init``) explores around that mean; the environment clips
+actions to ``[-1, 1]`` as always.
+
+Because the residual lives in the policy, not in a wrapper, a trained model is an ordinary SB3
+``PPO`` model of its environment id: ``scripts/benchmark.py`` plays it on the fixed suites
+exactly like the baselines, and rl-zoo3's ``enjoy`` plays it on the plain id.  The base
+controller needs the raw observation, so the policies do not use ``VecNormalize``'s observation
+normalisation (train with ``normalize: "dict(norm_obs=False, norm_reward=True)"``): the
+features extractors scale the observation by fixed physical scales instead (pose errors per an
+error scale, speeds per ``max_speed``, travels over the stroke) and append the base action.
 
 Only the design's numbers are stored with a model (``policy_kwargs["design"]``, a
 :meth:`planar3p_gym.design.Design.to_dict` mapping, default ``Design.fig8()``): the design of
@@ -41,38 +47,49 @@ from torch import nn
 
 from planar3p_gym.arguments import design_from
 from planar3p_gym.design import Design
-from planar3p_gym.observation import SLICES
+from planar3p_gym.observation import OBS_SIZE, SLICES
 
+from .analytic import AnalyticController
 from .tracking import TRACK_OBS_SIZE, TrackingController
 
 __all__ = [
     "ERROR_SCALE",
     "FEATURE_CLIP",
+    "REACH_ERROR_SCALE",
     "RESIDUAL_SCALE",
+    "ReachFeatures",
+    "ResidualReachPolicy",
     "ResidualTrackPolicy",
     "TrackFeatures",
     "feature_scaling",
 ]
 
-#: Pose error (m) that maps to a feature of 1 (errors of a few tenths of a millimetre are what
-#: the residual has to remove).
+#: Pose error (m) that maps to a feature of 1 in tracking (errors of a few tenths of a
+#: millimetre are what the residual has to remove).
 ERROR_SCALE = 1e-3
+#: Pose error (m) that maps to a feature of 1 in reaching: the centimetres over which the
+#: analytic controller's proportional tail is slow stay below the clip, a millimetre is 0.1.
+REACH_ERROR_SCALE = 1e-2
 #: Scaled features are clipped to ``[-FEATURE_CLIP, FEATURE_CLIP]``.
 FEATURE_CLIP = 10.0
 #: Default largest correction per slider, as a fraction of ``max_speed``.
 RESIDUAL_SCALE = 0.1
 
 
-def feature_scaling(design: Design) -> tuple[np.ndarray, np.ndarray]:
-    """``(offset, scale)`` of the 34 tracking-observation entries: feature ``(obs - offset) *
-    scale``.  Travels are centred on mid-stroke over half the stroke; slider, gripper and
-    reference speeds are over ``max_speed`` (angular rates times ``L_ref``); positions over
-    ``L_ref``; position errors over :data:`ERROR_SCALE` and the orientation error times
-    ``L_ref / ERROR_SCALE``; dimensionless entries (cos/sin, margins, fine errors) as they are.
-    """
+def feature_scaling(
+    design: Design, size: int = TRACK_OBS_SIZE, error_scale: float = ERROR_SCALE
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(offset, scale)`` of the ``size`` observation entries (``OBS_SIZE`` = 31 of the reach
+    ids or ``TRACK_OBS_SIZE`` = 34 of the tracking id): feature ``(obs - offset) * scale``.
+    Travels are centred on mid-stroke over half the stroke; slider, gripper and reference
+    speeds are over ``max_speed`` (angular rates times ``L_ref``); positions over ``L_ref``;
+    position errors over ``error_scale`` (m) and the orientation error times ``L_ref /
+    error_scale``; dimensionless entries (cos/sin, margins, fine errors) as they are."""
+    if size not in (OBS_SIZE, TRACK_OBS_SIZE):
+        raise ValueError(f"size must be {OBS_SIZE} or {TRACK_OBS_SIZE}, got {size!r}")
     length, vmax = design.characteristic_length, design.max_speed
-    offset = np.zeros(TRACK_OBS_SIZE)
-    scale = np.ones(TRACK_OBS_SIZE)
+    offset = np.zeros(size)
+    scale = np.ones(size)
     offset[SLICES["rho"]] = design.stroke / 2.0
     scale[SLICES["rho"]] = 2.0 / design.stroke
     scale[SLICES["rho_dot"]] = 1.0 / vmax
@@ -80,16 +97,58 @@ def feature_scaling(design: Design) -> tuple[np.ndarray, np.ndarray]:
     scale[SLICES["velocity"]] = 1.0 / vmax
     scale[SLICES["angular_velocity"]] = length / vmax
     scale[SLICES["target_position"]] = 1.0 / length
-    scale[SLICES["position_error"]] = 1.0 / ERROR_SCALE
-    scale[SLICES["orientation_error"]] = length / ERROR_SCALE
-    ref = slice(TRACK_OBS_SIZE - 3, TRACK_OBS_SIZE)
-    scale[ref] = np.array([1.0 / vmax, 1.0 / vmax, length / vmax])
+    scale[SLICES["position_error"]] = 1.0 / error_scale
+    scale[SLICES["orientation_error"]] = length / error_scale
+    if size == TRACK_OBS_SIZE:
+        ref = slice(TRACK_OBS_SIZE - 3, TRACK_OBS_SIZE)
+        scale[ref] = np.array([1.0 / vmax, 1.0 / vmax, length / vmax])
     return offset, scale
 
 
-class TrackFeatures(BaseFeaturesExtractor):
-    """The tracking observation scaled by :func:`feature_scaling` (clipped to
-    :data:`FEATURE_CLIP`), followed by the base controller's action: ``37`` features.
+class ControllerFeatures(BaseFeaturesExtractor):
+    """The observation scaled by :func:`feature_scaling` (clipped to :data:`FEATURE_CLIP`),
+    followed by the base controller's action: ``obs_size + 3`` features.
+
+    Args:
+        observation_space: ``Box((controller.obs_size,))``.
+        controller: the base controller (an :class:`AnalyticController`; its design sets the
+            feature scales).
+        error_scale: pose error (m) that maps to a feature of 1.
+    """
+
+    def __init__(
+        self,
+        observation_space: gym.spaces.Box,
+        controller: AnalyticController,
+        error_scale: float,
+    ) -> None:
+        size = controller.obs_size
+        if observation_space.shape != (size,):
+            raise ValueError(
+                f"{type(self).__name__} needs an observation of shape ({size},), got "
+                f"{observation_space.shape}"
+            )
+        super().__init__(observation_space, size + 3)
+        self.base = controller
+        offset, scale = feature_scaling(controller.design, size, error_scale)
+        self.register_buffer("offset", th.as_tensor(offset, dtype=th.float32))
+        self.register_buffer("scale", th.as_tensor(scale, dtype=th.float32))
+
+    def base_action(self, obs: th.Tensor) -> th.Tensor:
+        """The base controller's actions ``(n, 3)`` for raw observations ``(n, obs_size)`` (no
+        gradient flows through it: it is a fixed function of the observation)."""
+        raw = obs.detach().cpu().numpy().astype(np.float64)
+        action = self.base.predict(raw)[0]
+        return th.as_tensor(action, dtype=obs.dtype, device=obs.device)
+
+    def forward(self, observations: th.Tensor) -> th.Tensor:
+        scaled = th.clamp((observations - self.offset) * self.scale, -FEATURE_CLIP, FEATURE_CLIP)
+        return th.cat([scaled, self.base_action(observations)], dim=1)
+
+
+class TrackFeatures(ControllerFeatures):
+    """:class:`ControllerFeatures` of the tracking observation (34 entries, errors per
+    :data:`ERROR_SCALE`) with the feed-forward controller as base: ``37`` features.
 
     Args:
         observation_space: ``Box((34,))`` of ``Planar3PTrack-v0``.
@@ -103,33 +162,31 @@ class TrackFeatures(BaseFeaturesExtractor):
         design: Design | dict[str, Any] | None = None,
         feedforward: float = 1.0,
     ) -> None:
-        if observation_space.shape != (TRACK_OBS_SIZE,):
-            raise ValueError(
-                f"TrackFeatures needs the tracking observation ({TRACK_OBS_SIZE},), got "
-                f"{observation_space.shape}"
-            )
-        super().__init__(observation_space, TRACK_OBS_SIZE + 3)
-        d = design_from(design)
-        self.base = TrackingController(d, feedforward=feedforward)
-        offset, scale = feature_scaling(d)
-        self.register_buffer("offset", th.as_tensor(offset, dtype=th.float32))
-        self.register_buffer("scale", th.as_tensor(scale, dtype=th.float32))
-
-    def base_action(self, obs: th.Tensor) -> th.Tensor:
-        """The base controller's actions ``(n, 3)`` for raw observations ``(n, 34)`` (no
-        gradient flows through it: it is a fixed function of the observation)."""
-        raw = obs.detach().cpu().numpy().astype(np.float64)
-        action = self.base.predict(raw)[0]
-        return th.as_tensor(action, dtype=obs.dtype, device=obs.device)
-
-    def forward(self, observations: th.Tensor) -> th.Tensor:
-        scaled = th.clamp((observations - self.offset) * self.scale, -FEATURE_CLIP, FEATURE_CLIP)
-        return th.cat([scaled, self.base_action(observations)], dim=1)
+        controller = TrackingController(design_from(design), feedforward=feedforward)
+        super().__init__(observation_space, controller, ERROR_SCALE)
 
 
-class ResidualTrackPolicy(ActorCriticPolicy):
-    """PPO/A2C policy whose action mean is the feed-forward controller plus a bounded learned
-    correction (module docstring).
+class ReachFeatures(ControllerFeatures):
+    """:class:`ControllerFeatures` of the reach observation (31 entries, errors per
+    :data:`REACH_ERROR_SCALE`) with the benchmark's ``analytic-simultaneous`` controller as
+    base: ``34`` features.
+
+    Args:
+        observation_space: ``Box((31,))`` of ``Planar3P-v0``/``-v1``.
+        design: the machine (a :class:`Design`, its dict, or ``None`` for ``Design.fig8()``).
+    """
+
+    def __init__(
+        self, observation_space: gym.spaces.Box, design: Design | dict[str, Any] | None = None
+    ) -> None:
+        controller = AnalyticController(design_from(design), "simultaneous")
+        super().__init__(observation_space, controller, REACH_ERROR_SCALE)
+
+
+class ResidualPolicy(ActorCriticPolicy):
+    """PPO/A2C policy whose action mean is a base controller plus a bounded learned
+    correction (module docstring).  Subclasses name the features extractor that holds the
+    base controller (:attr:`features_class`).
 
     Args:
         observation_space, action_space, lr_schedule: as for SB3's ``ActorCriticPolicy``.
@@ -137,10 +194,11 @@ class ResidualTrackPolicy(ActorCriticPolicy):
             ``(0, 1]``.
         design: the machine of the environment (:class:`Design` dict or ``None`` for
             ``Design.fig8()``); the base controller and the feature scales use it.
-        feedforward: the base controller's feed-forward scale (1 = full).
         **kwargs: the other arguments of ``ActorCriticPolicy`` (``net_arch``,
-            ``log_std_init``, ...); the features extractor is :class:`TrackFeatures`.
+            ``log_std_init``, ...); the features extractor is :attr:`features_class`.
     """
+
+    features_class: type[ControllerFeatures] = ControllerFeatures
 
     def __init__(
         self,
@@ -150,44 +208,42 @@ class ResidualTrackPolicy(ActorCriticPolicy):
         *,
         residual_scale: float = RESIDUAL_SCALE,
         design: dict[str, Any] | None = None,
-        feedforward: float = 1.0,
         **kwargs: Any,
     ) -> None:
+        name = type(self).__name__
         if not (np.isfinite(residual_scale) and 0.0 < residual_scale <= 1.0):
             raise ValueError(f"residual_scale must be in (0, 1], got {residual_scale!r}")
         if not isinstance(action_space, gym.spaces.Box) or action_space.shape != (3,):
-            raise ValueError(
-                f"ResidualTrackPolicy needs a Box((3,)) action space, got {action_space}"
-            )
+            raise ValueError(f"{name} needs a Box((3,)) action space, got {action_space}")
         if kwargs.get("use_sde"):
-            raise ValueError("ResidualTrackPolicy supports the diagonal Gaussian only (no gSDE)")
+            raise ValueError(f"{name} supports the diagonal Gaussian only (no gSDE)")
         for key in ("features_extractor_class", "features_extractor_kwargs"):
             if key in kwargs:
-                raise ValueError(f"ResidualTrackPolicy sets its own {key}")
+                raise ValueError(f"{name} sets its own {key}")
         self.residual_scale = float(residual_scale)
         self.design_dict = design_from(design).to_dict()
-        self.feedforward = float(feedforward)
         super().__init__(
             observation_space,
             action_space,
             lr_schedule,
-            features_extractor_class=TrackFeatures,
-            features_extractor_kwargs={"design": self.design_dict, "feedforward": feedforward},
+            features_extractor_class=self.features_class,
+            features_extractor_kwargs={"design": self.design_dict, **self._base_kwargs()},
             **kwargs,
         )
         # The untrained correction is exactly zero: the policy starts as the base controller.
         nn.init.zeros_(self.action_net.weight)
         nn.init.zeros_(self.action_net.bias)
 
+    def _base_kwargs(self) -> dict[str, Any]:
+        """Arguments of the base controller besides the design (stored with the model)."""
+        return {}
+
     def _get_constructor_parameters(self) -> dict[str, Any]:
         data = super()._get_constructor_parameters()
         data.pop("features_extractor_class", None)
         data.pop("features_extractor_kwargs", None)
-        data.update(
-            residual_scale=self.residual_scale,
-            design=self.design_dict,
-            feedforward=self.feedforward,
-        )
+        data.update(residual_scale=self.residual_scale, design=self.design_dict)
+        data.update(self._base_kwargs())
         return data
 
     # ------------------------------------------------------------------ the residual mean
@@ -233,3 +289,29 @@ class ResidualTrackPolicy(ActorCriticPolicy):
 
     def _pi_features(self, features: Any) -> th.Tensor:
         return features if self.share_features_extractor else features[0]
+
+
+class ResidualTrackPolicy(ResidualPolicy):
+    """:class:`ResidualPolicy` on the feed-forward tracking controller (``Planar3PTrack-v0``).
+
+    Args:
+        observation_space, action_space, lr_schedule, residual_scale, design, **kwargs: as
+            for :class:`ResidualPolicy`.
+        feedforward: the base controller's feed-forward scale (1 = full).
+    """
+
+    features_class = TrackFeatures
+
+    def __init__(self, *args: Any, feedforward: float = 1.0, **kwargs: Any) -> None:
+        self.feedforward = float(feedforward)
+        super().__init__(*args, **kwargs)
+
+    def _base_kwargs(self) -> dict[str, Any]:
+        return {"feedforward": self.feedforward}
+
+
+class ResidualReachPolicy(ResidualPolicy):
+    """:class:`ResidualPolicy` on the benchmark's ``analytic-simultaneous`` controller
+    (``Planar3P-v0``/``-v1``); arguments as for :class:`ResidualPolicy`."""
+
+    features_class = ReachFeatures

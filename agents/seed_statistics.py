@@ -35,6 +35,7 @@ from .statistics import iqm
 METRICS: dict[str, tuple[str, str, float]] = {
     "success": ("success", "%", 100.0),
     "episode_return": ("median return", "", 1.0),
+    "time_to_success": ("median time to success", "s", 1.0),
     "tracking_rms_error": ("median tracking RMS error", "mm", 1000.0),
     "tracking_max_error": ("median tracking max error", "mm", 1000.0),
     "tracking_rms_position_error": ("median tracking RMS position error", "mm", 1000.0),
@@ -110,9 +111,10 @@ def read_seed_scores(
 ) -> dict[str, SeedGroup]:
     """One score per (group, suite, training seed) from benchmark ``episodes.csv`` rows
     (columns ``policy``, ``training_seed``, ``suite`` and ``metric``): the success rate, or
-    the median of a continuous :data:`METRICS` column over the episodes that have a value (in
-    the column's own unit).  Rows without a training seed (analytic controllers, unknown
-    models) are skipped; ``ValueError`` for an unknown metric or a non-numeric value."""
+    the median of a continuous :data:`METRICS` column over the episodes that have a value (not
+    empty, not NaN; in the column's own unit).  Rows without a training seed (analytic
+    controllers, unknown models) are skipped; ``ValueError`` for an unknown metric or a
+    non-numeric value."""
     _check_metric(metric)
     values: dict[tuple[str, str, int], list[float]] = {}
     for row in rows:
@@ -129,6 +131,8 @@ def read_seed_scores(
                 value = float(text)
             except ValueError:
                 raise ValueError(f"{metric} value {text!r} is not a number") from None
+            if math.isnan(value):  # no value: e.g. the time to success of a failed episode
+                continue
         key = (group_label(str(row["policy"])), str(row["suite"]), int(seed))
         values.setdefault(key, []).append(value)
     out: dict[str, SeedGroup] = {}

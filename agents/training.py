@@ -77,6 +77,7 @@ _ZOO_KEYS = {"n_timesteps", "policy", "n_envs", "normalize", "noise_type", "nois
 #: (``MlpPolicy``, ...): name -> (module, class), imported only when named.
 PROJECT_POLICIES: dict[str, tuple[str, str]] = {
     "ResidualTrackPolicy": ("agents.residual", "ResidualTrackPolicy"),
+    "ResidualReachPolicy": ("agents.residual", "ResidualReachPolicy"),
 }
 
 

@@ -69,6 +69,7 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         help="comma-separated: baselines (each suite's: on reach suites "
         f"{', '.join(bm.REACH_BASELINES)}; on task suites the task's own), those names, "
         f"{', '.join(sorted(bm.TASK_BASELINE_NAMES - set(bm.REACH_BASELINES)))} (task suites), "
+        "an analytic name with :gain=K (its feedback gains K 1/s instead of 6; reach suites), "
         "pretrained:NAME, or paths to SB3 model .zip files (optionally prefixed ppo:, sac:, "
         "td3:, a2c:, ddpg:; suffixed :stats=STATS.pkl to name their VecNormalize statistics, "
         ":stats=none to go without). Model and statistics files are code: see below",

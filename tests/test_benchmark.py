@@ -27,6 +27,7 @@ from agents.policies import (
     policy_label,
 )
 from planar3p_gym import Design
+from planar3p_gym.observation import SLICES
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = Design.fig8()
@@ -71,6 +72,33 @@ def test_policy_specs(tmp_path):
     assert policy_label("runs/ppo_fast.zip") == "ppo_fast"
     assert isinstance(list_pretrained(), list)
     assert isinstance(load_policy("zero"), ZeroPolicy)
+
+
+def test_analytic_controller_with_another_gain(env):
+    """``analytic-...:gain=K`` is the controller with both gains K (1/s); near the target the
+    command is proportional to the gain (below saturation), so gain 12 commands twice the
+    default 6's rates; bad gains are refused with the rule."""
+    spec = parse_policy_spec("analytic-simultaneous:gain=12")
+    assert (spec.kind, spec.gain) == ("builtin", 12.0)
+    assert policy_label(" analytic-simultaneous:gain=12") == "analytic-simultaneous:gain=12"
+    retuned = load_policy(spec, env=env)
+    assert (retuned.position_gain, retuned.orientation_gain, retuned.mode) == (
+        12.0,
+        12.0,
+        "simultaneous",
+    )
+    assert load_policy("analytic-sequential:gain=3", env=env).mode == "sequential"
+    obs, _ = env.reset(seed=0)
+    obs = obs.copy()
+    obs[SLICES["position_error"]] = (0.001, -0.0005)  # 1 mm: far below saturation
+    obs[SLICES["orientation_error"]] = 0.0005
+    default = load_policy("analytic-simultaneous", env=env).predict(obs)[0]
+    np.testing.assert_allclose(retuned.predict(obs)[0], 2.0 * default, rtol=1e-5)
+    for bad in ("0", "-1", "nan", "inf", "fast", ""):
+        with pytest.raises(PolicyError, match="finite number > 0"):
+            parse_policy_spec(f"analytic-simultaneous:gain={bad}")
+    with pytest.raises(PolicyError, match="unknown policy"):
+        parse_policy_spec("zero:gain=2")
 
 
 def test_vecnormalize_lookup_follows_the_training_layout(tmp_path):

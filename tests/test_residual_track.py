@@ -124,7 +124,7 @@ def test_bad_arguments_raise():
             _model(scale)
     with pytest.raises(ValueError, match="features_extractor_class"):
         _model(features_extractor_class=TrackFeatures)
-    with pytest.raises(ValueError, match="tracking observation"):
+    with pytest.raises(ValueError, match="observation of shape"):
         TrackFeatures(gym.spaces.Box(-1, 1, (31,)))
     with pytest.raises(ValueError, match="Box"):
         ResidualTrackPolicy(

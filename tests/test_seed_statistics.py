@@ -155,3 +155,17 @@ def test_continuous_metric_is_the_median_per_seed_in_its_unit(tmp_path: Path, ca
     assert "unknown metric" in capsys.readouterr().err
     with pytest.raises(ValueError, match="unknown metric"):
         ss.read_seed_scores([], "nope")
+
+
+def test_time_to_success_is_the_median_over_the_successful_episodes():
+    """A failed episode's time to success is NaN in episodes.csv: it has no value and does
+    not enter the median (which stays finite, so the bootstrap works)."""
+    rows = [
+        {"policy": "runs/r-s1/model", "training_seed": 1, "suite": "standard", "success": ok,
+         "time_to_success": t}
+        for ok, t in ((True, "0.6"), (True, "0.7"), (False, "nan"), (True, "0.64"))
+    ]  # fmt: skip
+    groups = ss.read_seed_scores(rows, "time_to_success")
+    assert groups["runs/r/model"]["standard"] == {1: pytest.approx(0.64)}
+    table = ss.markdown(ss.seed_table(groups, n_resamples=10), "time_to_success")
+    assert "median time to success s per seed" in table

@@ -128,6 +128,27 @@ def test_load_suite_policies_shares_reach_policies():
     assert meta["zero"] == ("zero", None)
 
 
+def test_a_retuned_analytic_controller_plays_reach_suites_only():
+    """``analytic-simultaneous:gain=K`` is played on reach suites and skipped, with a warning,
+    on task suites (whose analytic baselines are the task's own adaptations)."""
+    reach = gym.make(planar3p_gym.ENV_ID)
+    track = ts.make_task_env("track-segments")
+    warnings: list[str] = []
+    per_suite, meta = bm.load_suite_policies(
+        ["baselines", "analytic-simultaneous:gain=12"],
+        ["standard", "track-segments"],
+        {"standard": reach, "track-segments": track},
+        warn=warnings.append,
+    )
+    assert per_suite["standard"]["analytic-simultaneous:gain=12"].position_gain == 12.0
+    assert "analytic-simultaneous:gain=12" not in per_suite["track-segments"]
+    assert meta["analytic-simultaneous:gain=12"] == ("analytic-simultaneous:gain=12", None)
+    assert warnings == [
+        "analytic-simultaneous:gain=12 does not apply to task suite track-segments (its "
+        f"baselines: {ts.TASK_SUITES['track-segments'].baselines})"
+    ]
+
+
 @pytest.mark.parametrize(
     ("suite", "baseline", "flag"),
     [("mode-change", "planner", "in_target_mode"), ("assembly-change", "crossing", None)],

@@ -1,0 +1,155 @@
+"""Residual reach policy (agents/residual.py): PPO on top of the benchmark's analytic
+controller on ``Planar3P-v1``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+import torch as th
+from script_loader import load_script
+from stable_baselines3 import PPO
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+import planar3p_gym
+from agents import training
+from agents.analytic import AnalyticController
+from agents.residual import REACH_ERROR_SCALE, ReachFeatures, ResidualReachPolicy
+from planar3p_gym.observation import OBS_SIZE, SLICES
+
+ID = planar3p_gym.ENV_ID_V1
+HYPERPARAMS = training.HYPERPARAMS_DIR / "ppo_residual.yml"
+train_script = load_script("train")
+
+
+def _model(scale: float = 0.5, **policy_kwargs) -> PPO:
+    venv = DummyVecEnv([lambda: gym.make(ID)])
+    return PPO(
+        ResidualReachPolicy,
+        venv,
+        n_steps=64,
+        batch_size=64,
+        seed=0,
+        device="cpu",
+        policy_kwargs={"residual_scale": scale, "log_std_init": -2.5, **policy_kwargs},
+    )
+
+
+def _observations(n_steps: int = 40) -> np.ndarray:
+    """Observations met by the analytic controller on two seeded reach episodes."""
+    out = []
+    env = gym.make(ID)
+    ctrl = AnalyticController.from_env(env)
+    for seed in (3, 4):
+        obs, _ = env.reset(seed=seed)
+        for _ in range(n_steps):
+            out.append(obs)
+            obs, _, term, trunc, _ = env.step(ctrl(obs))
+            if term or trunc:
+                break
+    env.close()
+    return np.asarray(out)
+
+
+def test_untrained_policy_is_the_analytic_controller():
+    """The correction's output layer starts at zero, so the deterministic action is the
+    benchmark's analytic-simultaneous controller's, bit for bit (float32)."""
+    obs = _observations()
+    actions = _model().predict(obs, deterministic=True)[0]
+    expected = AnalyticController().predict(obs)[0]
+    np.testing.assert_array_equal(actions, expected)
+    assert np.abs(expected).max() > 0.5  # the controller moves: the comparison is not 0 == 0
+
+
+def test_correction_is_bounded_by_the_residual_scale():
+    obs = _observations(20)
+    scale = 0.3
+    model = _model(scale)
+    with th.no_grad():
+        model.policy.action_net.weight.normal_(0.0, 50.0)
+        model.policy.action_net.bias.fill_(3.0)
+    actions = model.predict(obs, deterministic=True)[0]
+    base = AnalyticController().predict(obs)[0]
+    # the environment's action space clips at [-1, 1]; SB3's predict clips there too
+    diff = np.abs(actions - base)
+    assert diff.max() <= scale + 1e-6
+    assert diff.max() > 0.9 * scale
+
+
+def test_features_scale_a_centimetre_to_one():
+    design = planar3p_gym.Design.fig8()
+    env = gym.make(ID)
+    obs, _ = env.reset(seed=0)
+    feats = ReachFeatures(env.observation_space)
+    x = np.asarray(obs, dtype=np.float64).copy()
+    x[SLICES["position_error"]] = (REACH_ERROR_SCALE, -0.1 * REACH_ERROR_SCALE)
+    x[SLICES["orientation_error"]] = REACH_ERROR_SCALE / design.characteristic_length
+    f = feats(th.as_tensor(x[None], dtype=th.float32))[0].numpy()
+    assert f.shape == (OBS_SIZE + 3,)
+    np.testing.assert_allclose(f[SLICES["position_error"]], [1.0, -0.1], rtol=1e-5)
+    np.testing.assert_allclose(f[SLICES["orientation_error"]], [1.0], rtol=1e-5)
+    np.testing.assert_allclose(f[OBS_SIZE:], AnalyticController().predict(x.astype(np.float32))[0])
+    # an error of 20 cm is clipped at 10 (features stay of order one to ten)
+    x[SLICES["position_error"]] = (0.2, 0.0)
+    assert feats(th.as_tensor(x[None], dtype=th.float32))[0, SLICES["position_error"]][0] == 10
+
+
+def test_round_trip_and_wrong_observation(tmp_path: Path):
+    obs = _observations(20)
+    model = _model(0.2, net_arch={"pi": [16], "vf": [16]})
+    with th.no_grad():
+        model.policy.action_net.weight.normal_(0.0, 1.0)
+    model.save(tmp_path / "m.zip")
+    loaded = PPO.load(tmp_path / "m.zip", device="cpu")
+    assert isinstance(loaded.policy, ResidualReachPolicy)
+    assert loaded.policy.residual_scale == 0.2
+    np.testing.assert_array_equal(
+        loaded.predict(obs, deterministic=True)[0], model.predict(obs, deterministic=True)[0]
+    )
+    with pytest.raises(ValueError, match=r"observation of shape \(31,\)"):
+        ReachFeatures(gym.spaces.Box(-1, 1, (34,)))
+    assert training.policy_class("ResidualReachPolicy") is ResidualReachPolicy
+
+
+def test_benchmark_plays_an_untrained_residual_model_like_the_controller(tmp_path: Path):
+    """Played by the benchmark's episode runner on the fixed `standard` suite, the untrained
+    residual model is the analytic controller: same outcomes, same times to success."""
+    from agents.benchmark import build_suites
+    from agents.episodes import evaluate
+    from agents.policies import load_policy
+
+    _model().save(tmp_path / "residual.zip")
+    env = gym.make(ID)
+    suite = build_suites(["standard"], 2, 0, env.unwrapped.design)["standard"]
+    learned = evaluate(env, load_policy(f"{tmp_path / 'residual.zip'}:stats=none", env=env), suite)
+    analytic = evaluate(env, AnalyticController.from_env(env), suite)
+    assert [r.success for r in learned] == [r.success for r in analytic] == [True, True]
+    assert [r.time_to_success for r in learned] == [r.time_to_success for r in analytic]
+
+
+def test_train_script_trains_the_shipped_entry(tmp_path: Path):
+    """scripts/train.py with agents/hyperparams/ppo_residual.yml: a complete run whose model
+    is a residual reach policy with reward-only statistics."""
+    run = tmp_path / "reach"
+    argv = [
+        "--algo", "ppo", "--env", ID, "--hyperparams", str(HYPERPARAMS),
+        "--vec-env", "native", "--n-envs", "2", "--timesteps", "128", "--run-dir", str(run),
+        "--eval-freq", "128", "--eval-episodes", "1", "--final-eval-episodes", "1",
+        "--checkpoint-freq", "128", "--no-progress-bar",
+        "--params", "n_steps=64", "batch_size=64", "n_epochs=1",
+    ]  # fmt: skip
+    assert train_script.main(argv) == 0
+    config = json.loads((run / "config.json").read_text())["config"]
+    assert config["policy"] == "ResidualReachPolicy"
+    model = PPO.load(run / "model.zip", device="cpu")
+    assert isinstance(model.policy, ResidualReachPolicy)
+    from agents.policies import load_policy
+
+    loaded = load_policy(f"{run / 'model.zip'}:stats={run / 'vecnormalize.pkl'}", env=gym.make(ID))
+    assert not loaded.vecnormalize.norm_obs
