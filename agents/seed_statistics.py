@@ -177,7 +177,7 @@ def markdown(rows: list[dict[str, Any]], metric: str = "success") -> str:
     _check_metric(metric)
     name, unit, factor = METRICS[metric]
     what = f"{name} {unit}".strip()
-    digits = (0, 1) if metric == "success" else (3, 3) if unit in ("mm", "deg") else (1, 1)
+    digits = {"%": (0, 1), "mm": (3, 3), "deg": (3, 3), "s": (2, 3)}.get(unit, (1, 1))
     lines = [
         f"| policy (seeds pooled) | suite | training seeds | {what} per seed "
         f"| IQM {what} [95 % stratified-bootstrap CI] |",

@@ -93,7 +93,9 @@ class Planar3PEnv(gym.Env):
     mode within the stroke (away from the end stops), with parallel and serial margins above
     thresholds, holdable at rest with at most 75 % of the actuator force, in the same assembly
     mode, and by default joined by a straight path in pose
-    space that stays clear of singularities (:class:`planar3p_gym.task.TaskConfig`).  The
+    space that stays clear of singularities (:class:`planar3p_gym.task.TaskConfig`;
+    ``task_config={"near_singular_fraction": p}`` makes a share ``p`` of the pairs instead pass
+    within 0.01 of a parallel singularity, like the benchmark's ``hard`` suite).  The
     mechanism starts at rest.  ``reset(options={"start": pose, "target": pose,
     "working_mode": (s1, s2, s3)})`` sets any of them (validated; ``ValueError`` if invalid).
 

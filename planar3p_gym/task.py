@@ -61,6 +61,12 @@ class TaskConfig:
         path_parallel_margin: parallel margin required along that path.
         path_serial_margin: serial margin required along that path.
         path_points: number of poses at which the path is checked (2 to 1000).
+        near_singular_fraction: share of the drawn pairs (neither end given) whose straight
+            path instead comes within ``near_singular_margin`` of a parallel singularity, or
+            crosses one and comes back, while staying reachable with ``path_serial_margin``:
+            the kind of pair of the benchmark's ``hard`` suite, for training near
+            singularities.  0 (the default) draws no extra random number.
+        near_singular_margin: parallel margin such a path comes within.
     """
 
     position_tolerance: float = 0.002
@@ -75,6 +81,8 @@ class TaskConfig:
     path_parallel_margin: float = 0.02
     path_serial_margin: float = 0.1
     path_points: int = 24
+    near_singular_fraction: float = 0.0
+    near_singular_margin: float = 0.01
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
@@ -104,12 +112,18 @@ class TaskConfig:
             "min_serial_margin",
             "path_parallel_margin",
             "path_serial_margin",
+            "near_singular_margin",
         ):
             if getattr(self, name) >= 1:
                 raise ValueError(f"TaskConfig.{name} must be < 1, got {getattr(self, name)!r}")
         if not 0 < self.max_holding_force <= 1:
             raise ValueError(
                 f"TaskConfig.max_holding_force must be in (0, 1], got {self.max_holding_force!r}"
+            )
+        if self.near_singular_fraction > 1:
+            raise ValueError(
+                "TaskConfig.near_singular_fraction must be in [0, 1], got "
+                f"{self.near_singular_fraction!r}"
             )
         if self.travel_margin >= 0.5:
             raise ValueError(f"TaskConfig.travel_margin must be < 0.5, got {self.travel_margin!r}")
@@ -283,6 +297,10 @@ def sample_pair(
         return start, target
     sampler = sampler or PoseSampler(design, mode, cfg)
     free = start is None and target is None
+    if free and cfg.near_singular_fraction > 0 and rng.random() < cfg.near_singular_fraction:
+        pair = _near_singular_pair(design, mode, rng, cfg, sampler)
+        if pair is not None:
+            return pair
     for attempt in itertools.count():
         if attempt == max_tries:
             if not free:
@@ -310,6 +328,41 @@ def sample_pair(
         "could not pair a start with a target under the task's constraints "
         "(same assembly mode, minimum distance, clear path); relax TaskConfig or give both"
     )
+
+
+#: Candidate targets screened per start by :func:`_near_singular_pair`, and starts tried.
+NEAR_SINGULAR_CANDIDATES = 64
+NEAR_SINGULAR_STARTS = 200
+
+
+def _near_singular_pair(
+    design: Design, mode: ArrayLike, rng: np.random.Generator, cfg: TaskConfig, sampler: PoseSampler
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """A pair of the same assembly mode, ``min_distance`` apart, whose straight path stays
+    reachable within the stroke with ``path_serial_margin`` but comes within
+    ``near_singular_margin`` of a parallel singularity (or crosses one): by rejection over
+    :data:`NEAR_SINGULAR_CANDIDATES` targets per start; ``None`` after
+    :data:`NEAR_SINGULAR_STARTS` starts (a design with no such pairs: the caller draws an
+    ordinary pair)."""
+    m = np.asarray(mode, dtype=np.float64)
+    for _ in range(NEAR_SINGULAR_STARTS):
+        s, det = sampler.draw(rng)
+        cands = sampler.draw_many(rng, det, NEAR_SINGULAR_CANDIDATES)
+        if not len(cands):
+            continue
+        far = pose_distance(s[None, :], cands, design.characteristic_length) >= cfg.min_distance
+        cands = cands[far]
+        if not len(cands):
+            continue
+        paths = interpolate(s[None, :], cands, cfg.path_points)
+        reachable = kinematics.screen_paths(design, paths, m, min_serial=cfg.path_serial_margin)
+        clear = kinematics.screen_paths(
+            design, paths, m, min_parallel=cfg.near_singular_margin, assembly=det
+        )
+        hits = np.flatnonzero(reachable & ~clear)
+        if hits.size:
+            return s, cands[int(hits[0])]
+    return None
 
 
 def _first_ok(

@@ -169,3 +169,4 @@ def test_time_to_success_is_the_median_over_the_successful_episodes():
     assert groups["runs/r/model"]["standard"] == {1: pytest.approx(0.64)}
     table = ss.markdown(ss.seed_table(groups, n_resamples=10), "time_to_success")
     assert "median time to success s per seed" in table
+    assert "| 0.64 | 0.640 [0.640, 0.640] |" in table

@@ -188,3 +188,73 @@ def test_check_mode_accepts_modes_with_pairs_and_explains_the_others():
     apart = replace(CFG, min_distance=5.0)  # poses, but none 5 m apart
     with pytest.raises(ValueError, match=r"no start/target pair .* min_distance apart"):
         task.check_mode(DESIGN, (1, 1, -1), apart)
+
+
+# ---------------------------------------------------------------- near-singular training pairs
+def _path_checks(design: Design, start, target, mode, cfg: task.TaskConfig) -> tuple[bool, bool]:
+    """(reachable with the path serial margin, clear of ``near_singular_margin`` in the start's
+    assembly mode) of the straight path, on the task's path points."""
+    det = float(
+        kinematics.assembly_mode(design, start, kinematics.inverse(design, start, mode).rho)
+    )
+    path = task.interpolate(start[None, :], target[None, :], cfg.path_points)
+    m = np.asarray(mode, dtype=np.float64)
+    reachable = kinematics.screen_paths(design, path, m, min_serial=cfg.path_serial_margin)[0]
+    clear = kinematics.screen_paths(
+        design, path, m, min_parallel=cfg.near_singular_margin, assembly=det
+    )[0]
+    return bool(reachable), bool(clear)
+
+
+def test_near_singular_pairs_come_within_the_margin():
+    """With near_singular_fraction = 1 every drawn pair is of the benchmark's hard kind: same
+    assembly mode, min_distance apart, acceptable ends, a path reachable with the serial margin
+    that comes within near_singular_margin of a parallel singularity (the clear-path rule
+    would have refused every one of them)."""
+    design, mode = Design.fig8(), (1, 1, -1)
+    cfg = task.TaskConfig(near_singular_fraction=1.0, near_singular_margin=0.01)
+    rng = np.random.default_rng(5)
+    sampler = task.PoseSampler(design, mode, cfg)
+    for _ in range(4):
+        s, t = task.sample_pair(design, mode, rng, cfg, sampler=sampler)
+        ok, dets = task._acceptable(design, np.array([s, t]), np.asarray(mode, float), cfg)
+        assert ok.all() and dets[0] == dets[1]
+        assert task.pose_distance(s, t, design.characteristic_length) >= cfg.min_distance
+        assert _path_checks(design, s, t, mode, cfg) == (True, False)
+        assert not task.path_is_clear(design, s, t[None, :], mode, dets[0], cfg)[0]
+
+
+def test_near_singular_fraction_mixes_and_replays():
+    """A fraction of 0.5 gives both kinds of pair; the same seed gives the same pairs; the
+    default (0) leaves the draws of the plain task untouched (an extra random number would
+    shift them: pinned by tests/test_v0_regression.py as well)."""
+    design, mode = Design.fig8(), (1, 1, -1)
+    cfg = task.TaskConfig(near_singular_fraction=0.5)
+
+    def draws(c: task.TaskConfig, seed: int, n: int) -> list[tuple[np.ndarray, np.ndarray]]:
+        rng, sampler = np.random.default_rng(seed), task.PoseSampler(design, mode, c)
+        return [task.sample_pair(design, mode, rng, c, sampler=sampler) for _ in range(n)]
+
+    pairs = draws(cfg, 3, 12)
+    kinds = {_path_checks(design, s, t, mode, cfg)[1] for s, t in pairs}
+    assert kinds == {True, False}
+    again = draws(cfg, 3, 12)
+    np.testing.assert_array_equal(np.array(pairs), np.array(again))
+    plain = draws(task.TaskConfig(), 3, 3)
+    zero = draws(task.TaskConfig(near_singular_fraction=0.0, near_singular_margin=0.02), 3, 3)
+    np.testing.assert_array_equal(np.array(plain), np.array(zero))
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        {"near_singular_fraction": 1.5},
+        {"near_singular_fraction": -0.1},
+        {"near_singular_fraction": float("nan")},
+        {"near_singular_margin": 1.0},
+        {"near_singular_margin": -0.01},
+    ],
+)
+def test_bad_near_singular_settings_raise(kwargs):
+    with pytest.raises(ValueError, match="near_singular"):
+        task.TaskConfig(**kwargs)
