@@ -196,7 +196,8 @@ def parse_policy_spec(text: str) -> PolicySpec:
 def policy_label(text: str) -> str:
     """Short name of a specification for tables and plots (built-in name, ``pretrained:x``,
     or the model file's stem, prefixed by its directory for generic stems such as
-    ``model``/``best_model`` and for rl-zoo3's ``<run>/<env id>.zip``)."""
+    ``model``/``best_model`` and for rl-zoo3's ``<run>/<env id>.zip``, and by the run for a
+    checkpoint ``<run>/checkpoints/rl_model_<steps>_steps.zip``)."""
     spec = str(text).strip()
     if spec in BUILTIN_POLICIES or spec.startswith(PRETRAINED_PREFIX):
         return spec
@@ -209,6 +210,8 @@ def policy_label(text: str) -> str:
         spec = rest
     p = Path(spec)
     parent = p.parent.name
+    if parent == "checkpoints" and p.parent.parent.name:  # runs/<run>/checkpoints/rl_model_N_steps
+        return f"{p.parent.parent.name}/{p.stem}"
     generic = p.stem in ("model", "best_model") or p.stem.endswith("_model")
     zoo = (p.parent / p.stem).is_dir()  # rl-zoo3: <run>/<env id>.zip beside <run>/<env id>/
     return f"{parent}/{p.stem}" if parent and (generic or zoo) else p.stem

@@ -1,8 +1,9 @@
 #!/usr/bin/env python
 """The main job: shipped learned policies against the analytic controller, on quick suites.
 
-1. Reach: ``scripts/benchmark.py --quick`` on the shipped pretrained reach policy
-   (``agents/pretrained/``) and the paper's simultaneous simple-motion controller.
+1. Reach, on ``Planar3P-v1``: ``scripts/benchmark.py --quick`` on the shipped residual reach
+   policy (``pretrained:ppo_reach_residual``: PPO's learned correction to the analytic
+   controller, faster to the target) and the paper's simultaneous simple-motion controller.
 2. Working-mode change, where the simple motions fail by construction (they never pass the
    serial singularity a leg must cross): the shipped ``ppo_mode_change`` policy against the
    simple motions and the certified travel-space planner, on the quick ``mode-change`` suite.
@@ -45,8 +46,9 @@ from agents.task_suites import TASK_SUITES, make_task_suite, task_baseline  # no
 ANALYTIC = "analytic-simultaneous"
 MODE_CHANGE = "mode-change"
 MODE_CHANGE_POLICY = "pretrained:ppo_mode_change"
-#: The shipped reach policy of ``Planar3P-v0`` the demo plays by default.
-REACH_POLICY = "pretrained:ppo_kickstart"
+#: The shipped reach policy the demo plays by default, and the id it was trained on.
+REACH_POLICY = "pretrained:ppo_reach_residual"
+REACH_ENV = planar3p_gym.ENV_ID_V1
 
 
 def _benchmark_main():
@@ -100,7 +102,7 @@ def main(argv: list[str] | None = None) -> int:
         epilog=TRUSTED_FILES_NOTE,
     )
     p.add_argument("--out", type=Path, default=ROOT / "results" / "demo")
-    p.add_argument("--policy", default=REACH_POLICY, help="learned reach policy (Planar3P-v0)")
+    p.add_argument("--policy", default=REACH_POLICY, help=f"learned reach policy ({REACH_ENV})")
     p.add_argument("--mode-change-policy", default=MODE_CHANGE_POLICY, help="learned policy")
     p.add_argument("--seed", type=int, default=0)
     args = p.parse_args(argv)
@@ -108,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     learned = args.policy
     mc_env = TASK_SUITES[MODE_CHANGE].env_id
     try:
-        load_policy(learned, env=gym.make(planar3p_gym.ENV_ID))
+        load_policy(learned, env=gym.make(REACH_ENV))
         load_policy(args.mode_change_policy, env=gym.make(mc_env))
     except PolicyError as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -116,9 +118,9 @@ def main(argv: list[str] | None = None) -> int:
 
     reach = _part(
         "Reach",
-        ["--suites", ",".join(su.SUITE_NAMES)],
+        ["--suites", ",".join(su.SUITE_NAMES), "--reach-env", REACH_ENV],
         [learned, ANALYTIC],
-        planar3p_gym.ENV_ID,
+        REACH_ENV,
         su.make_suite("standard", 1, args.seed).episodes[0],
         None,
         args.out / "reach",

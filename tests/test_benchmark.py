@@ -70,6 +70,9 @@ def test_policy_specs(tmp_path):
         parse_policy_spec("pretrained:does_not_exist")
     assert policy_label("sac:runs/x/model.zip") == "x/model"
     assert policy_label("runs/ppo_fast.zip") == "ppo_fast"
+    # checkpoints of different runs get different labels (and group by run across seeds)
+    ckpt = "ppo:runs/r-s2/checkpoints/rl_model_1000000_steps.zip:stats=x.pkl"
+    assert policy_label(ckpt) == "r-s2/rl_model_1000000_steps"
     assert isinstance(list_pretrained(), list)
     assert isinstance(load_policy("zero"), ZeroPolicy)
 

@@ -10,7 +10,6 @@ import imageio.v2 as imageio
 import pytest
 from conftest import load_script
 
-import planar3p_gym
 from agents.baselines import ZeroPolicy
 from agents.episode_gif import GIF_SIZE, record_gif
 from agents.policies import load_policy
@@ -100,7 +99,7 @@ def test_demo_default_policies_are_named_and_fit_their_ids():
     changes as policies are shipped) and each loads on the id its part plays."""
     demo = load_script("demo")
     for spec, env_id in (
-        (demo.REACH_POLICY, planar3p_gym.ENV_ID),
+        (demo.REACH_POLICY, demo.REACH_ENV),
         (demo.MODE_CHANGE_POLICY, TASK_SUITES[demo.MODE_CHANGE].env_id),
     ):
         env = gym.make(env_id)
