@@ -33,7 +33,7 @@ from planar3p_gym.atomic_files import copy_atomic, write_atomic
 from .policy_spec import PRETRAINED_DIR
 from .pretrained_manifest import write_manifest
 
-__all__ = ["MODELS", "ship", "zoo_layout"]
+__all__ = ["CHECKPOINT_PREFIX", "MODELS", "model_files", "ship", "zoo_layout"]
 
 #: Models of a run directory (``scripts/train.py``) and their statistics; older runs kept the
 #: best model at the top level as ``best_model.zip`` + ``best_vecnormalize.pkl``.
@@ -114,6 +114,27 @@ def zoo_layout(name: str, directory: Path | None = None) -> Path:
     return exp
 
 
+#: ``checkpoint:<steps>``: the run's checkpoint after ``<steps>`` environment steps.
+CHECKPOINT_PREFIX = "checkpoint:"
+
+
+def model_files(model: str) -> tuple[str, str]:
+    """Paths, relative to a run directory, of the model ``model`` (a key of :data:`MODELS`
+    or ``checkpoint:<steps>``) and of its statistics.  ``ValueError`` for another name."""
+    if model in MODELS:
+        return MODELS[model]
+    steps = model.removeprefix(CHECKPOINT_PREFIX)
+    if model.startswith(CHECKPOINT_PREFIX) and steps.isdigit() and int(steps) > 0:
+        n = int(steps)
+        return (
+            f"checkpoints/rl_model_{n}_steps.zip",
+            f"checkpoints/rl_model_vecnormalize_{n}_steps.pkl",
+        )
+    raise ValueError(
+        f"model must be one of {', '.join(MODELS)} or {CHECKPOINT_PREFIX}<steps>, got {model!r}"
+    )
+
+
 def ship(
     run: Path,
     name: str,
@@ -125,11 +146,9 @@ def ship(
     ``agents/pretrained``) as ``pretrained:<name>`` in both layouts; returns the files
     written.  ``ValueError`` (nothing written) if the name or the run is not usable."""
     _check_name(name)
-    if model not in MODELS:
-        raise ValueError(f"model must be one of {', '.join(MODELS)}, got {model!r}")
+    model_rel, stats_rel = model_files(model)
     out = Path(out) if out is not None else PRETRAINED_DIR
     run = Path(run)
-    model_rel, stats_rel = MODELS[model]
     if model == "best_model" and not (run / model_rel).is_file():
         model_rel, stats_rel = _LEGACY_BEST
     src, config = run / model_rel, run / "config.json"

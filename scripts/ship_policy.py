@@ -33,7 +33,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     p.add_argument("run", type=Path, nargs="?", help="run directory written by scripts/train.py")
     p.add_argument("--name", required=True, help="name of the shipped policy")
-    p.add_argument("--model", default="best_model", choices=sorted(MODELS))
+    p.add_argument(
+        "--model",
+        default="best_model",
+        help=f"one of {', '.join(sorted(MODELS))}, or checkpoint:STEPS (the run's checkpoint "
+        "after STEPS environment steps)",
+    )
     p.add_argument("--out", type=Path, default=PRETRAINED_DIR)
     p.add_argument("--note", default="", help="free text recorded in <name>.json")
     p.add_argument(

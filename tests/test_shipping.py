@@ -69,6 +69,15 @@ def test_ship_writes_both_layouts_and_the_manifest(tiny_run: Path, tmp_path: Pat
     assert zoo_layout("tiny", out) == exp
     ship(tiny_run, "other", "model", out)
     assert (out / "ppo" / "Planar3P-v0_2" / "Planar3P-v0.zip").is_file()
+    # a checkpoint ships with its own statistics
+    ship(tiny_run, "early", "checkpoint:128", out)
+    ckpt = tiny_run / "checkpoints"
+    assert (out / "early.zip").read_bytes() == (ckpt / "rl_model_128_steps.zip").read_bytes()
+    assert (out / "early_vecnormalize.pkl").read_bytes() == (
+        ckpt / "rl_model_vecnormalize_128_steps.pkl"
+    ).read_bytes()
+    record = json.loads((out / "early.json").read_text())
+    assert record["source_model"] == "checkpoints/rl_model_128_steps.zip"
 
 
 @pytest.mark.parametrize(
@@ -76,6 +85,8 @@ def test_ship_writes_both_layouts_and_the_manifest(tiny_run: Path, tmp_path: Pat
     [
         (["--name", "bad name!"], "invalid name"),
         (["--name", "x", "--model", "model"], "does not exist"),
+        (["--name", "x", "--model", "checkpoint:-5"], "checkpoint:<steps>"),
+        (["--name", "x", "--model", "last"], "checkpoint:<steps>"),
     ],
 )
 def test_bad_input_writes_nothing(argv, message, tmp_path: Path, capsys) -> None:
