@@ -13,9 +13,15 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import torch as th
+from residual_helpers import (
+    TINY_RUN_ARGS,
+    assert_correction_bounded,
+    assert_round_trip,
+    observation_with_errors,
+    residual_model,
+)
 from script_loader import load_script
 from stable_baselines3 import PPO
-from stable_baselines3.common.vec_env import DummyVecEnv
 
 import planar3p_gym
 from agents import training
@@ -29,16 +35,7 @@ train_script = load_script("train")
 
 
 def _model(scale: float = 0.5, **policy_kwargs) -> PPO:
-    venv = DummyVecEnv([lambda: gym.make(ID)])
-    return PPO(
-        ResidualReachPolicy,
-        venv,
-        n_steps=64,
-        batch_size=64,
-        seed=0,
-        device="cpu",
-        policy_kwargs={"residual_scale": scale, "log_std_init": -2.5, **policy_kwargs},
-    )
+    return residual_model(ResidualReachPolicy, ID, scale, -2.5, **policy_kwargs)
 
 
 def _observations(n_steps: int = 40) -> np.ndarray:
@@ -68,29 +65,15 @@ def test_untrained_policy_is_the_analytic_controller():
 
 
 def test_correction_is_bounded_by_the_residual_scale():
-    obs = _observations(20)
-    scale = 0.3
-    model = _model(scale)
-    with th.no_grad():
-        model.policy.action_net.weight.normal_(0.0, 50.0)
-        model.policy.action_net.bias.fill_(3.0)
-    actions = model.predict(obs, deterministic=True)[0]
-    base = AnalyticController().predict(obs)[0]
-    # the environment's action space clips at [-1, 1]; SB3's predict clips there too
-    diff = np.abs(actions - base)
-    assert diff.max() <= scale + 1e-6
-    assert diff.max() > 0.9 * scale
+    assert_correction_bounded(_model(0.3), AnalyticController(), _observations(20), 0.3)
 
 
 def test_features_scale_a_centimetre_to_one():
-    design = planar3p_gym.Design.fig8()
     env = gym.make(ID)
-    obs, _ = env.reset(seed=0)
     feats = ReachFeatures(env.observation_space)
-    x = np.asarray(obs, dtype=np.float64).copy()
-    x[SLICES["position_error"]] = (REACH_ERROR_SCALE, -0.1 * REACH_ERROR_SCALE)
-    x[SLICES["orientation_error"]] = REACH_ERROR_SCALE / design.characteristic_length
-    f = feats(th.as_tensor(x[None], dtype=th.float32))[0].numpy()
+    s = REACH_ERROR_SCALE
+    x, tensor = observation_with_errors(env, s, -0.1 * s, s)
+    f = feats(tensor)[0].numpy()
     assert f.shape == (OBS_SIZE + 3,)
     np.testing.assert_allclose(f[SLICES["position_error"]], [1.0, -0.1], rtol=1e-5)
     np.testing.assert_allclose(f[SLICES["orientation_error"]], [1.0], rtol=1e-5)
@@ -101,17 +84,8 @@ def test_features_scale_a_centimetre_to_one():
 
 
 def test_round_trip_and_wrong_observation(tmp_path: Path):
-    obs = _observations(20)
     model = _model(0.2, net_arch={"pi": [16], "vf": [16]})
-    with th.no_grad():
-        model.policy.action_net.weight.normal_(0.0, 1.0)
-    model.save(tmp_path / "m.zip")
-    loaded = PPO.load(tmp_path / "m.zip", device="cpu")
-    assert isinstance(loaded.policy, ResidualReachPolicy)
-    assert loaded.policy.residual_scale == 0.2
-    np.testing.assert_array_equal(
-        loaded.predict(obs, deterministic=True)[0], model.predict(obs, deterministic=True)[0]
-    )
+    assert_round_trip(model, ResidualReachPolicy, _observations(20), tmp_path / "m.zip")
     with pytest.raises(ValueError, match=r"observation of shape \(31,\)"):
         ReachFeatures(gym.spaces.Box(-1, 1, (34,)))
     assert training.policy_class("ResidualReachPolicy") is ResidualReachPolicy
@@ -139,10 +113,7 @@ def test_train_script_trains_the_shipped_entry(tmp_path: Path):
     run = tmp_path / "reach"
     argv = [
         "--algo", "ppo", "--env", ID, "--hyperparams", str(HYPERPARAMS),
-        "--vec-env", "native", "--n-envs", "2", "--timesteps", "128", "--run-dir", str(run),
-        "--eval-freq", "128", "--eval-episodes", "1", "--final-eval-episodes", "1",
-        "--checkpoint-freq", "128", "--no-progress-bar",
-        "--params", "n_steps=64", "batch_size=64", "n_epochs=1",
+        "--vec-env", "native", "--run-dir", str(run), *TINY_RUN_ARGS,
     ]  # fmt: skip
     assert train_script.main(argv) == 0
     config = json.loads((run / "config.json").read_text())["config"]

@@ -12,9 +12,15 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import torch as th
+from residual_helpers import (
+    TINY_RUN_ARGS,
+    assert_correction_bounded,
+    assert_round_trip,
+    observation_with_errors,
+    residual_model,
+)
 from script_loader import load_script
 from stable_baselines3 import PPO
-from stable_baselines3.common.vec_env import DummyVecEnv
 
 import planar3p_gym
 from agents import training
@@ -27,16 +33,7 @@ train_script = load_script("train")
 
 
 def _model(scale: float = 0.1, **policy_kwargs) -> PPO:
-    venv = DummyVecEnv([lambda: gym.make(ID)])
-    return PPO(
-        ResidualTrackPolicy,
-        venv,
-        n_steps=64,
-        batch_size=64,
-        seed=0,
-        device="cpu",
-        policy_kwargs={"residual_scale": scale, "log_std_init": -4.0, **policy_kwargs},
-    )
+    return residual_model(ResidualTrackPolicy, ID, scale, -4.0, **policy_kwargs)
 
 
 def _observations(n_steps: int = 60) -> np.ndarray:
@@ -66,44 +63,20 @@ def test_untrained_policy_is_the_feedforward_controller():
 
 
 def test_correction_is_bounded_by_the_residual_scale():
-    """Whatever the head outputs, the mean stays within residual_scale of the base action
-    (tanh), and a large head reaches that bound."""
-    obs = _observations(30)
-    scale = 0.07
-    model = _model(scale)
-    with th.no_grad():
-        model.policy.action_net.weight.normal_(0.0, 50.0)
-        model.policy.action_net.bias.fill_(3.0)
-    actions = model.predict(obs, deterministic=True)[0]
-    base = TrackingController().predict(obs)[0]
-    diff = np.abs(actions - base)
-    assert diff.max() <= scale + 1e-6
-    assert diff.max() > 0.9 * scale
+    assert_correction_bounded(_model(0.07), TrackingController(), _observations(30), 0.07)
 
 
 def test_round_trip_through_a_model_file(tmp_path: Path):
-    obs = _observations(20)
     model = _model(0.05, net_arch={"pi": [16], "vf": [16]})
-    with th.no_grad():
-        model.policy.action_net.weight.normal_(0.0, 1.0)
-    model.save(tmp_path / "m.zip")
-    loaded = PPO.load(tmp_path / "m.zip", device="cpu")
-    assert isinstance(loaded.policy, ResidualTrackPolicy)
-    assert loaded.policy.residual_scale == 0.05
+    loaded = assert_round_trip(model, ResidualTrackPolicy, _observations(20), tmp_path / "m.zip")
     assert loaded.policy.design_dict == planar3p_gym.Design.fig8().to_dict()
-    np.testing.assert_array_equal(
-        loaded.predict(obs, deterministic=True)[0], model.predict(obs, deterministic=True)[0]
-    )
 
 
 def test_features_scale_a_millimetre_to_one():
     design = planar3p_gym.Design.fig8()
     env = gym.make(ID)
-    obs, _ = env.reset(seed=0)
     feats = TrackFeatures(env.observation_space)
-    x = np.asarray(obs, dtype=np.float64).copy()
-    x[SLICES["position_error"]] = (ERROR_SCALE, -2 * ERROR_SCALE)
-    x[SLICES["orientation_error"]] = ERROR_SCALE / design.characteristic_length
+    x, _ = observation_with_errors(env, ERROR_SCALE, -2 * ERROR_SCALE, ERROR_SCALE)
     x[SLICES["rho"]] = design.stroke / 2
     x[31:34] = (design.max_speed, 0.0, design.max_speed / design.characteristic_length)
     f = feats(th.as_tensor(x[None], dtype=th.float32))[0].numpy()
@@ -142,11 +115,8 @@ def test_train_script_trains_the_shipped_entry(tmp_path: Path):
     references): a complete run whose model is a residual policy."""
     run = tmp_path / "track"
     argv = [
-        "--algo", "ppo", "--env", ID, "--vec-env", "native", "--n-envs", "2",
-        "--env-kwargs", 'reference="mixed"', "--timesteps", "128", "--run-dir", str(run),
-        "--eval-freq", "128", "--eval-episodes", "1", "--final-eval-episodes", "1",
-        "--checkpoint-freq", "128", "--no-progress-bar",
-        "--params", "n_steps=64", "batch_size=64", "n_epochs=1",
+        "--algo", "ppo", "--env", ID, "--vec-env", "native",
+        "--env-kwargs", 'reference="mixed"', "--run-dir", str(run), *TINY_RUN_ARGS,
     ]  # fmt: skip
     assert train_script.main(argv) == 0
     config = json.loads((run / "config.json").read_text())["config"]
