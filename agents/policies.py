@@ -108,9 +108,9 @@ def load_policy(
         design = env.unwrapped.design
     if ps.kind == "builtin":
         gains = {} if ps.gain is None else {"position_gain": ps.gain, "orientation_gain": ps.gain}
-        if ps.name.startswith("analytic-simultaneous"):
+        if ps.name == "analytic-simultaneous":
             return AnalyticController(design, "simultaneous", **gains)
-        if ps.name.startswith("analytic-sequential"):
+        if ps.name == "analytic-sequential":
             return AnalyticController(design, "sequential", **gains)
         if ps.name == "random":
             return RandomPolicy(env.action_space if env is not None else None, seed=seed)

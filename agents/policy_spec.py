@@ -76,7 +76,8 @@ class PolicySpec:
     Attributes:
         text: the specification as given.
         kind: ``"builtin"`` or ``"model"``.
-        name: the built-in name, or the model's label (``pretrained:<name>`` or file stem).
+        name: the built-in name (without a :data:`GAIN_MARK` suffix), or the model's label
+            (``pretrained:<name>`` or file stem).
         path: the model file (``kind == "model"``).
         algo: the forced SB3 algorithm key (``ppo``, ...), or ``None`` to detect it.
         stats: the named ``VecNormalize`` statistics file, :data:`NO_STATS`, or ``None``
@@ -123,7 +124,7 @@ def _gain_spec(spec: str) -> PolicySpec | None:
         gain = float("nan")
     if not (math.isfinite(gain) and gain > 0):
         raise PolicyError(f"the gain of {spec!r} must be a finite number > 0 (1/s)")
-    return PolicySpec(spec, "builtin", spec, gain=gain)
+    return PolicySpec(spec, "builtin", head, gain=gain)
 
 
 def _stats_value(text: str) -> Path | str:

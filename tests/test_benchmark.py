@@ -82,7 +82,7 @@ def test_analytic_controller_with_another_gain(env):
     command is proportional to the gain (below saturation), so gain 12 commands twice the
     default 6's rates; bad gains are refused with the rule."""
     spec = parse_policy_spec("analytic-simultaneous:gain=12")
-    assert (spec.kind, spec.gain) == ("builtin", 12.0)
+    assert (spec.kind, spec.name, spec.gain) == ("builtin", "analytic-simultaneous", 12.0)
     assert policy_label(" analytic-simultaneous:gain=12") == "analytic-simultaneous:gain=12"
     retuned = load_policy(spec, env=env)
     assert (retuned.position_gain, retuned.orientation_gain, retuned.mode) == (
