@@ -32,6 +32,7 @@ from planar3p_gym.atomic_files import copy_atomic, write_atomic
 
 from .policy_spec import PRETRAINED_DIR
 from .pretrained_manifest import write_manifest
+from .run_checkpoints import checkpoint_path
 
 __all__ = ["CHECKPOINT_PREFIX", "MODELS", "model_files", "ship", "zoo_layout"]
 
@@ -126,10 +127,7 @@ def model_files(model: str) -> tuple[str, str]:
     steps = model.removeprefix(CHECKPOINT_PREFIX)
     if model.startswith(CHECKPOINT_PREFIX) and steps.isdigit() and int(steps) > 0:
         n = int(steps)
-        return (
-            f"checkpoints/rl_model_{n}_steps.zip",
-            f"checkpoints/rl_model_vecnormalize_{n}_steps.pkl",
-        )
+        return checkpoint_path(n), checkpoint_path(n, "vecnormalize")
     raise ValueError(
         f"model must be one of {', '.join(MODELS)} or {CHECKPOINT_PREFIX}<steps>, got {model!r}"
     )

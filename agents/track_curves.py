@@ -17,19 +17,17 @@ rewards only; a run that normalises observations is refused).
 from __future__ import annotations
 
 import json
-import re
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .episodes import reset_episode
+from .run_checkpoints import run_checkpoints
 from .seed_statistics import stratified_bootstrap_iqm
 from .task_suites import make_task_env, make_task_suite
 
 __all__ = ["CACHE", "SuitePlayer", "checkpoints", "plot_curves", "run_curve", "seed_curves"]
-
-_CHECKPOINT = re.compile(r"rl_model_(\d+)_steps\.zip")
 
 
 def checkpoints(run: Path) -> list[tuple[int, Path]]:
@@ -43,11 +41,7 @@ def checkpoints(run: Path) -> list[tuple[int, Path]]:
     normalize = json.loads(config.read_text())["config"].get("normalize")
     if normalize is not None and normalize.get("norm_obs", True):
         raise ValueError(f"{run} normalised observations; its checkpoints need their statistics")
-    out = {}
-    for path in (run / "checkpoints").glob("rl_model_*_steps.zip"):
-        m = _CHECKPOINT.fullmatch(path.name)
-        if m:
-            out[int(m.group(1))] = path
+    out = run_checkpoints(run)
     metrics = run / "metrics.json"
     if (run / "model.zip").is_file() and metrics.is_file():
         out[int(json.loads(metrics.read_text())["timesteps"])] = run / "model.zip"

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import inspect
 import json
-import re
 import time
 import warnings
 from dataclasses import asdict, dataclass, field
@@ -27,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from .run_checkpoints import CHECKPOINT_DIR, checkpoint_path, run_checkpoints
 from .training import (
     ALGORITHMS,
     HYPERPARAMS_DIR,
@@ -114,14 +114,11 @@ class RunPlan:
 
 def latest_checkpoint(run_dir: Path) -> tuple[Path, int]:
     """The newest ``checkpoints/rl_model_<n>_steps.zip`` of a run and ``n``, or ``ValueError``."""
-    best: tuple[Path, int] | None = None
-    for path in (run_dir / "checkpoints").glob("rl_model_*_steps.zip"):
-        m = re.fullmatch(r"rl_model_(\d+)_steps\.zip", path.name)
-        if m and (best is None or int(m.group(1)) > best[1]):
-            best = (path, int(m.group(1)))
-    if best is None:
-        raise ValueError(f"--resume: no checkpoint in {run_dir / 'checkpoints'}")
-    return best
+    found = run_checkpoints(run_dir)
+    if not found:
+        raise ValueError(f"--resume: no checkpoint in {run_dir / CHECKPOINT_DIR}")
+    steps = max(found)
+    return found[steps], steps
 
 
 def _algo_class(algo: str) -> Any:
@@ -441,13 +438,13 @@ def execute(plan: RunPlan) -> dict[str, Any]:
     checkpoint, done_steps = plan.resume_from or (None, 0)
     stats = None
     if checkpoint is not None:
-        candidate = run_dir / "checkpoints" / f"rl_model_vecnormalize_{done_steps}_steps.pkl"
+        candidate = run_dir / checkpoint_path(done_steps, "vecnormalize")
         stats = candidate if candidate.exists() else None
     run_dir.mkdir(parents=True, exist_ok=True)
     venv, eval_env = _make_envs(cfg, opt.vec_env, stats)
     if checkpoint is not None:
         model = algo_cls.load(str(checkpoint), env=venv, tensorboard_log=str(run_dir / "tb"))
-        buffer = run_dir / "checkpoints" / f"rl_model_replay_buffer_{done_steps}_steps.pkl"
+        buffer = run_dir / checkpoint_path(done_steps, "replay_buffer")
         if off_policy and buffer.exists():
             model.load_replay_buffer(str(buffer))
     else:
@@ -488,7 +485,7 @@ def execute(plan: RunPlan) -> dict[str, Any]:
             evaluator,
             CheckpointCallback(
                 save_freq=max(1, opt.checkpoint_freq // per_env),
-                save_path=str(run_dir / "checkpoints"),
+                save_path=str(run_dir / CHECKPOINT_DIR),
                 save_replay_buffer=off_policy,
                 save_vecnormalize=True,
             ),

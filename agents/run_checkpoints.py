@@ -1,0 +1,37 @@
+"""Where a ``scripts/train.py`` run keeps its checkpoints: SB3's ``CheckpointCallback`` with its
+default prefix writes ``<run>/checkpoints/rl_model_<steps>_steps.zip`` and, beside it, the
+``VecNormalize`` statistics and (off-policy) the replay buffer of the same step count.  The
+trainer (resume), the shipping tool and the learning curves read that layout from here."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+__all__ = ["CHECKPOINT_DIR", "KINDS", "checkpoint_path", "run_checkpoints"]
+
+#: The checkpoints' folder in a run directory (``CheckpointCallback``'s ``save_path``).
+CHECKPOINT_DIR = "checkpoints"
+#: What a checkpoint of ``n`` steps consists of: kind -> file name.
+KINDS = {
+    "model": "rl_model_{n}_steps.zip",
+    "vecnormalize": "rl_model_vecnormalize_{n}_steps.pkl",
+    "replay_buffer": "rl_model_replay_buffer_{n}_steps.pkl",
+}
+_MODEL = re.compile(r"rl_model_(\d+)_steps\.zip")
+
+
+def checkpoint_path(steps: int, kind: str = "model") -> str:
+    """The path, relative to a run directory, of the ``kind`` file (a key of :data:`KINDS`)
+    of the checkpoint after ``steps`` environment steps."""
+    return f"{CHECKPOINT_DIR}/{KINDS[kind].format(n=int(steps))}"
+
+
+def run_checkpoints(run_dir: str | Path) -> dict[int, Path]:
+    """The model files of a run's checkpoints by step count (empty if it has none)."""
+    out = {}
+    for path in (Path(run_dir) / CHECKPOINT_DIR).glob("rl_model_*_steps.zip"):
+        m = _MODEL.fullmatch(path.name)
+        if m:
+            out[int(m.group(1))] = path
+    return out
