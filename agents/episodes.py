@@ -82,6 +82,7 @@ class EpisodeResult:
     path_crosses: bool
     path_clear: bool
     sequential_path_clear: bool
+    slider_line_reaches: bool
     trajectory: np.ndarray | None = None
     task_metrics: dict[str, float] = field(default_factory=dict)
     success_defined: bool = True
@@ -231,6 +232,7 @@ def run_episode(
         path_crosses=bool(spec.path.get("crosses", False)),
         path_clear=bool(spec.path.get("clear", False)),
         sequential_path_clear=bool(spec.path.get("sequential_clear", False)),
+        slider_line_reaches=bool(spec.path.get("slider_line_reaches", False)),
         trajectory=np.array(poses) if poses is not None else None,
         success_defined=can_succeed,
         task_metrics=_metrics(info, getattr(getattr(base, "task", None), "metric_keys", ())),

@@ -5,7 +5,8 @@ simple motions); :func:`profile` of :func:`sequential_path` checks the
 rotation-vertical-horizontal path of the sequential simple motions.  Both are vectorised over
 pairs and report reachability within the stroke, the smallest parallel and serial margins met,
 whether ``sign det A`` changes (a parallel singularity crossed), and whether the path passes
-the environment's clear-path test.
+the environment's clear-path test; :func:`with_slider_line` adds whether the straight line in
+slider space solves the pair.
 Lengths in m, angles in rad, margins dimensionless.
 """
 
@@ -19,8 +20,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym import kinematics, task
 from planar3p_gym.design import Design
+from planar3p_gym.slider_line import slider_line_reaches
 
-__all__ = ["path_dict", "path_profiles", "profile", "sequential_path", "with_sequential"]
+__all__ = [
+    "path_dict",
+    "path_profiles",
+    "profile",
+    "sequential_path",
+    "with_sequential",
+    "with_slider_line",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -124,4 +133,18 @@ def with_sequential(
     seq = profile(design, sequential_path(s, t), mode, cfg)
     out = dict(path)
     out.update({f"sequential_{k}": v for k, v in path_dict(seq, 0).items()})
+    return out
+
+
+def with_slider_line(
+    design: Design, s: FloatArray, t: FloatArray, mode: ArrayLike, path: dict[str, Any]
+) -> dict[str, Any]:
+    """``path`` plus ``slider_line_reaches``: the straight line in slider space from ``s`` to
+    ``t`` brings the gripper to ``t`` (:mod:`planar3p_gym.slider_line`; False when an end is
+    not reachable in ``mode``)."""
+    out = dict(path)
+    try:
+        out["slider_line_reaches"] = bool(slider_line_reaches(design, s, t, mode)[0])
+    except ValueError:
+        out["slider_line_reaches"] = False
     return out

@@ -49,7 +49,7 @@ from planar3p_gym.design import Design
 from planar3p_gym.env import DEFAULT_WORKING_MODE
 from planar3p_gym.statics import holding_forces
 
-from .paths import path_dict, path_profiles, profile, with_sequential
+from .paths import path_dict, path_profiles, profile, with_sequential, with_slider_line
 from .region_maps import RegionMap
 
 __all__ = [
@@ -100,7 +100,9 @@ class EpisodeSpec:
         path: diagnostics of the straight path in pose space from start to target (see
             :func:`agents.paths.path_profiles`): ``distance`` (m), ``reachable``,
             ``min_parallel_margin``, ``min_serial_margin``, ``crosses`` (``det A`` changes
-            sign), ``clear`` (meets the environment's clear-path test).
+            sign), ``clear`` (meets the environment's clear-path test); for the reach suites
+            also the sequential path's (``sequential_<key>``) and ``slider_line_reaches``
+            (:func:`agents.paths.with_slider_line`).
         options: for a task suite (:mod:`agents.task_suites`), the environment's
             ``info["episode_spec"]``, which ``reset(options=...)`` replays; ``None`` for the
             reach suites, whose options are built from start, target and working mode.
@@ -383,7 +385,7 @@ def make_suite(
             triple(s),
             triple(t),
             mode,  # type: ignore[arg-type]
-            with_sequential(design, s, t, mode, cfg, path),
+            with_slider_line(design, s, t, mode, with_sequential(design, s, t, mode, cfg, path)),
         )
         for k, (s, t, path) in enumerate(pairs)
     ]

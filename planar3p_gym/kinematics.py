@@ -50,6 +50,7 @@ __all__ = [
     "margins",
     "normalised_A",
     "parallel_margin",
+    "pose_distance",
     "screen_paths",
     "screen_poses",
     "serial_margin",
@@ -190,6 +191,15 @@ def _leg_vectors(c: _Consts, p: FloatArray, r: FloatArray) -> FloatArray:
     ux = p[..., 0:1] + c.k * np.cos(th) - (c.origins + r)
     uy = np.broadcast_to(p[..., 1:2] + c.k * np.sin(th), ux.shape)
     return np.stack([ux, uy], axis=-1)
+
+
+def pose_distance(a: ArrayLike, b: ArrayLike, length: float) -> FloatArray:
+    """``|dp| + length * |dtheta|`` (m) between poses ``(..., 3)`` (m, m, rad), the angle
+    difference wrapped to ``[0, pi]``; ``length`` (m) weighs the rotation."""
+    a = np.asarray(a, dtype=np.float64)
+    b = np.asarray(b, dtype=np.float64)
+    dth = np.abs((b[..., 2] - a[..., 2] + math.pi) % (2.0 * math.pi) - math.pi)
+    return np.hypot(b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]) + length * dth
 
 
 def loop_residual(design: Design, pose: ArrayLike, rho: ArrayLike) -> FloatArray:

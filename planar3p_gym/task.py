@@ -23,6 +23,8 @@ from numpy.typing import ArrayLike
 from . import kinematics
 from .checks import as_finite_float, as_int
 from .design import Design
+from .kinematics import pose_distance
+from .slider_line import slider_line_reaches
 from .statics import holding_forces_at
 
 __all__ = [
@@ -67,6 +69,13 @@ class TaskConfig:
             the kind of pair of the benchmark's ``hard`` suite, for training near
             singularities.  0 (the default) draws no extra random number.
         near_singular_margin: parallel margin such a path comes within.
+        detour_fraction: share of the drawn pairs (neither end given, not near-singular)
+            that otherwise meet every rule above but which the straight line in slider space
+            (every slider at a constant rate) does not solve: it carries the gripper to the
+            target's mirror image about the rail line or loses the branch
+            (:mod:`planar3p_gym.slider_line`).  These need a detour in slider space, the
+            pairs on which PPO from scratch fails the benchmark's ``standard`` suite; for
+            training on them more often.  0 (the default) draws no extra random number.
     """
 
     position_tolerance: float = 0.002
@@ -83,6 +92,7 @@ class TaskConfig:
     path_points: int = 24
     near_singular_fraction: float = 0.0
     near_singular_margin: float = 0.01
+    detour_fraction: float = 0.0
 
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
@@ -120,11 +130,11 @@ class TaskConfig:
             raise ValueError(
                 f"TaskConfig.max_holding_force must be in (0, 1], got {self.max_holding_force!r}"
             )
-        if self.near_singular_fraction > 1:
-            raise ValueError(
-                "TaskConfig.near_singular_fraction must be in [0, 1], got "
-                f"{self.near_singular_fraction!r}"
-            )
+        for name in ("near_singular_fraction", "detour_fraction"):
+            if getattr(self, name) > 1:
+                raise ValueError(
+                    f"TaskConfig.{name} must be in [0, 1], got {getattr(self, name)!r}"
+                )
         if self.travel_margin >= 0.5:
             raise ValueError(f"TaskConfig.travel_margin must be < 0.5, got {self.travel_margin!r}")
 
@@ -219,12 +229,6 @@ def path_is_clear(
     )
 
 
-def pose_distance(a: np.ndarray, b: np.ndarray, length: float) -> np.ndarray:
-    """``|dp| + length * |dtheta|`` (m) between poses ``(..., 3)``."""
-    dth = np.abs((b[..., 2] - a[..., 2] + math.pi) % (2.0 * math.pi) - math.pi)
-    return np.hypot(b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]) + length * dth
-
-
 class PoseSampler:
     """Acceptable poses of one working mode, drawn by rejection in batches and handed out in
     order (a batch yields tens of poses, so most resets need no new batch).
@@ -301,6 +305,10 @@ def sample_pair(
         pair = _near_singular_pair(design, mode, rng, cfg, sampler)
         if pair is not None:
             return pair
+    elif free and cfg.detour_fraction > 0 and rng.random() < cfg.detour_fraction:
+        pair = _detour_pair(design, mode, rng, cfg, sampler)
+        if pair is not None:
+            return pair
     for attempt in itertools.count():
         if attempt == max_tries:
             if not free:
@@ -360,6 +368,34 @@ def _near_singular_pair(
             design, paths, m, min_parallel=cfg.near_singular_margin, assembly=det
         )
         hits = np.flatnonzero(reachable & ~clear)
+        if hits.size:
+            return s, cands[int(hits[0])]
+    return None
+
+
+#: Candidate targets screened per start by :func:`_detour_pair`, and starts tried.
+DETOUR_CANDIDATES = 64
+DETOUR_STARTS = 200
+
+
+def _detour_pair(
+    design: Design, mode: ArrayLike, rng: np.random.Generator, cfg: TaskConfig, sampler: PoseSampler
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """A pair meeting every rule of an ordinary pair that the straight line in slider space
+    does not solve (:func:`planar3p_gym.slider_line.slider_line_reaches`): by rejection over
+    :data:`DETOUR_CANDIDATES` targets per start; ``None`` after :data:`DETOUR_STARTS` starts
+    (no such pairs: the caller draws an ordinary pair)."""
+    for _ in range(DETOUR_STARTS):
+        s, det = sampler.draw(rng)
+        cands = sampler.draw_many(rng, det, DETOUR_CANDIDATES)
+        if not len(cands):
+            continue
+        ok = pose_distance(s[None, :], cands, design.characteristic_length) >= cfg.min_distance
+        if cfg.clear_path and ok.any():
+            ok[ok] = path_is_clear(design, s, cands[ok], mode, det, cfg)
+        if ok.any():
+            ok[ok] = ~slider_line_reaches(design, s, cands[ok], mode)
+        hits = np.flatnonzero(ok)
         if hits.size:
             return s, cands[int(hits[0])]
     return None

@@ -56,6 +56,7 @@ def _result(success, ret, cause="success", steps=50, **kw):
         path_crosses=False,
         path_clear=True,
         sequential_path_clear=True,
+        slider_line_reaches=True,
     )
     base.update(kw)
     return ep.EpisodeResult(**base)

@@ -132,7 +132,10 @@ def test_suites_match_the_published_benchmark():
     saved, design = su.load_suites(ROOT / "docs" / "benchmark" / "suites.json")
     assert design == DESIGN
     for name in ("standard", "far"):
-        fresh = su.make_suite(name, 3, seed=0)
-        assert [e.to_dict() for e in fresh.episodes] == [
-            e.to_dict() for e in saved[name].episodes[:3]
-        ]
+        fresh = [e.to_dict() for e in su.make_suite(name, 3, seed=0).episodes]
+        published = [e.to_dict() for e in saved[name].episodes[:3]]
+        for f, p in zip(fresh, published, strict=True):
+            # the published file predates the slider_line_reaches diagnostic
+            assert set(p["path"]) | {"slider_line_reaches"} == set(f["path"])
+            f["path"] = {k: v for k, v in f["path"].items() if k in p["path"]}
+        assert fresh == published
