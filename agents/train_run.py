@@ -146,6 +146,25 @@ def _check_env(env_id: str, env_kwargs: dict[str, Any]) -> None:
         raise ValueError(f"invalid environment kwargs {env_kwargs}: {exc}") from exc
 
 
+def _task_schedule(cfg: TrainConfig) -> list[tuple[int, dict[str, Any]]] | None:
+    """The run's validated ``task_schedule`` (:mod:`agents.task_schedule`) against the task
+    configuration of its environment, or None without one."""
+    if cfg.task_schedule is None:
+        return None
+    import gymnasium as gym
+
+    from .task_schedule import parse_task_schedule
+
+    env = gym.make(cfg.env_id, **cfg.env_kwargs)
+    try:
+        base = getattr(env.unwrapped, "task_config", None)
+        if base is None or not hasattr(env.unwrapped, "set_task_config"):
+            raise ValueError(f"task_schedule: {cfg.env_id} has no task configuration to change")
+        return parse_task_schedule(cfg.task_schedule, base)
+    finally:
+        env.close()
+
+
 def _check_native(cfg: TrainConfig) -> None:
     from .vec_adapter import make_native_vec_env
 
@@ -285,6 +304,7 @@ def plan_run(
         algo, env_id, seed, entry, n_timesteps=timesteps, n_envs=n_envs, env_kwargs=kwargs_env
     )
     _check_env(cfg.env_id, cfg.env_kwargs)
+    _task_schedule(cfg)
     if options.vec_env == "native":
         _check_native(cfg)
     model = _check_model(cfg)
@@ -480,17 +500,21 @@ def execute(plan: RunPlan) -> dict[str, Any]:
     )
     if checkpoint is not None:
         _restore_learning_curve(evaluator, run_dir / "evaluations.npz", done_steps)
-    callbacks = CallbackList(
-        [
-            evaluator,
-            CheckpointCallback(
-                save_freq=max(1, opt.checkpoint_freq // per_env),
-                save_path=str(run_dir / CHECKPOINT_DIR),
-                save_replay_buffer=off_policy,
-                save_vecnormalize=True,
-            ),
-        ]
-    )
+    steps = [
+        evaluator,
+        CheckpointCallback(
+            save_freq=max(1, opt.checkpoint_freq // per_env),
+            save_path=str(run_dir / CHECKPOINT_DIR),
+            save_replay_buffer=off_policy,
+            save_vecnormalize=True,
+        ),
+    ]
+    schedule = _task_schedule(cfg)
+    if schedule is not None:
+        from .task_schedule import TaskScheduleCallback
+
+        steps.append(TaskScheduleCallback(schedule, verbose=opt.verbose))
+    callbacks = CallbackList(steps)
     start = time.perf_counter()
     model.learn(
         total_timesteps=cfg.n_timesteps - done_steps,

@@ -72,7 +72,15 @@ REPLAY_BUFFERS = ("HerReplayBuffer",)
 #: Where the shipped, tuned hyperparameter files live (``<algo>.yml``).
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 
-_ZOO_KEYS = {"n_timesteps", "policy", "n_envs", "normalize", "noise_type", "noise_std"}
+_ZOO_KEYS = {
+    "n_timesteps",
+    "policy",
+    "n_envs",
+    "normalize",
+    "noise_type",
+    "noise_std",
+    "task_schedule",  # this project's curriculum key (agents.task_schedule), not an SB3 argument
+}
 #: Policy classes of this project a YAML entry's ``policy`` may name, besides SB3's aliases
 #: (``MlpPolicy``, ...): name -> (module, class), imported only when named.
 PROJECT_POLICIES: dict[str, tuple[str, str]] = {
@@ -108,6 +116,8 @@ class TrainConfig:
     noise_type: str | None = None
     noise_std: float = 0.1
     entry: dict[str, Any] = field(default_factory=dict)  # the YAML entry as written
+    #: ``{steps: {TaskConfig field: value}}`` (:mod:`agents.task_schedule`), or None.
+    task_schedule: dict[int, dict[str, Any]] | None = None
 
     def to_json(self) -> dict[str, Any]:
         """Plain data (JSON-serialisable) describing the run."""
@@ -123,6 +133,7 @@ class TrainConfig:
             "env_kwargs": self.env_kwargs,
             "noise_type": self.noise_type,
             "noise_std": self.noise_std,
+            "task_schedule": self.task_schedule,
         }
 
 
@@ -321,6 +332,7 @@ def resolve(
         noise_type=noise_type,
         noise_std=float(entry.get("noise_std", 0.1)),
         entry=entry,
+        task_schedule=entry.get("task_schedule"),
     )
 
 

@@ -302,7 +302,6 @@ class BatchReach:
         self.low = reach.low.astype(np.float32)
         self.high = reach.high.astype(np.float32)
         self.weights = reach.weights
-        self.tolerances = reach.tolerances
 
     def measures(self, st: BatchState) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(parallel margin, serial margin, sign det A, |u_i|)`` as in
@@ -331,11 +330,13 @@ class BatchReach:
         target_cs: np.ndarray,
         assembly: np.ndarray,
         action: np.ndarray,
+        tolerances: np.ndarray,
     ) -> dict[str, np.ndarray]:
         """Observations ``(N, 31)`` float32, margins, sign, termination (``reason``: 0 none,
         1 success, 2 singularity crossing), reward terms and errors of finite states;
         ``target`` ``(3, N)``, ``target_cs`` ``(2, N)``, ``assembly`` ``(N,)``, ``action``
-        ``(3, N)`` clipped."""
+        ``(3, N)`` clipped, ``tolerances`` ``(3, N)``: each environment's position (m),
+        orientation (rad) and rest-speed (m/s) tolerances (``ReachStep.tolerances``)."""
         parallel, serial, sign, norm = self.measures(st)
         x, y = st.ux, st.uy
         px, py, th = st.pose
@@ -360,7 +361,7 @@ class BatchReach:
         np.minimum(obs, self.high, out=obs)
         np.maximum(obs, self.low, out=obs)
         pos_err = np.sqrt(dx * dx + dy * dy)
-        pos_tol, ang_tol, rest = self.tolerances
+        pos_tol, ang_tol, rest = tolerances
         rd = np.abs(st.rho_dot)
         crossing = sign == -assembly
         success = (

@@ -430,6 +430,25 @@ class Planar3PEnv(gym.Env):
             self.render()
         return obs.copy(), float(sum(terms.values())), reason is not None, False, info
 
+    def set_task_config(self, changes: dict[str, Any]) -> TaskConfig:
+        """Change fields of :attr:`task_config` in the running environment (a curriculum on
+        the tolerances or on the mix of training pairs) and return the new configuration.
+
+        Only :data:`planar3p_gym.task.SCHEDULABLE_FIELDS` may change; the success test
+        uses the new values from the next step on, the pair sampling from the next reset.
+        Invalid changes raise ``ValueError`` and change nothing.
+        """
+        cfg = task_module.updated_config(self.task_config, changes)
+        self.task_config = cfg
+        if self._reach_step is not None:
+            self._reach_step.tolerances = (
+                cfg.position_tolerance,
+                cfg.orientation_tolerance,
+                cfg.rest_speed,
+            )
+        self.task.config_changed()
+        return cfg
+
     def get_keys_to_action(self) -> dict[tuple[str, ...], np.ndarray]:
         """Keyboard mapping for :func:`gymnasium.utils.play.play`: ``q``/``a`` drive slider 1
         towards +x/-x, ``w``/``s`` slider 2, ``e``/``d`` slider 3, at ``KEYBOARD_SPEED`` of

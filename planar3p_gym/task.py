@@ -14,8 +14,10 @@ from __future__ import annotations
 import itertools
 import math
 import operator
-from dataclasses import asdict, dataclass
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -28,6 +30,7 @@ from .slider_line import slider_line_reaches
 from .statics import holding_forces_at
 
 __all__ = [
+    "SCHEDULABLE_FIELDS",
     "PoseSampler",
     "TaskConfig",
     "check_mode",
@@ -36,7 +39,36 @@ __all__ = [
     "path_is_clear",
     "sample_pair",
     "sample_poses",
+    "updated_config",
 ]
+
+
+#: The :class:`TaskConfig` fields that may change between episodes of a running environment
+#: (:meth:`planar3p_gym.env.Planar3PEnv.set_task_config`, training curricula): the success
+#: test and the mix of training pairs.  The others decide which working modes have pairs at
+#: all, which an environment checks once, when it is made.
+SCHEDULABLE_FIELDS = (
+    "position_tolerance",
+    "orientation_tolerance",
+    "rest_speed",
+    "near_singular_fraction",
+    "near_singular_margin",
+    "detour_fraction",
+)
+
+
+def updated_config(cfg: TaskConfig, changes: Mapping[str, Any]) -> TaskConfig:
+    """``cfg`` with ``changes`` (a mapping of :data:`SCHEDULABLE_FIELDS` to new values), checked
+    as any :class:`TaskConfig`; ``ValueError`` naming the field otherwise."""
+    if not isinstance(changes, Mapping):
+        raise ValueError(f"task config changes must be a mapping, got {changes!r}")
+    unknown = [k for k in changes if k not in SCHEDULABLE_FIELDS]
+    if unknown:
+        raise ValueError(
+            f"TaskConfig field(s) {unknown} cannot change in a running environment; "
+            f"schedulable: {', '.join(SCHEDULABLE_FIELDS)}"
+        )
+    return replace(cfg, **changes)
 
 
 #: Upper bound of ``TaskConfig.path_points``: 1000 poses put checks well under a millimetre

@@ -45,12 +45,14 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from . import physics
+from . import task as task_module
 from .assembly_change_env import Planar3PAssemblyChangeEnv
 from .batch_step import BatchProjector, BatchReach, BatchState
 from .env import Planar3PEnv
 from .mode_change_env import Planar3PModeChangeEnv
 from .physics import SimState
 from .scalar_kinematics import ConfigurationMeasures
+from .task import TaskConfig
 from .track_env import Planar3PTrackEnv
 
 __all__ = [
@@ -291,6 +293,14 @@ class Planar3PVectorEnv(VectorEnv):
     def close_extras(self, **kwargs: Any) -> None:
         for env in self._envs:
             env.close()
+
+    def set_task_config(self, changes: dict[str, Any]) -> TaskConfig:
+        """:meth:`Planar3PEnv.set_task_config` on every environment (checked once first, so
+        an invalid change raises ``ValueError`` and changes none); returns the new config."""
+        new = task_module.updated_config(self._envs[0].task_config, changes)
+        for env in self._envs:
+            env.set_task_config(changes)
+        return new
 
     def get_state(self) -> dict[str, Any]:
         """Snapshots of every environment and the batch bookkeeping (see
@@ -617,7 +627,12 @@ class _BatchCore:
         venv, st = self.venv, self.state
         with np.errstate(all="ignore"):  # (a broken-down state's NaN: handled below)
             o = self.reach.outputs(
-                st, self.target[:, idx], self.target_cs[:, idx], self.assembly[idx], a[idx].T
+                st,
+                self.target[:, idx],
+                self.target_cs[:, idx],
+                self.assembly[idx],
+                a[idx].T,
+                np.array([venv._envs[i]._reach_step.tolerances for i in idx]).T,
             )
         terms = o["terms"]
         reward = (

@@ -99,7 +99,10 @@ def test_batch_reach_outputs_are_the_fused_outputs_bit_for_bit():
     st.ux, st.uy, st.c, st.s = g[0:6:2], g[1:6:2], g[6], g[7]
     target = np.array(targets).T
     target_cs = np.array([(math.cos(t[2]), math.sin(t[2])) for t in targets]).T
-    out = batch.outputs(st, target, target_cs, np.array(assemblies), np.array(actions).T)
+    tolerances = np.tile(np.array(reach.tolerances)[:, None], (1, len(states)))
+    out = batch.outputs(
+        st, target, target_cs, np.array(assemblies), np.array(actions).T, tolerances
+    )
     codes = {None: 0, "success": 1, "singularity_crossing": 2}
     for j, state in enumerate(states):
         obs, measures, reason, terms, pe, ae = reach.outputs(

@@ -170,6 +170,13 @@ class Task:
         for sampler in self._samplers.values():
             sampler.clear()
 
+    def config_changed(self) -> None:
+        """The environment's ``task_config`` changed (:meth:`Planar3PEnv.set_task_config`):
+        the samplers of :meth:`pose_sampler` take the new one (their pose batches stay valid:
+        the fields that may change do not affect which poses are acceptable)."""
+        for sampler in self._samplers.values():
+            sampler.cfg = self.env.task_config
+
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         """Validate ``reset`` options that need no randomness (``ValueError`` if invalid);
         return them, parsed.  Called before seeding.  Keys are already restricted to
