@@ -14,7 +14,7 @@ from __future__ import annotations
 import itertools
 import math
 import operator
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
 from typing import Any
@@ -385,24 +385,18 @@ def _near_singular_pair(
     :data:`NEAR_SINGULAR_STARTS` starts (a design with no such pairs: the caller draws an
     ordinary pair)."""
     m = np.asarray(mode, dtype=np.float64)
-    for _ in range(NEAR_SINGULAR_STARTS):
-        s, det = sampler.draw(rng)
-        cands = sampler.draw_many(rng, det, NEAR_SINGULAR_CANDIDATES)
-        if not len(cands):
-            continue
-        far = pose_distance(s[None, :], cands, design.characteristic_length) >= cfg.min_distance
-        cands = cands[far]
-        if not len(cands):
-            continue
+
+    def near_singular(s: np.ndarray, det: float, cands: np.ndarray) -> np.ndarray:
         paths = interpolate(s[None, :], cands, cfg.path_points)
         reachable = kinematics.screen_paths(design, paths, m, min_serial=cfg.path_serial_margin)
         clear = kinematics.screen_paths(
             design, paths, m, min_parallel=cfg.near_singular_margin, assembly=det
         )
-        hits = np.flatnonzero(reachable & ~clear)
-        if hits.size:
-            return s, cands[int(hits[0])]
-    return None
+        return reachable & ~clear
+
+    return _pair_by_rejection(
+        design, rng, cfg, sampler, near_singular, NEAR_SINGULAR_CANDIDATES, NEAR_SINGULAR_STARTS
+    )
 
 
 #: Candidate targets screened per start by :func:`_detour_pair`, and starts tried.
@@ -417,17 +411,43 @@ def _detour_pair(
     does not solve (:func:`planar3p_gym.slider_line.slider_line_reaches`): by rejection over
     :data:`DETOUR_CANDIDATES` targets per start; ``None`` after :data:`DETOUR_STARTS` starts
     (no such pairs: the caller draws an ordinary pair)."""
-    for _ in range(DETOUR_STARTS):
-        s, det = sampler.draw(rng)
-        cands = sampler.draw_many(rng, det, DETOUR_CANDIDATES)
-        if not len(cands):
-            continue
-        ok = pose_distance(s[None, :], cands, design.characteristic_length) >= cfg.min_distance
-        if cfg.clear_path and ok.any():
-            ok[ok] = path_is_clear(design, s, cands[ok], mode, det, cfg)
+
+    def detour(s: np.ndarray, det: float, cands: np.ndarray) -> np.ndarray:
+        ok = (
+            path_is_clear(design, s, cands, mode, det, cfg)
+            if cfg.clear_path
+            else np.ones(len(cands), dtype=bool)
+        )
         if ok.any():
             ok[ok] = ~slider_line_reaches(design, s, cands[ok], mode)
-        hits = np.flatnonzero(ok)
+        return ok
+
+    return _pair_by_rejection(design, rng, cfg, sampler, detour, DETOUR_CANDIDATES, DETOUR_STARTS)
+
+
+def _pair_by_rejection(
+    design: Design,
+    rng: np.random.Generator,
+    cfg: TaskConfig,
+    sampler: PoseSampler,
+    accept: Callable[[np.ndarray, float, np.ndarray], np.ndarray],
+    candidates: int,
+    starts: int,
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The first pair ``(start, target)`` that ``accept(start, assembly, targets)`` marks
+    among ``candidates`` targets of the start's assembly mode at least ``min_distance`` away,
+    trying up to ``starts`` starts; ``None`` if none."""
+    for _ in range(starts):
+        s, det = sampler.draw(rng)
+        cands = sampler.draw_many(rng, det, candidates)
+        if not len(cands):
+            continue
+        cands = cands[
+            pose_distance(s[None, :], cands, design.characteristic_length) >= cfg.min_distance
+        ]
+        if not len(cands):
+            continue
+        hits = np.flatnonzero(accept(s, det, cands))
         if hits.size:
             return s, cands[int(hits[0])]
     return None
