@@ -29,7 +29,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 from agents.sweep import SweepSpec, load_spec_file, run_sweep  # noqa: E402
-from agents.train_run import RunOptions  # noqa: E402
+from agents.train_run import VEC_ENVS, RunOptions  # noqa: E402
 from agents.training import ALGORITHMS, parse_overrides  # noqa: E402
 
 
@@ -60,6 +60,12 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--eval-episodes", type=int, default=20)
     p.add_argument("--final-eval-episodes", type=int, default=100)
     p.add_argument("--checkpoint-freq", type=int, default=50_000)
+    p.add_argument(
+        "--vec-env",
+        choices=VEC_ENVS,
+        default="auto",
+        help="vectorised env class of each trial (native: all envs in the trial's one process)",
+    )
     return p.parse_args(argv)
 
 
@@ -93,6 +99,7 @@ def spec_from(args: argparse.Namespace) -> SweepSpec:
             final_eval_episodes=args.final_eval_episodes,
             checkpoint_freq=args.checkpoint_freq,
             progress_bar=False,
+            vec_env=args.vec_env,
         ),
     )
 

@@ -108,6 +108,10 @@ def test_optuna_search_samples_within_the_space(tmp_path: Path, local_ray) -> No
         (dict(search={"n_epochs": {"choice": [1]}}, seeds=[0, 1]), "one seed"),
         (dict(metric="loss"), "metric"),
         (dict(timesteps=float("inf")), "n_timesteps"),
+        (
+            dict(env_id="Planar3PGoalDense-v0", options=RunOptions(vec_env="native")),
+            "no native vector env",
+        ),
     ],
 )
 def test_bad_sweeps_are_refused_before_anything_runs(change, message, tmp_path: Path) -> None:
@@ -143,3 +147,10 @@ def test_script_exits_2_on_bad_input_and_keeps_existing_output(tmp_path: Path, c
     args = ["--algo", "ppo", "--seeds", "0", "--grid", str(bad), "--out", str(tmp_path / "o")]
     assert sweep_script.main(args) == 2
     assert "must hold a non-empty mapping" in capsys.readouterr().err
+
+
+def test_script_passes_the_vector_env_choice_to_every_trial() -> None:
+    base = ["--algo", "ppo", "--env", "Planar3P-v1", "--seeds", "0", "--out", "o"]
+    args = sweep_script.parse_args([*base, "--vec-env", "native"])
+    assert sweep_script.spec_from(args).options.vec_env == "native"
+    assert sweep_script.spec_from(sweep_script.parse_args(base)).options.vec_env == "auto"
