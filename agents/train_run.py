@@ -500,7 +500,7 @@ def execute(plan: RunPlan) -> dict[str, Any]:
     )
     if checkpoint is not None:
         _restore_learning_curve(evaluator, run_dir / "evaluations.npz", done_steps)
-    steps = [
+    callback_list = [
         evaluator,
         CheckpointCallback(
             save_freq=max(1, opt.checkpoint_freq // per_env),
@@ -513,8 +513,8 @@ def execute(plan: RunPlan) -> dict[str, Any]:
     if schedule is not None:
         from .task_schedule import TaskScheduleCallback
 
-        steps.append(TaskScheduleCallback(schedule, verbose=opt.verbose))
-    callbacks = CallbackList(steps)
+        callback_list.append(TaskScheduleCallback(schedule, verbose=opt.verbose))
+    callbacks = CallbackList(callback_list)
     start = time.perf_counter()
     model.learn(
         total_timesteps=cfg.n_timesteps - done_steps,

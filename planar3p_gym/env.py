@@ -96,8 +96,10 @@ class Planar3PEnv(gym.Env):
     space that stays clear of singularities (:class:`planar3p_gym.task.TaskConfig`;
     ``task_config={"near_singular_fraction": p}`` makes a share ``p`` of the pairs instead pass
     within 0.01 of a parallel singularity, like the benchmark's ``hard`` suite, and
-    ``{"detour_fraction": p}`` a share of the ordinary pairs those that the straight line in
-    slider space does not solve, :mod:`planar3p_gym.slider_line`).  The
+    ``{"detour_fraction": p}`` makes a share ``p`` of the other pairs ones that the straight
+    line in slider space does not solve, :mod:`planar3p_gym.slider_line`;
+    :meth:`set_task_config` changes these shares and the tolerances of a running
+    environment).  The
     mechanism starts at rest.  ``reset(options={"start": pose, "target": pose,
     "working_mode": (s1, s2, s3)})`` sets any of them (validated; ``ValueError`` if invalid).
 
