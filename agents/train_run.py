@@ -110,6 +110,8 @@ class RunPlan:
     resume_from: tuple[Path, int] | None = None  # (checkpoint, its step count)
     command: str = ""
     extra: dict[str, Any] = field(default_factory=dict)  # recorded in config.json
+    #: ``cfg.task_schedule`` checked against the run's environment (:mod:`agents.task_schedule`).
+    task_schedule: list[tuple[int, dict[str, Any]]] | None = None
 
 
 def latest_checkpoint(run_dir: Path) -> tuple[Path, int]:
@@ -304,7 +306,7 @@ def plan_run(
         algo, env_id, seed, entry, n_timesteps=timesteps, n_envs=n_envs, env_kwargs=kwargs_env
     )
     _check_env(cfg.env_id, cfg.env_kwargs)
-    _task_schedule(cfg)
+    schedule = _task_schedule(cfg)
     if options.vec_env == "native":
         _check_native(cfg)
     model = _check_model(cfg)
@@ -320,7 +322,7 @@ def plan_run(
             f"--timesteps {cfg.n_timesteps} would train nothing: {cfg.algo.upper()} starts "
             f"learning after learning_starts = {starts} steps"
         )
-    return RunPlan(cfg, run_dir, options, resume_from, command)
+    return RunPlan(cfg, run_dir, options, resume_from, command, task_schedule=schedule)
 
 
 def _make_envs(cfg: TrainConfig, vec_env: str, stats: Path | None) -> tuple[Any, Any]:
@@ -509,11 +511,10 @@ def execute(plan: RunPlan) -> dict[str, Any]:
             save_vecnormalize=True,
         ),
     ]
-    schedule = _task_schedule(cfg)
-    if schedule is not None:
+    if plan.task_schedule is not None:
         from .task_schedule import TaskScheduleCallback
 
-        callback_list.append(TaskScheduleCallback(schedule, verbose=opt.verbose))
+        callback_list.append(TaskScheduleCallback(plan.task_schedule, verbose=opt.verbose))
     callbacks = CallbackList(callback_list)
     start = time.perf_counter()
     model.learn(

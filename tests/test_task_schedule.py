@@ -157,6 +157,7 @@ def test_a_training_run_applies_its_stages_and_a_resumed_one_reapplies_them(tmp_
         options=options,
     )
     assert plan.cfg.task_schedule == schedule
+    assert plan.task_schedule == [(96, {"position_tolerance": 0.0005})]  # checked once, kept
     assert "task_schedule" not in plan.cfg.algo_kwargs
     execute(plan)
     saved = json.loads((run / "config.json").read_text())
