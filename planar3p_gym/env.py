@@ -443,11 +443,7 @@ class Planar3PEnv(gym.Env):
         cfg = task_module.updated_config(self.task_config, changes)
         self.task_config = cfg
         if self._reach_step is not None:
-            self._reach_step.tolerances = (
-                cfg.position_tolerance,
-                cfg.orientation_tolerance,
-                cfg.rest_speed,
-            )
+            self._reach_step.tolerances = cfg.success_tolerances
         self.task.config_changed()
         return cfg
 

@@ -77,8 +77,7 @@ class ReachStep:
         self.ref = d.characteristic_length
         self.low, self.high = env._obs_low, env._obs_high
         self.weights = env.reward_weights
-        cfg = env.task_config
-        self.tolerances = (cfg.position_tolerance, cfg.orientation_tolerance, cfg.rest_speed)
+        self.tolerances = env.task_config.success_tolerances
 
     def outputs(
         self,

@@ -126,6 +126,11 @@ class TaskConfig:
     near_singular_margin: float = 0.01
     detour_fraction: float = 0.0
 
+    @property
+    def success_tolerances(self) -> tuple[float, float, float]:
+        """``(position_tolerance, orientation_tolerance, rest_speed)``: m, rad, m/s."""
+        return (self.position_tolerance, self.orientation_tolerance, self.rest_speed)
+
     def __post_init__(self) -> None:
         for name, value in asdict(self).items():
             if name == "clear_path":
