@@ -26,7 +26,15 @@ from typing import Any
 from planar3p_gym.design import Design
 
 from .episodes import EpisodeResult, evaluate
-from .policies import BUILTIN_POLICIES, PolicyError, load_policy, parse_policy_spec, policy_label
+from .play_envs import PlayEnvs, observation_kwargs
+from .policies import (
+    BUILTIN_POLICIES,
+    PolicyError,
+    load_policy,
+    parse_policy_spec,
+    policy_label,
+    run_env_kwargs,
+)
 from .report import write_report, write_rows, write_summary
 from .report_plots import plot_errors, plot_success, plot_trajectories
 from .statistics import summarize
@@ -128,6 +136,7 @@ def load_suite_policies(
     seed: int = 0,
     device: str = "cpu",
     warn: Callable[[str], None] = _warn,
+    play_envs: PlayEnvs | None = None,
 ) -> tuple[dict[str, dict[str, Any]], dict[str, tuple[str, int | None]]]:
     """The policies each suite (a name of :data:`~agents.suites.SUITE_NAMES` or of
     :data:`~agents.task_suites.TASK_SUITES`) is played with: suite -> (label -> policy), and
@@ -138,13 +147,17 @@ def load_suite_policies(
     specification is loaded once with :func:`agents.policies.load_policy` in its environment
     ``envs[suite]``; on a task suite a baseline name builds that task's baseline, a model is
     loaded against the task's environment (its spaces must match), and a built-in name the
-    task does not list is skipped (``warn`` says so).  :class:`~agents.policies.PolicyError`
+    task does not list is skipped (``warn`` says so).  A model whose run recorded an argument
+    that changes the observation (``travel_goal``) is loaded against ``play_envs``' variant
+    of the suite's environment (:mod:`agents.play_envs`), the one :func:`run_benchmark`
+    plays it in.  :class:`~agents.policies.PolicyError`
     (a ``ValueError``) for a bad specification, a label given twice, or a suite left without
     any policy.
     """
     per_suite: dict[str, dict[str, Any]] = {}
     meta: dict[str, tuple[str, int | None]] = {}
     shared: dict[str, Any] = {}
+    variants = play_envs if play_envs is not None else PlayEnvs()
     for name in suites:
         task = name in TASK_SUITES
         base = TASK_SUITES[name].baselines if task else REACH_BASELINES
@@ -169,13 +182,17 @@ def load_suite_policies(
                 pols[label] = load_policy(ps, env=envs[name], seed=seed, device=device)
             else:
                 if label not in shared:
-                    shared[label] = load_policy(ps, env=envs[name], seed=seed, device=device)
+                    trained = run_env_kwargs(ps.path) if ps.path is not None else None
+                    play_env = variants.get(envs[name], trained)
+                    shared[label] = load_policy(ps, env=play_env, seed=seed, device=device)
                 pols[label] = shared[label]
             trained_with = getattr(pols[label], "env_kwargs", None)
             if trained_with and label not in meta:
+                seen = observation_kwargs(trained_with)
                 warn(
                     f"{label} was trained with environment arguments {trained_with}; the "
                     "benchmark runs each suite's own environment"
+                    + (f", with the observation arguments {seen}" if seen else "")
                 )
             meta.setdefault(label, (text, training_seed(ps.path)))
         if not pols:
@@ -263,6 +280,7 @@ def run_benchmark(
     training_seeds: dict[str, int | None] | None = None,
     envs: dict[str, Any] | None = None,
     suite_policies: dict[str, dict[str, Any]] | None = None,
+    play_envs: PlayEnvs | None = None,
 ) -> BenchmarkRun:
     """Play every policy (label -> object with SB3's ``predict``) on every suite in ``env``
     and write the outputs into ``out`` (created; existing files are overwritten: check with
@@ -274,7 +292,9 @@ def run_benchmark(
     ``training_seeds`` and ``policy_env_kwargs`` (what each model's run recorded) are filled
     in.  ``envs`` maps a suite name to the environment it is played in (default ``env``);
     ``suite_policies`` maps a suite name to the policies played on it instead of ``policies``
-    (task suites have their own baselines and environments).  Policies run label by label, in
+    (task suites have their own baselines and environments).  A model trained with an
+    argument that changes the observation is played in ``play_envs``' variant of the suite's
+    environment (:mod:`agents.play_envs`).  Policies run label by label, in
     order of first appearance, each on its suites in order.
     A policy raising while it runs, or ``KeyboardInterrupt``, stops the run after writing the
     results finished so far (``status`` 1 or 130, ``error`` says why).
@@ -305,6 +325,7 @@ def run_benchmark(
     total = sum(len(suites[n]) for _, n, _ in plan)
     bar = _progress(total, disable=not progress)
     status, error = 0, None
+    variants = play_envs if play_envs is not None else PlayEnvs()
 
     def recorded(spec: EpisodeSpec) -> bool:
         return spec.index < TRAJECTORIES_PER_SUITE
@@ -312,8 +333,9 @@ def run_benchmark(
     try:
         for label, name, policy in plan:
             bar.set_description(f"{label} / {name}")
+            suite_env = (envs or {}).get(name, env)
             res = evaluate(
-                (envs or {}).get(name, env),
+                variants.get(suite_env, getattr(policy, "env_kwargs", None)),
                 policy,
                 suites[name],
                 policy_name=label,

@@ -99,13 +99,17 @@ def _unnamed_stats_error(path: Path, found: Path) -> PolicyError:
 
 def run_env_kwargs(path: Path) -> dict[str, Any] | None:
     """The environment keyword arguments a model was trained with, if its run directory
-    (``scripts/train.py``) has a ``config.json`` that records them; else ``None``."""
-    for cand in (path.parent / "config.json", path.parent.parent / "config.json"):
+    (``scripts/train.py``) has a ``config.json`` that records them, or a shipped model its
+    provenance record ``<name>.json`` (``agents/pretrained``); else ``None``."""
+    shipped = path.with_suffix(".json")
+    for cand in (path.parent / "config.json", path.parent.parent / "config.json", shipped):
         if cand.is_file():
             try:
                 data = json.loads(cand.read_text())
+                if cand == shipped:
+                    data = data["run"]
                 kwargs = data.get("config", data).get("env_kwargs")
-            except (OSError, ValueError, AttributeError):
+            except (OSError, ValueError, AttributeError, KeyError, TypeError):
                 return None
             return dict(kwargs) if isinstance(kwargs, dict) else None
     return None

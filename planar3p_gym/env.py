@@ -25,7 +25,13 @@ from .arguments import (
     parse_action,
 )
 from .design import Design
-from .observation import bounds, build_observation, wrap_angle
+from .observation import (
+    bounds,
+    build_observation,
+    travel_goal_bounds,
+    travel_goal_entries,
+    wrap_angle,
+)
 from .physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PSim, SimState
 from .reach_step import ReachStep
 from .rewards import RewardWeights
@@ -35,6 +41,7 @@ from .tasks import ReachTask, Task
 
 __all__ = [
     "DEFAULT_WORKING_MODE",
+    "OBSERVATION_ARGUMENTS",
     "RESET_OPTIONS",
     "TERMINATION_REASONS",
     "Planar3PEnv",
@@ -45,6 +52,9 @@ __all__ = [
 #: The working mode used unless another is asked for: the mode of the default design with the
 #: largest well-conditioned workspace.
 DEFAULT_WORKING_MODE: tuple[int, int, int] = (1, 1, -1)
+#: Arguments of :class:`Planar3PEnv` that change what a policy observes (the shape of the
+#: observation): a model trained with them must be played with them.
+OBSERVATION_ARGUMENTS: tuple[str, ...] = ("travel_goal",)
 #: Values of ``info["termination_reason"]`` (``None`` while the episode runs).
 TERMINATION_REASONS = ("success", "singularity_crossing", "physics_breakdown")
 
@@ -77,7 +87,9 @@ class Planar3PEnv(gym.Env):
     :mod:`planar3p_gym.observation`: slider travels and rates, gripper position,
     ``cos/sin theta``, gripper twist, ``cos/sin`` of each leg angle, target position and
     ``cos/sin`` of its angle, position and orientation errors, parallel and serial margins,
-    and the pose error again on a millimetre scale (``tanh(error / 1 cm)``).
+    and the pose error again on a millimetre scale (``tanh(error / 1 cm)``).  With
+    ``travel_goal=True``, 37 entries: the goal in joint space follows (the target's slider
+    travels and ``tanh`` of the travel errors over 1 cm).
 
     ## Rewards
     ``-w_pose * e - w_precision * (1 - exp(-d / s)) - w_singularity * barrier
@@ -134,6 +146,10 @@ class Planar3PEnv(gym.Env):
     - ``breakdown_threshold``: loop-closure error ending the episode, as a fraction of the
       shortest leg (default 0.01).
     - ``render_mode``: ``None``, ``"rgb_array"`` or ``"human"``; ``render_size`` in pixels.
+    - ``travel_goal``: append the target's slider travels in the episode's working mode (its
+      inverse kinematics, m) and ``tanh((target_rho - rho) / 1 cm)`` to the observation
+      (:data:`planar3p_gym.observation.TRAVEL_GOAL_FIELDS`); reach task only, default
+      ``False``.
     - ``task``: a :class:`planar3p_gym.tasks.Task` (default :class:`~planar3p_gym.tasks.
       ReachTask`, this docstring's task); other registered ids pass theirs.
 
@@ -144,6 +160,8 @@ class Planar3PEnv(gym.Env):
     - v1: the same task on the projected physics (``projection=True``, fewer substeps and
       solver iterations): loop closure exact on every step, faster.
     - v0: initial release.
+    - Both ids later gained the ``travel_goal`` argument; off by default, it changes neither
+      id's observations.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
@@ -163,6 +181,7 @@ class Planar3PEnv(gym.Env):
         render_mode: str | None = None,
         render_size: tuple[int, int] = (640, 480),
         task: Task | None = None,
+        travel_goal: bool = False,
     ) -> None:
         if task is None:
             task = ReachTask()
@@ -231,6 +250,22 @@ class Planar3PEnv(gym.Env):
             np.concatenate([self._obs_high, self._extra_high]),
             dtype=np.float32,
         )
+        if not isinstance(travel_goal, (bool, np.bool_)):
+            raise ValueError(f"travel_goal must be True or False, got {travel_goal!r}")
+        if travel_goal and type(self.task) is not ReachTask:
+            raise ValueError(
+                f"travel_goal applies to the reach task (a fixed target per episode), not to "
+                f"task {self.task.name!r}"
+            )
+        self.travel_goal = bool(travel_goal)
+        if self.travel_goal:
+            goal_low, goal_high = travel_goal_bounds(self.design)
+            self.observation_space = spaces.Box(
+                np.concatenate([self.observation_space.low, goal_low]),
+                np.concatenate([self.observation_space.high, goal_high]),
+                dtype=np.float32,
+            )
+        self._target_rho = np.zeros(3)  # the target's slider travels (m), with travel_goal
         self._sim: Planar3PSim | None = None
         self._target = (0.0, 0.0, 0.0)
         self._target_cs = (1.0, 0.0)  # cos, sin of the target angle (fused reach step)
@@ -326,6 +361,8 @@ class Planar3PEnv(gym.Env):
         self._mode = mode
         self._target = self.task.reference(0)
         self._target_cs = (math.cos(self._target[2]), math.sin(self._target[2]))
+        if self.travel_goal:
+            self._target_rho = kinematics.inverse(self.design, self._target, mode).rho
         self._sim = Planar3PSim(
             self.design,
             start,
@@ -424,6 +461,8 @@ class Planar3PEnv(gym.Env):
             self._assembly,
             action,  # type: ignore[union-attr]
         )
+        if self.travel_goal:
+            obs = self._with_travel_goal(obs)
         self._obs = obs
         info = self._info(state, measures, reason, terms, reason == "success", (pos_err, ang_err))
         self._measures = measures
@@ -579,12 +618,16 @@ class Planar3PEnv(gym.Env):
     def _observe(self, state: SimState, measures: ConfigurationMeasures) -> np.ndarray:
         obs = self._observe_base(state, measures)
         extra = self.task.observation_extra(self._steps)
-        if not extra:
-            return obs
-        tail = np.array(extra, dtype=np.float32)
-        np.minimum(tail, self._extra_high, out=tail)
-        np.maximum(tail, self._extra_low, out=tail)
-        return np.concatenate([obs, tail])
+        if extra:
+            tail = np.array(extra, dtype=np.float32)
+            np.minimum(tail, self._extra_high, out=tail)
+            np.maximum(tail, self._extra_low, out=tail)
+            obs = np.concatenate([obs, tail])
+        return self._with_travel_goal(obs) if self.travel_goal else obs
+
+    def _with_travel_goal(self, obs: np.ndarray) -> np.ndarray:
+        """``obs`` with the joint-space goal block appended (``travel_goal=True``)."""
+        return np.concatenate([obs, travel_goal_entries(obs[:3], self._target_rho)])
 
     def _observe_base(self, state: SimState, measures: ConfigurationMeasures) -> np.ndarray:
         """The 31 entries of :mod:`planar3p_gym.observation` against the current reference."""
@@ -646,6 +689,7 @@ class Planar3PEnv(gym.Env):
             "breakdown_threshold": self.breakdown_distance / self.design.shortest_leg,
             "task": self.task.name,
             "task_arguments": self.task.arguments(),
+            "travel_goal": self.travel_goal,
         }
 
 

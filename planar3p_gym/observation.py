@@ -26,6 +26,16 @@ index   name                    meaning                                        u
 The ``fine_error`` block repeats the pose error on a millimetre scale, saturating beyond a few
 centimetres, so that a learned policy sees the last millimetres as clearly as the first
 decimetres (after observation normalisation the raw errors of a few millimetres are tiny).
+
+With ``travel_goal=True`` (reach task only) the environment appends the goal in joint space,
+:data:`TRAVEL_GOAL_FIELDS`, after any entries of the task:
+
+======  ======================  =============================================  ==============
++0-2    ``target_rho``          slider travels of the target pose in the       m
+                                episode's working mode (inverse kinematics)
++3-5    ``fine_travel_error``   ``tanh`` of ``target_rho - rho`` over          1
+                                :data:`FINE_ERROR_SCALE` (1 cm)
+======  ======================  =============================================  ==============
 """
 
 from __future__ import annotations
@@ -37,7 +47,17 @@ from gymnasium import spaces
 
 from .design import Design
 
-__all__ = ["OBS_FIELDS", "OBS_SIZE", "SLICES", "build_observation", "observation_space"]
+__all__ = [
+    "OBS_FIELDS",
+    "OBS_SIZE",
+    "SLICES",
+    "TRAVEL_GOAL_FIELDS",
+    "TRAVEL_GOAL_SIZE",
+    "build_observation",
+    "observation_space",
+    "travel_goal_bounds",
+    "travel_goal_entries",
+]
 
 #: ``(name, size, description)`` of each block, in order.
 OBS_FIELDS: tuple[tuple[str, int, str], ...] = (
@@ -70,6 +90,14 @@ def _slices() -> dict[str, slice]:
 SLICES: dict[str, slice] = _slices()
 #: Length of the observation vector.
 OBS_SIZE: int = sum(size for _, size, _ in OBS_FIELDS)
+
+#: ``(name, size, description)`` of the joint-space goal appended with ``travel_goal=True``.
+TRAVEL_GOAL_FIELDS: tuple[tuple[str, int, str], ...] = (
+    ("target_rho", 3, "slider travels of the target in the episode's working mode (m)"),
+    ("fine_travel_error", 3, "tanh of (target_rho - rho) / FINE_ERROR_SCALE"),
+)
+#: Length of the joint-space goal block.
+TRAVEL_GOAL_SIZE: int = sum(size for _, size, _ in TRAVEL_GOAL_FIELDS)
 
 #: Length scale of the ``fine_error`` block (m).
 FINE_ERROR_SCALE = 0.01
@@ -108,6 +136,26 @@ def bounds(design: Design) -> tuple[np.ndarray, np.ndarray]:
     add(0.0, 1.0, 2)
     add(-1.0, 1.0, 3)
     return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
+
+
+def travel_goal_bounds(design: Design) -> tuple[np.ndarray, np.ndarray]:
+    """Finite ``(low, high)`` float32 bounds of the joint-space goal block for ``design``
+    (the target's travels lie on the stroke; the fine travel errors in ``[-1, 1]``)."""
+    low = [0.0] * 3 + [-1.0] * 3
+    high = [design.stroke] * 3 + [1.0] * 3
+    return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
+
+
+def travel_goal_entries(rho: np.ndarray, target_rho: np.ndarray) -> np.ndarray:
+    """The joint-space goal block, float32 ``(..., 6)``, of slider travels ``rho`` (m) and
+    the target's travels ``target_rho`` (m), both ``(..., 3)``.
+
+    ``rho`` is taken from the observation itself (its float32 ``rho`` entries), so that the
+    block is the same whichever code path built the rest of the observation."""
+    rho = np.asarray(rho, dtype=np.float64)
+    target = np.asarray(target_rho, dtype=np.float64)
+    fine = np.tanh((target - rho) / FINE_ERROR_SCALE)
+    return np.concatenate([target, fine], axis=-1).astype(np.float32)
 
 
 def observation_space(design: Design) -> spaces.Box:

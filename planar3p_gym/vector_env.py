@@ -50,6 +50,7 @@ from .assembly_change_env import Planar3PAssemblyChangeEnv
 from .batch_step import BatchProjector, BatchReach, BatchState
 from .env import Planar3PEnv
 from .mode_change_env import Planar3PModeChangeEnv
+from .observation import travel_goal_entries
 from .physics import SimState
 from .scalar_kinematics import ConfigurationMeasures
 from .task import TaskConfig
@@ -368,6 +369,8 @@ class _BatchCore:
         self.time = np.zeros(n)
         self.target = np.zeros((3, n))
         self.target_cs = np.zeros((2, n))
+        self.travel_goal = env.travel_goal
+        self.target_rho = np.zeros((n, 3))  # each target's slider travels (m), travel_goal
         self.assembly = np.zeros(n, dtype=np.int64)
         self.pending = [False] * n
         #: Scalar mode: the arguments of ``env._info`` of each pending environment's last step.
@@ -394,6 +397,7 @@ class _BatchCore:
         self.time[i] = sim._time
         self.target[:, i] = env._target
         self.target_cs[:, i] = env._target_cs
+        self.target_rho[i] = env._target_rho
         self.assembly[i] = env._assembly
         self.pending[i] = False
 
@@ -560,6 +564,9 @@ class _BatchCore:
             obs = np.array(rows, dtype=np.float32)
             np.minimum(obs, self.high, out=obs)
             np.maximum(obs, self.low, out=obs)
+            if self.travel_goal:
+                goal = np.array([envs[i]._target_rho for i in stepped])
+                obs = np.concatenate([obs, travel_goal_entries(obs[:, :3], goal)], axis=1)
             obs_out[stepped] = obs
             for k, i in enumerate(stepped):
                 envs[i]._obs = obs[k]
@@ -653,6 +660,9 @@ class _BatchCore:
                     self.sync(i, bodies=False)
                     venv._elapsed[i] += 1
         obs = o["obs"]
+        if self.travel_goal:  # (kept in the outputs: sync gives each env its full row)
+            goal = travel_goal_entries(obs[:, :3], self.target_rho[idx])
+            obs = o["obs"] = np.concatenate([obs, goal], axis=1)
         venv._obs[idx] = obs
         rewards[idx] = reward
         reason = o["reason"]

@@ -46,6 +46,7 @@ import gymnasium as gym  # noqa: E402
 import planar3p_gym  # noqa: E402
 from agents import benchmark as bm  # noqa: E402
 from agents import suites as su  # noqa: E402
+from agents.play_envs import PlayEnvs  # noqa: E402
 from agents.policies import TRUSTED_FILES_NOTE  # noqa: E402
 from agents.task_suites import TASK_SUITES, make_task_env  # noqa: E402
 
@@ -177,8 +178,14 @@ def _run(args: argparse.Namespace, command: str) -> int:
     try:
         out = bm.check_output_dir(args.out, args.force)
         envs = {n: make_task_env(n) if n in TASK_SUITES else env for n in names}
+        play_envs = PlayEnvs()
         per_suite, meta = bm.load_suite_policies(
-            _split(args.policies), names, envs, seed=args.seed, device=args.device
+            _split(args.policies),
+            names,
+            envs,
+            seed=args.seed,
+            device=args.device,
+            play_envs=play_envs,
         )
         suites = bm.build_suites(
             names,
@@ -213,7 +220,9 @@ def _run(args: argparse.Namespace, command: str) -> int:
         training_seeds={k: s for k, (_, s) in meta.items()},
         envs=envs,
         suite_policies=per_suite,
+        play_envs=play_envs,
     )
+    play_envs.close()
     if run.error:
         print(f"\nerror: {run.error}; wrote the results finished so far to {out}", file=sys.stderr)
     print(run.table)

@@ -24,6 +24,7 @@ from agents.policies import (
     list_pretrained,
     load_policy,
     policy_label,
+    run_env_kwargs,
     verify_pretrained,
 )
 
@@ -209,3 +210,15 @@ def test_an_rl_zoo_model_is_labelled_by_its_run(tmp_path) -> None:
     (run / "Planar3P-v0").mkdir(parents=True)
     assert policy_label(str(run / "Planar3P-v0.zip")) == "Planar3P-v0_1/Planar3P-v0"
     assert policy_label(str(tmp_path / "ppo_fast.zip")) == "ppo_fast"
+
+
+def test_shipped_models_report_their_training_arguments(tmp_path):
+    """A shipped model's environment arguments come from its provenance record (the
+    benchmark plays a model with the observation arguments it was trained with); an
+    unreadable record gives ``None``, never an error."""
+    assert run_env_kwargs(PRETRAINED_DIR / "ppo_assembly_change.zip") == {"travel_shaping": 2.0}
+    assert run_env_kwargs(PRETRAINED_DIR / "ppo_v1_scratch.zip") == {}
+    (tmp_path / "m.json").write_text("{not json")
+    assert run_env_kwargs(tmp_path / "m.zip") is None
+    (tmp_path / "m.json").write_text(json.dumps({"name": "m"}))  # no "run" entry
+    assert run_env_kwargs(tmp_path / "m.zip") is None

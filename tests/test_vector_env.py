@@ -34,6 +34,9 @@ def test_make_vec_gives_the_native_vector_env(env_id):
         # episodes end through the single env's general step, in both batch modes.
         ("Planar3P-v1", {"breakdown_threshold": 1e-15}, "scalar"),
         ("Planar3P-v1", {"breakdown_threshold": 1e-15}, "numpy"),
+        # The joint-space goal appended to the observation (travel_goal), through both paths.
+        ("Planar3P-v1", {"travel_goal": True}, "numpy"),
+        ("Planar3P-v1", {"travel_goal": True, "breakdown_threshold": 1e-15}, "scalar"),
         ("Planar3P-v0", {}, "auto"),
         # The task ids on the projected physics: environment by environment.
         ("Planar3PTrack-v0", {}, "auto"),
@@ -76,6 +79,7 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, ba
     # The single envs' own attributes are brought up to date on access.
     for env, single in zip(venv.envs, singles, strict=True):
         assert env.sim.state == single.unwrapped.sim.state
+        np.testing.assert_array_equal(env._obs, single.unwrapped._obs)
         assert env._last_info.keys() == single.unwrapped._last_info.keys()
         for key, value in single.unwrapped._last_info.items():
             if key != "reward_terms":
