@@ -88,8 +88,8 @@ class Planar3PEnv(gym.Env):
     ``cos/sin theta``, gripper twist, ``cos/sin`` of each leg angle, target position and
     ``cos/sin`` of its angle, position and orientation errors, parallel and serial margins,
     and the pose error again on a millimetre scale (``tanh(error / 1 cm)``).  With
-    ``travel_goal=True``, 40 entries: the goal in joint space follows (the target's slider
-    travels and ``tanh`` of the travel errors over 1 cm and over 1 mm).
+    ``travel_goal=True``, 37 entries: the goal in joint space follows (the target's slider
+    travels and ``tanh`` of the travel errors over 1 cm).
 
     ## Rewards
     ``-w_pose * e - w_precision * (1 - exp(-d / s)) - w_singularity * barrier
@@ -147,8 +147,7 @@ class Planar3PEnv(gym.Env):
       shortest leg (default 0.01).
     - ``render_mode``: ``None``, ``"rgb_array"`` or ``"human"``; ``render_size`` in pixels.
     - ``travel_goal``: append the target's slider travels in the episode's working mode (its
-      inverse kinematics, m) and ``tanh((target_rho - rho) / s)`` for ``s`` = 1 cm and 1 mm
-      to the observation
+      inverse kinematics, m) and ``tanh((target_rho - rho) / 1 cm)`` to the observation
       (:data:`planar3p_gym.observation.TRAVEL_GOAL_FIELDS`); reach task only, default
       ``False``.
     - ``task``: a :class:`planar3p_gym.tasks.Task` (default :class:`~planar3p_gym.tasks.

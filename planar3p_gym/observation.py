@@ -33,14 +33,9 @@ With ``travel_goal=True`` (reach task only) the environment appends the goal in 
 ======  ======================  =============================================  ==============
 +0-2    ``target_rho``          slider travels of the target pose in the       m
                                 episode's working mode (inverse kinematics)
-+3-5    ``travel_error_1cm``    ``tanh`` of ``target_rho - rho`` over 1 cm     1
-+6-8    ``travel_error_1mm``    ``tanh`` of ``target_rho - rho`` over 1 mm     1
++3-5    ``fine_travel_error``   ``tanh`` of ``target_rho - rho`` over          1
+                                :data:`FINE_ERROR_SCALE` (1 cm)
 ======  ======================  =============================================  ==============
-
-The two scales (:data:`TRAVEL_ERROR_SCALES`) show the travel errors over the approach and
-over the last millimetre: near a parallel singularity the platform moves several times more
-than the sliders, so the success tolerance on the pose asks for a fraction of a millimetre on
-the travels.
 """
 
 from __future__ import annotations
@@ -56,7 +51,6 @@ __all__ = [
     "OBS_FIELDS",
     "OBS_SIZE",
     "SLICES",
-    "TRAVEL_ERROR_SCALES",
     "TRAVEL_GOAL_FIELDS",
     "TRAVEL_GOAL_SIZE",
     "build_observation",
@@ -100,11 +94,8 @@ OBS_SIZE: int = sum(size for _, size, _ in OBS_FIELDS)
 #: ``(name, size, description)`` of the joint-space goal appended with ``travel_goal=True``.
 TRAVEL_GOAL_FIELDS: tuple[tuple[str, int, str], ...] = (
     ("target_rho", 3, "slider travels of the target in the episode's working mode (m)"),
-    ("travel_error_1cm", 3, "tanh of (target_rho - rho) / 1 cm"),
-    ("travel_error_1mm", 3, "tanh of (target_rho - rho) / 1 mm"),
+    ("fine_travel_error", 3, "tanh of (target_rho - rho) / FINE_ERROR_SCALE"),
 )
-#: Length scales (m) of the travel-error entries of the joint-space goal block.
-TRAVEL_ERROR_SCALES: tuple[float, ...] = (0.01, 0.001)
 #: Length of the joint-space goal block.
 TRAVEL_GOAL_SIZE: int = sum(size for _, size, _ in TRAVEL_GOAL_FIELDS)
 
@@ -149,24 +140,22 @@ def bounds(design: Design) -> tuple[np.ndarray, np.ndarray]:
 
 def travel_goal_bounds(design: Design) -> tuple[np.ndarray, np.ndarray]:
     """Finite ``(low, high)`` float32 bounds of the joint-space goal block for ``design``
-    (the target's travels lie on the stroke; the scaled travel errors in ``[-1, 1]``)."""
-    n = 3 * len(TRAVEL_ERROR_SCALES)
-    low = [0.0] * 3 + [-1.0] * n
-    high = [design.stroke] * 3 + [1.0] * n
+    (the target's travels lie on the stroke; the fine travel errors in ``[-1, 1]``)."""
+    low = [0.0] * 3 + [-1.0] * 3
+    high = [design.stroke] * 3 + [1.0] * 3
     return np.array(low, dtype=np.float32), np.array(high, dtype=np.float32)
 
 
 def travel_goal_entries(rho: np.ndarray, target_rho: np.ndarray) -> np.ndarray:
-    """The joint-space goal block, float32 ``(..., 9)``, of slider travels ``rho`` (m) and
+    """The joint-space goal block, float32 ``(..., 6)``, of slider travels ``rho`` (m) and
     the target's travels ``target_rho`` (m), both ``(..., 3)``.
 
     ``rho`` is taken from the observation itself (its float32 ``rho`` entries), so that the
     block is the same whichever code path built the rest of the observation."""
     rho = np.asarray(rho, dtype=np.float64)
     target = np.asarray(target_rho, dtype=np.float64)
-    error = target - rho
-    scaled = [np.tanh(error / scale) for scale in TRAVEL_ERROR_SCALES]
-    return np.concatenate([target, *scaled], axis=-1).astype(np.float32)
+    fine = np.tanh((target - rho) / FINE_ERROR_SCALE)
+    return np.concatenate([target, fine], axis=-1).astype(np.float32)
 
 
 def observation_space(design: Design) -> spaces.Box:

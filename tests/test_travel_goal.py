@@ -12,25 +12,23 @@ import pytest
 from agents.play_envs import PlayEnvs, observation_kwargs
 from planar3p_gym import kinematics
 from planar3p_gym.env import Planar3PEnv
-from planar3p_gym.observation import OBS_SIZE, TRAVEL_GOAL_SIZE
+from planar3p_gym.observation import FINE_ERROR_SCALE, OBS_SIZE, TRAVEL_GOAL_SIZE
 
 
 def _tail_expected(env, obs):
     """The joint-space block recomputed from the episode's target and the observed travels."""
     base = env.unwrapped
     target_rho = kinematics.inverse(base.design, base._target, base._mode).rho
-    error = target_rho - obs[:3].astype(np.float64)
-    return np.concatenate([target_rho, np.tanh(error / 0.01), np.tanh(error / 0.001)]).astype(
-        np.float32
-    )
+    fine = np.tanh((target_rho - obs[:3].astype(np.float64)) / FINE_ERROR_SCALE)
+    return np.concatenate([target_rho, fine]).astype(np.float32)
 
 
 @pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v1"])
 @pytest.mark.parametrize("seed", [0, 3])
 def test_observation_is_the_plain_one_plus_the_joint_space_goal(env_id, seed):
     """Same seed, same actions: the first 31 entries are the plain environment's, bit for bit
-    (the fused step of v1 and the general step of v0); the last nine are the target's travels
-    and ``tanh`` of the travel errors over 1 cm and over 1 mm.  Rewards and flags are unchanged."""
+    (the fused step of v1 and the general step of v0); the last six are the target's travels
+    and ``tanh`` of the travel errors over 1 cm.  Rewards and flags are unchanged."""
     plain = gym.make(env_id)
     goal = gym.make(env_id, travel_goal=True)
     assert goal.observation_space.shape == (OBS_SIZE + TRAVEL_GOAL_SIZE,)
@@ -65,12 +63,12 @@ def test_target_travels_close_the_loop_at_the_target_in_the_episode_mode(mode):
 
 def test_fine_travel_error_vanishes_at_the_target():
     """Started at the target itself (``reset(options=...)``), the travels are the target's:
-    the travel errors are zero to float32 rounding of the travels (below 1e-7 m) over 1 mm."""
+    the fine travel error is zero to float32 rounding of the travels over 1 cm (1e-5)."""
     env = gym.make("Planar3P-v1", travel_goal=True)
     _, info = env.reset(seed=2)
     start = info["episode_spec"]["start"]
     obs, _ = env.reset(seed=2, options={"start": start, "target": start})
-    assert np.abs(obs[OBS_SIZE + 3 :]).max() < 1e-4
+    assert np.abs(obs[OBS_SIZE + 3 :]).max() < 1e-5
     np.testing.assert_allclose(obs[OBS_SIZE : OBS_SIZE + 3], obs[:3], atol=1e-6)
 
 
