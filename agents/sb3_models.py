@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from .play_envs import observation_kwargs
 from .policy_base import PolicyAdapter
 from .policy_spec import NO_STATS, SB3_ALGORITHMS, STATS_MARK, PolicyError
 
@@ -263,9 +264,11 @@ def load_sb3_model(
         obs_space = check_env.observation_space
         act_space = check_env.action_space
         if _shapes(model.observation_space) != _shapes(obs_space):
+            seen = observation_kwargs(run_env_kwargs(p))
+            hint = f"; it was trained with {seen}: make the environment with them" if seen else ""
             raise PolicyError(
                 f"model {p} expects observations of shape {_shapes(model.observation_space)}, "
-                f"the environment gives {_shapes(obs_space)}"
+                f"the environment gives {_shapes(obs_space)}{hint}"
             )
         if model.action_space.shape != act_space.shape:
             raise PolicyError(

@@ -15,6 +15,7 @@ pytest.importorskip("stable_baselines3")
 
 import planar3p_gym  # noqa: F401
 from agents import policy_spec
+from agents.play_envs import observation_kwargs
 from agents.policies import (
     MANIFEST,
     PRETRAINED_DIR,
@@ -45,9 +46,11 @@ def test_a_policy_is_shipped_small_with_its_statistics_and_provenance() -> None:
 
 @pytest.mark.parametrize("name", SHIPPED)
 def test_pretrained_policy_loads_and_acts(name: str) -> None:
-    """Played in the id it was trained on (its provenance), without training-only kwargs."""
+    """Played in the id it was trained on (its provenance), without training-only kwargs but
+    with those that change the observation (``travel_goal``)."""
     record = json.loads((PRETRAINED_DIR / f"{name}.json").read_text())
-    env = gym.make(record["run"]["config"]["env_id"])
+    config = record["run"]["config"]
+    env = gym.make(config["env_id"], **observation_kwargs(config.get("env_kwargs")))
     policy = load_policy(f"pretrained:{name}", env=env)
     obs, info = env.reset(seed=11)
     start_error = info["position_error"]

@@ -154,3 +154,19 @@ def test_benchmark_plays_a_travel_goal_model_in_an_env_that_has_it(tmp_path, ben
     summary = json.loads((out / "summary.json").read_text())
     assert summary["settings"]["policy_env_kwargs"]["run/model"] == kwargs
     assert summary["settings"]["env"]["travel_goal"] is False  # the suite's own environment
+
+
+def test_a_travel_goal_model_in_a_plain_env_is_refused_with_the_fix(tmp_path):
+    """Loaded against an environment without ``travel_goal``, the model is refused and the
+    message names the argument it was trained with."""
+    from stable_baselines3 import PPO
+
+    from agents.policies import PolicyError, load_policy
+
+    env = gym.make("Planar3P-v1", travel_goal=True)
+    PPO("MlpPolicy", env, n_steps=32, batch_size=32, seed=0).save(tmp_path / "model.zip")
+    kwargs = {"travel_goal": True}
+    (tmp_path / "config.json").write_text(json.dumps({"config": {"env_kwargs": kwargs}}))
+    with pytest.raises(PolicyError, match=r"trained with \{'travel_goal': True\}"):
+        load_policy(f"ppo:{tmp_path / 'model.zip'}:stats=none", env=gym.make("Planar3P-v1"))
+    assert load_policy(f"ppo:{tmp_path / 'model.zip'}:stats=none", env=env).env_kwargs == kwargs
