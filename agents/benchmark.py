@@ -154,10 +154,27 @@ def load_suite_policies(
     (a ``ValueError``) for a bad specification, a label given twice, or a suite left without
     any policy.
     """
+    variants = play_envs if play_envs is not None else PlayEnvs()
+    try:
+        return _load_suite_policies(specs, suites, envs, seed, device, warn, variants)
+    finally:
+        if play_envs is None:  # only the load checks used them
+            variants.close()
+
+
+def _load_suite_policies(
+    specs: Sequence[str],
+    suites: Sequence[str],
+    envs: dict[str, Any],
+    seed: int,
+    device: str,
+    warn: Callable[[str], None],
+    variants: PlayEnvs,
+) -> tuple[dict[str, dict[str, Any]], dict[str, tuple[str, int | None]]]:
+    """:func:`load_suite_policies` with its play environments ``variants``."""
     per_suite: dict[str, dict[str, Any]] = {}
     meta: dict[str, tuple[str, int | None]] = {}
     shared: dict[str, Any] = {}
-    variants = play_envs if play_envs is not None else PlayEnvs()
     for name in suites:
         task = name in TASK_SUITES
         base = TASK_SUITES[name].baselines if task else REACH_BASELINES
@@ -354,6 +371,8 @@ def run_benchmark(
         status, error = 1, f"evaluation failed ({type(exc).__name__}: {exc})"
     finally:
         bar.close()
+        if play_envs is None:  # made here: closed here
+            variants.close()
     settings["elapsed_s"] = time.perf_counter() - t_start
     write_summary(out, settings, summaries)
     written: list[str] = []

@@ -170,3 +170,28 @@ def test_a_travel_goal_model_in_a_plain_env_is_refused_with_the_fix(tmp_path):
     with pytest.raises(PolicyError, match=r"trained with \{'travel_goal': True\}"):
         load_policy(f"ppo:{tmp_path / 'model.zip'}:stats=none", env=gym.make("Planar3P-v1"))
     assert load_policy(f"ppo:{tmp_path / 'model.zip'}:stats=none", env=env).env_kwargs == kwargs
+
+
+def test_library_benchmark_makes_and_closes_its_own_play_envs(tmp_path):
+    """Called as a library without ``play_envs``, loading and playing each make the variant
+    they need (and close it): the travel-goal model plays its episode."""
+    from stable_baselines3 import PPO
+
+    from agents import benchmark as bm
+
+    model = PPO("MlpPolicy", gym.make("Planar3P-v1", travel_goal=True), n_steps=32, seed=0)
+    model.save(tmp_path / "model.zip")
+    (tmp_path / "config.json").write_text(
+        json.dumps({"config": {"env_kwargs": {"travel_goal": True}}})
+    )
+    env = gym.make("Planar3P-v1")
+    envs = {"standard": env}
+    per_suite, _ = bm.load_suite_policies(
+        [f"ppo:{tmp_path / 'model.zip'}:stats=none"], ["standard"], envs, warn=lambda _t: None
+    )
+    suites = bm.build_suites(["standard"], 1, 0, env.unwrapped.design, envs=envs)
+    run = bm.run_benchmark(
+        env, {}, suites, tmp_path / "out", settings={"command": "test"}, plots=False,
+        envs=envs, suite_policies=per_suite,
+    )  # fmt: skip
+    assert run.status == 0 and len(run.results) == 1
