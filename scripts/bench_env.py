@@ -1,6 +1,6 @@
-"""Throughput of ``Planar3P-v0`` and ``Planar3P-v1`` against ``Reacher-v5`` and ``Pendulum-v1``.
+"""Throughput of ``Planar3P-v0`` and ``Planar3P-v0`` against ``Reacher-v5`` and ``Pendulum-v1``.
 
-Prints, from one run (the logic is :mod:`planar3p_gym.throughput`):
+Prints, from one run (the logic is :mod:`planar3p_agents.evaluation.throughput`):
 
 * single-env steps/s of each id made with ``gym.make`` (Gymnasium's ``benchmark_step``, which
   samples each random action inside the timed loop; resets included), interleaved over
@@ -11,7 +11,7 @@ Prints, from one run (the logic is :mod:`planar3p_gym.throughput`):
   ``batch="numpy"``: projection and outputs in numpy over the batch), total env steps/s,
   against Reacher's single-env rate measured in the same repeats (actions sampled up front
   for both); ``SyncVectorEnv`` for comparison;
-* the fastest-block rates (:func:`planar3p_gym.throughput.best_block_rates`: single and vector
+* the fastest-block rates (:func:`planar3p_agents.evaluation.throughput.best_block_rates`: single and vector
   envs in short round-robin blocks, actions sampled up front): the ratios that hold on a busy
   shared machine, where whole-run rates vary several-fold;
 * a profile of one step of each id;
@@ -43,9 +43,9 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 import gymnasium as gym
 
 import planar3p_gym
-from planar3p_gym import throughput
+from planar3p_agents.evaluation import throughput
 
-V0, V1 = planar3p_gym.ENV_ID, planar3p_gym.ENV_ID_V1
+V0, V1 = planar3p_gym.ENV_ID, planar3p_gym.ENV_ID
 REACHER, PENDULUM = "Reacher-v5", "Pendulum-v1"
 
 

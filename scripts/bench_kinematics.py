@@ -5,9 +5,9 @@
 
 Prints, for the chosen design (default: the default design, ``fig8`` with stroke 0.30 m):
 
-* IK: poses per second of :func:`planar3p_gym.kinematics.inverse` on a batch of poses, each
+* IK: poses per second of :func:`planar3p_gym.machine.kinematics.inverse` on a batch of poses, each
   with its own working mode;
-* DK: solves per second of :func:`planar3p_gym.kinematics.forward_batch` (every solution of
+* DK: solves per second of :func:`planar3p_gym.machine.kinematics.forward_batch` (every solution of
   every row) on the travels of reachable poses (uniform over the paper's search rectangle,
   uniform orientation and working mode, travels inside the stroke);
 * DK on a hard batch: travels of poses close to parallel singularities (parallel margin
@@ -34,8 +34,8 @@ from collections.abc import Callable  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from planar3p_gym import kinematics as K  # noqa: E402
-from planar3p_gym.design import Design  # noqa: E402
+from planar3p_gym.machine import kinematics as K  # noqa: E402
+from planar3p_gym.machine.design import Design  # noqa: E402
 
 
 def reachable_poses(design: Design, n: int, rng: np.random.Generator) -> tuple[np.ndarray, ...]:

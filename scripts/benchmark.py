@@ -2,9 +2,9 @@
 """Benchmark policies on fixed evaluation suites of ``Planar3P-v0`` and of the task ids.
 
 Every policy plays exactly the same episodes, generated from ``--seed``: the reach suites
-``standard``, ``hard``, ``far`` (``agents/suites.py``) and the task suites ``goal``,
+``standard``, ``hard``, ``far`` (``agents/evaluation/reach_suites.py``) and the task suites ``goal``,
 ``goal-dense``, ``track-segments``, ``track-figure-eight``, ``mode-change``,
-``assembly-change`` (``agents/task_suites.py``; each with its own baselines).  Writes into
+``assembly-change`` (``agents/evaluation/task_suites.py``; each with its own baselines).  Writes into
 ``--out``:
 
 * ``report.md``: the results table (success rate with its 95% Wilson interval, IQM return with
@@ -22,7 +22,7 @@ Examples::
     python scripts/benchmark.py --policies pretrained:ppo_kickstart --suites standard,hard
     python scripts/benchmark.py --suites goal,track-segments,mode-change --out res/tasks
 
-The logic lives in ``agents.benchmark`` (this file parses, validates and prints).  Exit status:
+The logic lives in ``planar3p_agents.evaluation.benchmark`` (this file parses, validates and prints).  Exit status:
 0 on success; 2 for bad input (unknown policy or suite, missing or corrupt model, an ``--out``
 holding earlier results without ``--force``, bad option), detected before anything is written;
 1 if a policy fails while running (the results already finished are written first); 130 if
@@ -44,11 +44,11 @@ if str(ROOT) not in sys.path:  # running from a checkout without installing
 import gymnasium as gym  # noqa: E402
 
 import planar3p_gym  # noqa: E402
-from agents import benchmark as bm  # noqa: E402
-from agents import suites as su  # noqa: E402
-from agents.play_envs import PlayEnvs  # noqa: E402
-from agents.policies import TRUSTED_FILES_NOTE  # noqa: E402
-from agents.task_suites import TASK_SUITES, make_task_env  # noqa: E402
+from planar3p_agents.evaluation import benchmark as bm  # noqa: E402
+from planar3p_agents.evaluation import reach_suites as su  # noqa: E402
+from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_env  # noqa: E402
+from planar3p_agents.policies.factory import TRUSTED_FILES_NOTE  # noqa: E402
+from planar3p_agents.policies.play_envs import PlayEnvs  # noqa: E402
 
 DEFAULT_EPISODES = 100
 QUICK_EPISODES = 20
@@ -86,14 +86,6 @@ def parse_args(argv: Sequence[str] | None) -> argparse.Namespace:
         type=int,
         default=None,
         help=f"episodes per suite (default {DEFAULT_EPISODES}, {QUICK_EPISODES} with --quick)",
-    )
-    p.add_argument(
-        "--reach-env",
-        default=planar3p_gym.ENV_ID,
-        choices=(planar3p_gym.ENV_ID, planar3p_gym.ENV_ID_V1),
-        help="environment the reach suites are played in: the plain physics of "
-        f"{planar3p_gym.ENV_ID} or the projected physics of {planar3p_gym.ENV_ID_V1} (play a "
-        "policy on the physics it was trained on)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the suites and of the policies")
     p.add_argument("--out", default="results/benchmark", help="output directory")
@@ -173,7 +165,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
     mode = _parse_mode(args.working_mode)
     if not _split(args.policies):
         raise InputError("--policies is empty")
-    env = gym.make(args.reach_env)
+    env = gym.make(planar3p_gym.ENV_ID)
     design = env.unwrapped.design
     try:
         out = bm.check_output_dir(args.out, args.force)

@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """The main job: shipped learned policies against the analytic controller, on quick suites.
 
-1. Reach, on ``Planar3P-v1``: ``scripts/benchmark.py --quick`` on the shipped residual reach
+1. Reach, on ``Planar3P-v0``: ``scripts/benchmark.py --quick`` on the shipped residual reach
    policy (``pretrained:ppo_reach_residual``: PPO's learned correction to the analytic
    controller, faster to the target) and the paper's simultaneous simple-motion controller.
 2. Working-mode change, where the simple motions fail by construction (they never pass the
@@ -33,22 +33,22 @@ if str(ROOT) not in sys.path:
 import gymnasium as gym  # noqa: E402
 
 import planar3p_gym  # noqa: E402
-from agents import suites as su  # noqa: E402
-from agents.episode_gif import record_gif  # noqa: E402
-from agents.policies import (  # noqa: E402
+from planar3p_agents.evaluation import reach_suites as su  # noqa: E402
+from planar3p_agents.evaluation.episode_gif import record_gif  # noqa: E402
+from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_suite, task_baseline  # noqa: E402
+from planar3p_agents.policies.factory import (  # noqa: E402
     TRUSTED_FILES_NOTE,
     PolicyError,
     load_policy,
     policy_label,
 )
-from agents.task_suites import TASK_SUITES, make_task_suite, task_baseline  # noqa: E402
 
 ANALYTIC = "analytic-simultaneous"
 MODE_CHANGE = "mode-change"
 MODE_CHANGE_POLICY = "pretrained:ppo_mode_change"
 #: The shipped reach policy the demo plays by default, and the id it was trained on.
 REACH_POLICY = "pretrained:ppo_reach_residual"
-REACH_ENV = planar3p_gym.ENV_ID_V1
+REACH_ENV = planar3p_gym.ENV_ID
 
 
 def _benchmark_main():
@@ -118,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
 
     reach = _part(
         "Reach",
-        ["--suites", ",".join(su.SUITE_NAMES), "--reach-env", REACH_ENV],
+        ["--suites", ",".join(su.SUITE_NAMES)],
         [learned, ANALYTIC],
         REACH_ENV,
         su.make_suite("standard", 1, args.seed).episodes[0],

@@ -1,6 +1,6 @@
 """How faithful is the physics?  Loop-closure error and pose against the exact kinematics, for the
 original model (``Planar3P-v0``: 8 substeps x 18 iterations, no projection) and the projected one
-(``Planar3P-v1``), side by side.
+(``Planar3P-v0``), side by side.
 
     python scripts/fidelity.py [--pairs 60] [--episodes 30] [--suites standard,hard,far]
                                [--seed 0] [--json PATH]
@@ -8,7 +8,7 @@ original model (``Planar3P-v0``: 8 substeps x 18 iterations, no projection) and 
 Two measurements per model:
 
 * **smooth motions**: ``--pairs`` open-loop minimum-jerk motions between well-conditioned poses
-  (:mod:`planar3p_gym.motions`; commands up to 0.8 of the speed limit), as in
+  (:mod:`planar3p_gym.machine.motions`; commands up to 0.8 of the speed limit), as in
   ``tests/test_physics.py``: the largest closure error (the largest joint separation, m) of
   each motion and the largest gap between the simulated pose and the exact direct kinematics
   of the simulated travels (``|(dx, dy, L_ref dtheta)|``, m);
@@ -32,19 +32,21 @@ import gymnasium as gym
 import numpy as np
 
 import planar3p_gym  # noqa: F401  (registers the ids)
-from agents import suites as agent_suites
-from agents.analytic import AnalyticController
-from agents.episodes import reset_episode
-from planar3p_gym import Design, motions, physics
-from planar3p_gym.env import DEFAULT_WORKING_MODE
-from planar3p_gym.physics import Planar3PSim
-from planar3p_gym.throughput import write_json_atomic
+from planar3p_agents.controllers.analytic import AnalyticController
+from planar3p_agents.evaluation import reach_suites as agent_suites
+from planar3p_agents.evaluation.episodes import reset_episode
+from planar3p_agents.evaluation.throughput import write_json_atomic
+from planar3p_gym import Design
+from planar3p_gym.envs.core import DEFAULT_WORKING_MODE
+from planar3p_gym.machine import motions
+from planar3p_gym.sim import physics
+from planar3p_gym.sim.physics import Planar3PSim
 
 #: The two models: simulation settings and registered id.
 MODELS = {
     "v0": ("Planar3P-v0", {}),
     "v1": (
-        "Planar3P-v1",
+        "Planar3P-v0",
         {
             "projection": True,
             "substeps": physics.PROJECTED_SUBSTEPS,

@@ -1,9 +1,9 @@
 """Analytic baselines on the goal-conditioned and tracking ids.
 
 * ``Planar3PGoal-v0`` / ``Planar3PGoalDense-v0``: the analytic controller through
-  :class:`agents.goal_adapter.GoalAdapter` (success rate, steps to success, mean return).
+  :class:`planar3p_agents.controllers.goal_adapter.GoalAdapter` (success rate, steps to success, mean return).
 * ``Planar3PTrack-v0``: the analytic controller with and without the reference velocity fed
-  forward (:class:`agents.tracking.TrackingController`), per reference kind: the episodes' RMS
+  forward (:class:`planar3p_agents.controllers.tracking.TrackingController`), per reference kind: the episodes' RMS
   and maximum pose error ``|dp| + L_ref |dtheta|`` (mm).
 
     python scripts/goal_track_baselines.py --episodes 100 --seed 0 [--only goal|track]
@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 def main(argv: list[str] | None = None) -> int:
     import planar3p_gym
-    from agents.goal_track_baselines import goal_baseline, tracking_baselines
+    from planar3p_agents.studies.goal_track_baselines import goal_baseline, tracking_baselines
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=100, help="episodes per id and policy")

@@ -4,7 +4,7 @@
 Runs are grouped by name (the directory without ``-s<seed>``); for each group the mean over
 seeds of the evaluation success rate and return is drawn against environment steps, with the
 range over seeds shaded.  Also prints a table of every run (steps, wall time, steps/s, final
-success rate) as markdown.  The work is done by :mod:`agents.learning_curves`.
+success rate) as markdown.  The work is done by :mod:`planar3p_agents.evaluation.learning_curves`.
 
     python scripts/plot_learning.py runs/sac-s1 runs/ppo-s1 --out docs/figures/learning.png
 """
@@ -23,7 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from agents.learning_curves import load_run, plot, table  # noqa: E402
+from planar3p_agents.evaluation.learning_curves import load_run, plot, table  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:

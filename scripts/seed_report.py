@@ -11,7 +11,7 @@ Examples::
 Policies whose labels differ only by the run's seed token (``-s<n>``) are pooled; each training
 seed gives one success rate per suite (``--metric``: or the median over the suite's episodes of
 a continuous metric such as ``tracking_rms_error``); the table shows them, their interquartile
-mean and its 95 % stratified-bootstrap interval (:mod:`agents.seed_statistics`).  Bad input:
+mean and its 95 % stratified-bootstrap interval (:mod:`planar3p_agents.evaluation.seed_statistics`).  Bad input:
 exit 2 with one line, nothing written.
 """
 
@@ -23,7 +23,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from agents import seed_statistics
+from planar3p_agents.evaluation import seed_statistics
 from planar3p_gym.atomic_files import write_atomic
 
 

@@ -1,13 +1,13 @@
 #!/usr/bin/env python
-"""Copy a trained model from a run directory into ``agents/pretrained/`` under a name.
+"""Copy a trained model from a run directory into ``agents/zoo/pretrained/`` under a name.
 
 Writes ``<name>.zip`` (the model), ``<name>_vecnormalize.pkl`` (its observation statistics, if
 the run normalised) and ``<name>.json`` (where it came from: the run's config and command, its
 metrics, the versions), which ``pretrained:<name>`` then loads; also the same model in
 rl-zoo3's folder layout (``<algo>/<env id>_<n>/``), so that ``python -m rl_zoo3.enjoy --algo
-ALGO --env ID -f agents/pretrained --gym-packages planar3p_gym`` plays it; and rewrites the
+ALGO --env ID -f agents/zoo/pretrained --gym-packages planar3p_gym`` plays it; and rewrites the
 checksum manifest ``SHA256SUMS`` (checked before loading).  Ship only models you trust:
-model and statistics files are code.  See :mod:`agents.shipping`.
+model and statistics files are code.  See :mod:`planar3p_agents.zoo.shipping`.
 
     python scripts/ship_policy.py runs/ppo-ks-s2 --name ppo_kickstart --model best_model
     python scripts/ship_policy.py --zoo-only --name ppo_kickstart   # (re)write the zoo layout
@@ -23,8 +23,8 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from agents.policies import PRETRAINED_DIR, write_manifest  # noqa: E402
-from agents.shipping import MODELS, ship, zoo_layout  # noqa: E402
+from planar3p_agents.policies.factory import PRETRAINED_DIR, write_manifest  # noqa: E402
+from planar3p_agents.zoo.shipping import MODELS, ship, zoo_layout  # noqa: E402
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,9 +1,9 @@
 #!/usr/bin/env python
 """Run training sweeps as Ray Tune trials: seeds x configurations, or an Optuna search.
 
-Each trial is one ``scripts/train.py`` run (same code: :mod:`agents.train_run`) with one CPU
+Each trial is one ``scripts/train.py`` run (same code: :mod:`planar3p_agents.training.run`) with one CPU
 and one torch thread; the results land in one table (``<out>/results.csv`` / ``.md``, one row
-per trial with its training seed; see :mod:`agents.sweep`).
+per trial with its training seed; see :mod:`planar3p_agents.training.sweep`).
 
 Examples::
 
@@ -28,9 +28,9 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from agents.sweep import SweepSpec, load_spec_file, run_sweep  # noqa: E402
-from agents.train_run import VEC_ENVS, RunOptions  # noqa: E402
-from agents.training import ALGORITHMS, parse_overrides  # noqa: E402
+from planar3p_agents.training.config import ALGORITHMS, parse_overrides  # noqa: E402
+from planar3p_agents.training.run import VEC_ENVS, RunOptions  # noqa: E402
+from planar3p_agents.training.sweep import SweepSpec, load_spec_file, run_sweep  # noqa: E402
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:

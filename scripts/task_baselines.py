@@ -1,5 +1,5 @@
 """Baselines on Planar3PModeChange-v0 / Planar3PAssemblyChange-v0 and the crossing-fidelity
-study.  Logic: agents/task_baselines.py.
+study.  Logic: agents/studies/task_baselines.py.
 
     python scripts/task_baselines.py --episodes 50 --seed 0
     python scripts/task_baselines.py --fidelity --episodes 20
@@ -23,7 +23,7 @@ def _print(label: str, figures: dict[str, float]) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from agents.task_baselines import (
+    from planar3p_agents.studies.task_baselines import (
         BASELINES,
         TABLE_HEADER,
         run_baselines,
@@ -104,7 +104,7 @@ def main(argv: list[str] | None = None) -> int:
     for env_id in ids:
         kwargs = {}
         if args.gravity is not None and env_id == "Planar3PAssemblyChange-v0":
-            from planar3p_gym.assembly_change_env import assembly_change_design
+            from planar3p_gym.envs.assembly_change import assembly_change_design
 
             kwargs["design"] = assembly_change_design().with_(gravity=args.gravity)
         for policy in BASELINES[env_id]:

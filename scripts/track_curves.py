@@ -8,7 +8,7 @@ error, across seeds its IQM with a 95 % stratified-bootstrap interval.
 
 Model files are code: only the named runs' checkpoints are loaded (no statistics: the tracking
 recipe normalises rewards only).  Bad input: exit 2 with one line.  The work is
-:mod:`agents.track_curves`.
+:mod:`planar3p_agents.studies.track_curves`.
 """
 
 from __future__ import annotations
@@ -26,9 +26,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 
 def main(argv: list[str] | None = None) -> int:
-    from agents.benchmark import training_seed
-    from agents.track_curves import SuitePlayer, checkpoints, plot_curves, run_curve, seed_curves
-    from agents.track_gains import TRACK_SUITES
+    from planar3p_agents.evaluation.benchmark import training_seed
+    from planar3p_agents.studies.track_curves import (
+        SuitePlayer,
+        checkpoints,
+        plot_curves,
+        run_curve,
+        seed_curves,
+    )
+    from planar3p_agents.studies.track_gains import TRACK_SUITES
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", nargs="+", type=Path, help="run directories of scripts/train.py")

@@ -5,7 +5,7 @@ track-figure-eight`` with the same ``--seed``): median and worst episode RMS pos
 
     python scripts/track_gains.py --gains 6,12,25 --episodes 100
 
-Bad input: exit 2 with one line.  The work is :func:`agents.track_gains.gain_sweep`.
+Bad input: exit 2 with one line.  The work is :func:`planar3p_agents.studies.track_gains.gain_sweep`.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 
 def main(argv: list[str] | None = None) -> int:
-    from agents.track_gains import TRACK_SUITES, gain_sweep
+    from planar3p_agents.studies.track_gains import TRACK_SUITES, gain_sweep
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--gains", default="6,12,25", help="comma-separated gains k (1/s)")

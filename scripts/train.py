@@ -7,12 +7,12 @@ Examples::
     python scripts/train.py --algo ppo --n-envs 8 --env-kwargs working_mode='[1,1,-1]'
     python scripts/train.py --algo sac --run-dir runs/sac-s1 --resume
 
-Hyperparameters come from ``agents/hyperparams/<algo>.yml`` (rl-zoo3 format, keyed by the
+Hyperparameters come from ``agents/training/hyperparams/<algo>.yml`` (rl-zoo3 format, keyed by the
 environment id) unless ``--hyperparams`` names another file.  Every run writes a
-self-contained directory (see :mod:`agents.training`); ``--resume`` continues from its last
+self-contained directory (see :mod:`planar3p_agents.training.config`); ``--resume`` continues from its last
 checkpoint.  Everything is validated before the run directory is created (bad input: exit 2
-with one line).  The work is done by :func:`agents.train_run.plan_run` and
-:func:`agents.train_run.execute` (also usable from Python).
+with one line).  The work is done by :func:`planar3p_agents.training.run.plan_run` and
+:func:`planar3p_agents.training.run.execute` (also usable from Python).
 """
 
 from __future__ import annotations
@@ -27,9 +27,9 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from agents.policies import TRUSTED_FILES_NOTE  # noqa: E402
-from agents.train_run import VEC_ENVS, RunOptions, execute, plan_run  # noqa: E402
-from agents.training import ALGORITHMS  # noqa: E402
+from planar3p_agents.policies.factory import TRUSTED_FILES_NOTE  # noqa: E402
+from planar3p_agents.training.config import ALGORITHMS  # noqa: E402
+from planar3p_agents.training.run import VEC_ENVS, RunOptions, execute, plan_run  # noqa: E402
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:

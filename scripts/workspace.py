@@ -12,8 +12,8 @@ shortest one without dead zones), and draws the figures:
   with the workspace boundary, per working mode;
 * ``workspace_singularities_plane.png``: the same loci in the plane at a fixed orientation.
 
-The work is done by :mod:`planar3p_gym.workspace_report` (study, recommendation, tables) and
-:mod:`planar3p_gym.workspace_figures`; every file is written atomically, after all arguments
+The work is done by :mod:`planar3p_gym.analysis.workspace_report` (study, recommendation, tables) and
+:mod:`planar3p_gym.analysis.workspace_figures`; every file is written atomically, after all arguments
 have been checked (bad input: exit 2 with one line).
 
 Usage::
@@ -41,8 +41,8 @@ import matplotlib  # noqa: E402
 matplotlib.use("Agg")
 import numpy as np  # noqa: E402
 
-from planar3p_gym import workspace_figures as figures  # noqa: E402
-from planar3p_gym.workspace_report import (  # noqa: E402
+from planar3p_gym.analysis import workspace_figures as figures  # noqa: E402
+from planar3p_gym.analysis.workspace_report import (  # noqa: E402
     StudySettings,
     recommendation_text,
     run_study,

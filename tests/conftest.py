@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, settings
 from script_loader import load_script
 
 import planar3p_gym
-from agents import suites as su
+from planar3p_agents.evaluation import reach_suites as su
 
 settings.register_profile(
     "project",

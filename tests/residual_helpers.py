@@ -13,7 +13,7 @@ import torch as th
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import DummyVecEnv
 
-from planar3p_gym.observation import SLICES
+from planar3p_gym.tasks.observation import SLICES
 
 
 def residual_model(

@@ -11,16 +11,17 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import planar3p_gym
-from agents.analytic import (
+from planar3p_agents.controllers.analytic import (
     HORIZONTAL,
     ROTATE,
     VERTICAL,
     AnalyticController,
     simple_motion_basis,
 )
-from agents.baselines import RandomPolicy, ZeroPolicy
-from planar3p_gym import Design, kinematics
-from planar3p_gym.observation import OBS_SIZE, SLICES
+from planar3p_agents.controllers.floor import RandomPolicy, ZeroPolicy
+from planar3p_gym import Design
+from planar3p_gym.machine import kinematics
+from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
 DESIGN = Design.fig8()
 MODE = (1, 1, -1)

@@ -8,13 +8,15 @@ import pytest
 from task_helpers import play_episode
 
 import planar3p_gym  # noqa: F401
-from agents.crossing import CrossingController
-from agents.crossing_fidelity import _ServoReader, crossing_fidelity
-from planar3p_gym import Design, kinematics, task
-from planar3p_gym.assembly_change_env import Planar3PAssemblyChangeEnv
-from planar3p_gym.physics import Planar3PSim
-from planar3p_gym.scalar_kinematics import ConfigurationMeasures
-from planar3p_gym.statics import holding_forces
+from planar3p_agents.controllers.crossing import CrossingController
+from planar3p_agents.studies.crossing_fidelity import _ServoReader, crossing_fidelity
+from planar3p_gym import Design
+from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
+from planar3p_gym.machine.statics import holding_forces
+from planar3p_gym.sim.physics import Planar3PSim
+from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.assembly_change import CrossingLimits, crossing_path
 
 ENV_ID = "Planar3PAssemblyChange-v0"

@@ -1,5 +1,5 @@
-"""The numpy batch (planar3p_gym.batch_step) gives the scalar code's numbers bit for bit, and the
-fused reach step (planar3p_gym.reach_step) the general step's to float64 rounding."""
+"""The numpy batch (planar3p_gym.sim.batch_step) gives the scalar code's numbers bit for bit, and the
+fused reach step (planar3p_gym.tasks.reach_step) the general step's to float64 rounding."""
 
 from __future__ import annotations
 
@@ -9,15 +9,15 @@ import gymnasium as gym
 import numpy as np
 
 import planar3p_gym  # noqa: F401  (registers the ids)
-from planar3p_gym.batch_step import BatchProjector, BatchReach
-from planar3p_gym.physics import _wrap
+from planar3p_gym.sim.batch_step import BatchProjector, BatchReach
+from planar3p_gym.sim.physics import _wrap
 
 
 def readouts(seed: int, n: int) -> tuple[object, list[list[float]], np.ndarray]:
     """A simulation and ``n`` perturbed copies of its body readout (perturbations from 1e-7
     to 1e-2 of the natural units, some sliders pushed past an end stop) with random servo
     saturation flags ``(n, 3)``."""
-    env = gym.make("Planar3P-v1", working_mode="random").unwrapped
+    env = gym.make("Planar3P-v0", working_mode="random").unwrapped
     env.reset(seed=seed)
     rng = np.random.default_rng(seed)
     for a in rng.uniform(-1, 1, (20, 3)):
@@ -71,7 +71,7 @@ def test_batch_projection_is_the_scalar_projection_bit_for_bit():
 
 
 def test_batch_reach_outputs_are_the_fused_outputs_bit_for_bit():
-    env = gym.make("Planar3P-v1", working_mode="random").unwrapped
+    env = gym.make("Planar3P-v0", working_mode="random").unwrapped
     rng = np.random.default_rng(5)
     states, geos, targets, actions, assemblies = [], [], [], [], []
     for episode in range(4):
@@ -123,7 +123,7 @@ def test_fused_reach_step_agrees_with_the_general_step():
     """The fused step shares intermediate values (``cos alpha_i = u_ix / |u_i|``, ...) instead
     of recomputing them: observations, margins, errors and rewards agree with the general
     step's to a few float64 rounding errors of their magnitude, over 2,000 steps."""
-    fused, general = gym.make("Planar3P-v1"), gym.make("Planar3P-v1")
+    fused, general = gym.make("Planar3P-v0"), gym.make("Planar3P-v0")
     general.unwrapped._reach_step = None
     rng = np.random.default_rng(0)
     fused.reset(seed=3)

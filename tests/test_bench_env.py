@@ -1,5 +1,5 @@
 """``scripts/bench_env.py``: bad arguments are rejected before any work (exit 2, one line);
-results are written atomically; :mod:`planar3p_gym.throughput` measures what it says."""
+results are written atomically; :mod:`planar3p_agents.evaluation.throughput` measures what it says."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pathlib import Path
 import gymnasium as gym
 import pytest
 
-from planar3p_gym import throughput
+from planar3p_agents.evaluation import throughput
 
 SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "bench_env.py"
 
@@ -71,25 +71,25 @@ def test_write_json_atomic_replaces_whole_files_only(tmp_path):
 
 
 def test_throughput_measures_run_and_are_positive():
-    rates = throughput.single_env_rates(["Planar3P-v1", "Pendulum-v1"], 2, 0.05, 0)
+    rates = throughput.single_env_rates(["Planar3P-v0", "Pendulum-v1"], 2, 0.05, 0)
     assert all(len(v) == 2 and min(v) > 0 for v in rates.values())
     assert throughput.paired_ratio([2.0, 4.0], [1.0, 1.0]) == 3.0
-    assert throughput.median_step_us("Planar3P-v1", 20, 0) > 0
-    assert min(throughput.vector_rates("Planar3P-v1", "native", 2, 5, 1, 0)) > 0
-    assert min(throughput.vector_rates("Planar3P-v1", "native-numpy", 2, 5, 1, 0)) > 0
-    vec, ref = throughput.vector_rates("Planar3P-v1", "native", 2, 5, 2, 0, "Pendulum-v1")
+    assert throughput.median_step_us("Planar3P-v0", 20, 0) > 0
+    assert min(throughput.vector_rates("Planar3P-v0", "native", 2, 5, 1, 0)) > 0
+    assert min(throughput.vector_rates("Planar3P-v0", "native-numpy", 2, 5, 1, 0)) > 0
+    vec, ref = throughput.vector_rates("Planar3P-v0", "native", 2, 5, 2, 0, "Pendulum-v1")
     assert len(vec) == len(ref) == 2 and min(ref) > 0
-    prof = throughput.profile_step("Planar3P-v1", 20, 0)
+    prof = throughput.profile_step("Planar3P-v0", 20, 0)
     assert prof["physics"] > 0 and prof["wrapped_step"] >= prof["physics"]
     assert prof["outputs"] > 0 and set(prof) == {
         "wrapped_step", "env_step", "physics", "outputs", "other"
     }  # fmt: skip
     with pytest.raises(ValueError):
-        throughput.vector_rates("Planar3P-v1", "threads", 2, 5, 1, 0)
+        throughput.vector_rates("Planar3P-v0", "threads", 2, 5, 1, 0)
     best = throughput.best_block_rates(
         {
-            "single": lambda: throughput.make_env("Planar3P-v1"),
-            "vector": lambda: gym.make_vec("Planar3P-v1", num_envs=2),
+            "single": lambda: throughput.make_env("Planar3P-v0"),
+            "vector": lambda: gym.make_vec("Planar3P-v0", num_envs=2),
         },
         10,
         3,

@@ -1,4 +1,4 @@
-"""Episode runner (agents/episodes.py), policy loading and the benchmark (agents/benchmark.py,
+"""Episode runner (agents/evaluation/episodes.py), policy loading and the benchmark (agents/evaluation/benchmark.py,
 scripts/benchmark.py)."""
 
 from __future__ import annotations
@@ -13,11 +13,11 @@ import pytest
 from bench_helpers import read_csv, replay
 
 import planar3p_gym
-from agents import benchmark as bm
-from agents import episodes as ep
-from agents.analytic import AnalyticController
-from agents.baselines import RandomPolicy, ZeroPolicy
-from agents.policies import (
+from planar3p_agents.controllers.analytic import AnalyticController
+from planar3p_agents.controllers.floor import RandomPolicy, ZeroPolicy
+from planar3p_agents.evaluation import benchmark as bm
+from planar3p_agents.evaluation import episodes as ep
+from planar3p_agents.policies.factory import (
     TRUSTED_FILES_NOTE,
     PolicyError,
     SB3Policy,
@@ -27,7 +27,7 @@ from agents.policies import (
     policy_label,
 )
 from planar3p_gym import Design
-from planar3p_gym.observation import SLICES
+from planar3p_gym.tasks.observation import SLICES
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = Design.fig8()
@@ -105,7 +105,7 @@ def test_analytic_controller_with_another_gain(env):
 
 
 def test_vecnormalize_lookup_follows_the_training_layout(tmp_path):
-    from agents.policies import vecnormalize_candidates
+    from planar3p_agents.policies.factory import vecnormalize_candidates
 
     names = [p.name for p in vecnormalize_candidates(tmp_path / "best_model.zip")]
     assert names.index("best_vecnormalize.pkl") < names.index("vecnormalize.pkl")
@@ -179,20 +179,15 @@ def test_script_end_to_end(tmp_path, bench, capsys):
     assert first == replay(bench, out, "standard", "analytic-simultaneous", tmp_path / "replay")
 
 
-def test_script_plays_reach_suites_on_the_projected_physics(tmp_path, bench):
-    """``--reach-env Planar3P-v1``: the same suite (same episodes), played and recorded in the
-    projected physics, where the loop closes to round-off (closure error <= 1e-9 m)."""
-    runs = {}
-    for env_id in ("Planar3P-v0", "Planar3P-v1"):
-        out = tmp_path / env_id
-        args = _quick_args(out, "--suites", "standard", "--policies", "analytic-simultaneous")
-        assert bench.main([*args, "--reach-env", env_id, "--no-plots"]) == 0
-        runs[env_id] = out
-    suites = [json.loads((runs[e] / "suites.json").read_text()) for e in runs]
-    assert suites[0] == suites[1]
-    settings = json.loads((runs["Planar3P-v1"] / "summary.json").read_text())["settings"]
+def test_script_plays_reach_suites_on_the_exact_machine(tmp_path, bench):
+    """The reach suites are played on ``Planar3P-v0``, the projected physics, where the loop
+    closes to round-off (closure error <= 1e-9 m)."""
+    out = tmp_path / "run"
+    args = _quick_args(out, "--suites", "standard", "--policies", "analytic-simultaneous")
+    assert bench.main([*args, "--no-plots"]) == 0
+    settings = json.loads((out / "summary.json").read_text())["settings"]
     assert settings["env"]["projection"] is True
-    rows = read_csv(runs["Planar3P-v1"] / "episodes.csv")
+    rows = read_csv(out / "episodes.csv")
     assert all(r["success"] == "True" for r in rows)
     assert max(float(r["max_closure_error"]) for r in rows) <= 1e-9
 
@@ -335,7 +330,7 @@ def test_training_seed_from_the_run_record(tmp_path):
     (tmp_path / "noseed").mkdir()
     (tmp_path / "noseed" / "config.json").write_text(json.dumps({"config": {"seed": True}}))
     assert bm.training_seed(tmp_path / "noseed" / "model.zip") is None
-    shipped = ROOT / "agents" / "pretrained"
+    shipped = ROOT / "agents" / "zoo" / "pretrained"
     for name in list_pretrained():
         record = json.loads((shipped / f"{name}.json").read_text())
         assert bm.training_seed(shipped / f"{name}.zip") == record["run"]["config"]["seed"]

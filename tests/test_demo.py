@@ -10,10 +10,10 @@ import imageio.v2 as imageio
 import pytest
 from conftest import load_script
 
-from agents.baselines import ZeroPolicy
-from agents.episode_gif import GIF_SIZE, record_gif
-from agents.policies import load_policy
-from agents.task_suites import TASK_SUITES, make_task_suite, task_baseline
+from planar3p_agents.controllers.floor import ZeroPolicy
+from planar3p_agents.evaluation.episode_gif import GIF_SIZE, record_gif
+from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_suite, task_baseline
+from planar3p_agents.policies.factory import load_policy
 
 
 @pytest.fixture(scope="module")

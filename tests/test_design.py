@@ -10,8 +10,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from planar3p_gym import Design, kinematics
-from planar3p_gym.design import closing_pose
+from planar3p_gym import Design
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.design import closing_pose
 
 
 # ------------------------------------------------------------------------------ presets

@@ -13,10 +13,12 @@ import numpy as np
 import pytest
 
 import planar3p_gym
-from planar3p_gym import ENV_ID, MAX_EPISODE_STEPS, kinematics, motions, task
-from planar3p_gym.env import TERMINATION_REASONS
-from planar3p_gym.observation import OBS_FIELDS, OBS_SIZE, SLICES
-from planar3p_gym.rewards import BARRIER_CAP, RewardWeights, singularity_penalty
+from planar3p_gym import ENV_ID, MAX_EPISODE_STEPS
+from planar3p_gym.envs.core import TERMINATION_REASONS
+from planar3p_gym.machine import kinematics, motions
+from planar3p_gym.tasks import sampling as task
+from planar3p_gym.tasks.observation import OBS_FIELDS, OBS_SIZE, SLICES
+from planar3p_gym.tasks.rewards import BARRIER_CAP, RewardWeights, singularity_penalty
 
 FAILURES = ("singularity_crossing", "physics_breakdown")
 
@@ -676,7 +678,7 @@ def test_working_mode_change_is_reported_not_terminal():
 
 
 def test_fine_error_block_is_the_pose_error_on_a_millimetre_scale():
-    from planar3p_gym.observation import FINE_ERROR_SCALE
+    from planar3p_gym.tasks.observation import FINE_ERROR_SCALE
 
     env = gym.make("Planar3P-v0")
     obs, _info = env.reset(seed=3)
@@ -700,7 +702,7 @@ def test_core_package_imports_without_torch_or_sb3():
 
     code = (
         "import sys\n"
-        "import gymnasium as gym, planar3p_gym, planar3p_gym.workspace, planar3p_gym.render\n"
+        "import gymnasium as gym, planar3p_gym, planar3p_gym.analysis.workspace, planar3p_gym.sim.render\n"
         "env = gym.make('Planar3P-v0'); env.reset(seed=0); env.step(env.action_space.sample())\n"
         "assert 'torch' not in sys.modules and 'stable_baselines3' not in sys.modules\n"
     )

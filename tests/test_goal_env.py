@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 import planar3p_gym
-from agents.goal_adapter import GoalAdapter
-from planar3p_gym.goal_env import ROBOT_INDEX, flat_observation
-from planar3p_gym.observation import OBS_SIZE, SLICES
+from planar3p_agents.controllers.goal_adapter import GoalAdapter
+from planar3p_gym.envs.goal import ROBOT_INDEX, flat_observation
 from planar3p_gym.tasks.goal import goal_of_pose, pose_of_goal
+from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
 IDS = (planar3p_gym.GOAL_ENV_ID, planar3p_gym.GOAL_DENSE_ENV_ID)
 

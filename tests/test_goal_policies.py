@@ -15,12 +15,12 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import planar3p_gym
-from agents import training
-from agents.goal_features import ERROR_FEATURES, GoalErrorExtractor
-from agents.policies import PolicyError, load_policy
-from agents.sb3_models import load_sb3_model
-from planar3p_gym.goal_env import flat_observation
-from planar3p_gym.observation import SLICES
+from planar3p_agents.policies.factory import PolicyError, load_policy
+from planar3p_agents.policies.goal_features import ERROR_FEATURES, GoalErrorExtractor
+from planar3p_agents.policies.sb3_models import load_sb3_model
+from planar3p_agents.training import config as training
+from planar3p_gym.envs.goal import flat_observation
+from planar3p_gym.tasks.observation import SLICES
 
 GOAL = planar3p_gym.GOAL_ENV_ID
 DENSE = planar3p_gym.GOAL_DENSE_ENV_ID
@@ -69,7 +69,7 @@ def test_her_model_plays_without_its_training_env(tmp_path: Path) -> None:
         np.testing.assert_array_equal(action, expected)
         obs, *_ = env.step(action)
     with pytest.raises(PolicyError, match="expects observations"):
-        load_sb3_model(path, check_env=gym.make("Planar3P-v1"))
+        load_sb3_model(path, check_env=gym.make("Planar3P-v0"))
 
 
 def test_ppo_dict_policy_uses_its_dict_statistics(tmp_path: Path) -> None:
@@ -106,7 +106,7 @@ def test_ppo_dict_policy_uses_its_dict_statistics(tmp_path: Path) -> None:
     only.save(tmp_path / "only.pkl")
     load_policy(f"{tmp_path / 'ppo.zip'}:stats={tmp_path / 'only.pkl'}", env=env)
     # Flat statistics of another id are refused for the Dict env.
-    flat = VecNormalize(make_vec_env("Planar3P-v1", n_envs=1, seed=0))
+    flat = VecNormalize(make_vec_env("Planar3P-v0", n_envs=1, seed=0))
     flat.save(tmp_path / "flat.pkl")
     with pytest.raises(PolicyError, match="statistics"):
         load_policy(f"{tmp_path / 'ppo.zip'}:stats={tmp_path / 'flat.pkl'}", env=env)
@@ -163,7 +163,7 @@ def test_goal_error_features_match_the_flat_observation() -> None:
     np.testing.assert_allclose(feats[:, -4], flat[:, SLICES["orientation_error"]][:, 0], atol=1e-5)
     np.testing.assert_allclose(feats[:, -3:], flat[:, SLICES["fine_error"]], atol=1e-4)
     with pytest.raises(ValueError, match="Dict space"):
-        GoalErrorExtractor(gym.make("Planar3P-v1").observation_space)
+        GoalErrorExtractor(gym.make("Planar3P-v0").observation_space)
 
 
 def test_yaml_names_only_known_feature_extractors() -> None:

@@ -13,9 +13,11 @@ import numpy as np
 import pytest
 
 import planar3p_gym  # noqa: F401
-from planar3p_gym import Design, kinematics, task
-from planar3p_gym.physics import Planar3PSim
-from planar3p_gym.rewards import MAX_WEIGHT, RewardWeights
+from planar3p_gym import Design
+from planar3p_gym.machine import kinematics
+from planar3p_gym.sim.physics import Planar3PSim
+from planar3p_gym.tasks import sampling as task
+from planar3p_gym.tasks.rewards import MAX_WEIGHT, RewardWeights
 
 ENV_ID = "Planar3P-v0"
 CFG = task.TaskConfig()
@@ -258,7 +260,7 @@ def test_record_video_writes_a_file(tmp_path):
 
 
 def test_keyboard_mapping_drives_the_sliders():
-    from planar3p_gym.env import KEYBOARD_KEYS, KEYBOARD_SPEED
+    from planar3p_gym.envs.core import KEYBOARD_KEYS, KEYBOARD_SPEED
 
     mapping = gym.make(ENV_ID).unwrapped.get_keys_to_action()
     assert len(mapping) == 26  # each slider still, +x or -x; all still is the no-op

@@ -34,8 +34,9 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from planar3p_gym import Design, kinematics
-from planar3p_gym.kinematics import ALL_MODES
+from planar3p_gym import Design
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.kinematics import ALL_MODES
 
 FIG8 = Design.fig8()
 # legs not in arithmetic progression with the joint offsets, offset rails, gripper near C3

@@ -1,4 +1,4 @@
-"""agents.learning_curves.time_to_success: the first evaluation at >= 90 % from TensorBoard logs."""
+"""planar3p_agents.evaluation.learning_curves.time_to_success: the first evaluation at >= 90 % from TensorBoard logs."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 pytest.importorskip("torch")
 from torch.utils.tensorboard import SummaryWriter
 
-from agents.learning_curves import time_to_success
+from planar3p_agents.evaluation.learning_curves import time_to_success
 
 
 def _session(run: Path, name: str, start: float, evals: list[tuple[int, float, float]]) -> None:

@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 import planar3p_gym  # noqa: F401
-from planar3p_gym import Design, kinematics
-from planar3p_gym.mode_change_env import Planar3PModeChangeEnv
+from planar3p_gym import Design
+from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
+from planar3p_gym.machine import kinematics
 from planar3p_gym.tasks.joint_paths import PathLimits, find_joint_path, track_segment
 from planar3p_gym.tasks.mode_change import leg_modes, single_flip_modes
 
@@ -108,7 +109,7 @@ def test_success_requires_the_target_working_mode():
 def test_reward_has_no_serial_barrier(env):
     env.reset(seed=2)
     task = env.unwrapped.task
-    from planar3p_gym.scalar_kinematics import ConfigurationMeasures
+    from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 
     m = ConfigurationMeasures(0.5, 0.0, 1, (math.pi / 2, 0.0, 0.0))  # a leg exactly upright
     terms = task.reward_terms(

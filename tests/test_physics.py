@@ -1,4 +1,4 @@
-"""Tests of the pymunk model (planar3p_gym.physics): fidelity against the exact kinematics,
+"""Tests of the pymunk model (planar3p_gym.sim.physics): fidelity against the exact kinematics,
 loop closure, holding, end stops and force limits.
 
 Tolerances are stated relative to the design's shortest leg ``L_min``.  The specification's
@@ -12,7 +12,7 @@ third column over ``L_ref``), so leg-length residuals ``r`` move the pose by at 
 
 The physical behaviour tests run on both models (fixture ``model``): ``v0``, the defaults
 without projection, and ``v1``, projection on with :data:`PROJECTED_SUBSTEPS` and
-:data:`PROJECTED_ITERATIONS` (``Planar3P-v1``); ``tests/test_projection.py`` has the stricter
+:data:`PROJECTED_ITERATIONS` (``Planar3P-v0``); ``tests/test_projection.py`` has the stricter
 checks that only the projected model meets.
 """
 
@@ -24,8 +24,11 @@ import math
 import numpy as np
 import pytest
 
-from planar3p_gym import Design, kinematics, motions, physics, task
-from planar3p_gym.physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PSim
+from planar3p_gym import Design
+from planar3p_gym.machine import kinematics, motions
+from planar3p_gym.sim import physics
+from planar3p_gym.sim.physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PSim
+from planar3p_gym.tasks import sampling as task
 
 DESIGN = Design.fig8()
 L_MIN = DESIGN.shortest_leg

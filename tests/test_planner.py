@@ -8,9 +8,9 @@ import pytest
 from task_helpers import play_episode
 
 import planar3p_gym  # noqa: F401
-from agents.crossing import CrossingController
-from agents.planner import BaseObservation, JointPathPlanner
-from agents.task_baselines import make_baseline, run_baselines
+from planar3p_agents.controllers.crossing import CrossingController
+from planar3p_agents.controllers.planner import BaseObservation, JointPathPlanner
+from planar3p_agents.studies.task_baselines import make_baseline, run_baselines
 
 
 def _play(env, policy, seed):
@@ -69,7 +69,7 @@ def test_bad_input():
 def test_verification_rate_on_the_horizontal_machine():
     """On the id's design (no gravity in the plane) the demonstration motion reaches the
     target on the plain solver too (measured: 25 of 25 pairs for seed 0)."""
-    from agents.task_baselines import verification_rate
+    from planar3p_agents.studies.task_baselines import verification_rate
 
     r = verification_rate(3, 0, gravity=0.0, projection=False)
     assert r["pairs"] == 3.0 and r["within_1cm"] == 1.0 and r["within_5cm"] == 1.0

@@ -14,9 +14,8 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import planar3p_gym  # noqa: F401
-from agents import policy_spec
-from agents.play_envs import observation_kwargs
-from agents.policies import (
+from planar3p_agents.policies import spec as policy_spec
+from planar3p_agents.policies.factory import (
     MANIFEST,
     PRETRAINED_DIR,
     TRUSTED_FILES_NOTE,
@@ -28,6 +27,7 @@ from agents.policies import (
     run_env_kwargs,
     verify_pretrained,
 )
+from planar3p_agents.policies.play_envs import observation_kwargs
 
 SHIPPED = list_pretrained()
 #: A shipped policy of ``Planar3P-v0`` (the tests below play it there; the list is sorted by name).
@@ -35,7 +35,7 @@ REACH_V0 = "ppo_kickstart"
 
 
 def test_a_policy_is_shipped_small_with_its_statistics_and_provenance() -> None:
-    assert SHIPPED, "agents/pretrained/ holds no policy"
+    assert SHIPPED, "agents/zoo/pretrained/ holds no policy"
     for name in SHIPPED:
         model = PRETRAINED_DIR / f"{name}.zip"
         assert model.stat().st_size < 5 * 2**20  # a few MB at most
@@ -77,7 +77,7 @@ def test_pretrained_policy_loads_and_acts(name: str) -> None:
 
 def _feedforward_rms(env_id: str, steps: int = 250) -> float:
     """RMS tracking error (m) of the feed-forward controller on the episode of seed 11."""
-    from agents.tracking import TrackingController
+    from planar3p_agents.controllers.tracking import TrackingController
 
     env = gym.make(env_id)
     ctrl = TrackingController.from_env(env)

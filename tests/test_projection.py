@@ -1,5 +1,5 @@
-"""Tests of the post-stabilisation projection (planar3p_gym.projection) and of the projected
-model ``Planar3P-v1`` (``projection=True`` with the projected solver settings).
+"""Tests of the post-stabilisation projection (planar3p_gym.sim.projection) and of the projected
+model ``Planar3P-v0`` (``projection=True`` with the projected solver settings).
 
 Targets (issue 12): loop-closure error at most 1e-9 m on every step, near singularities too;
 the simulated pose within 1e-6 m (``|(dx, dy, L_ref dtheta)|``) of the exact direct kinematics
@@ -17,10 +17,13 @@ import numpy as np
 import pytest
 
 import planar3p_gym
-from planar3p_gym import Design, kinematics, motions, physics, statics, task
-from planar3p_gym.physics import Planar3PSim
-from planar3p_gym.projection import POSITION_TOLERANCE, LoopProjector
-from planar3p_gym.scalar_kinematics import ScalarKinematics
+from planar3p_gym import Design
+from planar3p_gym.machine import kinematics, motions, statics
+from planar3p_gym.machine.scalar_kinematics import ScalarKinematics
+from planar3p_gym.sim import physics
+from planar3p_gym.sim.physics import Planar3PSim
+from planar3p_gym.sim.projection import POSITION_TOLERANCE, LoopProjector
+from planar3p_gym.tasks import sampling as task
 
 DESIGN = Design.fig8()
 MODE = (1, 1, -1)
@@ -150,8 +153,8 @@ def test_velocity_projection_never_adds_kinetic_energy_in_its_metric():
 
 
 # ---------------------------------------------------------------------------- the model
-def test_planar3p_v1_is_the_projected_model():
-    env = gym.make(planar3p_gym.ENV_ID_V1)
+def test_planar3p_v0_is_the_projected_model():
+    env = gym.make(planar3p_gym.ENV_ID)
     cfg = env.unwrapped.config()
     assert cfg["projection"] is True
     assert (cfg["substeps"], cfg["solver_iterations"]) == (
@@ -160,7 +163,12 @@ def test_planar3p_v1_is_the_projected_model():
     )
     env.reset(seed=0)
     assert env.unwrapped.sim.projection
-    assert gym.make("Planar3P-v0").unwrapped.config()["projection"] is False
+    plain = gym.make("Planar3P-v0", projection=False).unwrapped.config()
+    assert plain["projection"] is False
+    assert (plain["substeps"], plain["solver_iterations"]) == (
+        physics.DEFAULT_SUBSTEPS,
+        physics.DEFAULT_ITERATIONS,
+    )
     env.close()
 
 
@@ -169,7 +177,7 @@ def test_projection_flag_must_be_a_bool(bad):
     with pytest.raises(ValueError, match="projection"):
         Planar3PSim(DESIGN, starts(n=1)[0], MODE, projection=bad)
     with pytest.raises(ValueError, match="projection"):
-        planar3p_gym.env.Planar3PEnv(projection=bad)
+        planar3p_gym.envs.core.Planar3PEnv(projection=bad)
 
 
 def test_random_soak_closes_the_loop_on_every_step():

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from planar3p_gym import ENV_ID, Design
-from planar3p_gym.render import Frame, Renderer
+from planar3p_gym.sim.render import Frame, Renderer
 
 #: The status text occupies the top-left corner; mechanism changes must show outside it.
 TEXT_BOX = (slice(0, 140), slice(0, 260))

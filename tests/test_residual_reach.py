@@ -1,5 +1,5 @@
-"""Residual reach policy (agents/residual.py): PPO on top of the benchmark's analytic
-controller on ``Planar3P-v1``."""
+"""Residual reach policy (agents/controllers/residual.py): PPO on top of the benchmark's analytic
+controller on ``Planar3P-v0``."""
 
 from __future__ import annotations
 
@@ -24,12 +24,16 @@ from script_loader import load_script
 from stable_baselines3 import PPO
 
 import planar3p_gym
-from agents import training
-from agents.analytic import AnalyticController
-from agents.residual import REACH_ERROR_SCALE, ReachFeatures, ResidualReachPolicy
-from planar3p_gym.observation import OBS_SIZE, SLICES
+from planar3p_agents.controllers.analytic import AnalyticController
+from planar3p_agents.controllers.residual import (
+    REACH_ERROR_SCALE,
+    ReachFeatures,
+    ResidualReachPolicy,
+)
+from planar3p_agents.training import config as training
+from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
-ID = planar3p_gym.ENV_ID_V1
+ID = planar3p_gym.ENV_ID
 HYPERPARAMS = training.HYPERPARAMS_DIR / "ppo_residual.yml"
 train_script = load_script("train")
 
@@ -94,9 +98,9 @@ def test_round_trip_and_wrong_observation(tmp_path: Path):
 def test_benchmark_plays_an_untrained_residual_model_like_the_controller(tmp_path: Path):
     """Played by the benchmark's episode runner on the fixed `standard` suite, the untrained
     residual model is the analytic controller: same outcomes, same times to success."""
-    from agents.benchmark import build_suites
-    from agents.episodes import evaluate
-    from agents.policies import load_policy
+    from planar3p_agents.evaluation.benchmark import build_suites
+    from planar3p_agents.evaluation.episodes import evaluate
+    from planar3p_agents.policies.factory import load_policy
 
     _model().save(tmp_path / "residual.zip")
     env = gym.make(ID)
@@ -108,7 +112,7 @@ def test_benchmark_plays_an_untrained_residual_model_like_the_controller(tmp_pat
 
 
 def test_train_script_trains_the_shipped_entry(tmp_path: Path):
-    """scripts/train.py with agents/hyperparams/ppo_residual.yml: a complete run whose model
+    """scripts/train.py with agents/training/hyperparams/ppo_residual.yml: a complete run whose model
     is a residual reach policy with reward-only statistics."""
     run = tmp_path / "reach"
     argv = [
@@ -120,7 +124,7 @@ def test_train_script_trains_the_shipped_entry(tmp_path: Path):
     assert config["policy"] == "ResidualReachPolicy"
     model = PPO.load(run / "model.zip", device="cpu")
     assert isinstance(model.policy, ResidualReachPolicy)
-    from agents.policies import load_policy
+    from planar3p_agents.policies.factory import load_policy
 
     loaded = load_policy(f"{run / 'model.zip'}:stats={run / 'vecnormalize.pkl'}", env=gym.make(ID))
     assert not loaded.vecnormalize.norm_obs

@@ -1,4 +1,4 @@
-"""Residual tracking policy (agents/residual.py), its training path and the mixed reference."""
+"""Residual tracking policy (agents/controllers/residual.py), its training path and the mixed reference."""
 
 from __future__ import annotations
 
@@ -23,10 +23,10 @@ from script_loader import load_script
 from stable_baselines3 import PPO
 
 import planar3p_gym
-from agents import training
-from agents.residual import ERROR_SCALE, ResidualTrackPolicy, TrackFeatures
-from agents.tracking import TrackingController
-from planar3p_gym.observation import SLICES
+from planar3p_agents.controllers.residual import ERROR_SCALE, ResidualTrackPolicy, TrackFeatures
+from planar3p_agents.controllers.tracking import TrackingController
+from planar3p_agents.training import config as training
+from planar3p_gym.tasks.observation import SLICES
 
 ID = planar3p_gym.TRACK_ENV_ID
 train_script = load_script("train")
@@ -125,7 +125,7 @@ def test_train_script_trains_the_shipped_entry(tmp_path: Path):
     model = PPO.load(run / "model.zip", device="cpu")
     assert isinstance(model.policy, ResidualTrackPolicy)
     # Its statistics normalise rewards only; loaded by name they leave observations alone.
-    from agents.policies import load_policy
+    from planar3p_agents.policies.factory import load_policy
 
     env = gym.make(ID)
     obs = _observations(5)
@@ -135,7 +135,7 @@ def test_train_script_trains_the_shipped_entry(tmp_path: Path):
         with_stats.predict(obs)[0], model.predict(obs, deterministic=True)[0]
     )
     # Its learning curve in tracking error: step 0 is the controller; kept and reused.
-    from agents.track_curves import CACHE, SuitePlayer, run_curve
+    from planar3p_agents.studies.track_curves import CACHE, SuitePlayer, run_curve
 
     player = SuitePlayer("track-segments", 1, 0)
     curve = run_curve(run, [player])["track-segments"]
@@ -151,9 +151,9 @@ def test_benchmark_plays_an_untrained_residual_model_like_the_controller(tmp_pat
     """Loaded through a policy specification and played by the benchmark's episode runner
     on a tracking suite, the untrained residual model gives the feed-forward controller's
     tracking errors exactly."""
-    from agents.episodes import evaluate
-    from agents.policies import load_policy
-    from agents.task_suites import make_task_env, make_task_suite
+    from planar3p_agents.evaluation.episodes import evaluate
+    from planar3p_agents.evaluation.task_suites import make_task_env, make_task_suite
+    from planar3p_agents.policies.factory import load_policy
 
     _model().save(tmp_path / "residual.zip")
     for suite_name in ("track-segments", "track-figure-eight"):
@@ -198,9 +198,9 @@ def test_unknown_reference_kind_is_refused():
 def test_gain_sweep_plays_the_benchmark_episodes():
     """At the default gain the sweep gives the benchmark's analytic-feedforward on the same
     suite episodes; a higher gain shrinks the lag (median RMS error)."""
-    from agents.episodes import evaluate
-    from agents.task_suites import make_task_env, make_task_suite
-    from agents.track_gains import gain_sweep
+    from planar3p_agents.evaluation.episodes import evaluate
+    from planar3p_agents.evaluation.task_suites import make_task_env, make_task_suite
+    from planar3p_agents.studies.track_gains import gain_sweep
 
     rows = gain_sweep([6.0, 25.0], 2, 0, ["track-figure-eight"])
     env = make_task_env("track-figure-eight")
@@ -222,8 +222,8 @@ def test_gain_sweep_script_rejects_bad_input(capsys):
 # ---------------------------------------------------------------------- learning curves
 def test_suite_player_plays_the_benchmark_episodes_side_by_side():
     """Batched play gives the benchmark runner's tracking errors exactly."""
-    from agents.episodes import evaluate
-    from agents.track_curves import SuitePlayer
+    from planar3p_agents.evaluation.episodes import evaluate
+    from planar3p_agents.studies.track_curves import SuitePlayer
 
     player = SuitePlayer("track-segments", 2, 0)
     batched = player.play(TrackingController())
@@ -234,7 +234,7 @@ def test_suite_player_plays_the_benchmark_episodes_side_by_side():
 
 
 def test_checkpoints_and_seed_curves(tmp_path: Path):
-    from agents.track_curves import checkpoints, seed_curves
+    from planar3p_agents.studies.track_curves import checkpoints, seed_curves
 
     run = tmp_path / "run"
     (run / "checkpoints").mkdir(parents=True)

@@ -22,8 +22,9 @@ import pytest
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
-from planar3p_gym import Design, kinematics
-from planar3p_gym.scalar_kinematics import ScalarKinematics
+from planar3p_gym import Design
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.scalar_kinematics import ScalarKinematics
 
 DESIGNS = {
     "fig8": Design.fig8(),

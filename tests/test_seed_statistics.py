@@ -1,4 +1,4 @@
-"""Tests of results across training seeds (agents.seed_statistics, scripts/seed_report.py)."""
+"""Tests of results across training seeds (planar3p_agents.evaluation.seed_statistics, scripts/seed_report.py)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from script_loader import load_script
 
-from agents import seed_statistics as ss
+from planar3p_agents.evaluation import seed_statistics as ss
 
 seed_report = load_script("seed_report")
 
@@ -110,7 +110,7 @@ def test_script_writes_the_table_and_rejects_bad_input(tmp_path: Path, capsys):
 
 
 def test_learning_curves_show_the_iqm_over_the_seeds_at_each_step():
-    from agents.learning_curves import _group_curves
+    from planar3p_agents.evaluation.learning_curves import _group_curves
 
     runs = [
         {"timesteps": np.array([10, 20]), "successes": np.array([0.2, 0.8])},

@@ -1,4 +1,4 @@
-"""agents.shipping / scripts/ship_policy.py: both layouts of a shipped policy, the manifest,
+"""planar3p_agents.zoo.shipping / scripts/ship_policy.py: both layouts of a shipped policy, the manifest,
 and rl-zoo3's enjoy playing the shipped PPO policy; scripts/plot_learning.py on a tiny run."""
 
 from __future__ import annotations
@@ -18,8 +18,8 @@ pytest.importorskip("rl_zoo3")
 
 from script_loader import ROOT, load_script
 
-from agents.policies import PRETRAINED_DIR, file_sha256
-from agents.shipping import ship, zoo_layout
+from planar3p_agents.policies.factory import PRETRAINED_DIR, file_sha256
+from planar3p_agents.zoo.shipping import ship, zoo_layout
 
 train_script = load_script("train")
 ship_script = load_script("ship_policy")
@@ -111,7 +111,7 @@ def test_shipped_zoo_layout_matches_the_shipped_policy() -> None:
 def test_rl_zoo3_enjoy_plays_the_shipped_policy() -> None:
     """The documented command, run as a user would (seed 0, deterministic, 300 steps)."""
     cmd = [sys.executable, "-m", "rl_zoo3.enjoy", "--algo", "ppo", "--env", "Planar3P-v0"]
-    cmd += ["-f", "agents/pretrained", "--gym-packages", "planar3p_gym", "--no-render"]
+    cmd += ["-f", "agents/zoo/pretrained", "--gym-packages", "planar3p_gym", "--no-render"]
     cmd += ["-n", "300", "--seed", "0"]
     env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "OMP_NUM_THREADS": "1"}
     done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
@@ -124,10 +124,10 @@ def test_rl_zoo3_enjoy_plays_the_shipped_policy() -> None:
 
 
 def test_learning_curves_of_a_run(tiny_run: Path, tmp_path: Path, capsys) -> None:
-    """scripts/plot_learning.py (agents.learning_curves) on the same tiny run."""
+    """scripts/plot_learning.py (planar3p_agents.evaluation.learning_curves) on the same tiny run."""
     import numpy as np
 
-    from agents.learning_curves import group_name, load_run
+    from planar3p_agents.evaluation.learning_curves import group_name, load_run
 
     plot_script = load_script("plot_learning")
     run = load_run(tiny_run)

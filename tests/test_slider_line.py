@@ -8,8 +8,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from planar3p_gym import Design, kinematics, task
-from planar3p_gym.slider_line import END_TOLERANCE, slider_line_end, slider_line_reaches
+from planar3p_gym import Design
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.slider_line import END_TOLERANCE, slider_line_end, slider_line_reaches
+from planar3p_gym.tasks import sampling as task
 
 DESIGN = Design.fig8()
 MODE = (1, 1, -1)

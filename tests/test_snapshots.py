@@ -12,8 +12,10 @@ import numpy as np
 import pytest
 
 import planar3p_gym  # noqa: F401  (registers the ids)
-from planar3p_gym import Design, physics, task
-from planar3p_gym.physics import Planar3PSim, SimSnapshot
+from planar3p_gym import Design
+from planar3p_gym.sim import physics
+from planar3p_gym.sim.physics import Planar3PSim, SimSnapshot
+from planar3p_gym.tasks import sampling as task
 
 DESIGN = Design.fig8()
 MODE = (1, 1, -1)
@@ -84,7 +86,7 @@ def run(env, actions, episode: int = 150) -> list:
 
 @pytest.mark.parametrize(
     ("env_id", "kwargs"),
-    [("Planar3P-v0", {"working_mode": "random"}), ("Planar3P-v1", {})],
+    [("Planar3P-v0", {"working_mode": "random"}), ("Planar3P-v0", {})],
 )
 def test_restored_environments_continue_bit_identically(env_id, kwargs):
     """An environment restored from ``get_state`` (into a fresh one, by ``copy.deepcopy`` and
@@ -106,7 +108,7 @@ def test_restored_environments_continue_bit_identically(env_id, kwargs):
 
 
 def test_wrapped_environments_can_be_deep_copied():
-    env = gym.make("Planar3P-v1")
+    env = gym.make("Planar3P-v0")
     env.reset(seed=0)
     twin = copy.deepcopy(env)
     actions = np.random.default_rng(3).uniform(-1.0, 1.0, (300, 3))
@@ -114,10 +116,10 @@ def test_wrapped_environments_can_be_deep_copied():
 
 
 def test_snapshots_from_other_settings_are_rejected_without_change():
-    env = gym.make("Planar3P-v1").unwrapped
+    env = gym.make("Planar3P-v0").unwrapped
     env.reset(seed=0)
     snap = env.get_state()
-    other = gym.make("Planar3P-v1", design="fig7").unwrapped
+    other = gym.make("Planar3P-v0", design="fig7").unwrapped
     other.reset(seed=0)
     before = other.get_state()
     with pytest.raises(ValueError, match="other settings"):
@@ -128,10 +130,10 @@ def test_snapshots_from_other_settings_are_rejected_without_change():
 
 
 def test_snapshot_before_reset_restores_an_unreset_environment():
-    env = gym.make("Planar3P-v1").unwrapped
+    env = gym.make("Planar3P-v0").unwrapped
     snap = env.get_state()
     assert snap["sim"] is None
-    used = gym.make("Planar3P-v1").unwrapped
+    used = gym.make("Planar3P-v0").unwrapped
     used.reset(seed=4)
     used.set_state(snap)
     with pytest.raises(RuntimeError, match="reset"):

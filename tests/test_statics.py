@@ -10,9 +10,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from planar3p_gym import Design, kinematics, task
-from planar3p_gym.physics import Planar3PSim
-from planar3p_gym.statics import holding_forces, holding_forces_at
+from planar3p_gym import Design
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.statics import holding_forces, holding_forces_at
+from planar3p_gym.sim.physics import Planar3PSim
+from planar3p_gym.tasks import sampling as task
 
 DESIGN = Design.fig8()
 ALL_MODES = list(itertools.product((1, -1), repeat=3))

@@ -1,4 +1,4 @@
-"""Statistics of the benchmark (agents/statistics.py): IQM, bootstrap and Wilson intervals,
+"""Statistics of the benchmark (agents/evaluation/intervals.py): IQM, bootstrap and Wilson intervals,
 per-suite summaries.  Expected values are worked out by hand in the comments."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from agents import episodes as ep
-from agents import statistics as st
+from planar3p_agents.evaluation import episodes as ep
+from planar3p_agents.evaluation import intervals as st
 
 
 def test_iqm_hand_checked():

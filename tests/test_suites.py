@@ -1,4 +1,4 @@
-"""Evaluation suites (agents/suites.py, agents/paths.py, agents/region_maps.py): seeded,
+"""Evaluation suites (agents/evaluation/reach_suites.py, agents/evaluation/path_diagnostics.py, agents/evaluation/region_maps.py): seeded,
 prefix-stable, valid reset options of the kind each suite promises, saved and loaded."""
 
 from __future__ import annotations
@@ -9,9 +9,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents import suites as su
-from planar3p_gym import Design, kinematics
-from planar3p_gym.statics import holding_forces
+from planar3p_agents.evaluation import reach_suites as su
+from planar3p_gym import Design
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.statics import holding_forces
 
 ROOT = Path(__file__).resolve().parents[1]
 DESIGN = Design.fig8()

@@ -1,4 +1,4 @@
-"""agents.sweep / scripts/sweep.py: a tiny sweep on a local Ray, its table, and bad input."""
+"""planar3p_agents.training.sweep / scripts/sweep.py: a tiny sweep on a local Ray, its table, and bad input."""
 
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ pytest.importorskip("ray.tune")
 
 from script_loader import load_script
 
-from agents.sweep import COLUMNS, SweepSpec, run_sweep, search_space, validate
-from agents.train_run import RunOptions
+from planar3p_agents.training.run import RunOptions
+from planar3p_agents.training.sweep import COLUMNS, SweepSpec, run_sweep, search_space, validate
 
 SMOKE = {"n_steps": 64, "batch_size": 64, "n_epochs": 1}
 OPTIONS = dict(
@@ -150,7 +150,7 @@ def test_script_exits_2_on_bad_input_and_keeps_existing_output(tmp_path: Path, c
 
 
 def test_script_passes_the_vector_env_choice_to_every_trial() -> None:
-    base = ["--algo", "ppo", "--env", "Planar3P-v1", "--seeds", "0", "--out", "o"]
+    base = ["--algo", "ppo", "--env", "Planar3P-v0", "--seeds", "0", "--out", "o"]
     args = sweep_script.parse_args([*base, "--vec-env", "native"])
     assert sweep_script.spec_from(args).options.vec_env == "native"
     assert sweep_script.spec_from(sweep_script.parse_args(base)).options.vec_env == "auto"

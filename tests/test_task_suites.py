@@ -1,4 +1,4 @@
-"""Task suites (agents/task_suites.py): seeded episode specs of the task ids, replayed exactly,
+"""Task suites (agents/evaluation/task_suites.py): seeded episode specs of the task ids, replayed exactly,
 their baselines, and the benchmark script on them."""
 
 from __future__ import annotations
@@ -13,11 +13,11 @@ import pytest
 from bench_helpers import read_csv, replay
 
 import planar3p_gym
-from agents import benchmark as bm
-from agents import episodes as ep
-from agents import statistics as st
-from agents import suites as su
-from agents import task_suites as ts
+from planar3p_agents.evaluation import benchmark as bm
+from planar3p_agents.evaluation import episodes as ep
+from planar3p_agents.evaluation import intervals as st
+from planar3p_agents.evaluation import reach_suites as su
+from planar3p_agents.evaluation import task_suites as ts
 
 ROOT = Path(__file__).resolve().parents[1]
 

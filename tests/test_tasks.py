@@ -11,10 +11,10 @@ import pytest
 from task_helpers import assert_seeded_and_replayable, checker_warnings, flat, rollout
 
 import planar3p_gym
-from planar3p_gym.env import Planar3PEnv
-from planar3p_gym.observation import OBS_SIZE
+from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.tasks import ReachTask, Task
 from planar3p_gym.tasks.base import pose_list
+from planar3p_gym.tasks.observation import OBS_SIZE
 
 #: (id, make kwargs) of the ids built on the task interface by this module's author.
 CASES = [

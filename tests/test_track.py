@@ -11,10 +11,10 @@ import numpy as np
 import pytest
 
 import planar3p_gym
-from agents.goal_track_baselines import run_tracking_episodes, summarize_tracking
-from agents.tracking import TrackingController
-from planar3p_gym import kinematics
-from planar3p_gym.observation import OBS_SIZE, SLICES
+from planar3p_agents.controllers.tracking import TrackingController
+from planar3p_agents.studies.goal_track_baselines import run_tracking_episodes, summarize_tracking
+from planar3p_gym.machine import kinematics
+from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 from planar3p_gym.tasks.track import TRACKING_METRICS
 from planar3p_gym.tasks.track_references import parse_reference
 

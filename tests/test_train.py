@@ -12,7 +12,7 @@ pytest.importorskip("stable_baselines3")
 
 from script_loader import load_script
 
-from agents import training
+from planar3p_agents.training import config as training
 
 train_script = load_script("train")
 
@@ -171,7 +171,7 @@ def test_native_vector_env_refuses_other_ids(tmp_path: Path, capsys) -> None:
 
 
 def test_an_empty_run_directory_does_not_block_a_run(tmp_path: Path) -> None:
-    from agents.train_run import plan_run
+    from planar3p_agents.training.run import plan_run
 
     run = tmp_path / "run"
     run.mkdir()
@@ -302,8 +302,8 @@ def test_kickstart_clones_the_teacher_before_rl(tmp_path: Path) -> None:
     policy, and the clone imitates the teacher far better than the untrained network."""
     from stable_baselines3 import PPO
 
-    from agents.kickstart import collect_teacher_data
-    from agents.policies import load_policy
+    from planar3p_agents.policies.factory import load_policy
+    from planar3p_agents.training.kickstart import collect_teacher_data
 
     run = tmp_path / "ks"
     args = _smoke_args("ppo", run, steps=128)
@@ -372,12 +372,12 @@ def test_overrides_read_exponent_floats() -> None:
 
 
 def test_final_evaluation_matches_a_plain_rollout() -> None:
-    """agents.train_run.evaluate (SB3's evaluate_policy + the env's info at each episode's end)
+    """planar3p_agents.training.run.evaluate (SB3's evaluate_policy + the env's info at each episode's end)
     reports what a plain deterministic rollout of the same seeded episodes measures."""
     from stable_baselines3.common.env_util import make_vec_env
 
-    from agents.policies import load_policy
-    from agents.train_run import evaluate
+    from planar3p_agents.policies.factory import load_policy
+    from planar3p_agents.training.run import evaluate
 
     factory = training.EnvFactory("Planar3P-v0")
     policy = load_policy("analytic-simultaneous", env=factory())

@@ -9,10 +9,10 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.play_envs import PlayEnvs, observation_kwargs
-from planar3p_gym import kinematics
-from planar3p_gym.env import Planar3PEnv
-from planar3p_gym.observation import FINE_ERROR_SCALE, OBS_SIZE, TRAVEL_GOAL_SIZE
+from planar3p_agents.policies.play_envs import PlayEnvs, observation_kwargs
+from planar3p_gym.envs.core import Planar3PEnv
+from planar3p_gym.machine import kinematics
+from planar3p_gym.tasks.observation import FINE_ERROR_SCALE, OBS_SIZE, TRAVEL_GOAL_SIZE
 
 
 def _tail_expected(env, obs):
@@ -23,7 +23,7 @@ def _tail_expected(env, obs):
     return np.concatenate([target_rho, fine]).astype(np.float32)
 
 
-@pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v1"])
+@pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v0"])
 @pytest.mark.parametrize("seed", [0, 3])
 def test_observation_is_the_plain_one_plus_the_joint_space_goal(env_id, seed):
     """Same seed, same actions: the first 31 entries are the plain environment's, bit for bit
@@ -53,7 +53,7 @@ def test_target_travels_close_the_loop_at_the_target_in_the_episode_mode(mode):
     """The observed target travels put the platform at the target pose: loop residual zero
     to float32 rounding of the travels (1e-7 m on travels below 1 m, times a leg's
     sensitivity of at most a few), in the episode's working mode."""
-    env = gym.make("Planar3P-v1", travel_goal=True, working_mode=mode)
+    env = gym.make("Planar3P-v0", travel_goal=True, working_mode=mode)
     obs, info = env.reset(seed=11)
     target = info["episode_spec"]["target"]
     target_rho = obs[OBS_SIZE : OBS_SIZE + 3].astype(np.float64)
@@ -64,7 +64,7 @@ def test_target_travels_close_the_loop_at_the_target_in_the_episode_mode(mode):
 def test_fine_travel_error_vanishes_at_the_target():
     """Started at the target itself (``reset(options=...)``), the travels are the target's:
     the fine travel error is zero to float32 rounding of the travels over 1 cm (1e-5)."""
-    env = gym.make("Planar3P-v1", travel_goal=True)
+    env = gym.make("Planar3P-v0", travel_goal=True)
     _, info = env.reset(seed=2)
     start = info["episode_spec"]["start"]
     obs, _ = env.reset(seed=2, options={"start": start, "target": start})
@@ -75,8 +75,8 @@ def test_fine_travel_error_vanishes_at_the_target():
 @pytest.mark.parametrize(
     ("env_id", "value", "match"),
     [
-        ("Planar3P-v1", "yes", "travel_goal must be True or False"),
-        ("Planar3P-v1", 1, "travel_goal must be True or False"),
+        ("Planar3P-v0", "yes", "travel_goal must be True or False"),
+        ("Planar3P-v0", 1, "travel_goal must be True or False"),
         ("Planar3PModeChange-v0", True, "reach task"),
         ("Planar3PTrack-v0", True, "reach task"),
     ],
@@ -89,7 +89,7 @@ def test_bad_travel_goal_is_rejected(env_id, value, match):
 def test_native_vector_env_gives_the_single_envs_joint_space_goal():
     """Both batch modes: the appended block of every env equals its single env's."""
     for batch in ("scalar", "numpy"):
-        venv = gym.make_vec("Planar3P-v1", num_envs=3, batch=batch, travel_goal=True)
+        venv = gym.make_vec("Planar3P-v0", num_envs=3, batch=batch, travel_goal=True)
         assert venv.observation_space.shape == (3, OBS_SIZE + TRAVEL_GOAL_SIZE)
         obs, _ = venv.reset(seed=4)
         for _ in range(5):
@@ -102,7 +102,7 @@ def test_native_vector_env_gives_the_single_envs_joint_space_goal():
 
 # ------------------------------------------------------------------ playing such a model
 def test_play_envs_make_one_variant_per_observation_argument():
-    base = gym.make("Planar3P-v1")
+    base = gym.make("Planar3P-v0")
     envs = PlayEnvs()
     assert observation_kwargs({"task_config": {}, "travel_goal": True}) == {"travel_goal": True}
     assert observation_kwargs(None) == {}
@@ -110,7 +110,7 @@ def test_play_envs_make_one_variant_per_observation_argument():
     assert envs.get(base, {"task_config": {"position_tolerance": 0.001}}) is base
     variant = envs.get(base, {"travel_goal": True})
     assert variant is envs.get(base, {"travel_goal": True, "seed": 1})
-    assert variant.unwrapped.travel_goal and variant.spec.id == "Planar3P-v1"
+    assert variant.unwrapped.travel_goal and variant.spec.id == "Planar3P-v0"
     assert variant.unwrapped.projection  # the registration's own arguments are kept
     assert envs.get(variant, {"travel_goal": True}) is variant
     assert envs.get(variant, {"travel_goal": False}).observation_space.shape == (OBS_SIZE,)
@@ -127,7 +127,7 @@ def test_benchmark_plays_a_travel_goal_model_in_an_env_that_has_it(tmp_path, ben
     run = tmp_path / "run"
     run.mkdir()
     model = PPO(
-        "MlpPolicy", gym.make("Planar3P-v1", travel_goal=True), n_steps=32, batch_size=32, seed=0
+        "MlpPolicy", gym.make("Planar3P-v0", travel_goal=True), n_steps=32, batch_size=32, seed=0
     )
     model.save(run / "model.zip")
     kwargs = {"travel_goal": True, "task_config": {"position_tolerance": 0.001}}
@@ -138,8 +138,6 @@ def test_benchmark_plays_a_travel_goal_model_in_an_env_that_has_it(tmp_path, ben
         f"analytic-simultaneous,ppo:{run / 'model.zip'}:stats=none",
         "--suites",
         "standard",
-        "--reach-env",
-        "Planar3P-v1",
         "--episodes",
         "1",
         "--out",
@@ -161,14 +159,14 @@ def test_a_travel_goal_model_in_a_plain_env_is_refused_with_the_fix(tmp_path):
     message names the argument it was trained with."""
     from stable_baselines3 import PPO
 
-    from agents.policies import PolicyError, load_policy
+    from planar3p_agents.policies.factory import PolicyError, load_policy
 
-    env = gym.make("Planar3P-v1", travel_goal=True)
+    env = gym.make("Planar3P-v0", travel_goal=True)
     PPO("MlpPolicy", env, n_steps=32, batch_size=32, seed=0).save(tmp_path / "model.zip")
     kwargs = {"travel_goal": True}
     (tmp_path / "config.json").write_text(json.dumps({"config": {"env_kwargs": kwargs}}))
     with pytest.raises(PolicyError, match=r"trained with \{'travel_goal': True\}"):
-        load_policy(f"ppo:{tmp_path / 'model.zip'}:stats=none", env=gym.make("Planar3P-v1"))
+        load_policy(f"ppo:{tmp_path / 'model.zip'}:stats=none", env=gym.make("Planar3P-v0"))
     assert load_policy(f"ppo:{tmp_path / 'model.zip'}:stats=none", env=env).env_kwargs == kwargs
 
 
@@ -177,14 +175,14 @@ def test_library_benchmark_makes_and_closes_its_own_play_envs(tmp_path):
     they need (and close it): the travel-goal model plays its episode."""
     from stable_baselines3 import PPO
 
-    from agents import benchmark as bm
+    from planar3p_agents.evaluation import benchmark as bm
 
-    model = PPO("MlpPolicy", gym.make("Planar3P-v1", travel_goal=True), n_steps=32, seed=0)
+    model = PPO("MlpPolicy", gym.make("Planar3P-v0", travel_goal=True), n_steps=32, seed=0)
     model.save(tmp_path / "model.zip")
     (tmp_path / "config.json").write_text(
         json.dumps({"config": {"env_kwargs": {"travel_goal": True}}})
     )
-    env = gym.make("Planar3P-v1")
+    env = gym.make("Planar3P-v0")
     envs = {"standard": env}
     per_suite, _ = bm.load_suite_policies(
         [f"ppo:{tmp_path / 'model.zip'}:stats=none"], ["standard"], envs, warn=lambda _t: None

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import planar3p_gym  # noqa: F401
-from planar3p_gym import kinematics
-from planar3p_gym.assembly_change_env import Planar3PAssemblyChangeEnv
-from planar3p_gym.mode_change_env import Planar3PModeChangeEnv
+from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
+from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
+from planar3p_gym.machine import kinematics
 
 IDS = ("Planar3PModeChange-v0", "Planar3PAssemblyChange-v0")
 

@@ -1,4 +1,4 @@
-"""The native vector env (planar3p_gym.vector_env): registered as the ids' vector entry point,
+"""The native vector env (planar3p_gym.envs.vector): registered as the ids' vector entry point,
 Gymnasium's next-step autoreset, and the same trajectories as ``num_envs`` single envs."""
 
 from __future__ import annotations
@@ -9,10 +9,10 @@ import pytest
 from gymnasium.vector import AutoresetMode
 
 import planar3p_gym
-from planar3p_gym.vector_env import INFO_KEYS, NUMPY_BATCH_MIN, Planar3PVectorEnv
+from planar3p_gym.envs.vector import INFO_KEYS, NUMPY_BATCH_MIN, Planar3PVectorEnv
 
 
-@pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v1"])
+@pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v0"])
 def test_make_vec_gives_the_native_vector_env(env_id):
     venv = gym.make_vec(env_id, num_envs=3)
     assert type(venv) is Planar3PVectorEnv
@@ -20,23 +20,23 @@ def test_make_vec_gives_the_native_vector_env(env_id):
     assert venv.observation_space.shape == (3, 31)
     assert venv.action_space.shape == (3, 3)
     assert venv.max_episode_steps == planar3p_gym.MAX_EPISODE_STEPS
-    assert venv.envs[0].projection == (env_id == "Planar3P-v1")
+    assert venv.envs[0].projection == (env_id == "Planar3P-v0")
     venv.close()
 
 
 @pytest.mark.parametrize(
     ("env_id", "kwargs", "batch"),
     [
-        ("Planar3P-v1", {}, "scalar"),
-        ("Planar3P-v1", {}, "numpy"),
-        ("Planar3P-v1", {"working_mode": "random"}, "numpy"),
+        ("Planar3P-v0", {}, "scalar"),
+        ("Planar3P-v0", {}, "numpy"),
+        ("Planar3P-v0", {"working_mode": "random"}, "numpy"),
         # Every step past a closure of 1e-15 of the shortest leg counts as a physics breakdown:
         # episodes end through the single env's general step, in both batch modes.
-        ("Planar3P-v1", {"breakdown_threshold": 1e-15}, "scalar"),
-        ("Planar3P-v1", {"breakdown_threshold": 1e-15}, "numpy"),
+        ("Planar3P-v0", {"breakdown_threshold": 1e-15}, "scalar"),
+        ("Planar3P-v0", {"breakdown_threshold": 1e-15}, "numpy"),
         # The joint-space goal appended to the observation (travel_goal), through both paths.
-        ("Planar3P-v1", {"travel_goal": True}, "numpy"),
-        ("Planar3P-v1", {"travel_goal": True, "breakdown_threshold": 1e-15}, "scalar"),
+        ("Planar3P-v0", {"travel_goal": True}, "numpy"),
+        ("Planar3P-v0", {"travel_goal": True, "breakdown_threshold": 1e-15}, "scalar"),
         ("Planar3P-v0", {}, "auto"),
         # The task ids on the projected physics: environment by environment.
         ("Planar3PTrack-v0", {}, "auto"),
@@ -88,9 +88,10 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, ba
 
 
 def test_batch_modes_and_their_choice():
-    assert gym.make_vec("Planar3P-v1", num_envs=2)._core.numpy is False
-    assert gym.make_vec("Planar3P-v1", num_envs=NUMPY_BATCH_MIN)._core.numpy is True
-    assert gym.make_vec("Planar3P-v0", num_envs=2)._core is None  # per-environment steps
+    assert gym.make_vec("Planar3P-v0", num_envs=2)._core.numpy is False
+    assert gym.make_vec("Planar3P-v0", num_envs=NUMPY_BATCH_MIN)._core.numpy is True
+    # The unprojected model has no batched path: per-environment steps.
+    assert gym.make_vec("Planar3P-v0", num_envs=2, projection=False)._core is None
     with pytest.raises(ValueError, match="batch"):
         Planar3PVectorEnv(num_envs=2, batch="fast")
 
@@ -146,7 +147,7 @@ def test_vector_snapshot_restores_the_batch(batch):
 
 
 def test_sb3_adapter_matches_dummy_vec_env():
-    """``agents.vec_adapter.make_native_vec_env`` gives what SB3's ``DummyVecEnv`` of
+    """``planar3p_agents.training.vec_adapter.make_native_vec_env`` gives what SB3's ``DummyVecEnv`` of
     ``gym.make`` envs gives (same seeds): observations, rewards, dones, terminal observations,
     time-limit flags and success flags; and PPO runs on it."""
     sb3 = pytest.importorskip("stable_baselines3")
@@ -155,13 +156,13 @@ def test_sb3_adapter_matches_dummy_vec_env():
 
     torch.set_num_threads(1)
 
-    from agents.vec_adapter import make_native_vec_env
+    from planar3p_agents.training.vec_adapter import make_native_vec_env
 
     n, limit = 2, 30
-    native = make_native_vec_env("Planar3P-v1", n_envs=n, seed=4, env_kwargs=None)
+    native = make_native_vec_env("Planar3P-v0", n_envs=n, seed=4, env_kwargs=None)
     native.venv.max_episode_steps = limit
     dummy = DummyVecEnv(
-        [lambda: gym.make("Planar3P-v1", max_episode_steps=limit) for _ in range(n)]
+        [lambda: gym.make("Planar3P-v0", max_episode_steps=limit) for _ in range(n)]
     )
     dummy.seed(4)
     np.testing.assert_array_equal(native.reset(), dummy.reset())

@@ -1,4 +1,4 @@
-"""Tests of planar3p_gym.workspace: exactness against brute-force IK and the exact swept-circle
+"""Tests of planar3p_gym.analysis.workspace: exactness against brute-force IK and the exact swept-circle
 description, convergence, monotonicity, dead zones, symmetry and singularity loci."""
 
 from __future__ import annotations
@@ -9,15 +9,7 @@ from collections import deque
 import numpy as np
 import pytest
 
-from planar3p_gym.design import Design
-from planar3p_gym.kinematics import (
-    ALL_MODES,
-    classify_singularity,
-    inverse,
-    parallel_margin,
-    serial_margin,
-)
-from planar3p_gym.workspace import (
+from planar3p_gym.analysis.workspace import (
     constant_orientation_area,
     dead_zones,
     exact_workspace,
@@ -35,6 +27,14 @@ from planar3p_gym.workspace import (
     singularity_segments,
     stroke_study,
     workspace,
+)
+from planar3p_gym.machine.design import Design
+from planar3p_gym.machine.kinematics import (
+    ALL_MODES,
+    classify_singularity,
+    inverse,
+    parallel_margin,
+    serial_margin,
 )
 
 
@@ -131,7 +131,7 @@ def test_grid_converges_to_exact_constant_orientation_area():
 def test_exact_area_of_one_swept_circle():
     # One leg's region: the stadium (2 r L + pi r^2) minus the lens of the two discs of
     # radius r about the stroke ends (2 r^2 acos(L / 2r) - (L/2) sqrt(4 r^2 - L^2)).
-    from planar3p_gym.workspace import _leg_boundary
+    from planar3p_gym.analysis.workspace import _leg_boundary
 
     for r, L in ((0.17, 0.1), (0.19, 0.3), (2.5, 1.0), (0.1, 0.25)):
         prims = _leg_boundary(0, 0.3, -0.2, L, r)

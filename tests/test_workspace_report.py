@@ -1,4 +1,4 @@
-"""planar3p_gym.workspace_report / workspace_figures and scripts/workspace.py: the regenerated
+"""planar3p_gym.analysis.workspace_report / workspace_figures and scripts/workspace.py: the regenerated
 table equals docs/workspace_table.*, a quick run writes every file, bad arguments write nothing."""
 
 from __future__ import annotations
@@ -8,8 +8,13 @@ from pathlib import Path
 import pytest
 from script_loader import ROOT, load_script
 
-from planar3p_gym.workspace_figures import FIGURES
-from planar3p_gym.workspace_report import StudySettings, recommendation_text, run_study, tables
+from planar3p_gym.analysis.workspace_figures import FIGURES
+from planar3p_gym.analysis.workspace_report import (
+    StudySettings,
+    recommendation_text,
+    run_study,
+    tables,
+)
 
 workspace_script = load_script("workspace")
 

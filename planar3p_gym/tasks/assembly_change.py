@@ -9,7 +9,7 @@ physics breakdown still does (a failure).
 
 **Feasibility (how the sampler checks it).**  Start and target are drawn like the reach task's
 poses (reachable, in stroke away from the end stops, both margins above thresholds, holdable
-with at most 75 % of the actuator force; :mod:`planar3p_gym.task`) in the episode's working
+with at most 75 % of the actuator force; :mod:`planar3p_gym.tasks.sampling`) in the episode's working
 mode, the target in the other assembly mode.  The pair is kept when
 
 1. *kinematics*: the straight path in pose space between them stays reachable within the
@@ -41,7 +41,7 @@ and 0.2 m/s), so such a design is rejected at construction.  The projected physi
 (``projection=True``) lets half the candidates pass, but its energy balance through those
 crossings is off by about 1 J (the servos do 0.7 J; README, "Crossing fidelity"), so the
 registered id uses the default design mounted horizontally, ``gravity = 0``
-(:func:`planar3p_gym.assembly_change_env.assembly_change_design`), where both physics agree.
+(:func:`planar3p_gym.envs.assembly_change.assembly_change_design`), where both physics agree.
 
 Episode spec: ``{"task": "assembly_change", "working_mode", "start", "target"}``.  Reset options:
 ``start``, ``target``, ``working_mode`` (any subset; a requested pair must pass the checks,
@@ -72,14 +72,20 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .. import kinematics, task
-from ..physics import Planar3PSim, SimState
-from ..scalar_kinematics import ConfigurationMeasures, ScalarKinematics
-from .base import ModeTriple, Pose, Task, count_option, mode_option, pose_list
-from .crossing_checks import CrossingLimits, SimFactory, crossing_path, verify_crossing
-from .singular_gravity import gravity_alignment
-from .travel_motion import TravelCurve, demonstration_travels, pose_path_travels
-from .travel_shaping import TravelShaping, check_travel_shaping
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures, ScalarKinematics
+from planar3p_gym.sim.physics import Planar3PSim, SimState
+from planar3p_gym.tasks import sampling as task
+from planar3p_gym.tasks.base import ModeTriple, Pose, Task, count_option, mode_option, pose_list
+from planar3p_gym.tasks.crossing_checks import (
+    CrossingLimits,
+    SimFactory,
+    crossing_path,
+    verify_crossing,
+)
+from planar3p_gym.tasks.singular_gravity import gravity_alignment
+from planar3p_gym.tasks.travel_motion import TravelCurve, demonstration_travels, pose_path_travels
+from planar3p_gym.tasks.travel_shaping import TravelShaping, check_travel_shaping
 
 __all__ = [
     "AssemblyChangeTask",

@@ -1,6 +1,6 @@
 """The task interface: what an environment id asks of the machine.
 
-:class:`planar3p_gym.env.Planar3PEnv` owns the physics (a :class:`~planar3p_gym.physics.
+:class:`planar3p_gym.envs.core.Planar3PEnv` owns the physics (a :class:`~planar3p_gym.sim.physics.
 Planar3PSim`), the action parsing, the configuration measures and the physics-breakdown test;
 a :class:`Task` owns everything that makes an episode a particular problem.  The environment
 calls, in this order:
@@ -49,7 +49,7 @@ Contract every task must meet (the fixed benchmark suites and the tests rely on 
 * **Settings.**  :meth:`Task.arguments` returns the constructor arguments as plain data; it
   goes into ``env.config()["task_arguments"]`` (run records, snapshot compatibility).
 * **Observation.**  The flat observation is the 31 entries of
-  :mod:`planar3p_gym.observation`, computed against the current reference pose (the target of
+  :mod:`planar3p_gym.tasks.observation`, computed against the current reference pose (the target of
   a reach), followed by :meth:`Task.observation_extra` (bounds from
   :meth:`Task.observation_bounds`); tasks with nothing extra keep exactly 31 entries.
 """
@@ -60,13 +60,13 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
-from .. import task
-from ..physics import SimState
-from ..rewards import pose_error, precision_penalty, reward_terms
-from ..scalar_kinematics import ConfigurationMeasures
+from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
+from planar3p_gym.sim.physics import SimState
+from planar3p_gym.tasks import sampling as task
+from planar3p_gym.tasks.rewards import pose_error, precision_penalty, reward_terms
 
 if TYPE_CHECKING:
-    from ..env import Planar3PEnv
+    from planar3p_gym.envs.core import Planar3PEnv
 
 __all__ = [
     "ModeTriple",
@@ -128,7 +128,7 @@ class Task:
     Subclasses set :attr:`name` and :attr:`option_keys` and implement :meth:`episode_spec`,
     :meth:`begin` and :meth:`reference`; the defaults of the other hooks give the reach task's
     behaviour (success at the reference pose at rest, a parallel-singularity crossing is a
-    failure, the reward of :mod:`planar3p_gym.rewards`).
+    failure, the reward of :mod:`planar3p_gym.tasks.rewards`).
     """
 
     #: Value of ``spec["task"]``.
@@ -246,7 +246,7 @@ class Task:
         failure: bool,
     ) -> dict[str, float]:
         """Weighted reward terms (their sum is the reward); default
-        :func:`planar3p_gym.rewards.reward_terms` on the errors to the reference, with the
+        :func:`planar3p_gym.tasks.rewards.reward_terms` on the errors to the reference, with the
         singularity barriers :attr:`parallel_barrier` and :attr:`serial_barrier`."""
         env = self.env
         pos_err, ang_err = errors
@@ -271,7 +271,7 @@ class Task:
 
     # ------------------------------------------------------------------ helpers
     def pose_sampler(self, mode: tuple[int, int, int]) -> task.PoseSampler:
-        """The task's :class:`planar3p_gym.task.PoseSampler` for working ``mode`` (made on
+        """The task's :class:`planar3p_gym.tasks.sampling.PoseSampler` for working ``mode`` (made on
         first use, kept for the task's life; :meth:`reseed` clears its pose batches)."""
         if mode not in self._samplers:
             self._samplers[mode] = task.PoseSampler(self.env.design, mode, self.env.task_config)

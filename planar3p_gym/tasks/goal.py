@@ -40,10 +40,10 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..rewards import RewardWeights
-from ..task import TaskConfig
-from .base import Pose, finite_numbers
-from .reach import ReachTask
+from planar3p_gym.tasks.base import Pose, finite_numbers
+from planar3p_gym.tasks.reach import ReachTask
+from planar3p_gym.tasks.rewards import RewardWeights
+from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
     "GOAL_SIZE",
@@ -179,7 +179,7 @@ def goal_reward(
 
     Sparse: ``-1`` unless successful (``0``).  Dense: ``-w_pose e - w_precision (1 -
     exp(-d / s)) + w_success [success]`` with ``d = |dp| + length |dtheta|`` (m), ``e = d /
-    length`` (the reach reward's goal terms, :mod:`planar3p_gym.rewards`).  ``checked``: the
+    length`` (the reach reward's goal terms, :mod:`planar3p_gym.tasks.rewards`).  ``checked``: the
     goals are float64 arrays ``(n, 5)`` known to be valid (the input checks are skipped, the
     arithmetic is the same).
     """

@@ -9,7 +9,7 @@ is what the direct kinematics gives: the platform pose on the branch that starts
 pose (followed by continuity), its parallel margin and the actuator forces that hold it at rest.
 
 Used by :mod:`planar3p_gym.tasks.mode_change` (the sampler's feasibility test) and by
-:mod:`agents.planner` (the baseline follows the certified path).
+:mod:`planar3p_agents.controllers.planner` (the baseline follows the certified path).
 """
 
 from __future__ import annotations
@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .. import kinematics
-from ..design import Design
-from ..statics import holding_forces_at
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.design import Design
+from planar3p_gym.machine.statics import holding_forces_at
 
 __all__ = [
     "JointPath",
@@ -165,7 +165,7 @@ def certify_joint_path(
 
 
 def closing_travels(design: Design, poses: ArrayLike, mode: ArrayLike) -> FloatArray:
-    """:func:`planar3p_gym.kinematics.inverse` travels (m) of poses ``(..., 3)`` in ``mode``,
+    """:func:`planar3p_gym.machine.kinematics.inverse` travels (m) of poses ``(..., 3)`` in ``mode``,
     with a leg that is upright up to rounding (``L_i^2 - C_iy^2`` within ``-1e-12 L_i^2`` of 0)
     counted as exactly upright; NaN where a leg cannot close.  (No stroke test.)"""
     p = np.asarray(poses, dtype=np.float64)

@@ -7,7 +7,7 @@ of ``sign det A``) and a physics breakdown still end the episode as failures.
 
 **Feasibility (how the sampler checks it).**  Start and target are drawn like the reach task's
 poses (reachable, in stroke away from the end stops, both margins above thresholds, holdable
-with at most 75 % of the actuator force; :mod:`planar3p_gym.task`), the target in ``sigma_t``
+with at most 75 % of the actuator force; :mod:`planar3p_gym.tasks.sampling`), the target in ``sigma_t``
 with the start's assembly mode.  The pair is kept only with a certificate from
 :func:`planar3p_gym.tasks.joint_paths.find_joint_path`: a piecewise-straight path of the
 slider travels (the straight line, or two lines through an intermediate pose with every
@@ -18,7 +18,7 @@ parallel margin of at least ``PathLimits.min_parallel_margin`` (0.02), needs at 
 point, stays in the stroke, and ends exactly (within 1e-6 m) at the target pose, i.e. in the
 target working mode.  A slow enough motion along that path is a sequence of holdable,
 well-conditioned equilibria through the leg's upright position: the episode is solvable within
-the actuator limits.  (``agents.planner.JointPathPlanner`` follows the same certificate.)
+the actuator limits.  (``planar3p_agents.controllers.planner.JointPathPlanner`` follows the same certificate.)
 
 Working-mode pairs: the start mode is drawn from the environment's modes; the target mode from
 the modes that differ in ``flips`` legs (default: exactly one) and for which the task found a
@@ -44,7 +44,7 @@ Metrics in ``info``: ``target_working_mode`` (tuple), ``in_target_mode`` (every 
 ``sign cos alpha_i`` equals ``sigma_t``), ``legs_to_flip`` (number of legs not yet in their
 target mode).  Success: the reach test (pose within tolerances, at rest) and ``in_target_mode``.
 
-Reward: the reach reward's terms (:mod:`planar3p_gym.rewards`) except that the serial-margin
+Reward: the reach reward's terms (:mod:`planar3p_gym.tasks.rewards`) except that the serial-margin
 barrier is left out (the task requires passing a serial singularity; the parallel-margin
 barrier stays).  With ``travel_shaping = w > 0`` a term ``travel = -w * sum_i |rho_i -
 rho_i^t| / L`` (``rho^t`` the target's travels in ``sigma_t``, ``L`` the design's
@@ -62,11 +62,12 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .. import kinematics, task
-from ..physics import SimState
-from .base import ModeTriple, Pose, Task, count_option, mode_option, pose_list
-from .joint_paths import JointPath, PathLimits, find_joint_path
-from .travel_shaping import TravelShaping, check_travel_shaping
+from planar3p_gym.machine import kinematics
+from planar3p_gym.sim.physics import SimState
+from planar3p_gym.tasks import sampling as task
+from planar3p_gym.tasks.base import ModeTriple, Pose, Task, count_option, mode_option, pose_list
+from planar3p_gym.tasks.joint_paths import JointPath, PathLimits, find_joint_path
+from planar3p_gym.tasks.travel_shaping import TravelShaping, check_travel_shaping
 
 __all__ = ["ModeChangeTask", "leg_modes", "single_flip_modes"]
 

@@ -1,6 +1,6 @@
 """The reach task of ``Planar3P-v0``: bring the gripper to a fixed target pose and stop there.
 
-Start and target are drawn by :func:`planar3p_gym.task.sample_pair` (reachable in the episode's
+Start and target are drawn by :func:`planar3p_gym.tasks.sampling.sample_pair` (reachable in the episode's
 working mode with margins, holdable, same assembly mode, straight path clear of singularities by
 default).  Success: within the task's tolerances of the target with every slider nearly at rest.
 
@@ -16,8 +16,9 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .. import kinematics, task
-from .base import Pose, Task, pose_list
+from planar3p_gym.machine import kinematics
+from planar3p_gym.tasks import sampling as task
+from planar3p_gym.tasks.base import Pose, Task, pose_list
 
 __all__ = ["ReachTask"]
 

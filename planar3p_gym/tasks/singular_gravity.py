@@ -10,7 +10,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..design import Design
+from planar3p_gym.machine.design import Design
 
 __all__ = ["gravity_alignment"]
 
@@ -29,7 +29,7 @@ def gravity_alignment(
 
     At a parallel singularity the platform has a free motion ``n`` (``A n = 0``: no slider
     moves); the weight's generalised force along it is ``n . c`` (``c`` as in
-    :mod:`planar3p_gym.statics`, ``g c`` is the gradient of the potential energy).  The
+    :mod:`planar3p_gym.machine.statics`, ``g c`` is the gradient of the potential energy).  The
     returned value is the smallest ``|cos|`` between ``n`` and ``c`` over the singular set
     (with the angle scaled by the characteristic length, so the cosine is dimensionless), and
     where it occurs (m, rad).  ``det A`` and ``n . c`` do not depend on ``x``, so the singular

@@ -3,7 +3,7 @@
 Two kinds of reference (constructor argument ``reference``):
 
 * ``"segments"``: smooth random segments.  Waypoints are drawn like reach targets
-  (:func:`planar3p_gym.task.sample_pair`: reachable in the episode's working mode with the
+  (:func:`planar3p_gym.tasks.sampling.sample_pair`: reachable in the episode's working mode with the
   task's margins, holdable, same assembly mode, the straight path between consecutive waypoints
   clear of singularities); each segment follows the straight pose path with the minimum-jerk
   time law ``s(u) = 10 u^3 - 15 u^4 + 6 u^5`` (velocity and acceleration zero at the
@@ -58,12 +58,13 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from .. import kinematics, task
-from ..motions import MIN_JERK_PEAK
-from ..observation import SPEED_BOUND_FACTOR
-from ..physics import SimState
-from .base import Pose, Task, pose_list
-from .track_references import (
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.motions import MIN_JERK_PEAK
+from planar3p_gym.sim.physics import SimState
+from planar3p_gym.tasks import sampling as task
+from planar3p_gym.tasks.base import Pose, Task, pose_list
+from planar3p_gym.tasks.observation import SPEED_BOUND_FACTOR
+from planar3p_gym.tasks.track_references import (
     CHECK_POINTS,
     MIN_DURATION,
     REFERENCE_KINDS,

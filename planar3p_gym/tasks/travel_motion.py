@@ -2,8 +2,8 @@
 followed with a minimum-jerk time law (:mod:`planar3p_gym.tasks.assembly_change`).
 
 Used by the task's sampler (:func:`planar3p_gym.tasks.crossing_checks.verify_crossing`) and by
-the crossing baseline (:class:`agents.crossing.CrossingController`).  The time law,
-:func:`planar3p_gym.motions.minimum_jerk`, is re-exported here under its old name.
+the crossing baseline (:class:`planar3p_agents.controllers.crossing.CrossingController`).  The time law,
+:func:`planar3p_gym.machine.motions.minimum_jerk`, is re-exported here under its old name.
 """
 
 from __future__ import annotations
@@ -13,9 +13,10 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .. import kinematics, task
-from ..design import Design
-from ..motions import MIN_JERK_PEAK, minimum_jerk
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.design import Design
+from planar3p_gym.machine.motions import MIN_JERK_PEAK, minimum_jerk
+from planar3p_gym.tasks import sampling as task
 
 __all__ = [
     "TravelCurve",
@@ -30,7 +31,7 @@ FloatArray = NDArray[np.float64]
 
 def straight_pose_path(start: ArrayLike, target: ArrayLike, points: int) -> FloatArray:
     """``points`` poses ``(points, 3)`` on the straight pose path from ``start`` to ``target``
-    (m, m, rad; shortest rotation): :func:`planar3p_gym.task.interpolate` of one pair."""
+    (m, m, rad; shortest rotation): :func:`planar3p_gym.tasks.sampling.interpolate` of one pair."""
     s = np.asarray(start, dtype=np.float64)
     t = np.asarray(target, dtype=np.float64)
     return task.interpolate(s, t, points)

@@ -13,8 +13,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from ..checks import as_finite_float
-from ..rewards import MAX_WEIGHT
+from planar3p_gym.checks import as_finite_float
+from planar3p_gym.tasks.rewards import MAX_WEIGHT
 
 __all__ = ["TravelShaping", "check_travel_shaping"]
 

@@ -1,0 +1,316 @@
+"""Residual policy learning on top of the analytic controllers.
+
+A residual policy (Silver et al. 2018, Johannink et al. 2019) learns a correction to a fixed
+controller instead of the whole action.  The policies here are Stable-Baselines3 actor-critic
+policies whose Gaussian action distribution has the mean
+
+    ``mean = base(obs) + residual_scale * tanh(net(features))``
+
+with ``base`` an analytic controller evaluated on the raw observation (actions as fractions of
+``max_speed``) and ``net`` the usual MLP head:
+
+* :class:`ResidualTrackPolicy` (``Planar3PTrack-v0``): ``base`` is the feed-forward tracking
+  controller (:class:`planar3p_agents.controllers.tracking.TrackingController`);
+* :class:`ResidualReachPolicy` (``Planar3P-v0``/``-v1``): ``base`` is the benchmark's
+  ``analytic-simultaneous`` controller (:class:`planar3p_agents.controllers.analytic.AnalyticController` with its
+  default gains), the controller the learned policy is compared with.
+
+The head's output layer starts at zero, so the untrained policy's mean *is* the base controller,
+and the correction can never exceed ``residual_scale`` of the slider speed limit per slider.
+PPO's Gaussian noise (``log_std_init``) explores around that mean; the environment clips
+actions to ``[-1, 1]`` as always.
+
+Because the residual lives in the policy, not in a wrapper, a trained model is an ordinary SB3
+``PPO`` model of its environment id: ``scripts/benchmark.py`` plays it on the fixed suites
+exactly like the baselines, and rl-zoo3's ``enjoy`` plays it on the plain id.  The base
+controller needs the raw observation, so the policies do not use ``VecNormalize``'s observation
+normalisation (train with ``normalize: "dict(norm_obs=False, norm_reward=True)"``): the
+features extractors scale the observation by fixed physical scales instead (pose errors per an
+error scale, speeds per ``max_speed``, travels over the stroke) and append the base action.
+
+Only the design's numbers are stored with a model (``policy_kwargs["design"]``, a
+:meth:`planar3p_gym.machine.design.Design.to_dict` mapping, default ``Design.fig8()``): the design of
+the environment it is played in must be the same.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch as th
+from stable_baselines3.common.distributions import DiagGaussianDistribution, Distribution
+from stable_baselines3.common.policies import ActorCriticPolicy
+from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
+from torch import nn
+
+from planar3p_agents.controllers.analytic import AnalyticController
+from planar3p_agents.controllers.tracking import TRACK_OBS_SIZE, TrackingController
+from planar3p_gym.envs.arguments import design_from
+from planar3p_gym.machine.design import Design
+from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
+
+__all__ = [
+    "ERROR_SCALE",
+    "FEATURE_CLIP",
+    "REACH_ERROR_SCALE",
+    "RESIDUAL_SCALE",
+    "ReachFeatures",
+    "ResidualReachPolicy",
+    "ResidualTrackPolicy",
+    "TrackFeatures",
+    "feature_scaling",
+]
+
+#: Pose error (m) that maps to a feature of 1 in tracking (errors of a few tenths of a
+#: millimetre are what the residual has to remove).
+ERROR_SCALE = 1e-3
+#: Pose error (m) that maps to a feature of 1 in reaching: the centimetres over which the
+#: analytic controller's proportional tail is slow stay below the clip, a millimetre is 0.1.
+REACH_ERROR_SCALE = 1e-2
+#: Scaled features are clipped to ``[-FEATURE_CLIP, FEATURE_CLIP]``.
+FEATURE_CLIP = 10.0
+#: Default largest correction per slider, as a fraction of ``max_speed``.
+RESIDUAL_SCALE = 0.1
+
+
+def feature_scaling(
+    design: Design, size: int = TRACK_OBS_SIZE, error_scale: float = ERROR_SCALE
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(offset, scale)`` of the ``size`` observation entries (``OBS_SIZE`` = 31 of the reach
+    ids or ``TRACK_OBS_SIZE`` = 34 of the tracking id): feature ``(obs - offset) * scale``.
+    Travels are centred on mid-stroke over half the stroke; slider, gripper and reference
+    speeds are over ``max_speed`` (angular rates times ``L_ref``); positions over ``L_ref``;
+    position errors over ``error_scale`` (m) and the orientation error times ``L_ref /
+    error_scale``; dimensionless entries (cos/sin, margins, fine errors) as they are."""
+    if size not in (OBS_SIZE, TRACK_OBS_SIZE):
+        raise ValueError(f"size must be {OBS_SIZE} or {TRACK_OBS_SIZE}, got {size!r}")
+    length, vmax = design.characteristic_length, design.max_speed
+    offset = np.zeros(size)
+    scale = np.ones(size)
+    offset[SLICES["rho"]] = design.stroke / 2.0
+    scale[SLICES["rho"]] = 2.0 / design.stroke
+    scale[SLICES["rho_dot"]] = 1.0 / vmax
+    scale[SLICES["position"]] = 1.0 / length
+    scale[SLICES["velocity"]] = 1.0 / vmax
+    scale[SLICES["angular_velocity"]] = length / vmax
+    scale[SLICES["target_position"]] = 1.0 / length
+    scale[SLICES["position_error"]] = 1.0 / error_scale
+    scale[SLICES["orientation_error"]] = length / error_scale
+    if size == TRACK_OBS_SIZE:
+        ref = slice(TRACK_OBS_SIZE - 3, TRACK_OBS_SIZE)
+        scale[ref] = np.array([1.0 / vmax, 1.0 / vmax, length / vmax])
+    return offset, scale
+
+
+class ControllerFeatures(BaseFeaturesExtractor):
+    """The observation scaled by :func:`feature_scaling` (clipped to :data:`FEATURE_CLIP`),
+    followed by the base controller's action: ``obs_size + 3`` features.
+
+    Args:
+        observation_space: ``Box((controller.obs_size,))``.
+        controller: the base controller (an :class:`AnalyticController`; its design sets the
+            feature scales).
+        error_scale: pose error (m) that maps to a feature of 1.
+    """
+
+    def __init__(
+        self,
+        observation_space: gym.spaces.Box,
+        controller: AnalyticController,
+        error_scale: float,
+    ) -> None:
+        size = controller.obs_size
+        if observation_space.shape != (size,):
+            raise ValueError(
+                f"{type(self).__name__} needs an observation of shape ({size},), got "
+                f"{observation_space.shape}"
+            )
+        super().__init__(observation_space, size + 3)
+        self.base = controller
+        offset, scale = feature_scaling(controller.design, size, error_scale)
+        self.register_buffer("offset", th.as_tensor(offset, dtype=th.float32))
+        self.register_buffer("scale", th.as_tensor(scale, dtype=th.float32))
+
+    def base_action(self, obs: th.Tensor) -> th.Tensor:
+        """The base controller's actions ``(n, 3)`` for raw observations ``(n, obs_size)`` (no
+        gradient flows through it: it is a fixed function of the observation)."""
+        raw = obs.detach().cpu().numpy().astype(np.float64)
+        action = self.base.predict(raw)[0]
+        return th.as_tensor(action, dtype=obs.dtype, device=obs.device)
+
+    def forward(self, observations: th.Tensor) -> th.Tensor:
+        scaled = th.clamp((observations - self.offset) * self.scale, -FEATURE_CLIP, FEATURE_CLIP)
+        return th.cat([scaled, self.base_action(observations)], dim=1)
+
+
+class TrackFeatures(ControllerFeatures):
+    """:class:`ControllerFeatures` of the tracking observation (34 entries, errors per
+    :data:`ERROR_SCALE`) with the feed-forward controller as base: ``37`` features.
+
+    Args:
+        observation_space: ``Box((34,))`` of ``Planar3PTrack-v0``.
+        design: the machine (a :class:`Design`, its dict, or ``None`` for ``Design.fig8()``).
+        feedforward: the base controller's feed-forward scale (1 = full).
+    """
+
+    def __init__(
+        self,
+        observation_space: gym.spaces.Box,
+        design: Design | dict[str, Any] | None = None,
+        feedforward: float = 1.0,
+    ) -> None:
+        controller = TrackingController(design_from(design), feedforward=feedforward)
+        super().__init__(observation_space, controller, ERROR_SCALE)
+
+
+class ReachFeatures(ControllerFeatures):
+    """:class:`ControllerFeatures` of the reach observation (31 entries, errors per
+    :data:`REACH_ERROR_SCALE`) with the benchmark's ``analytic-simultaneous`` controller as
+    base: ``34`` features.
+
+    Args:
+        observation_space: ``Box((31,))`` of ``Planar3P-v0``/``-v1``.
+        design: the machine (a :class:`Design`, its dict, or ``None`` for ``Design.fig8()``).
+    """
+
+    def __init__(
+        self, observation_space: gym.spaces.Box, design: Design | dict[str, Any] | None = None
+    ) -> None:
+        controller = AnalyticController(design_from(design), "simultaneous")
+        super().__init__(observation_space, controller, REACH_ERROR_SCALE)
+
+
+class ResidualPolicy(ActorCriticPolicy):
+    """PPO/A2C policy whose action mean is a base controller plus a bounded learned
+    correction (module docstring).  Subclasses name the features extractor that holds the
+    base controller (:attr:`features_class`).
+
+    Args:
+        observation_space, action_space, lr_schedule: as for SB3's ``ActorCriticPolicy``.
+        residual_scale: largest correction per slider, as a fraction of ``max_speed``, in
+            ``(0, 1]``.
+        design: the machine of the environment (:class:`Design` dict or ``None`` for
+            ``Design.fig8()``); the base controller and the feature scales use it.
+        **kwargs: the other arguments of ``ActorCriticPolicy`` (``net_arch``,
+            ``log_std_init``, ...); the features extractor is :attr:`features_class`.
+    """
+
+    features_class: type[ControllerFeatures] = ControllerFeatures
+
+    def __init__(
+        self,
+        observation_space: gym.spaces.Space,
+        action_space: gym.spaces.Space,
+        lr_schedule: Any,
+        *,
+        residual_scale: float = RESIDUAL_SCALE,
+        design: dict[str, Any] | None = None,
+        **kwargs: Any,
+    ) -> None:
+        name = type(self).__name__
+        if not (np.isfinite(residual_scale) and 0.0 < residual_scale <= 1.0):
+            raise ValueError(f"residual_scale must be in (0, 1], got {residual_scale!r}")
+        if not isinstance(action_space, gym.spaces.Box) or action_space.shape != (3,):
+            raise ValueError(f"{name} needs a Box((3,)) action space, got {action_space}")
+        if kwargs.get("use_sde"):
+            raise ValueError(f"{name} supports the diagonal Gaussian only (no gSDE)")
+        for key in ("features_extractor_class", "features_extractor_kwargs"):
+            if key in kwargs:
+                raise ValueError(f"{name} sets its own {key}")
+        self.residual_scale = float(residual_scale)
+        self.design_dict = design_from(design).to_dict()
+        super().__init__(
+            observation_space,
+            action_space,
+            lr_schedule,
+            features_extractor_class=self.features_class,
+            features_extractor_kwargs={"design": self.design_dict, **self._base_kwargs()},
+            **kwargs,
+        )
+        # The untrained correction is exactly zero: the policy starts as the base controller.
+        nn.init.zeros_(self.action_net.weight)
+        nn.init.zeros_(self.action_net.bias)
+
+    def _base_kwargs(self) -> dict[str, Any]:
+        """Arguments of the base controller besides the design (stored with the model)."""
+        return {}
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        data = super()._get_constructor_parameters()
+        data.pop("features_extractor_class", None)
+        data.pop("features_extractor_kwargs", None)
+        data.update(residual_scale=self.residual_scale, design=self.design_dict)
+        data.update(self._base_kwargs())
+        return data
+
+    # ------------------------------------------------------------------ the residual mean
+    def _distribution(self, features: th.Tensor, latent_pi: th.Tensor) -> Distribution:
+        """Gaussian around ``base + residual_scale * tanh(action_net(latent_pi))``; the base
+        action is the last three features."""
+        correction = self.residual_scale * th.tanh(self.action_net(latent_pi))
+        mean = features[:, -3:] + correction
+        assert isinstance(self.action_dist, DiagGaussianDistribution)
+        return self.action_dist.proba_distribution(mean, self.log_std)
+
+    def forward(
+        self, obs: th.Tensor, deterministic: bool = False
+    ) -> tuple[th.Tensor, th.Tensor, th.Tensor]:
+        features = self.extract_features(obs)
+        latent_pi, latent_vf = self._latents(features)
+        values = self.value_net(latent_vf)
+        distribution = self._distribution(self._pi_features(features), latent_pi)
+        actions = distribution.get_actions(deterministic=deterministic)
+        log_prob = distribution.log_prob(actions)
+        return actions.reshape((-1, *self.action_space.shape)), values, log_prob
+
+    def evaluate_actions(
+        self, obs: th.Tensor, actions: th.Tensor
+    ) -> tuple[th.Tensor, th.Tensor, th.Tensor | None]:
+        features = self.extract_features(obs)
+        latent_pi, latent_vf = self._latents(features)
+        distribution = self._distribution(self._pi_features(features), latent_pi)
+        return self.value_net(latent_vf), distribution.log_prob(actions), distribution.entropy()
+
+    def get_distribution(self, obs: th.Tensor) -> Distribution:
+        features = super(ActorCriticPolicy, self).extract_features(obs, self.pi_features_extractor)
+        return self._distribution(features, self.mlp_extractor.forward_actor(features))
+
+    def _latents(self, features: Any) -> tuple[th.Tensor, th.Tensor]:
+        if self.share_features_extractor:
+            return self.mlp_extractor(features)
+        pi_features, vf_features = features
+        return (
+            self.mlp_extractor.forward_actor(pi_features),
+            self.mlp_extractor.forward_critic(vf_features),
+        )
+
+    def _pi_features(self, features: Any) -> th.Tensor:
+        return features if self.share_features_extractor else features[0]
+
+
+class ResidualTrackPolicy(ResidualPolicy):
+    """:class:`ResidualPolicy` on the feed-forward tracking controller (``Planar3PTrack-v0``).
+
+    Args:
+        observation_space, action_space, lr_schedule, residual_scale, design, **kwargs: as
+            for :class:`ResidualPolicy`.
+        feedforward: the base controller's feed-forward scale (1 = full).
+    """
+
+    features_class = TrackFeatures
+
+    def __init__(self, *args: Any, feedforward: float = 1.0, **kwargs: Any) -> None:
+        self.feedforward = float(feedforward)
+        super().__init__(*args, **kwargs)
+
+    def _base_kwargs(self) -> dict[str, Any]:
+        return {"feedforward": self.feedforward}
+
+
+class ResidualReachPolicy(ResidualPolicy):
+    """:class:`ResidualPolicy` on the benchmark's ``analytic-simultaneous`` controller
+    (``Planar3P-v0``/``-v1``); arguments as for :class:`ResidualPolicy`."""
+
+    features_class = ReachFeatures

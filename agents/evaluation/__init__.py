@@ -1,0 +1,1 @@
+"""Evaluation: fixed suites, the episode runner, the benchmark, its report and statistics."""

@@ -1,0 +1,223 @@
+"""Fixed benchmark suites for the task ids (goal-conditioned reach, tracking, mode change,
+assembly change), and the baseline policies of each.
+
+Every task id describes its episodes by a JSON ``info["episode_spec"]`` at reset, and
+``reset(options=spec)`` replays that episode exactly (the task contract of
+:mod:`planar3p_gym.tasks.base`).  A task suite is therefore generic: episode ``i`` is the
+environment's own draw after ``reset(seed=s_i)``, with ``s_i`` derived from the suite's seed,
+name and ``i`` alone (so a shorter suite is a prefix of a longer one), and the spec is saved in
+``suites.json`` (:class:`~planar3p_agents.evaluation.reach_suites.EpisodeSpec` ``options``) and replayed by the runner.
+The episodes are thus exactly those the environment samples for training, frozen.
+
+:data:`TASK_SUITES` lists the suites (environment id, its keyword arguments, the baselines);
+:func:`task_baseline` builds a baseline for a suite's environment:
+
+* ``analytic-simultaneous``: the paper's simultaneous simple motions on every task (through
+  :class:`planar3p_agents.controllers.goal_adapter.GoalAdapter` on the ``Dict`` goal observation, on the first 31
+  entries of a longer observation otherwise; on tracking without feed-forward);
+* ``analytic-feedforward`` (tracking): the same controller with the reference velocity fed
+  forward (:class:`planar3p_agents.controllers.tracking.TrackingController`);
+* ``planner`` (mode change): resolved travel-space motion through a certified path
+  (:class:`planar3p_agents.controllers.planner.JointPathPlanner`), and ``crossing`` (assembly change): the dynamic
+  crossing demonstration (:class:`planar3p_agents.controllers.crossing.CrossingController`), both built by
+  :func:`planar3p_agents.studies.task_baselines.make_baseline`;
+* ``zero``: zero slider velocity (flat observations).
+"""
+
+from __future__ import annotations
+
+import copy
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from planar3p_agents.evaluation.reach_suites import EpisodeSpec, Suite, triple
+
+__all__ = [
+    "TASK_SUITES",
+    "TaskSuiteDef",
+    "make_task_env",
+    "make_task_suite",
+    "task_baseline",
+    "task_episode_seed",
+]
+
+
+@dataclass(frozen=True)
+class TaskSuiteDef:
+    """A task suite: the environment it plays in and the baselines run on it by default.
+
+    Attributes:
+        env_id: registered Gymnasium id.
+        env_kwargs: keyword arguments of ``gymnasium.make``.
+        baselines: names for :func:`task_baseline`, in report order.
+        description: one line for the report.
+        index: a small integer naming the suite in seed sequences (never reused).
+    """
+
+    env_id: str
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    baselines: tuple[str, ...] = ("analytic-simultaneous",)
+    description: str = ""
+    index: int = 0
+
+
+#: The task suites, in report order.
+TASK_SUITES: dict[str, TaskSuiteDef] = {
+    "goal": TaskSuiteDef(
+        "Planar3PGoal-v0",
+        {},
+        ("analytic-simultaneous",),
+        "goal-conditioned reach (sparse reward): start/goal pairs as the environment draws them",
+        1,
+    ),
+    "goal-dense": TaskSuiteDef(
+        "Planar3PGoalDense-v0",
+        {},
+        ("analytic-simultaneous",),
+        "goal-conditioned reach (dense reward): start/goal pairs as the environment draws them",
+        6,
+    ),
+    "track-segments": TaskSuiteDef(
+        "Planar3PTrack-v0",
+        {"reference": "segments"},
+        ("analytic-simultaneous", "analytic-feedforward", "zero"),
+        "tracking a reference of smooth random minimum-jerk segments",
+        2,
+    ),
+    "track-figure-eight": TaskSuiteDef(
+        "Planar3PTrack-v0",
+        {"reference": "figure_eight"},
+        ("analytic-simultaneous", "analytic-feedforward", "zero"),
+        "tracking a figure-eight reference",
+        3,
+    ),
+    "mode-change": TaskSuiteDef(
+        "Planar3PModeChange-v0",
+        {},
+        ("analytic-simultaneous", "planner", "zero"),
+        "start and target in different working modes (a leg must pass its rail's perpendicular)",
+        4,
+    ),
+    "assembly-change": TaskSuiteDef(
+        "Planar3PAssemblyChange-v0",
+        {},
+        ("analytic-simultaneous", "crossing", "zero"),
+        "start and target in opposite assembly modes (crossing a parallel singularity)",
+        5,
+    ),
+}
+
+
+def _definition(name: str) -> TaskSuiteDef:
+    if name not in TASK_SUITES:
+        raise ValueError(f"unknown task suite {name!r}; known: {', '.join(TASK_SUITES)}")
+    d = TASK_SUITES[name]
+    if d.env_id not in gym.registry:
+        raise ValueError(f"task suite {name!r} needs {d.env_id}, which is not registered")
+    return d
+
+
+def make_task_env(name: str) -> Any:
+    """``gymnasium.make`` of the environment of task suite ``name``."""
+    d = _definition(name)
+    return gym.make(d.env_id, **d.env_kwargs)
+
+
+def task_episode_seed(name: str, seed: int, index: int) -> int:
+    """The ``reset`` seed that draws episode ``index`` of task suite ``name``."""
+    ss = np.random.SeedSequence([int(seed), 0x7A5C, TASK_SUITES[name].index, int(index)])
+    return int(ss.generate_state(1)[0])
+
+
+def make_task_suite(name: str, n_episodes: int, seed: int, env: Any = None) -> Suite:
+    """Task suite ``name`` of ``n_episodes`` from ``seed``: each episode is the environment's
+    ``info["episode_spec"]`` after ``reset(seed=task_episode_seed(name, seed, i))``.
+    ``env``: the suite's environment (made if not given)."""
+    d = _definition(name)
+    if not (isinstance(n_episodes, (int, np.integer)) and n_episodes >= 1):
+        raise ValueError(f"n_episodes must be a positive integer, got {n_episodes!r}")
+    env = env if env is not None else make_task_env(name)
+    episodes = []
+    for i in range(int(n_episodes)):
+        _, info = env.reset(seed=task_episode_seed(name, seed, i))
+        spec = copy.deepcopy(info["episode_spec"])
+        target = spec.get("target")
+        episodes.append(
+            EpisodeSpec(
+                suite=name,
+                index=i,
+                start=triple(spec["start"]),
+                target=triple(target) if target is not None else None,
+                working_mode=tuple(int(m) for m in spec["working_mode"]),  # type: ignore[arg-type]
+                options=spec,
+            )
+        )
+    params = {
+        "env_id": d.env_id,
+        "env_kwargs": dict(d.env_kwargs),
+        "task": episodes[0].options["task"] if episodes[0].options else None,
+        "design": env.unwrapped.design.to_dict(),
+        "max_episode_steps": env.spec.max_episode_steps if env.spec is not None else None,
+        "description": d.description,
+    }
+    return Suite(name, int(seed), episodes, params)
+
+
+def _analytic(env: Any) -> Any:
+    if isinstance(env.observation_space, gym.spaces.Dict):
+        from planar3p_agents.controllers.goal_adapter import GoalAdapter
+
+        return GoalAdapter.analytic(env)
+    if getattr(env.unwrapped.task, "name", "") == "track":
+        from planar3p_agents.controllers.tracking import TrackingController
+
+        return TrackingController.from_env(env, feedforward=0.0)
+    from planar3p_agents.studies.task_baselines import make_baseline
+
+    return make_baseline("analytic-simultaneous", env)
+
+
+def _feedforward(env: Any) -> Any:
+    from planar3p_agents.controllers.tracking import TrackingController
+
+    return TrackingController.from_env(env, feedforward=1.0)
+
+
+def _task_baseline(name: str) -> Callable[[Any], Any]:
+    def make(env: Any) -> Any:
+        from planar3p_agents.studies.task_baselines import make_baseline
+
+        return make_baseline(name, env)
+
+    return make
+
+
+def _zero(env: Any) -> Any:
+    from planar3p_agents.controllers.floor import ZeroPolicy
+
+    return ZeroPolicy()
+
+
+_BASELINES: dict[str, Callable[[Any], Any]] = {
+    "analytic-simultaneous": _analytic,
+    "analytic-feedforward": _feedforward,
+    "planner": _task_baseline("planner"),
+    "crossing": _task_baseline("crossing"),
+    "zero": _zero,
+}
+
+
+def task_baseline(name: str, suite: str, env: Any) -> Any:
+    """Baseline ``name`` of task suite ``suite``, for ``env`` (the suite's environment);
+    ``ValueError`` if the suite does not list it."""
+    d = _definition(suite)
+    if name not in d.baselines:
+        raise ValueError(
+            f"policy {name!r} does not apply to task suite {suite!r}; its baselines: "
+            f"{', '.join(d.baselines)} (or a model file that fits {d.env_id})"
+        )
+    return _BASELINES[name](env)

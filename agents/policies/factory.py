@@ -1,0 +1,128 @@
+"""Policy registry and loader: a policy name or a model path -> an object with SB3's ``predict``.
+
+Accepted specifications (:func:`load_policy`):
+
+* built-in names: ``analytic-simultaneous``, ``analytic-sequential`` (:mod:`planar3p_agents.controllers.analytic`),
+  ``random``, ``zero`` (:mod:`planar3p_agents.controllers.floor`); an analytic name followed by ``:gain=K`` is
+  that controller with position and orientation gains ``K`` (1/s) instead of the default 6;
+* ``pretrained:<name>``: the model ``agents/zoo/pretrained/<name>.zip`` shipped with the package,
+  with its statistics ``<name>_vecnormalize.pkl``; both are checked against the SHA-256 sums in
+  ``agents/zoo/pretrained/SHA256SUMS`` before anything is loaded (:func:`verify_pretrained`);
+* a path to a Stable-Baselines3 model (``.zip``) saved by PPO, SAC, TD3, A2C or DDPG; the
+  algorithm is read from the file, or forced with a prefix ``ppo:``, ``sac:``, ``td3:``,
+  ``a2c:``, ``ddpg:`` (e.g. ``sac:runs/x/model.zip``).
+
+Model and statistics files are code (:data:`TRUSTED_FILES_NOTE`): loading one can run arbitrary
+commands, so load only files you trust, and nothing is unpickled that the caller did not name.
+Observation statistics (``VecNormalize``) are loaded only when named, with the suffix
+``:stats=PATH.pkl`` (``runs/x/model.zip:stats=runs/x/vecnormalize.pkl``) or the ``vecnormalize``
+argument of :func:`load_policy`; ``:stats=none`` evaluates the model without them.  A model
+with statistics beside it in a known layout (:func:`vecnormalize_candidates`: this project's
+runs, the pretrained layout, rl-zoo3's ``<run>/<env id>/vecnormalize.pkl``) and no ``stats``
+named is refused, because evaluating it without them would silently measure something else.
+
+Every failure to resolve or load a specification raises :class:`PolicyError` (a
+``ValueError``) with a message that says what was wrong.
+
+This module loads (:func:`load_policy`); the parts live in :mod:`planar3p_agents.policies.spec`
+(specifications and labels), :mod:`planar3p_agents.zoo.manifest` (the checksum manifest) and
+:mod:`planar3p_agents.policies.sb3_models` (SB3 model and statistics files), and their names are re-exported
+here.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from planar3p_agents.controllers.analytic import AnalyticController
+from planar3p_agents.controllers.floor import RandomPolicy, ZeroPolicy
+from planar3p_agents.policies.sb3_models import (
+    SB3Policy,
+    load_sb3_model,
+    run_env_kwargs,
+    vecnormalize_candidates,
+)
+from planar3p_agents.policies.spec import (
+    BUILTIN_POLICIES,
+    NO_STATS,
+    PRETRAINED_DIR,
+    PRETRAINED_PREFIX,
+    SB3_ALGORITHMS,
+    TRUSTED_FILES_NOTE,
+    PolicyError,
+    PolicySpec,
+    _stats_value,
+    list_pretrained,
+    parse_policy_spec,
+    policy_label,
+)
+from planar3p_agents.zoo.manifest import MANIFEST, file_sha256, verify_pretrained, write_manifest
+from planar3p_gym.machine.design import Design
+
+__all__ = [
+    "BUILTIN_POLICIES",
+    "MANIFEST",
+    "NO_STATS",
+    "PRETRAINED_DIR",
+    "SB3_ALGORITHMS",
+    "TRUSTED_FILES_NOTE",
+    "PolicyError",
+    "PolicySpec",
+    "SB3Policy",
+    "file_sha256",
+    "list_pretrained",
+    "load_policy",
+    "load_sb3_model",
+    "parse_policy_spec",
+    "policy_label",
+    "run_env_kwargs",
+    "vecnormalize_candidates",
+    "verify_pretrained",
+    "write_manifest",
+]
+
+
+def load_policy(
+    spec: str | PolicySpec,
+    *,
+    env: Any = None,
+    design: Design | None = None,
+    seed: int | None = None,
+    device: str = "cpu",
+    vecnormalize: str | Path | None = None,
+) -> Any:
+    """The policy named by ``spec`` (see the module docstring), ready to ``predict``.
+
+    ``env`` (optional) supplies the design of the analytic controllers and the spaces a
+    model must match; ``design`` can be given instead.  ``seed`` seeds the random policy.
+    ``vecnormalize``: statistics file of a model path (or :data:`NO_STATS`), like the spec's
+    ``:stats=`` suffix (giving both is an error).  Model and statistics files are code: see
+    :data:`TRUSTED_FILES_NOTE`.
+    """
+    ps = spec if isinstance(spec, PolicySpec) else parse_policy_spec(spec)
+    stats = ps.stats
+    if vecnormalize is not None:
+        if ps.kind != "model" or ps.text.startswith(PRETRAINED_PREFIX):
+            raise PolicyError(f"statistics apply to model paths only, not {ps.text!r}")
+        if stats is not None:
+            raise PolicyError(f"statistics named twice for {ps.text!r} (spec and argument)")
+        stats = _stats_value(str(vecnormalize))
+    if design is None and env is not None:
+        design = env.unwrapped.design
+    if ps.kind == "builtin":
+        gains = {} if ps.gain is None else {"position_gain": ps.gain, "orientation_gain": ps.gain}
+        if ps.name == "analytic-simultaneous":
+            return AnalyticController(design, "simultaneous", **gains)
+        if ps.name == "analytic-sequential":
+            return AnalyticController(design, "sequential", **gains)
+        if ps.name == "random":
+            return RandomPolicy(env.action_space if env is not None else None, seed=seed)
+        return ZeroPolicy()
+    assert ps.path is not None
+    if ps.text.startswith(PRETRAINED_PREFIX):
+        files = verify_pretrained(ps.name[len(PRETRAINED_PREFIX) :], ps.path.parent)
+        stats = files[1] if len(files) > 1 else NO_STATS
+    return load_sb3_model(
+        ps.path, ps.algo, device=device, name=ps.name, check_env=env, vecnormalize=stats
+    )

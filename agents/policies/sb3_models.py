@@ -1,0 +1,289 @@
+"""Stable-Baselines3 model files: which algorithm saved one, where its ``VecNormalize``
+statistics may lie, and loading both into an :class:`SB3Policy` (:func:`load_sb3_model`).
+
+Model and statistics files are code (:data:`planar3p_agents.policies.spec.TRUSTED_FILES_NOTE`): nothing
+is unpickled that the caller did not name, and a model with statistics beside it and none
+named is refused rather than evaluated without them.
+"""
+
+from __future__ import annotations
+
+import json
+import pickle
+import re
+import zipfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from planar3p_agents.controllers.base import PolicyAdapter
+from planar3p_agents.policies.play_envs import observation_kwargs
+from planar3p_agents.policies.spec import NO_STATS, SB3_ALGORITHMS, STATS_MARK, PolicyError
+
+__all__ = ["SB3Policy", "load_sb3_model", "run_env_kwargs", "vecnormalize_candidates"]
+
+
+def _detect_algorithm(path: Path) -> str:
+    """The SB3 algorithm a model zip was saved by, from its ``data`` JSON."""
+    try:
+        with zipfile.ZipFile(path) as zf:
+            names = set(zf.namelist())
+            if "data" not in names or "policy.pth" not in names:
+                raise PolicyError(
+                    f"{path} is not a Stable-Baselines3 model (missing 'data' or 'policy.pth')"
+                )
+            data = json.loads(zf.read("data"))
+    except zipfile.BadZipFile as exc:
+        raise PolicyError(f"corrupt model file {path}: not a zip archive ({exc})") from exc
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise PolicyError(f"corrupt model file {path}: unreadable 'data' ({exc})") from exc
+    except OSError as exc:
+        raise PolicyError(f"cannot read model file {path}: {exc}") from exc
+    if not isinstance(data, dict):
+        raise PolicyError(f"corrupt model file {path}: 'data' is not a mapping")
+    module = str(data.get("policy_class", {}).get("__module__", ""))
+    if "clip_range" in data:
+        return "ppo"
+    if "policy_delay" in data or "target_policy_noise" in data:
+        return "td3"
+    if ("ent_coef" in data and "target_entropy" in data) or ".sac." in module:
+        return "sac"
+    if "vf_coef" in data:
+        return "a2c"
+    raise PolicyError(
+        f"cannot tell which SB3 algorithm saved {path}; prefix the path with one of "
+        f"{', '.join(k + ':' for k in SB3_ALGORITHMS)}"
+    )
+
+
+def vecnormalize_candidates(path: Path) -> list[Path]:
+    """Where the ``VecNormalize`` statistics of the model ``path`` may be, in order.
+
+    Matches ``scripts/train.py``'s run directory (``model.zip`` + ``vecnormalize.pkl``,
+    ``best_model.zip`` + ``best_vecnormalize.pkl``, ``checkpoints/rl_model_<n>_steps.zip`` +
+    ``rl_model_vecnormalize_<n>_steps.pkl``), the pretrained layout (``<name>.zip`` +
+    ``<name>_vecnormalize.pkl``) and rl-zoo3's (``<run>/<env id>.zip`` or ``best_model.zip``
+    + ``<run>/<env id>/vecnormalize.pkl``).  Nothing is loaded from these places unless named:
+    :func:`load_sb3_model` refuses a model that has statistics there and none named.
+    """
+    stem = path.stem
+    out = [path.with_name(f"{stem}_vecnormalize.pkl")]
+    if stem.endswith("_model"):
+        out.append(path.with_name(f"{stem[: -len('_model')]}_vecnormalize.pkl"))
+    m = re.fullmatch(r"(.*)_(\d+)_steps", stem)
+    if m:
+        out.append(path.with_name(f"{m.group(1)}_vecnormalize_{m.group(2)}_steps.pkl"))
+    out.append(path.parent / "vecnormalize.pkl")
+    out.append(path.with_suffix("") / "vecnormalize.pkl")  # rl-zoo3: <run>/<env id>.zip
+    if path.parent.is_dir():  # rl-zoo3: best_model.zip, checkpoints beside <run>/<env id>/
+        out.extend(sorted(c for c in path.parent.glob("*/vecnormalize.pkl") if c not in out))
+    return out
+
+
+def _vecnormalize_file(path: Path) -> Path | None:
+    for cand in vecnormalize_candidates(path):
+        if cand.is_file():
+            return cand
+    return None
+
+
+def _unnamed_stats_error(path: Path, found: Path) -> PolicyError:
+    return PolicyError(
+        f"model {path} has observation statistics beside it ({found}) but none were named; "
+        f"statistics files are code and are loaded only when named: use "
+        f"'{path}{STATS_MARK}{found}' if you trust that file, or '{path}{STATS_MARK}{NO_STATS}' "
+        "to evaluate without them"
+    )
+
+
+def run_env_kwargs(path: Path) -> dict[str, Any] | None:
+    """The environment keyword arguments a model was trained with, if its run directory
+    (``scripts/train.py``) has a ``config.json`` that records them, or a shipped model its
+    provenance record ``<name>.json`` (``agents/zoo/pretrained``); else ``None``."""
+    shipped = path.with_suffix(".json")
+    for cand in (path.parent / "config.json", path.parent.parent / "config.json", shipped):
+        if cand.is_file():
+            try:
+                data = json.loads(cand.read_text())
+                if cand == shipped:
+                    data = data["run"]
+                kwargs = data.get("config", data).get("env_kwargs")
+            except (OSError, ValueError, AttributeError, KeyError, TypeError):
+                return None
+            return dict(kwargs) if isinstance(kwargs, dict) else None
+    return None
+
+
+def _load_vecnormalize(path: Path) -> Any:
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    try:
+        with path.open("rb") as f:
+            vn = pickle.load(f)
+    except Exception as exc:  # unpickling can raise nearly anything on a corrupt file
+        raise PolicyError(f"corrupt VecNormalize statistics {path}: {exc}") from exc
+    if not isinstance(vn, VecNormalize):
+        raise PolicyError(f"{path} does not hold VecNormalize statistics")
+    vn.training = False
+    vn.norm_reward = False
+    return vn
+
+
+class SB3Policy(PolicyAdapter):
+    """A loaded Stable-Baselines3 model, with its frozen ``VecNormalize`` statistics if any.
+
+    :meth:`predict` normalises the observation (if statistics were found) and calls the
+    model's ``predict``; deterministic by default.
+    """
+
+    def __init__(
+        self,
+        model: Any,
+        vecnormalize: Any = None,
+        name: str = "model",
+        env_kwargs: dict[str, Any] | None = None,
+        vecnormalize_path: Path | None = None,
+    ) -> None:
+        super().__init__(model)
+        self.vecnormalize = vecnormalize
+        self.name = name
+        #: Environment keyword arguments recorded by the training run (``None`` if unknown).
+        self.env_kwargs = env_kwargs
+        self.vecnormalize_path = vecnormalize_path
+
+    @property
+    def model(self) -> Any:
+        """The SB3 model (the wrapped policy)."""
+        return self.policy
+
+    @property
+    def observation_space(self) -> Any:
+        return self.model.observation_space
+
+    @property
+    def action_space(self) -> Any:
+        return self.model.action_space
+
+    def reset(self, seed: Any = None) -> None:
+        """Nothing to reset (kept for the benchmark's uniform calling convention)."""
+
+    def adapt(self, observation: ArrayLike) -> Any:
+        """The observation as float32 (each entry of a ``Dict`` one), normalised with the
+        statistics if any."""
+        if isinstance(observation, dict):
+            obs: Any = {k: np.asarray(v, dtype=np.float32) for k, v in observation.items()}
+            if self.vecnormalize is not None:
+                obs = self.vecnormalize.normalize_obs(obs)
+                obs = {k: np.asarray(v, dtype=np.float32) for k, v in obs.items()}
+            return obs
+        obs = np.asarray(observation, dtype=np.float32)
+        if self.vecnormalize is not None:
+            obs = self.vecnormalize.normalize_obs(obs).astype(np.float32)
+        return obs
+
+
+def _shapes(space: Any) -> Any:
+    """A space's shape, or ``{key: shape}`` for a ``Dict`` space."""
+    sub = getattr(space, "spaces", None)
+    if isinstance(sub, dict):
+        return {k: v.shape for k, v in sub.items()}
+    return space.shape
+
+
+def _stats_shapes(obs_rms: Any) -> Any:
+    """The observation shape(s) ``VecNormalize`` statistics are for (``Dict``: per key)."""
+    if isinstance(obs_rms, dict):
+        return {k: v.mean.shape for k, v in obs_rms.items()}
+    return obs_rms.mean.shape
+
+
+def _stats_fit(stats: Any, shapes: Any) -> bool:
+    """Statistics fit a space: same shape, or for a ``Dict`` space each normalised key (a
+    subset: ``norm_obs_keys``) with its shape."""
+    if isinstance(stats, dict):
+        return isinstance(shapes, dict) and all(shapes.get(k) == v for k, v in stats.items())
+    return stats == shapes
+
+
+def load_sb3_model(
+    path: str | Path,
+    algo: str | None = None,
+    device: str = "cpu",
+    name: str | None = None,
+    check_env: Any = None,
+    vecnormalize: str | Path | None = None,
+) -> SB3Policy:
+    """Load an SB3 model file and, if named, its ``VecNormalize`` statistics.
+
+    Both are code (:data:`TRUSTED_FILES_NOTE`).  ``vecnormalize``: the statistics file, or
+    :data:`NO_STATS` to go without; ``None`` refuses a model that has statistics beside it
+    (:func:`vecnormalize_candidates`) rather than load them unasked or silently ignore them.
+    ``check_env``: an environment whose observation and action spaces the model must match.
+    Raises :class:`PolicyError` for a missing, corrupt or mismatched model.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise PolicyError(f"model file not found: {p}")
+    vn_path: Path | None = None
+    if vecnormalize is None:
+        found = _vecnormalize_file(p)
+        if found is not None:
+            raise _unnamed_stats_error(p, found)
+    elif str(vecnormalize).lower() != NO_STATS:
+        vn_path = Path(vecnormalize).expanduser()
+        if not vn_path.is_file():
+            raise PolicyError(f"statistics file not found: {vn_path}")
+    key = algo or _detect_algorithm(p)
+    if key not in SB3_ALGORITHMS:
+        raise PolicyError(f"unknown SB3 algorithm {key!r}; known: {', '.join(SB3_ALGORITHMS)}")
+    if key == "tqc":
+        import sb3_contrib as algorithms
+    else:
+        import stable_baselines3 as algorithms
+
+    from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+
+    cls = getattr(algorithms, SB3_ALGORITHMS[key])
+    # Playing needs no replay buffer: an off-policy model gets a one-entry plain buffer instead
+    # of the saved one (a HER buffer cannot even be built without the training env).
+    no_buffer = (
+        {"replay_buffer_class": None, "replay_buffer_kwargs": {}, "buffer_size": 1}
+        if issubclass(cls, OffPolicyAlgorithm)
+        else {}
+    )
+    try:
+        model = cls.load(p, device=device, **no_buffer)
+    except Exception as exc:  # SB3/torch raise many types on corrupt or foreign files
+        raise PolicyError(
+            f"cannot load {p} as a {SB3_ALGORITHMS[key]} model: {type(exc).__name__}: {exc}"
+        ) from exc
+    vn = _load_vecnormalize(vn_path) if vn_path is not None else None
+    if check_env is not None:
+        obs_space = check_env.observation_space
+        act_space = check_env.action_space
+        if _shapes(model.observation_space) != _shapes(obs_space):
+            seen = observation_kwargs(run_env_kwargs(p))
+            hint = f"; it was trained with {seen}: make the environment with them" if seen else ""
+            raise PolicyError(
+                f"model {p} expects observations of shape {_shapes(model.observation_space)}, "
+                f"the environment gives {_shapes(obs_space)}{hint}"
+            )
+        if model.action_space.shape != act_space.shape:
+            raise PolicyError(
+                f"model {p} outputs actions of shape {model.action_space.shape}, "
+                f"the environment takes {act_space.shape}"
+            )
+        # Statistics of a run that normalised rewards only (norm_obs=False) have no obs_rms.
+        fit = (
+            vn is None
+            or not vn.norm_obs
+            or _stats_fit(_stats_shapes(vn.obs_rms), _shapes(obs_space))
+        )
+        if not fit:
+            raise PolicyError(
+                f"VecNormalize statistics {vn_path} are for observations of shape "
+                f"{_stats_shapes(vn.obs_rms)}, the environment gives {_shapes(obs_space)}"
+            )
+    return SB3Policy(model, vn, name or p.stem, run_env_kwargs(p), vn_path)

@@ -1,0 +1,1 @@
+"""The zoo of shipped policies: shipping a run, the checksum manifest, ``pretrained/``."""

@@ -1,0 +1,1 @@
+"""Analyses of the machine: the paper's workspace-versus-stroke study, its report and figures."""

@@ -1,0 +1,718 @@
+"""``Planar3P-v0``: move the gripper of a 3-PRR parallel manipulator to a target pose."""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import math
+from dataclasses import asdict
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from planar3p_gym.envs.arguments import (
+    RESET_OPTIONS,
+    check_reset_options,
+    config_from,
+    design_from,
+    is_int,
+    is_number,
+    mode_from,
+    parse_action,
+)
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.design import Design
+from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures, ScalarKinematics
+from planar3p_gym.sim.physics import (
+    DEFAULT_ITERATIONS,
+    DEFAULT_SUBSTEPS,
+    PROJECTED_ITERATIONS,
+    PROJECTED_SUBSTEPS,
+    Planar3PSim,
+    SimState,
+)
+from planar3p_gym.tasks import ReachTask, Task
+from planar3p_gym.tasks import sampling as task_module
+from planar3p_gym.tasks.observation import (
+    bounds,
+    build_observation,
+    travel_goal_bounds,
+    travel_goal_entries,
+    wrap_angle,
+)
+from planar3p_gym.tasks.reach_step import ReachStep
+from planar3p_gym.tasks.rewards import RewardWeights
+from planar3p_gym.tasks.sampling import TaskConfig
+
+__all__ = [
+    "DEFAULT_WORKING_MODE",
+    "OBSERVATION_ARGUMENTS",
+    "RESET_OPTIONS",
+    "TERMINATION_REASONS",
+    "Planar3PEnv",
+    "check_reset_options",
+    "parse_action",
+]
+
+#: The working mode used unless another is asked for: the mode of the default design with the
+#: largest well-conditioned workspace.
+DEFAULT_WORKING_MODE: tuple[int, int, int] = (1, 1, -1)
+#: Arguments of :class:`Planar3PEnv` that change what a policy observes (the shape of the
+#: observation): a model trained with them must be played with them.
+OBSERVATION_ARGUMENTS: tuple[str, ...] = ("travel_goal",)
+#: Values of ``info["termination_reason"]`` (``None`` while the episode runs).
+TERMINATION_REASONS = ("success", "singularity_crossing", "physics_breakdown")
+
+
+#: Keys of :meth:`Planar3PEnv.get_keys_to_action`: (+x, -x) for sliders 1, 2, 3.
+KEYBOARD_KEYS = (("q", "a"), ("w", "s"), ("e", "d"))
+#: Speed commanded by a pressed key, as a fraction of ``max_speed``.
+KEYBOARD_SPEED = 0.5
+
+
+class Planar3PEnv(gym.Env):
+    """Reach a target pose with a 3-PRR planar parallel manipulator simulated in pymunk.
+
+    ## Description
+    Three sliders move on parallel horizontal rails (``y = 0``); each carries a rigid leg whose
+    other end is pinned to a straight platform holding, in line, the joints ``C_1, C_2, C_3``
+    and the gripper point ``G`` (``MECHANISM.md``).  The closed chain is a pymunk rigid-body
+    model with gravity; each slider is driven by a force-limited velocity servo.  The agent
+    commands slider velocities and must bring the gripper to a target position and
+    orientation, without crossing a parallel singularity (where the platform can no longer be
+    controlled and the machine would switch assembly mode).
+
+    ## Action Space
+    ``Box(-1, 1, (3,), float32)``: slider velocity commands as fractions of the design's
+    ``max_speed`` (m/s).  Values outside ``[-1, 1]`` are clipped; NaN/inf or a wrong shape
+    raise ``ValueError`` and leave the state unchanged.
+
+    ## Observation Space
+    ``Box(low, high, (31,), float32)``, SI units, documented index by index in
+    :mod:`planar3p_gym.tasks.observation`: slider travels and rates, gripper position,
+    ``cos/sin theta``, gripper twist, ``cos/sin`` of each leg angle, target position and
+    ``cos/sin`` of its angle, position and orientation errors, parallel and serial margins,
+    and the pose error again on a millimetre scale (``tanh(error / 1 cm)``).  With
+    ``travel_goal=True``, 37 entries: the goal in joint space follows (the target's slider
+    travels and ``tanh`` of the travel errors over 1 cm).
+
+    ## Rewards
+    ``-w_pose * e - w_precision * (1 - exp(-d / s)) - w_singularity * barrier
+    - w_action * effort + w_success * success - w_failure * failure``
+    (:mod:`planar3p_gym.tasks.rewards`): ``d = |dp| + L_ref |dtheta|`` (m), ``e = d / L_ref``; the
+    precision term sharpens the signal within a few ``s`` (5 mm) of the target; the barrier
+    is ``ref/m - 1`` for each margin ``m`` below its reference (capped);
+    effort is the mean squared action; failure is a singularity crossing or a physics
+    breakdown.  Weighted terms are in ``info["reward_terms"]`` and sum to the reward.
+
+    ## Starting State
+    Start and target are drawn from ``self.np_random``: reachable in the episode's working
+    mode within the stroke (away from the end stops), with parallel and serial margins above
+    thresholds, holdable at rest with at most 75 % of the actuator force, in the same assembly
+    mode, and by default joined by a straight path in pose
+    space that stays clear of singularities (:class:`planar3p_gym.tasks.sampling.TaskConfig`;
+    ``task_config={"near_singular_fraction": p}`` makes a share ``p`` of the pairs instead pass
+    within 0.01 of a parallel singularity, like the benchmark's ``hard`` suite, and
+    ``{"detour_fraction": p}`` makes a share ``p`` of the other pairs ones that the straight
+    line in slider space does not solve, :mod:`planar3p_gym.machine.slider_line`;
+    :meth:`set_task_config` changes these shares and the tolerances of a running
+    environment).  The
+    mechanism starts at rest.  ``reset(options={"start": pose, "target": pose,
+    "working_mode": (s1, s2, s3)})`` sets any of them (validated; ``ValueError`` if invalid).
+
+    ## Episode End
+    ``terminated`` when the gripper is within ``position_tolerance`` and
+    ``orientation_tolerance`` of the target with every slider slower than ``rest_speed``
+    (``"success"``), when ``sign det A`` changes (``"singularity_crossing"``), or when the
+    loop-closure error exceeds ``breakdown_threshold`` or the state is not finite
+    (``"physics_breakdown"``); ``info["termination_reason"]`` says which.  A leg swinging past
+    the perpendicular to its rail (a serial singularity) changes the working mode without ending
+    the episode; ``info["working_mode_changed"]`` reports it.  ``truncated`` only
+    by the registered time limit (``max_episode_steps=250``, 5 s at 50 Hz).
+
+    ## Arguments
+    - ``design``: a :class:`Design`, a dict of its fields, or a preset name (``"fig8"``,
+      ``"fig7"``); default ``Design.fig8()``.
+    - ``working_mode``: ``(s1, s2, s3)`` of +-1 (default ``(1, 1, -1)``) or ``"random"``
+      (one of the modes with start/target pairs, drawn per episode).  A mode without pairs
+      under the task's margins is rejected here (:func:`planar3p_gym.tasks.sampling.check_mode`), so
+      ``reset()`` never fails on a valid setting: it redraws until it finds a pair.
+    - ``control_frequency``: control rate (Hz), default 50; also the render fps.
+    - ``projection``: project the simulated state exactly onto the mechanism's constraint
+      manifold after every control step (:mod:`planar3p_gym.sim.projection`); default ``True``
+      (the exact machine of every id).  ``False`` runs the unprojected pymunk-only model (its
+      loop closes only as well as pymunk's iterative solver holds it), for fidelity studies.
+    - ``substeps``: physics steps per control step; ``solver_iterations``: pymunk constraint
+      iterations per physics step.  ``None`` (default) takes the settings of the physics:
+      :data:`~planar3p_gym.sim.physics.PROJECTED_SUBSTEPS` and
+      :data:`~planar3p_gym.sim.physics.PROJECTED_ITERATIONS` with the projection,
+      :data:`~planar3p_gym.sim.physics.DEFAULT_SUBSTEPS` and
+      :data:`~planar3p_gym.sim.physics.DEFAULT_ITERATIONS` without it.
+    - ``reward_weights``: :class:`RewardWeights` or a dict of its fields.
+    - ``task_config``: :class:`TaskConfig` or a dict of its fields (tolerances, sampling
+      margins).
+    - ``breakdown_threshold``: loop-closure error ending the episode, as a fraction of the
+      shortest leg (default 0.01).
+    - ``render_mode``: ``None``, ``"rgb_array"`` or ``"human"``; ``render_size`` in pixels.
+    - ``travel_goal``: append the target's slider travels in the episode's working mode (its
+      inverse kinematics, m) and ``tanh((target_rho - rho) / 1 cm)`` to the observation
+      (:data:`planar3p_gym.tasks.observation.TRAVEL_GOAL_FIELDS`); reach task only, default
+      ``False``.
+    - ``task``: a :class:`planar3p_gym.tasks.Task` (default :class:`~planar3p_gym.tasks.
+      ReachTask`, this docstring's task); other registered ids pass theirs.
+
+    ``info["episode_spec"]`` (at reset) is a JSON-serialisable dict describing the episode;
+    ``reset(options=spec)`` replays it exactly (:mod:`planar3p_gym.tasks.base`).
+
+    ## Version History
+    - v0 (0.2.0): the exact machine: the projected physics (``projection=True``), whose loop
+      closure is exact on every step.  Before 0.2.0 this id ran the unprojected model (now
+      ``projection=False``) and ``Planar3P-v0`` ran today's v0; that id is gone.  The
+      ``travel_goal`` argument, off by default, changes no observation.
+    - v0 (0.1.0): initial release.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 50}
+
+    def __init__(
+        self,
+        design: Design | dict | str | None = None,
+        *,
+        working_mode: tuple[int, int, int] | str = DEFAULT_WORKING_MODE,
+        control_frequency: float = 50.0,
+        substeps: int | None = None,
+        solver_iterations: int | None = None,
+        projection: bool = True,
+        reward_weights: RewardWeights | dict | None = None,
+        task_config: TaskConfig | dict | None = None,
+        breakdown_threshold: float = 0.01,
+        render_mode: str | None = None,
+        render_size: tuple[int, int] = (640, 480),
+        task: Task | None = None,
+        travel_goal: bool = False,
+    ) -> None:
+        if task is None:
+            task = ReachTask()
+        if not isinstance(task, Task):
+            raise ValueError(f"task must be a planar3p_gym.tasks.Task, got {task!r}")
+        self.task = task
+        self.design = design_from(design)
+        if isinstance(working_mode, str):
+            if working_mode != "random":
+                raise ValueError(
+                    f"working_mode must be a triple of +-1 or 'random', got {working_mode!r}"
+                )
+            self._fixed_mode = None
+        else:
+            self._fixed_mode = mode_from(working_mode)
+        if not (is_number(control_frequency) and 1.0 <= control_frequency <= 10_000.0):
+            raise ValueError(
+                f"control_frequency must be a number in [1, 10000] (Hz), got {control_frequency!r}"
+            )
+        if not isinstance(projection, (bool, np.bool_)):
+            raise ValueError(f"projection must be True or False, got {projection!r}")
+        if substeps is None:
+            substeps = PROJECTED_SUBSTEPS if projection else DEFAULT_SUBSTEPS
+        if solver_iterations is None:
+            solver_iterations = PROJECTED_ITERATIONS if projection else DEFAULT_ITERATIONS
+        for name, value in (("substeps", substeps), ("solver_iterations", solver_iterations)):
+            if not (is_int(value) and 1 <= value <= 1000):
+                raise ValueError(f"{name} must be an integer in [1, 1000], got {value!r}")
+        if not (is_number(breakdown_threshold) and 0 < breakdown_threshold < 1):
+            raise ValueError(f"breakdown_threshold must be in (0, 1), got {breakdown_threshold!r}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']} or None, "
+                f"got {render_mode!r}"
+            )
+        self.reward_weights = config_from(reward_weights, RewardWeights, "reward_weights")
+        self.task_config = config_from(task_config, TaskConfig, "task_config")
+        if not (
+            isinstance(render_size, (tuple, list))
+            and len(render_size) == 2
+            and all(is_int(v) and 16 <= v <= 8192 for v in render_size)
+        ):
+            raise ValueError(
+                f"render_size must be (width, height) in pixels, 16..8192, got {render_size!r}"
+            )
+        self.control_frequency = float(control_frequency)
+        self.dt = 1.0 / self.control_frequency
+        self.substeps = int(substeps)
+        self.solver_iterations = int(solver_iterations)
+        self.projection = bool(projection)
+        self.breakdown_distance = breakdown_threshold * self.design.shortest_leg
+        self.render_mode = render_mode
+        self.render_size = tuple(render_size)
+        self.metadata = {**self.metadata, "render_fps": int(round(self.control_frequency))}
+
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
+        self._obs_low, self._obs_high = bounds(self.design)
+        self._kin = ScalarKinematics(self.design)
+        self._length = self.design.characteristic_length
+        self._renderer = None
+        if self._fixed_mode:  # rejected here if it has no usable start/target pair
+            task_module.check_mode(self.design, self._fixed_mode, self.task_config)
+        self._modes = [self._fixed_mode] if self._fixed_mode else self._usable_modes()
+        self.task.bind(self)
+        extra_low, extra_high = self.task.observation_bounds()
+        self._extra_low = np.asarray(extra_low, dtype=np.float32)
+        self._extra_high = np.asarray(extra_high, dtype=np.float32)
+        self.observation_space = spaces.Box(
+            np.concatenate([self._obs_low, self._extra_low]),
+            np.concatenate([self._obs_high, self._extra_high]),
+            dtype=np.float32,
+        )
+        if not isinstance(travel_goal, (bool, np.bool_)):
+            raise ValueError(f"travel_goal must be True or False, got {travel_goal!r}")
+        if travel_goal and type(self.task) is not ReachTask:
+            raise ValueError(
+                f"travel_goal applies to the reach task (a fixed target per episode), not to "
+                f"task {self.task.name!r}"
+            )
+        self.travel_goal = bool(travel_goal)
+        if self.travel_goal:
+            goal_low, goal_high = travel_goal_bounds(self.design)
+            self.observation_space = spaces.Box(
+                np.concatenate([self.observation_space.low, goal_low]),
+                np.concatenate([self.observation_space.high, goal_high]),
+                dtype=np.float32,
+            )
+        self._target_rho = np.zeros(3)  # the target's slider travels (m), with travel_goal
+        self._sim: Planar3PSim | None = None
+        self._target = (0.0, 0.0, 0.0)
+        self._target_cs = (1.0, 0.0)  # cos, sin of the target angle (fused reach step)
+        # The reach task on the projected physics takes the fused step (reach_step.py).
+        self._reach_step = (
+            ReachStep(self) if self.projection and type(self.task) is ReachTask else None
+        )
+        self._steps = 0
+        self._spec: dict[str, Any] = {}
+        self._mode = self._modes[0]
+        self._assembly = 0
+        self._obs = np.zeros(self.observation_space.shape, dtype=np.float32)
+        self._measures: ConfigurationMeasures | None = None
+        self._last_info: dict[str, Any] = {}
+
+    # ------------------------------------------------------------------ helpers
+    def _usable_modes(self) -> list[tuple[int, int, int]]:
+        """Working modes with usable start/target pairs (:func:`planar3p_gym.tasks.sampling.check_mode`,
+        a fixed internal seed: the list never depends on, or consumes, the episode's stream)."""
+        usable = [
+            tuple(m)
+            for m in kinematics.ALL_MODES.tolist()
+            if task_module.has_pairs(self.design, m, self.task_config)
+        ]
+        if not usable:
+            raise ValueError(
+                "no working mode of this design has start/target pairs meeting the task's "
+                "margins; relax the TaskConfig"
+            )
+        return usable
+
+    @property
+    def sim(self) -> Planar3PSim:
+        """The physics model of the current episode."""
+        if self._sim is None:
+            raise RuntimeError("call reset() before using the environment")
+        return self._sim
+
+    @property
+    def target(self) -> tuple[float, float, float]:
+        """Target pose ``(x, y, theta)`` of the episode (m, m, rad)."""
+        return self._target
+
+    @property
+    def modes(self) -> list[tuple[int, int, int]]:
+        """The working modes episodes are drawn from (one when ``working_mode`` is fixed)."""
+        return list(self._modes)
+
+    @property
+    def episode_spec(self) -> dict[str, Any]:
+        """The JSON-serialisable spec of the current episode (``reset(options=spec)``
+        replays it; see :mod:`planar3p_gym.tasks.base`)."""
+        return copy.deepcopy(self._spec)
+
+    @property
+    def working_mode(self) -> tuple[int, int, int]:
+        """Working mode of the episode."""
+        return self._mode
+
+    @property
+    def assembly_mode(self) -> int:
+        """``sign(det A)`` at the start of the episode."""
+        return self._assembly
+
+    # ------------------------------------------------------------------ Gymnasium API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        options = check_reset_options(options, (*self.task.option_keys, "task"))
+        requested = options.pop("task", None)
+        if requested is not None and requested != self.task.name:
+            raise ValueError(
+                f"options are for task {requested!r}, but this environment's task is "
+                f"{self.task.name!r}"
+            )
+        options = self.task.check_options(options)  # before seeding: a rejection changes nothing
+        # Checks that need the episode's draw (a pose under a drawn working mode, a start no
+        # target pairs with) can only reject after seeding: then the random stream and the
+        # task's pools are put back, so a rejected reset changes nothing either.
+        undo = self._random_state() if options else None
+        try:
+            super().reset(seed=seed)
+            if seed is not None:
+                self.task.reseed()
+            spec = self.task.episode_spec(self.np_random, options)
+            start, mode = self.task.begin(spec)
+        except ValueError:
+            if undo is not None:
+                self._restore_random_state(undo)
+            raise
+        self._spec = spec
+        self._steps = 0
+        self._mode = mode
+        self._target = self.task.reference(0)
+        self._target_cs = (math.cos(self._target[2]), math.sin(self._target[2]))
+        if self.travel_goal:
+            self._target_rho = kinematics.inverse(self.design, self._target, mode).rho
+        self._sim = Planar3PSim(
+            self.design,
+            start,
+            mode,
+            dt=self.dt,
+            substeps=self.substeps,
+            iterations=self.solver_iterations,
+            projection=self.projection,
+        )
+        state = self._sim.state
+        self._measures = self._kin.measures(state.pose, state.rho)
+        self._assembly = self._measures.det_sign
+        self._obs = self._observe(state, self._measures)
+        errors = self._errors(state.pose)
+        info = self._info(state, self._measures, None, {}, False, errors)
+        info.update(self.task.step_info(0, state, errors))
+        info["episode_spec"] = copy.deepcopy(spec)
+        self._last_info = info
+        if self.render_mode == "human":
+            self.render()
+        return self._obs.copy(), info
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        sim = self.sim
+        a0, a1, a2 = parse_action(action)
+        vmax = self.design.max_speed
+        state = sim.step_unchecked(a0 * vmax, a1 * vmax, a2 * vmax)
+        self._steps += 1
+        if (
+            self._reach_step is not None
+            and state.finite
+            and state.closure_error <= self.breakdown_distance
+        ):  # (the reach task's reference is its fixed target)
+            return self._fused_step(state, (a0, a1, a2))
+        return self._general_step(state, (a0, a1, a2))
+
+    def _general_step(
+        self, state: SimState, action: tuple[float, float, float]
+    ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """The rest of :meth:`step` after the physics, through the task's hooks."""
+        a0, a1, a2 = action
+        self._target = self.task.reference(self._steps)
+
+        reason = None
+        success = False
+        if not state.finite or state.closure_error > self.breakdown_distance:
+            # The new state is not trustworthy: keep the last good observation and errors.
+            reason = "physics_breakdown"
+            measures = self._measures
+            pos_err, ang_err = self._errors(self._last_info["pose"])
+        else:
+            measures = self._kin.measures(state.pose, state.rho)
+            self._obs = self._observe(state, measures)
+            pos_err, ang_err = self._errors(state.pose)
+            reason = self.task.termination(state, measures, (pos_err, ang_err), self._assembly)
+            success = reason == "success"
+        failure = reason in self.task.failure_reasons
+        assert measures is not None
+        terms = self.task.reward_terms(
+            errors=(pos_err, ang_err),
+            measures=measures,
+            action=(a0, a1, a2),
+            success=success,
+            failure=failure,
+        )
+        reward = float(sum(terms.values()))
+        if reason == "physics_breakdown":
+            info = dict(self._last_info)
+            info.update(
+                termination_reason=reason,
+                is_success=False,
+                reward_terms=terms,
+                closure_error=state.closure_error
+                if math.isfinite(state.closure_error)
+                else math.inf,
+            )
+        else:
+            info = self._info(state, measures, reason, terms, success, (pos_err, ang_err))
+            self._measures = measures
+        info.update(self.task.step_info(self._steps, state, (pos_err, ang_err)))
+        self._last_info = info
+        if self.render_mode == "human":
+            self.render()
+        return self._obs.copy(), reward, reason is not None, False, info
+
+    def _fused_step(
+        self, state: SimState, action: tuple[float, float, float]
+    ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """The rest of :meth:`step` for the reach task on the projected physics, through
+        :class:`planar3p_gym.tasks.reach_step.ReachStep` (same results to float64 rounding)."""
+        obs, measures, reason, terms, pos_err, ang_err = self._reach_step.outputs(  # type: ignore[union-attr]
+            state,
+            self._sim.geometry,
+            self._target,
+            self._target_cs,
+            self._assembly,
+            action,  # type: ignore[union-attr]
+        )
+        if self.travel_goal:
+            obs = self._with_travel_goal(obs)
+        self._obs = obs
+        info = self._info(state, measures, reason, terms, reason == "success", (pos_err, ang_err))
+        self._measures = measures
+        self._last_info = info
+        if self.render_mode == "human":
+            self.render()
+        return obs.copy(), float(sum(terms.values())), reason is not None, False, info
+
+    def set_task_config(self, changes: dict[str, Any]) -> TaskConfig:
+        """Change fields of :attr:`task_config` in the running environment (a curriculum on
+        the tolerances or on the mix of training pairs) and return the new configuration.
+
+        Only :data:`planar3p_gym.tasks.sampling.SCHEDULABLE_FIELDS` may change; the success test
+        uses the new values from the next step on, the pair sampling from the next reset.
+        Invalid changes raise ``ValueError`` and change nothing.
+        """
+        cfg = task_module.updated_config(self.task_config, changes)
+        self.task_config = cfg
+        if self._reach_step is not None:
+            self._reach_step.tolerances = cfg.success_tolerances
+        self.task.config_changed()
+        return cfg
+
+    def get_keys_to_action(self) -> dict[tuple[str, ...], np.ndarray]:
+        """Keyboard mapping for :func:`gymnasium.utils.play.play`: ``q``/``a`` drive slider 1
+        towards +x/-x, ``w``/``s`` slider 2, ``e``/``d`` slider 3, at ``KEYBOARD_SPEED`` of
+        ``max_speed``; keys of different sliders combine.  Use with
+        ``play(env, noop=np.zeros(3, np.float32))`` (the default ``noop=0`` is not an action)."""
+        mapping: dict[tuple[str, ...], np.ndarray] = {}
+        for signs in itertools.product((0, 1, -1), repeat=3):
+            keys = tuple(
+                sorted(
+                    up if sg > 0 else down
+                    for (up, down), sg in zip(KEYBOARD_KEYS, signs, strict=True)
+                    if sg
+                )
+            )
+            if keys:
+                mapping[keys] = KEYBOARD_SPEED * np.array(signs, dtype=np.float32)
+        return mapping
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode to make()")
+            return None
+        from planar3p_gym.sim.render import Frame, Renderer
+
+        if self._renderer is None:
+            self._renderer = Renderer(
+                self.design, self.render_size, self.render_mode, self.metadata["render_fps"]
+            )
+        info = self._last_info
+        pos_err = info.get("position_error", 0.0)
+        frame = Frame(
+            rho=info.get("rho", (0.0, 0.0, 0.0)),
+            pose=info.get("pose", (0.0, 0.0, 0.0)),
+            target=self._target if self._sim is not None else None,
+            parallel_margin=info.get("parallel_margin", 1.0),
+            serial_margin=info.get("serial_margin", 1.0),
+            time=info.get("time", 0.0),
+            text=(
+                f"position error {1000 * pos_err:6.1f} mm",
+                f"orientation error {math.degrees(info.get('orientation_error', 0.0)):6.1f} deg",
+            ),
+            forces=info.get("actuator_forces"),
+        )
+        return self._renderer.render(frame)
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # ------------------------------------------------------------------ snapshots
+    #: Per-episode attributes a snapshot carries (besides the simulation, the random
+    #: generator and the task).
+    _EPISODE_FIELDS = (
+        "_spec",
+        "_steps",
+        "_mode",
+        "_target",
+        "_target_cs",
+        "_assembly",
+        "_obs",
+        "_measures",
+        "_last_info",
+    )
+
+    def get_state(self) -> dict[str, Any]:
+        """A snapshot of the environment (plain, picklable data): the simulation
+        (:meth:`Planar3PSim.get_state`), ``np_random``'s state, the task's episode state
+        (``task.get_state()`` if the task defines it, else a copy of its attributes) and the
+        episode's bookkeeping.  :meth:`set_state` on an environment made with the same
+        settings continues bit for bit as this one would."""
+        return {
+            "config": self.config(),
+            "sim": None if self._sim is None else self._sim.get_state(),
+            **self._random_state(),
+            "episode": copy.deepcopy({k: getattr(self, k) for k in self._EPISODE_FIELDS}),
+        }
+
+    def _random_state(self) -> dict[str, Any]:
+        """``np_random``'s state, its seed and the task's state (sampler pools included)."""
+        task = self.task
+        if hasattr(task, "get_state"):
+            task_state = task.get_state()
+        else:
+            task_state = copy.deepcopy({k: v for k, v in vars(task).items() if k != "env"})
+        return {
+            "np_random": copy.deepcopy(self.np_random.bit_generator.state),
+            "np_random_seed": self._np_random_seed,
+            "task": task_state,
+        }
+
+    def _restore_random_state(self, state: dict[str, Any]) -> None:
+        """Put back what :meth:`_random_state` recorded."""
+        rng = np.random.Generator(type(self.np_random.bit_generator)())
+        rng.bit_generator.state = copy.deepcopy(state["np_random"])
+        self._np_random, self._np_random_seed = rng, state["np_random_seed"]
+        if hasattr(self.task, "set_state"):
+            self.task.set_state(copy.deepcopy(state["task"]))
+        else:
+            vars(self.task).update(copy.deepcopy(state["task"]))
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Restore a :meth:`get_state` snapshot (``ValueError`` if it is not one, or was taken
+        from an environment with other settings; nothing is changed then)."""
+        keys = {"config", "sim", "np_random", "np_random_seed", "task", "episode"}
+        if not isinstance(state, dict) or set(state) != keys:
+            raise ValueError("state must be a snapshot from Planar3PEnv.get_state()")
+        if state["config"] != self.config():
+            raise ValueError(
+                "the snapshot was taken from an environment with other settings: "
+                f"{state['config']} != {self.config()}"
+            )
+        sim = None if state["sim"] is None else Planar3PSim.from_state(state["sim"])
+        self._restore_random_state(state)
+        self._sim = sim
+        for key, value in copy.deepcopy(state["episode"]).items():
+            setattr(self, key, value)
+
+    def __getstate__(self) -> dict[str, Any]:
+        # The renderer holds a pygame window or surface: copies are made without one.
+        out = dict(self.__dict__)
+        out["_renderer"] = None
+        return out
+
+    # ------------------------------------------------------------------ internals
+    def _errors(self, pose: tuple[float, float, float]) -> tuple[float, float]:
+        tx, ty, tth = self._target
+        return math.hypot(tx - pose[0], ty - pose[1]), wrap_angle(tth - pose[2])
+
+    def _observe(self, state: SimState, measures: ConfigurationMeasures) -> np.ndarray:
+        obs = self._observe_base(state, measures)
+        extra = self.task.observation_extra(self._steps)
+        if extra:
+            tail = np.array(extra, dtype=np.float32)
+            np.minimum(tail, self._extra_high, out=tail)
+            np.maximum(tail, self._extra_low, out=tail)
+            obs = np.concatenate([obs, tail])
+        return self._with_travel_goal(obs) if self.travel_goal else obs
+
+    def _with_travel_goal(self, obs: np.ndarray) -> np.ndarray:
+        """``obs`` with the joint-space goal block appended (``travel_goal=True``)."""
+        return np.concatenate([obs, travel_goal_entries(obs[:3], self._target_rho)])
+
+    def _observe_base(self, state: SimState, measures: ConfigurationMeasures) -> np.ndarray:
+        """The 31 entries of :mod:`planar3p_gym.tasks.observation` against the current reference."""
+        return build_observation(
+            state.rho,
+            state.rho_dot,
+            state.pose,
+            state.twist,
+            state.leg_angles,
+            self._target,
+            measures.parallel_margin,
+            measures.serial_margin,
+            self._obs_low,
+            self._obs_high,
+            self._length,
+        )
+
+    def _info(
+        self,
+        state: SimState,
+        measures: ConfigurationMeasures,
+        reason: str | None,
+        terms: dict[str, float],
+        success: bool,
+        errors: tuple[float, float],
+    ) -> dict[str, Any]:
+        pos_err, ang_err = errors
+        return {
+            "is_success": success,
+            "termination_reason": reason,
+            "position_error": pos_err,
+            "orientation_error": ang_err,
+            "parallel_margin": measures.parallel_margin,
+            "serial_margin": measures.serial_margin,
+            "assembly_mode": measures.det_sign,
+            "working_mode": self._mode,
+            "working_mode_changed": _mode_changed(measures.leg_angles, self._mode),
+            "actuator_forces": state.actuator_forces,
+            "actuator_saturated": state.saturated,
+            "closure_error": state.closure_error,
+            "reward_terms": terms,
+            "pose": state.pose,
+            "rho": state.rho,
+            "rho_dot": state.rho_dot,
+            "time": state.time,
+        }
+
+    def config(self) -> dict[str, Any]:
+        """The environment's settings as plain data (for run records)."""
+        return {
+            "design": self.design.to_dict(),
+            "working_mode": self._fixed_mode or "random",
+            "control_frequency": self.control_frequency,
+            "substeps": self.substeps,
+            "solver_iterations": self.solver_iterations,
+            "projection": self.projection,
+            "reward_weights": asdict(self.reward_weights),
+            "task_config": asdict(self.task_config),
+            "breakdown_threshold": self.breakdown_distance / self.design.shortest_leg,
+            "task": self.task.name,
+            "task_arguments": self.task.arguments(),
+            "travel_goal": self.travel_goal,
+        }
+
+
+def _mode_changed(leg_angles: tuple[float, float, float], mode: tuple[int, int, int]) -> bool:
+    """Whether a leg's ``sign(cos alpha_i)`` differs from the working mode's ``sigma_i``."""
+    a1, a2, a3 = leg_angles
+    m1, m2, m3 = mode
+    return (
+        (math.cos(a1) >= 0.0) != (m1 > 0)
+        or (math.cos(a2) >= 0.0) != (m2 > 0)
+        or (math.cos(a3) >= 0.0) != (m3 > 0)
+    )

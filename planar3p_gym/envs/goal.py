@@ -1,0 +1,233 @@
+"""``Planar3PGoal-v0`` / ``Planar3PGoalDense-v0``: the goal-conditioned reach.
+
+A thin layer over :class:`planar3p_gym.envs.core.Planar3PEnv` with the goal task of
+:mod:`planar3p_gym.tasks.goal`: the observation becomes a ``Dict`` of the robot's state and the
+achieved and desired goals, and the reward is :meth:`Planar3PGoalEnv.compute_reward` on them,
+the interface of Gymnasium-Robotics' ``GoalEnv`` that hindsight relabelling (SB3's
+``HerReplayBuffer``) relies on.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+from numpy.typing import ArrayLike, NDArray
+
+from planar3p_gym.envs.core import Planar3PEnv
+from planar3p_gym.machine.design import Design
+from planar3p_gym.tasks.goal import (
+    GOAL_SIZE,
+    GoalTask,
+    _info_field,
+    achieved_goal,
+    goal_free_reward,
+    goal_reward,
+    goal_success,
+    pose_of_goal,
+)
+from planar3p_gym.tasks.observation import FINE_ERROR_SCALE, OBS_SIZE, SLICES, SPEED_BOUND_FACTOR
+
+__all__ = ["ROBOT_FIELDS", "ROBOT_INDEX", "Planar3PGoalEnv", "flat_observation"]
+
+#: Blocks of the flat observation (:mod:`planar3p_gym.tasks.observation`) that describe the robot
+#: alone, in order: the ``observation`` entry of the goal env (no goal in it).
+ROBOT_FIELDS = (
+    "rho",
+    "rho_dot",
+    "position",
+    "orientation",
+    "velocity",
+    "angular_velocity",
+    "legs",
+    "parallel_margin",
+    "serial_margin",
+)
+#: Indices of those blocks in the flat observation (21 entries).
+ROBOT_INDEX = np.concatenate([np.arange(SLICES[f].start, SLICES[f].stop) for f in ROBOT_FIELDS])
+
+
+def flat_observation(obs: dict[str, ArrayLike], length: float) -> NDArray[np.float32]:
+    """The 31-entry observation of ``Planar3P-v0`` rebuilt from a goal env's ``Dict``
+    observation (single ``(21,)`` or batched ``(n, 21)`` entries), so that policies and
+    controllers written for the flat observation act on the goal env.  ``length`` is the
+    design's characteristic length (m).  Entries are computed as the flat env computes them
+    (to float32 rounding; not clipped); the goal's speed entry is not used."""
+    robot = np.asarray(obs["observation"], dtype=np.float64)
+    goal = np.asarray(obs["desired_goal"], dtype=np.float64)
+    single = robot.ndim == 1
+    robot, goal = np.atleast_2d(robot), np.atleast_2d(goal)
+    if robot.shape[1:] != (ROBOT_INDEX.size,) or goal.shape[1:] != (GOAL_SIZE,):
+        raise ValueError(
+            f"observation must have {ROBOT_INDEX.size} entries and desired_goal {GOAL_SIZE}, "
+            f"got shapes {robot.shape} and {goal.shape}"
+        )
+    if robot.shape[0] != goal.shape[0]:
+        raise ValueError("observation and desired_goal must have the same batch size")
+    flat = np.zeros((robot.shape[0], OBS_SIZE))
+    flat[:, ROBOT_INDEX] = robot
+    pos = flat[:, SLICES["position"]]
+    orient = flat[:, SLICES["orientation"]]
+    t_th = np.arctan2(goal[:, 3], goal[:, 2])
+    d_th = (t_th - np.arctan2(orient[:, 1], orient[:, 0]) + math.pi) % (2.0 * math.pi) - math.pi
+    err = goal[:, :2] - pos
+    flat[:, SLICES["target_position"]] = goal[:, :2]
+    flat[:, SLICES["target_orientation"]] = np.column_stack([np.cos(t_th), np.sin(t_th)])
+    flat[:, SLICES["position_error"]] = err
+    flat[:, SLICES["orientation_error"]] = d_th[:, None]
+    flat[:, SLICES["fine_error"]] = np.tanh(
+        np.column_stack([err, length * d_th]) / FINE_ERROR_SCALE
+    )
+    out = flat.astype(np.float32)
+    return out[0] if single else out
+
+
+class Planar3PGoalEnv(Planar3PEnv):
+    """Goal-conditioned reach with a 3-PRR planar parallel manipulator (GoalEnv interface).
+
+    ## Description
+    The machine and episodes of ``Planar3P-v0`` (the projected physics: ``projection=True``
+    with :data:`~planar3p_gym.sim.physics.PROJECTED_SUBSTEPS` and
+    :data:`~planar3p_gym.sim.physics.PROJECTED_ITERATIONS`, as registered; the same start/target
+    sampler and singularity handling as ``Planar3P-v0``), presented as a goal-conditioned
+    task: the policy is told the goal pose and is rewarded by :meth:`compute_reward`, which
+    depends only on the achieved and desired goals and on goal-independent facts of the step
+    carried in ``info``, so hindsight relabelling (SB3's ``HerReplayBuffer``) gives exactly
+    the reward the environment would have returned for the relabelled goal.
+
+    ## Action Space
+    ``Box(-1, 1, (3,), float32)``: slider velocity commands as fractions of ``max_speed``
+    (as ``Planar3P-v0``).
+
+    ## Observation Space
+    ``Dict`` of
+    - ``observation``: ``Box((21,), float32)``, the robot blocks of the flat observation
+      (:data:`ROBOT_FIELDS`: travels (m) and rates (m/s), gripper position (m), ``cos/sin
+      theta``, gripper twist (m/s, rad/s), ``cos/sin`` of the leg angles, parallel and serial
+      margins); no goal in it;
+    - ``achieved_goal``: ``Box((5,), float32)``, the gripper pose and the fastest slider's
+      speed as ``(x, y, cos theta, sin theta, v)`` (m, m, 1, 1, m/s);
+    - ``desired_goal``: the target pose in the same form, with ``v = 0`` ("at rest").
+
+    ## Rewards
+    ``compute_reward(achieved_goal, desired_goal, info)``, vectorised
+    (:func:`planar3p_gym.tasks.goal.goal_reward`).  Sparse (``Planar3PGoal-v0``): ``-1`` per
+    step, ``0`` on success, and ``-w_failure`` (default 300) on a step that ends the episode by
+    a singularity crossing or a physics breakdown (so ending early never pays).  Dense
+    (``Planar3PGoalDense-v0``): the reach reward of ``Planar3P-v0`` (pose error, precision
+    term, success bonus, singularity penalty, action effort, failure penalty).  Success: within
+    ``position_tolerance`` (2 mm) and ``orientation_tolerance`` (1 deg) of the goal pose with
+    the achieved speed at most the desired one plus ``rest_speed`` (0.01 m/s) (goal-only, so
+    relabelled successes are exact); the goal-independent terms are in
+    ``info["goal_free_reward"]``, the failure flag in ``info["failure"]``: ``info`` is the
+    step's info dict, one per goal, or empty/None (those terms then count as 0; use
+    ``HerReplayBuffer(copy_info_dict=True)`` for exact relabelled penalties).  Wrong goal
+    shapes raise ``ValueError``.
+
+    ## Starting State
+    As ``Planar3P-v0``; ``reset(options=...)`` also accepts ``desired_goal`` (5 numbers; the
+    goal pose must be reachable in the episode's working mode).
+
+    ## Episode End
+    ``terminated`` on success or failure (:meth:`compute_terminated`), ``truncated`` by the
+    registered time limit (100 steps, 2 s: short episodes suit hindsight relabelling, and
+    SB3's HER can sample before its default ``learning_starts`` of 100 steps is up).
+
+    ## Arguments
+    ``reward_type`` (``"sparse"`` or ``"dense"``), and every argument of
+    :class:`planar3p_gym.envs.core.Planar3PEnv` except ``task``.
+
+    ## Version History
+    - v0: initial release.
+    """
+
+    def __init__(
+        self, design: Design | dict | str | None = None, *, reward_type: str = "sparse", **kwargs
+    ) -> None:
+        if "task" in kwargs:
+            raise ValueError("Planar3PGoalEnv sets its own task; do not pass task=")
+        goal_task = GoalTask(reward_type)
+        super().__init__(design, task=goal_task, **kwargs)
+        self.goal_task = goal_task
+        self.reward_type = reward_type
+        flat = self.observation_space
+        assert isinstance(flat, spaces.Box)
+        pos = SLICES["position"]
+        vmax = SPEED_BOUND_FACTOR * self.design.max_speed
+        g_low = np.concatenate([flat.low[pos], [-1.0, -1.0, 0.0]]).astype(np.float32)
+        g_high = np.concatenate([flat.high[pos], [1.0, 1.0, vmax]]).astype(np.float32)
+        self._goal_low, self._goal_high = g_low, g_high
+        self.observation_space = spaces.Dict(
+            {
+                "observation": spaces.Box(
+                    flat.low[ROBOT_INDEX], flat.high[ROBOT_INDEX], dtype=np.float32
+                ),
+                "achieved_goal": spaces.Box(g_low, g_high, dtype=np.float32),
+                "desired_goal": spaces.Box(g_low, g_high, dtype=np.float32),
+            }
+        )
+
+    # ------------------------------------------------------------------ GoalEnv API
+    def compute_reward(self, achieved_goal: ArrayLike, desired_goal: ArrayLike, info: Any) -> Any:
+        """Reward per goal pair: a float for single goals ``(4,)``, an array ``(n,)`` for
+        batches ``(n, 4)``; ``info`` is the step's info dict or one per pair."""
+        out = goal_reward(
+            achieved_goal,
+            desired_goal,
+            info,
+            self.task_config,
+            self.reward_weights,
+            self.design.characteristic_length,
+            self.reward_type,
+        )
+        return float(out[0]) if np.ndim(achieved_goal) == 1 else out
+
+    def compute_terminated(
+        self, achieved_goal: ArrayLike, desired_goal: ArrayLike, info: Any
+    ) -> Any:
+        """Whether the episode ends: success or failure (bool, or a bool array for batches)."""
+        success = goal_success(achieved_goal, desired_goal, info, self.task_config)
+        out = success | (_info_field(info, "failure", success.shape[0]) > 0.5)
+        return bool(out[0]) if np.ndim(achieved_goal) == 1 else out
+
+    def compute_truncated(
+        self, achieved_goal: ArrayLike, desired_goal: ArrayLike, info: Any
+    ) -> Any:
+        """Always False: truncation is the registered time limit's."""
+        n = np.atleast_2d(np.asarray(achieved_goal)).shape[0]
+        return False if np.ndim(achieved_goal) == 1 else np.zeros(n, dtype=bool)
+
+    # ------------------------------------------------------------------ Gymnasium API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        flat, info = super().reset(seed=seed, options=options)
+        info["failure"] = False
+        info["goal_free_reward"] = 0.0
+        self._last_info = info
+        return self._dict_obs(flat, info), info
+
+    def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict]:
+        flat, _, terminated, truncated, info = super().step(action)
+        info["failure"] = info["termination_reason"] in self.task.failure_reasons
+        info["goal_free_reward"] = goal_free_reward(info["reward_terms"], self.reward_type)
+        obs = self._dict_obs(flat, info)
+        reward = self.goal_task.step_reward(obs["achieved_goal"], info)
+        return obs, reward, terminated, truncated, info
+
+    def _dict_obs(self, flat: np.ndarray, info: dict[str, Any]) -> dict[str, np.ndarray]:
+        achieved = achieved_goal(info["pose"], info["rho_dot"])
+        np.minimum(achieved, self._goal_high, out=achieved)
+        np.maximum(achieved, self._goal_low, out=achieved)
+        return {
+            "observation": flat[ROBOT_INDEX],
+            "achieved_goal": achieved,
+            "desired_goal": self.goal_task.desired.copy(),
+        }
+
+    @property
+    def goal_pose(self) -> tuple[float, float, float]:
+        """The pose ``(x, y, theta)`` (m, m, rad) of the desired goal."""
+        return pose_of_goal(self.goal_task.desired)

@@ -1,0 +1,721 @@
+"""A native Gymnasium vector environment: ``gym.make_vec("Planar3P-v0", num_envs=16)``.
+
+:class:`Planar3PVectorEnv` steps ``num_envs`` simulations of the reach task in one process and
+one call, with Gymnasium 1.x's next-step autoreset (an episode that ended in a step is reset
+by the next ``step`` call, which returns its first observation with reward 0 and both flags
+False) and the registered time limit applied in the batch (``truncated`` at
+``max_episode_steps``).  Observations, rewards, flags and infos are batch numpy arrays;
+infos are Gymnasium's vector layout (each key an array over the batch with a boolean
+``"_key"`` mask), for the keys in :data:`INFO_KEYS`.
+
+**The reach task on the projected physics** (``Planar3P-v0``) is stepped without the single
+environments' ``step``: ``batch="scalar"`` runs each simulation and the single environment's
+fused outputs (:class:`~planar3p_gym.tasks.reach_step.ReachStep`) in plain floats and writes them
+into the batch arrays (the per-environment ``info`` dicts are only built when asked for);
+``batch="numpy"`` keeps only what is per simulation in a Python loop (writing the bodies into
+pymunk, ``cpSpaceStep`` and the servo impulses, reading the bodies back: one Chipmunk call
+each, through pymunk's batch iterators on a row of one numpy array shared by the batch) and
+computes the projection onto the constraint manifold, the configuration measures, the
+observations, the termination and the reward over the whole batch in numpy
+(:mod:`planar3p_gym.sim.batch_step`).  Both do the single environment's operations in the same
+order, so the trajectories are the single environments' bit for bit
+(``tests/test_vector_env.py``).  numpy's overhead per operation makes the numpy batch pay only
+for many environments (:data:`NUMPY_BATCH_MIN`; ``batch="auto"``, the default, chooses by it).
+In numpy mode the projected bodies are written back into pymunk at the start of the next step
+(with the new servo commands).  Either way the single environments' own attributes
+(``env.sim.state``, ``env._last_info``, ...) are brought up to date when
+:attr:`Planar3PVectorEnv.envs` or :meth:`Planar3PVectorEnv.get_state` is used, and a state
+that fails the physics-breakdown test takes the single environment's own (general) step.
+
+**Per-environment step** (every other configuration, e.g. ``Planar3P-v0``, and the task ids
+``Planar3PTrack-v0``, ``Planar3PModeChange-v0``, ``Planar3PAssemblyChange-v0`` through the
+subclasses at the end of this module): each environment steps through its own ``step``; what
+the vector env saves there is the per-step overhead of ``gym.make``'s wrappers and of
+``SyncVectorEnv``.  (The goal ids' dictionary observations have no batch array here: they use
+``SyncVectorEnv``.)
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
+from planar3p_gym.envs.core import Planar3PEnv
+from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
+from planar3p_gym.envs.track import Planar3PTrackEnv
+from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
+from planar3p_gym.sim import physics
+from planar3p_gym.sim.batch_step import BatchProjector, BatchReach, BatchState
+from planar3p_gym.sim.physics import SimState
+from planar3p_gym.tasks import sampling as task_module
+from planar3p_gym.tasks.observation import travel_goal_entries
+from planar3p_gym.tasks.sampling import TaskConfig
+
+__all__ = [
+    "INFO_KEYS",
+    "NUMPY_BATCH_MIN",
+    "Planar3PAssemblyChangeVectorEnv",
+    "Planar3PModeChangeVectorEnv",
+    "Planar3PTrackVectorEnv",
+    "Planar3PVectorEnv",
+]
+
+#: Batch size from which ``batch="auto"`` computes the projection and the outputs in numpy
+#: over the batch rather than environment by environment in plain floats: numpy's overhead of
+#: about a microsecond per operation, over some 300 operations a step, is repaid only by
+#: many environments (measured on 2 cores: numpy 1.5x slower at 16 environments, 1.5x faster
+#: at 64, 2.7x at 256; ``scripts/bench_env.py`` prints both).
+NUMPY_BATCH_MIN = 32
+
+#: ``info`` entries returned over the batch (as in the single env's ``info``).
+INFO_KEYS = (
+    "is_success",
+    "termination_reason",
+    "position_error",
+    "orientation_error",
+    "parallel_margin",
+    "serial_margin",
+    "assembly_mode",
+    "closure_error",
+)
+_DTYPES = {"is_success": np.bool_, "termination_reason": object, "assembly_mode": np.int64}
+#: The info entries of the scalar batch's per-env results, after the reward (all but the
+#: first of :data:`INFO_KEYS`).
+_RESULT_KEYS = INFO_KEYS[1:]
+#: ``termination_reason`` codes of the batched step.
+_REASONS = np.array([None, "success", "singularity_crossing", "physics_breakdown"], dtype=object)
+#: Numbers per simulation in the shared body buffer: room for twice a readout (11 bodies x 6),
+#: so pymunk's array over a row never needs to grow (move).
+_ROW = 132
+#: Buffer columns of the drives' x velocities (readout order: platform, then slider, drive,
+#: leg of each leg; 6 numbers a body).
+_DRIVE_VX = (15, 33, 51)
+
+
+class Planar3PVectorEnv(VectorEnv):
+    """``num_envs`` copies of :class:`Planar3PEnv` stepped together (module docstring).
+
+    Args:
+        num_envs: number of environments (>= 1).
+        max_episode_steps: time limit in steps (``None`` or -1: none); ``gym.make_vec`` passes
+            the registered one.
+        batch: how the reach task on the projected physics is stepped: ``"scalar"`` (each
+            environment's fused step in plain floats), ``"numpy"`` (projection and outputs in
+            numpy over the batch) or ``"auto"`` (numpy from :data:`NUMPY_BATCH_MIN`
+            environments); the same numbers either way.  Other configurations always step
+            environment by environment.
+        autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default, Gymnasium's) or
+            ``AutoresetMode.SAME_STEP`` (an ended episode is reset within the same step: its
+            last observation is in ``info["final_obs"]``, its last info entries in
+            ``info["final_info"]``; what SB3's ``VecEnv`` expects, see
+            :mod:`planar3p_agents.training.vec_adapter`).
+        **kwargs: :class:`Planar3PEnv` arguments, the same for every copy (``render_mode``
+            is not supported here).
+    """
+
+    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+    #: The single environment's class (subclasses below: the task ids' environments).
+    env_class: type[Planar3PEnv] = Planar3PEnv
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        max_episode_steps: int | None = None,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        batch: str = "auto",
+        **kwargs: Any,
+    ) -> None:
+        if batch not in ("auto", "scalar", "numpy"):
+            raise ValueError(f"batch must be 'auto', 'scalar' or 'numpy', got {batch!r}")
+        if not (isinstance(num_envs, (int, np.integer)) and not isinstance(num_envs, bool)):
+            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        if num_envs < 1:
+            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
+        if max_episode_steps is not None and max_episode_steps != -1:
+            if not (isinstance(max_episode_steps, (int, np.integer)) and max_episode_steps >= 1):
+                raise ValueError(
+                    f"max_episode_steps must be an integer >= 1, -1 or None, "
+                    f"got {max_episode_steps!r}"
+                )
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            mode = None
+        if mode not in (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP):
+            raise ValueError(
+                f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {autoreset_mode!r}"
+            )
+        self.metadata = {**self.metadata, "autoreset_mode": mode}
+        if kwargs.get("render_mode") is not None:
+            raise ValueError("Planar3PVectorEnv does not render; use gym.make for rendering")
+        self.num_envs = int(num_envs)
+        self._envs = [self.env_class(**kwargs) for _ in range(self.num_envs)]
+        self.max_episode_steps = (
+            None if max_episode_steps in (None, -1) else int(max_episode_steps)  # type: ignore[arg-type]
+        )
+        first = self._envs[0]
+        self.single_observation_space = first.observation_space
+        self.single_action_space = first.action_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.render_mode = None
+        self._obs = np.zeros(self.observation_space.shape, dtype=np.float32)
+        self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
+        self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
+        if batch == "auto":
+            batch = "numpy" if self.num_envs >= NUMPY_BATCH_MIN else "scalar"
+        numpy_batch = physics._FAST and physics.Planar3PSim.use_fast_path and batch == "numpy"
+        self._core = _BatchCore(self, numpy_batch) if first._reach_step is not None else None
+
+    @property
+    def envs(self) -> list[Planar3PEnv]:
+        """The single environments, their attributes up to date."""
+        if self._core is not None:
+            self._core.sync_all()
+        return self._envs
+
+    def reset(
+        self,
+        *,
+        seed: int | list[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset every environment: ``seed`` an int (env ``i`` gets ``seed + i``, as
+        ``SyncVectorEnv`` does), a list of seeds, or None; ``options`` go to every env."""
+        if seed is None or isinstance(seed, (int, np.integer)):
+            seeds = [None if seed is None else int(seed) + i for i in range(self.num_envs)]
+        else:
+            seeds = list(seed)
+            if len(seeds) != self.num_envs:
+                raise ValueError(f"expected {self.num_envs} seeds, got {len(seeds)}")
+        if seed is not None:
+            self._np_random, self._np_random_seed = gym.utils.seeding.np_random(
+                seeds[0] if isinstance(seed, list) else int(seed)
+            )
+        infos = []
+        for i, (env, s) in enumerate(zip(self._envs, seeds, strict=True)):
+            obs, info = env.reset(seed=s, options=options)
+            self._obs[i] = obs
+            infos.append(info)
+            if self._core is not None:
+                self._core.load(i)
+        self._elapsed[:] = 0
+        self._autoreset[:] = False
+        return self._obs.copy(), self._batch_infos(infos)
+
+    def _check_actions(self, actions: Any) -> np.ndarray:
+        a = np.asarray(actions, dtype=np.float64)
+        if a.shape != self.action_space.shape:
+            raise ValueError(f"actions must have shape {self.action_space.shape}, got {a.shape}")
+        if not np.isfinite(a).all():
+            raise ValueError("actions must be finite")
+        return a
+
+    def step(
+        self, actions: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        a = self._check_actions(actions)
+        if self._core is not None:
+            return self._core.step(a)
+        n = self.num_envs
+        rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
+        infos = []
+        limit = self.max_episode_steps if self.max_episode_steps is not None else -1
+        obs_out = self._obs
+        # Plain lists in the loop: numpy scalar indexing costs more than the bookkeeping.
+        elapsed, autoreset = self._elapsed.tolist(), self._autoreset.tolist()
+        same_step = self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
+        final: dict[int, tuple[np.ndarray, dict[str, Any]]] = {}
+        for i, env in enumerate(self._envs):
+            if autoreset[i]:
+                obs, info = env.reset()
+                elapsed[i] = 0
+            else:
+                obs, reward, term, _, info = env.step(a[i])
+                steps = elapsed[i] = elapsed[i] + 1
+                trunc = 0 < limit <= steps
+                rewards[i], terminated[i], truncated[i] = reward, term, trunc
+                if same_step and (term or trunc):
+                    final[i] = (obs, info)
+                    obs, info = env.reset()
+                    elapsed[i] = 0
+            obs_out[i] = obs
+            infos.append(info)
+        self._elapsed[:] = elapsed
+        terminated_a = np.array(terminated, dtype=np.bool_)
+        truncated_a = np.array(truncated, dtype=np.bool_)
+        if not same_step:
+            np.logical_or(terminated_a, truncated_a, out=self._autoreset)
+        out = self._batch_infos(infos)
+        if final:
+            self._final_entries(out, final, infos)
+        return obs_out.copy(), np.array(rewards), terminated_a, truncated_a, out
+
+    def _final_entries(
+        self,
+        out: dict[str, Any],
+        final: dict[int, tuple[np.ndarray, dict[str, Any]]],
+        infos: list[dict[str, Any]] | dict[str, Any],
+    ) -> None:
+        """``final_obs`` / ``final_info`` of the episodes ended (and reset) in a ``SAME_STEP``
+        step; ``infos`` are the step's entries (a list of info dicts, or batch arrays)."""
+        final_obs = np.full(self.num_envs, None, dtype=object)
+        done = np.zeros(self.num_envs, dtype=np.bool_)
+        if isinstance(infos, dict):
+            final_info = {k: infos[k].copy() for k in INFO_KEYS}
+            for i, (obs, info) in final.items():
+                final_obs[i], done[i] = obs, True
+                for key in INFO_KEYS:
+                    final_info[key][i] = info[key]
+        else:
+            last = list(infos)
+            for i, (obs, info) in final.items():
+                final_obs[i], done[i], last[i] = obs, True, info
+            final_info = self._batch_infos(last)
+        out["final_obs"], out["_final_obs"] = final_obs, done
+        for key in INFO_KEYS:
+            final_info["_" + key] = done
+        out["final_info"], out["_final_info"] = final_info, done
+
+    def _batch_infos(self, infos: list[dict[str, Any]]) -> dict[str, Any]:
+        """Gymnasium's vector info layout for :data:`INFO_KEYS`."""
+        out: dict[str, Any] = {}
+        mask = np.ones(self.num_envs, dtype=np.bool_)
+        for key in INFO_KEYS:
+            out[key] = np.array([info[key] for info in infos], dtype=_DTYPES.get(key, np.float64))
+            out["_" + key] = mask
+        return out
+
+    def close_extras(self, **kwargs: Any) -> None:
+        for env in self._envs:
+            env.close()
+
+    def set_task_config(self, changes: dict[str, Any]) -> TaskConfig:
+        """:meth:`Planar3PEnv.set_task_config` on every environment (checked once first, so
+        an invalid change raises ``ValueError`` and changes none); returns the new config."""
+        new = task_module.updated_config(self._envs[0].task_config, changes)
+        for env in self._envs:
+            env.set_task_config(changes)
+        return new
+
+    def get_state(self) -> dict[str, Any]:
+        """Snapshots of every environment and the batch bookkeeping (see
+        :meth:`Planar3PEnv.get_state`)."""
+        return {
+            "envs": [env.get_state() for env in self.envs],
+            "obs": self._obs.copy(),
+            "elapsed": self._elapsed.copy(),
+            "autoreset": self._autoreset.copy(),
+        }
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Restore a :meth:`get_state` snapshot."""
+        if not isinstance(state, dict) or len(state.get("envs", ())) != self.num_envs:
+            raise ValueError("state must be a snapshot from Planar3PVectorEnv.get_state()")
+        for i, (env, s) in enumerate(zip(self._envs, state["envs"], strict=True)):
+            env.set_state(s)
+            if self._core is not None:
+                self._core.load(i)
+        self._obs[:] = state["obs"]
+        self._elapsed[:] = state["elapsed"]
+        self._autoreset[:] = state["autoreset"]
+
+
+class _BatchCore:
+    """The batched step of a :class:`Planar3PVectorEnv` (module docstring).
+
+    Between steps the batch arrays are authoritative for the environments marked pending; the
+    single environments' Python attributes and their pymunk bodies are brought up to date by
+    :meth:`sync` (the bodies themselves are written at the start of every step anyway).
+    """
+
+    def __init__(self, venv: Planar3PVectorEnv, numpy_batch: bool) -> None:
+        self.venv = venv
+        self.numpy = numpy_batch
+        n = venv.num_envs
+        env = venv._envs[0]
+        self.dt = env.dt
+        self.substeps = env.substeps
+        self.h = env.dt / env.substeps
+        self.vmax = env.design.max_speed
+        self.scale = 1.0 / (self.substeps * self.h)
+        self.force_limit = 0.999 * env.design.max_force * self.h
+        self.breakdown = env.breakdown_distance
+        self.reach = BatchReach(env._reach_step)
+        self.low, self.high = env._obs_low, env._obs_high
+        self.projector: BatchProjector | None = None  # made from the first simulation
+        ffi, cp = physics._ffi, physics._cp
+        self.buf = np.zeros((n, _ROW))
+        base = ffi.cast("double *", self.buf.ctypes.data)
+        self._unused = ffi.gc(cp.pmIntArrayNew(0), cp.pmIntArrayFree)
+        self.arrays, self.requests = [], []
+        for i in range(n):
+            arr = ffi.new("pmFloatArray *")
+            arr.num, arr.max, arr.arr = 0, _ROW, base + i * _ROW
+            req = ffi.new("pmBatchedData *")
+            req.fields = cp.POSITION | cp.ANGLE | cp.VELOCITY | cp.ANGULAR_VELOCITY
+            req.floatArray = arr
+            req.intArray = self._unused
+            self.arrays.append(arr)
+            self.requests.append(req)
+        self.get = ffi.addressof(cp, "pmSpaceBodyGetIteratorFuncBatched")
+        self.set = ffi.addressof(cp, "pmSpaceBodySetIteratorFuncBatched")
+        self.handles: list[tuple] = [()] * n
+        self.time = np.zeros(n)
+        self.target = np.zeros((3, n))
+        self.target_cs = np.zeros((2, n))
+        self.travel_goal = env.travel_goal
+        self.target_rho = np.zeros((n, 3))  # each target's slider travels (m), travel_goal
+        self.assembly = np.zeros(n, dtype=np.int64)
+        self.pending = [False] * n
+        #: Scalar mode: the arguments of ``env._info`` of each pending environment's last step.
+        self.pending_info: list[tuple | None] = [None] * n
+        self.last: dict[str, Any] | None = None  # the last batched step's arrays
+
+    # ------------------------------------------------------------------ env <-> batch
+    def load(self, i: int) -> None:
+        """Take environment ``i``'s state (after a reset or a restored snapshot)."""
+        env = self.venv._envs[i]
+        self.pending[i] = False
+        if not self.numpy:
+            return
+        sim = env.sim
+        if sim._fast is None:
+            raise RuntimeError("the batched step needs pymunk's batch API (Planar3PSim._fast)")
+        if self.projector is None:
+            self.projector = BatchProjector(sim._projector)
+        fast = sim._fast
+        space, servos = fast[0], fast[1]
+        self.handles[i] = (space, *servos, sim._commands)
+        self.arrays[i].num = 0
+        physics._cp.cpSpaceEachBody(space, self.get, self.requests[i])
+        self.time[i] = sim._time
+        self.target[:, i] = env._target
+        self.target_cs[:, i] = env._target_cs
+        self.target_rho[i] = env._target_rho
+        self.assembly[i] = env._assembly
+        self.pending[i] = False
+
+    def sync_all(self) -> None:
+        """Bring every pending environment up to date (:meth:`sync`)."""
+        for i, pending in enumerate(self.pending):
+            if pending:
+                self.sync(i)
+
+    def sync(self, i: int, bodies: bool = True) -> None:
+        """Write the last batched step's results into environment ``i`` (its simulation's
+        state and bodies, the episode's observation, measures and info)."""
+        env = self.venv._envs[i]
+        if not self.numpy:
+            env._last_info = env._info(*self.pending_info[i])  # type: ignore[misc]
+            self.pending[i] = False
+            return
+        last = self.last
+        assert last is not None
+        j = last["row"][i]
+        state = self._sim_state(last, j, i)
+        self._set_sim(env, state, last, j, i)
+        o = last["outputs"]
+        measures = ConfigurationMeasures(
+            float(o["parallel"][j]), float(o["serial"][j]), int(o["sign"][j]), state.leg_angles
+        )
+        reason = _REASONS[o["reason"][j]]
+        terms = {k: float(v[j]) for k, v in o["terms"].items()}
+        env._steps = int(self.venv._elapsed[i])
+        env._obs = o["obs"][j].copy()
+        env._measures = measures
+        errors = (float(o["position_error"][j]), float(o["orientation_error"][j]))
+        env._last_info = env._info(state, measures, reason, terms, reason == "success", errors)
+        if bodies:
+            self.arrays[i].num = 0
+            physics._cp.cpSpaceEachBody(self.handles[i][0], self.set, self.requests[i])
+        self.pending[i] = False
+
+    def _sim_state(self, last: dict[str, Any], j: int, i: int) -> SimState:
+        st: BatchState = last["state"]
+        rho, rho_dot = st.rho[:, j].tolist(), st.rho_dot[:, j].tolist()
+        pose, twist, legs = st.pose[:, j].tolist(), st.twist[:, j].tolist(), st.leg_angles[:, j]
+        f, sat = last["forces"][j].tolist(), last["saturated"][j].tolist()
+        return SimState(
+            float(last["time"][j]),
+            (rho[0], rho[1], rho[2]),
+            (rho_dot[0], rho_dot[1], rho_dot[2]),
+            (pose[0], pose[1], pose[2]),
+            (twist[0], twist[1], twist[2]),
+            tuple(legs.tolist()),  # type: ignore[arg-type]
+            (f[0], f[1], f[2]),
+            (bool(sat[0]), bool(sat[1]), bool(sat[2])),
+            float(st.closure[j]),
+        )
+
+    def _set_sim(self, env: Planar3PEnv, state: SimState, last: dict, j: int, i: int) -> None:
+        sim = env.sim
+        st: BatchState = last["state"]
+        sim._state = state
+        sim._time = state.time
+        sim._forces = state.actuator_forces
+        sim._saturated = state.saturated
+        sim._setpoints = [float(self.buf[i, 12]), float(self.buf[i, 30]), float(self.buf[i, 48])]
+        x, y = st.ux[:, j].tolist(), st.uy[:, j].tolist()
+        sim.geometry = (x[0], y[0], x[1], y[1], x[2], y[2], float(st.c[j]), float(st.s[j]))
+
+    # ------------------------------------------------------------------ stepping
+    def step(
+        self, a: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        venv = self.venv
+        n = venv.num_envs
+        a = np.minimum(a, 1.0)  # (a new array: the caller's actions are left alone)
+        np.maximum(a, -1.0, out=a)
+        resetting = venv._autoreset.tolist()
+        idx = [i for i in range(n) if not resetting[i]]
+        rewards = np.zeros(n)
+        terminated = np.zeros(n, dtype=np.bool_)
+        truncated = np.zeros(n, dtype=np.bool_)
+        info: dict[str, Any] = {
+            key: np.zeros(n, dtype=_DTYPES.get(key, np.float64)) for key in INFO_KEYS
+        }
+        info["termination_reason"][:] = None
+        if idx and self.numpy:
+            self._physics(a, idx)
+            self._outputs(a, idx, rewards, terminated, info)
+        elif idx:
+            self._scalar(a, idx, rewards, terminated, info)
+        limit = venv.max_episode_steps if venv.max_episode_steps is not None else -1
+        if limit > 0:
+            truncated[idx] = venv._elapsed[idx] >= limit
+        for i in range(n):
+            if resetting[i]:  # next-step autoreset
+                self._reset(i, info)
+        done = terminated | truncated
+        out: dict[str, Any] = {}
+        mask = np.ones(n, dtype=np.bool_)
+        for key in INFO_KEYS:
+            out[key] = info[key]
+            out["_" + key] = mask
+        if venv.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP:
+            ended = np.nonzero(done)[0].tolist()
+            if ended:  # the last observations and infos, then reset within the step
+                final_obs = np.full(n, None, dtype=object)
+                final_info: dict[str, Any] = {k: info[k].copy() for k in INFO_KEYS}
+                for i in ended:
+                    final_obs[i] = venv._obs[i].copy()
+                for i in ended:
+                    self._reset(i, info)
+                final_info.update({"_" + k: done for k in INFO_KEYS})
+                out["final_obs"], out["_final_obs"] = final_obs, done
+                out["final_info"], out["_final_info"] = final_info, done
+        else:
+            venv._autoreset[:] = done
+        return venv._obs.copy(), rewards, terminated, truncated, out
+
+    def _scalar(
+        self,
+        a: np.ndarray,
+        idx: list[int],
+        rewards: np.ndarray,
+        terminated: np.ndarray,
+        info: dict[str, Any],
+    ) -> None:
+        """Step the environments ``idx``, each through its simulation and
+        :class:`~planar3p_gym.tasks.reach_step.ReachStep` (the single env's fused step without its
+        ``info`` dict, which :meth:`sync` builds when asked for); outputs into the batch."""
+        venv = self.venv
+        envs, obs_out, breakdown = venv._envs, venv._obs, self.breakdown
+        commands, actions = (a * self.vmax).tolist(), a.tolist()
+        pending, flags = self.pending_info, self.pending
+        rows: list[list[float]] = []  # observations before float32 and the bounds
+        stepped: list[int] = []  # the envs whose row is in rows
+        # One tuple per env: reward, reason, errors, margins, sign, closure error.
+        results: list[tuple] = []
+        for i in idx:
+            env = envs[i]
+            sim = env._sim
+            v0, v1, v2 = commands[i]
+            state = sim.step_unchecked(v0, v1, v2)
+            env._steps += 1
+            if state.finite and state.closure_error <= breakdown:
+                row, m, reason, terms, pe, ae = env._reach_step.values(  # type: ignore[union-attr]
+                    state, sim.geometry, env._target, env._target_cs, env._assembly, actions[i]
+                )
+                rows.append(row)
+                stepped.append(i)
+                env._measures = m
+                pending[i] = (state, m, reason, terms, reason == "success", (pe, ae))
+                flags[i] = True
+                results.append(
+                    (sum(terms.values()), reason, pe, ae, m[0], m[1], m[2], state.closure_error)
+                )
+            else:  # physics breakdown: the single env's general step
+                if flags[i]:
+                    self.sync(i)
+                act = actions[i]
+                obs, r, _, _, full = env._general_step(state, (act[0], act[1], act[2]))
+                obs_out[i] = obs
+                results.append(
+                    (r, *(full[key] for key in _RESULT_KEYS))  # type: ignore[arg-type]
+                )
+        if rows:  # float32 and the bounds over the batch (elementwise: the single env's)
+            obs = np.array(rows, dtype=np.float32)
+            np.minimum(obs, self.high, out=obs)
+            np.maximum(obs, self.low, out=obs)
+            if self.travel_goal:
+                goal = np.array([envs[i]._target_rho for i in stepped])
+                obs = np.concatenate([obs, travel_goal_entries(obs[:, :3], goal)], axis=1)
+            obs_out[stepped] = obs
+            for k, i in enumerate(stepped):
+                envs[i]._obs = obs[k]
+        sel = slice(None) if len(idx) == len(envs) else idx
+        venv._elapsed[sel] += 1
+        rew, reasons, *columns = zip(*results, strict=True)
+        rewards[sel] = rew
+        reason_a = np.array(reasons, dtype=object)
+        terminated[sel] = reason_a != None  # noqa: E711  (elementwise)
+        info["is_success"][sel] = reason_a == "success"
+        info["termination_reason"][sel] = reason_a
+        for key, values in zip(_RESULT_KEYS[1:], columns, strict=True):
+            info[key][sel] = values
+
+    def _reset(self, i: int, info: dict[str, Any]) -> None:
+        venv = self.venv
+        obs, reset_info = venv._envs[i].reset()
+        venv._obs[i] = obs
+        venv._elapsed[i] = 0
+        self.load(i)
+        for key in INFO_KEYS:
+            info[key][i] = reset_info[key]
+
+    def _physics(self, a: np.ndarray, idx: list[int]) -> None:
+        """Step the simulations ``idx`` with actions ``a`` (clipped, ``(N, 3)``): write their
+        bodies (and the new servo commands), step pymunk, read them back, project."""
+        buf = self.buf
+        v = a * self.vmax
+        for k, col in enumerate(_DRIVE_VX):
+            buf[idx, col] = v[idx, k]
+        commands = v.tolist()
+        each = physics._cp.cpSpaceEachBody
+        get, put, arrays, requests = self.get, self.set, self.arrays, self.requests
+        h, substeps = self.h, self.substeps
+        fm = []
+        for i in idx:
+            space, s0, s1, s2, record = self.handles[i]
+            arr, req = arrays[i], requests[i]
+            arr.num = 0
+            each(space, put, req)
+            fm.append(physics.substep_impulses(space, (s0, s1, s2), h, substeps))
+            arr.num = 0
+            each(space, get, req)
+            record.extend(commands[i])
+        self.venv._elapsed[idx] += 1
+        self.time[idx] += self.dt
+        fm_a = np.array(fm)
+        self.forces = fm_a[:, :3] * self.scale
+        self.saturated = fm_a[:, 3:] >= self.force_limit
+        if len(idx) == len(buf):
+            self.state = self.projector.project(buf, self.saturated.T)  # type: ignore[union-attr]
+        else:
+            rows = buf[idx]
+            self.state = self.projector.project(rows, self.saturated.T)  # type: ignore[union-attr]
+            buf[idx] = rows
+
+    def _outputs(
+        self,
+        a: np.ndarray,
+        idx: list[int],
+        rewards: np.ndarray,
+        terminated: np.ndarray,
+        info: dict[str, Any],
+    ) -> None:
+        venv, st = self.venv, self.state
+        with np.errstate(all="ignore"):  # (a broken-down state's NaN: handled below)
+            o = self.reach.outputs(
+                st,
+                self.target[:, idx],
+                self.target_cs[:, idx],
+                self.assembly[idx],
+                a[idx].T,
+                np.array([venv._envs[i]._reach_step.tolerances for i in idx]).T,
+            )
+        terms = o["terms"]
+        reward = (
+            terms["pose"]
+            + terms["precision"]
+            + terms["singularity"]
+            + terms["action"]
+            + terms["success"]
+            + terms["failure"]
+        )
+        bad = ~st.finite | (st.closure > self.breakdown)
+        bad_rows = np.nonzero(bad)[0].tolist()
+        if bad_rows and self.last is not None:  # bring those envs to their previous step
+            for j in bad_rows:
+                i = idx[j]
+                if self.pending[i]:
+                    venv._elapsed[i] -= 1
+                    self.sync(i, bodies=False)
+                    venv._elapsed[i] += 1
+        obs = o["obs"]
+        if self.travel_goal:  # (kept in the outputs: sync gives each env its full row)
+            goal = travel_goal_entries(obs[:, :3], self.target_rho[idx])
+            obs = o["obs"] = np.concatenate([obs, goal], axis=1)
+        venv._obs[idx] = obs
+        rewards[idx] = reward
+        reason = o["reason"]
+        terminated[idx] = reason > 0
+        info["is_success"][idx] = reason == 1
+        info["termination_reason"][idx] = _REASONS[reason]
+        info["position_error"][idx] = o["position_error"]
+        info["orientation_error"][idx] = o["orientation_error"]
+        info["parallel_margin"][idx] = o["parallel"]
+        info["serial_margin"][idx] = o["serial"]
+        info["assembly_mode"][idx] = o["sign"]
+        info["closure_error"][idx] = st.closure
+        self.last = {
+            "row": {i: j for j, i in enumerate(idx)},
+            "state": st,
+            "outputs": o,
+            "forces": self.forces,
+            "saturated": self.saturated,
+            "time": self.time[idx],
+        }
+        for i in idx:
+            self.pending[i] = True
+        for j in bad_rows:  # the single env's general step, on the state just computed
+            i = idx[j]
+            env = venv._envs[i]
+            state = self._sim_state(self.last, j, i)
+            self._set_sim(env, state, self.last, j, i)
+            env._steps = int(venv._elapsed[i])
+            a0, a1, a2 = a[i].tolist()
+            ob, r, term, _, inf = env._general_step(state, (a0, a1, a2))
+            venv._obs[i] = ob
+            rewards[i] = r
+            terminated[i] = term
+            for key in INFO_KEYS:
+                info[key][i] = inf[key]
+            self.arrays[i].num = 0
+            physics._cp.cpSpaceEachBody(self.handles[i][0], self.set, self.requests[i])
+            self.pending[i] = False
+
+
+class Planar3PTrackVectorEnv(Planar3PVectorEnv):
+    """``Planar3PTrack-v0``'s native vector env (environment by environment)."""
+
+    env_class = Planar3PTrackEnv
+
+
+class Planar3PModeChangeVectorEnv(Planar3PVectorEnv):
+    """``Planar3PModeChange-v0``'s native vector env (environment by environment)."""
+
+    env_class = Planar3PModeChangeEnv
+
+
+class Planar3PAssemblyChangeVectorEnv(Planar3PVectorEnv):
+    """``Planar3PAssemblyChange-v0``'s native vector env (environment by environment)."""
+
+    env_class = Planar3PAssemblyChangeEnv

@@ -1,0 +1,671 @@
+"""pymunk rigid-body model of the closed chain (no Gymnasium here).
+
+Bodies: 3 sliders, 3 legs (uniform rods), the platform (a uniform rod from ``G`` to ``C_1``);
+gravity along ``-y``.  Joints: each slider rides a groove along its rail whose ends are the
+hard stops of the stroke; revolute (pivot) joints at every ``B_i`` and ``C_i``.  There are no
+collision shapes: the mechanism's parts sit in different planes and never collide.
+
+Actuation: each slider is driven by a force-limited velocity servo: a constraint along the rail
+between the slider and a kinematic "drive" body moving at the commanded speed (a pin joint of
+length :data:`SERVO_ARM` lying along the rail), whose impulse is clamped to
+``design.max_force``.  Like a servo drive's velocity loop with position hold, it also removes a
+following error (the slider lagging its integrated command) at no more than
+:data:`SERVO_CORRECTION_SPEED`, and the following error is capped at
+:data:`FOLLOWING_ERROR_LIMIT` (after saturation the drive does not try to catch up more).  Near a
+parallel singularity the servos saturate as a real machine's would.
+
+A model is built from a pose and working mode with the exact inverse kinematics; building a
+new :class:`Planar3PSim` is how a simulation is reset (spaces are never copied).
+
+Solver settings: joints drift apart when their bodies rotate (pymunk integrates positions to
+first order), by about ``h^2 omega^2 r / 2`` per physics step ``h``, and each step removes a
+share of the error (``error_bias``).  The platform's pivots ``C_i`` join two turning bodies and
+drift most, so they get a stronger correction (``platform_error_bias``); a stronger one
+everywhere would need more solver iterations to stay stable where holding the mechanism takes
+large forces.  ``tests/test_physics.py`` checks the defaults against the fidelity bound.
+
+Projection (``projection=True``, used by ``Planar3P-v0``): after each control step the bodies
+are projected exactly back onto the constraint manifold (:mod:`planar3p_gym.sim.projection`:
+mass-weighted Newton steps on the three loop equations, velocities onto their tangent space,
+legs rebuilt from their joints) and written back into pymunk, which keeps doing the dynamics
+(gravity, force-limited servos, end stops).  The drift no longer accumulates, so the solver can
+run fewer substeps and iterations (:data:`PROJECTED_SUBSTEPS`, :data:`PROJECTED_ITERATIONS`).
+The reported ``closure_error`` is then the largest leg-length error left by the projection.
+Two details of the model differ with projection, both for what few solver iterations leave:
+the servo's arm is long (:data:`PROJECTED_SERVO_ARM`), so a slider's small excursions off its
+rail do not leak into the servo's direction; and the grooves only keep the sliders on their
+lines, the end stops being separate ``SlideJoint`` limits whose impulse is dropped whenever the
+slider leaves the stop (a groove's own ends keep a stale impulse after an impact, and with one
+substep a slider resting on the stop then bounced between two states).
+
+Snapshots: :meth:`Planar3PSim.get_state` / :meth:`Planar3PSim.set_state` restore a simulation
+bit for bit.  pymunk does not expose the solver's warm-start impulses, on which the next steps
+depend, so a snapshot records how the model was built and the commands it was stepped with, and
+restoring rebuilds the model and replays them (time proportional to the steps since the build).
+"""
+
+from __future__ import annotations
+
+import math
+from array import array
+from dataclasses import dataclass
+from typing import Any, ClassVar, NamedTuple
+
+import numpy as np
+import pymunk
+from numpy.typing import ArrayLike
+
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.design import Design
+from planar3p_gym.sim.projection import LoopProjector
+
+__all__ = [
+    "DEFAULT_ITERATIONS",
+    "DEFAULT_SUBSTEPS",
+    "PROJECTED_ITERATIONS",
+    "PROJECTED_SUBSTEPS",
+    "Planar3PSim",
+    "SimSnapshot",
+    "SimState",
+]
+
+try:  # Direct Chipmunk calls skip pymunk's per-call Python bookkeeping (the hot loop's cost).
+    from pymunk._chipmunk_cffi import ffi as _ffi
+    from pymunk._chipmunk_cffi import lib as _cp
+
+    _FAST = all(
+        hasattr(_cp, name)
+        for name in (
+            "cpSpaceStep",
+            "cpSpaceEachBody",
+            "cpConstraintGetImpulse",
+            "cpBodySetVelocity",
+            "pmSpaceBodyGetIteratorFuncBatched",
+            "pmFloatArrayNew",
+            "pmIntArrayNew",
+        )
+    )
+except ImportError:  # pragma: no cover - other pymunk builds
+    _FAST = False
+
+#: Numbers per body in a readout: ``x, y, angle, vx, vy, angular velocity`` (pymunk's batch
+#: layout for these fields).
+_BODY_FIELDS = 6
+
+#: Physics substeps per control step used by the environment by default (2.5 ms at 50 Hz).
+DEFAULT_SUBSTEPS = 8
+#: Constraint-solver iterations per substep used by default.
+DEFAULT_ITERATIONS = 18
+#: Physics substeps per control step with ``projection=True`` (``Planar3P-v0``).
+PROJECTED_SUBSTEPS = 1
+#: Constraint-solver iterations per substep with ``projection=True``: 3 is the fewest with which
+#: every physics and projection test passes (with 1 the servos miss the static holding forces,
+#: with 2 the random soak fails); 4 keeps a margin.
+PROJECTED_ITERATIONS = 4
+#: Solver iterations of the warm-start step at construction.
+WARM_START_ITERATIONS = 500
+#: pymunk's ``error_bias`` of the rails, the servos and the pivots ``B_i``: fraction of a joint
+#: error left after one second.
+DEFAULT_ERROR_BIAS = 1e-15
+#: ``error_bias`` of the platform's pivots ``C_i``.
+DEFAULT_PLATFORM_ERROR_BIAS = 1e-25
+#: Length of the pin joint by which a drive body pulls its slider along the rail (m).
+SERVO_ARM = 1.0
+#: Servo arm with ``projection=True`` (m).  A slider's velocity off its rail (what the few
+#: solver iterations leave) tilts the arm by ``y / arm`` and leaks into the servo's direction:
+#: a long arm keeps servo-held sliders still to well below a nanometre per step.
+PROJECTED_SERVO_ARM = 1000.0
+#: With ``projection=True`` the grooves run this far past the stroke (m): the end stops are
+#: separate limits (see :meth:`Planar3PSim._build`).
+PROJECTED_RAIL_OVERRUN = 1.0
+#: Largest speed at which a servo removes a following error (m/s).
+SERVO_CORRECTION_SPEED = 0.02
+#: Largest following error a servo keeps (m); beyond it the setpoint is pulled along.
+FOLLOWING_ERROR_LIMIT = 0.001
+
+
+class SimState(NamedTuple):
+    """A readout of the full simulated state (SI units).
+
+    Attributes:
+        time: simulated time since the model was built (s).
+        rho: slider travels ``rho_i`` (m).
+        rho_dot: slider travel rates (m/s).
+        pose: platform pose ``(x, y, theta)`` of the gripper ``G`` (m, m, rad in ``(-pi, pi]``).
+        twist: ``(x_dot, y_dot, theta_dot)`` of ``G`` (m/s, m/s, rad/s).
+        leg_angles: ``alpha_i``, angle of each leg ``B_i -> C_i`` from the x axis (rad).
+        actuator_forces: magnitude of each servo's force along its rail, averaged over the
+            last control step (N).
+        saturated: whether each servo hit ``max_force`` during the last control step.
+        closure_error: largest joint separation of the loop (m): pivots at ``B_i``, ``C_i``
+            and the sliders' distance from their rail line.
+    """
+
+    time: float
+    rho: tuple[float, float, float]
+    rho_dot: tuple[float, float, float]
+    pose: tuple[float, float, float]
+    twist: tuple[float, float, float]
+    leg_angles: tuple[float, float, float]
+    actuator_forces: tuple[float, float, float]
+    saturated: tuple[bool, bool, bool]
+    closure_error: float
+
+    @property
+    def finite(self) -> bool:
+        """True when every number of the state is finite."""
+        # A NaN or inf anywhere makes the sum non-finite (inf - inf is NaN).
+        (r1, r2, r3), (d1, d2, d3), (x, y, th) = self.rho, self.rho_dot, self.pose
+        (vx, vy, w), (a1, a2, a3) = self.twist, self.leg_angles
+        return math.isfinite(
+            r1 + r2 + r3 + d1 + d2 + d3 + x + y + th + vx + vy + w + a1 + a2 + a3
+            + self.closure_error
+        )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class SimSnapshot:
+    """Everything needed to restore a :class:`Planar3PSim` bit for bit (plain data, picklable).
+
+    Attributes:
+        design: the machine, as :meth:`Design.to_dict`.
+        pose: the pose the model was built at (m, m, rad).
+        working_mode: its working mode.
+        settings: the constructor's keyword arguments (``dt``, ``substeps``, ...).
+        commands: the velocity commands of every step since the build, flattened (m/s).
+    """
+
+    design: dict
+    pose: tuple[float, float, float]
+    working_mode: tuple[int, int, int]
+    settings: dict
+    commands: tuple[float, ...]
+
+    @property
+    def steps(self) -> int:
+        """Control steps since the build."""
+        return len(self.commands) // 3
+
+
+def _wrap(angle: float) -> float:
+    """Angle wrapped into ``(-pi, pi]``."""
+    return math.pi - (math.pi - angle) % (2.0 * math.pi)
+
+
+def substep_impulses(
+    space_ptr: Any, servos: tuple[Any, Any, Any], h: float, substeps: int
+) -> tuple[float, float, float, float, float, float]:
+    """Step the chipmunk space ``space_ptr`` ``substeps`` times by ``h`` (s) and return the
+    servos' summed impulses and their largest single-substep impulse, ``(f0, f1, f2, m0, m1,
+    m2)`` (N s), read through chipmunk's C API (the hot path of every step)."""
+    cp_step, impulse = _cp.cpSpaceStep, _cp.cpConstraintGetImpulse
+    s0, s1, s2 = servos
+    f0 = f1 = f2 = m0 = m1 = m2 = 0.0
+    for _ in range(substeps):
+        cp_step(space_ptr, h)
+        j0, j1, j2 = impulse(s0), impulse(s1), impulse(s2)
+        f0, f1, f2 = f0 + j0, f1 + j1, f2 + j2
+        # (comparisons instead of max(): this loop is the hot path)
+        if j0 > m0:
+            m0 = j0
+        if j1 > m1:
+            m1 = j1
+        if j2 > m2:
+            m2 = j2
+    return f0, f1, f2, m0, m1, m2
+
+
+class Planar3PSim:
+    """The 3-PRR mechanism as a pymunk space, stepped one control period at a time.
+
+    Class attribute ``use_fast_path`` (default True) lets the hot loop call Chipmunk directly
+    through pymunk's own bindings; set it False to use only pymunk's public API (same results).
+
+    Args:
+        design: the machine.
+        pose: initial pose ``(x, y, theta)`` (m, m, rad); must be reachable in ``working_mode``
+            with travels inside the stroke.
+        working_mode: ``(sigma_1, sigma_2, sigma_3)`` of +-1.
+        dt: control period (s): one :meth:`step` advances the simulation by ``dt``.
+        substeps: physics steps per control period.
+        iterations: constraint-solver iterations per physics step.
+        error_bias: position-error correction of the rails, servos and pivots ``B_i``
+            (fraction of an error left after 1 s).
+        platform_error_bias: the same for the platform's pivots ``C_i``.
+        projection: project the state exactly onto the constraint manifold after every control
+            step (module docstring); ``False`` keeps the original model (``Planar3P-v0``).
+    """
+
+    use_fast_path: bool = True
+    #: Whether pymunk's batch readout lists the bodies as :meth:`_public_values` does (checked
+    #: on the first build).
+    _batch_layout_ok: ClassVar[bool | None] = None
+
+    def __init__(
+        self,
+        design: Design,
+        pose: ArrayLike,
+        working_mode: ArrayLike = (1, 1, -1),
+        *,
+        dt: float = 0.02,
+        substeps: int = DEFAULT_SUBSTEPS,
+        iterations: int = DEFAULT_ITERATIONS,
+        error_bias: float = DEFAULT_ERROR_BIAS,
+        platform_error_bias: float = DEFAULT_PLATFORM_ERROR_BIAS,
+        projection: bool = False,
+    ) -> None:
+        if not isinstance(design, Design):
+            raise ValueError(f"design must be a Design, got {type(design).__name__}")
+        if not (isinstance(dt, (int, float)) and math.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt must be a finite number > 0 (s), got {dt!r}")
+        if not (isinstance(substeps, (int, np.integer)) and substeps >= 1):
+            raise ValueError(f"substeps must be an integer >= 1, got {substeps!r}")
+        if not (isinstance(iterations, (int, np.integer)) and iterations >= 1):
+            raise ValueError(f"iterations must be an integer >= 1, got {iterations!r}")
+        for name, bias in (
+            ("error_bias", error_bias),
+            ("platform_error_bias", platform_error_bias),
+        ):
+            if not (isinstance(bias, (int, float)) and math.isfinite(bias) and 0.0 <= bias <= 1.0):
+                raise ValueError(f"{name} must be in [0, 1], got {bias!r}")
+        if not isinstance(projection, (bool, np.bool_)):
+            raise ValueError(f"projection must be True or False, got {projection!r}")
+        p = np.asarray(pose, dtype=np.float64)
+        if p.shape != (3,) or not np.isfinite(p).all():
+            raise ValueError(f"pose must be 3 finite numbers (x, y, theta), got {pose!r}")
+        rho, reachable = kinematics.inverse(design, p, working_mode)
+        if not bool(reachable):
+            raise ValueError(
+                f"pose {tuple(p)} is not reachable in working mode {tuple(working_mode)} "
+                f"within the stroke [0, {design.stroke}] m (travels {rho})"
+            )
+        self.design = design
+        self.dt = float(dt)
+        self.substeps = int(substeps)
+        self.iterations = int(iterations)
+        self._h = self.dt / self.substeps
+        self._force_scale = 1.0 / (self.substeps * self._h)  # impulse sum -> mean force (1/s)
+        self._force_limit = 0.999 * design.max_force * self._h  # saturated impulse (N s)
+        self._k = design.joint_offsets
+        self._legs = design.leg_lengths
+        self._origins = design.rail_origins
+        self._time = 0.0
+        self._forces = (0.0, 0.0, 0.0)
+        self._saturated = (False, False, False)
+        self.projection = bool(projection)
+        self._projector = LoopProjector(design) if self.projection else None
+        self._origin = (
+            (float(p[0]), float(p[1]), float(p[2])),
+            tuple(int(m) for m in working_mode),
+            {
+                "dt": self.dt,
+                "substeps": self.substeps,
+                "iterations": self.iterations,
+                "error_bias": float(error_bias),
+                "platform_error_bias": float(platform_error_bias),
+                "projection": self.projection,
+            },
+        )
+        self._commands = array("d")
+        #: ``(u_1x, u_1y, u_2x, u_2y, u_3x, u_3y, cos theta, sin theta)`` after the last
+        #: projected step (:class:`planar3p_gym.sim.projection.Projected`); None without one.
+        self.geometry: tuple[float, ...] | None = None
+        self._build(p, rho, error_bias, platform_error_bias)
+
+    # ------------------------------------------------------------------ construction
+    def _build(
+        self, pose: np.ndarray, rho: np.ndarray, error_bias: float, platform_error_bias: float
+    ) -> None:
+        d = self.design
+        space = pymunk.Space()
+        space.iterations = self.iterations
+        space.gravity = (0.0, -d.gravity)
+        x, y, th = (float(v) for v in pose)
+        c, s = math.cos(th), math.sin(th)
+        k1 = self._k[0]
+        platform = pymunk.Body(d.platform_mass, d.platform_mass * k1 * k1 / 12.0)
+        platform.position = (x + 0.5 * k1 * c, y + 0.5 * k1 * s)
+        platform.angle = th
+        space.add(platform)
+        sliders, drives, servos, legs, joints = [], [], [], [], []
+        for i in range(3):
+            a, L, k = self._origins[i], self._legs[i], self._k[i]
+            b = a + float(rho[i])
+            cx, cy = x + k * c, y + k * s
+            slider = pymunk.Body(d.slider_mass, math.inf)
+            slider.position = (b, 0.0)
+            drive = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+            drive.position = (b, 0.0)
+            leg = pymunk.Body(d.leg_mass, d.leg_mass * L * L / 12.0)
+            leg.position = (0.5 * (b + cx), 0.5 * cy)
+            leg.angle = math.atan2(cy, cx - b)
+            if self.projection:
+                # The groove only keeps the slider on its line; the end stops are a separate
+                # unilateral limit whose impulse is dropped whenever it is not touching.
+                rail = pymunk.GrooveJoint(
+                    space.static_body,
+                    slider,
+                    (a - PROJECTED_RAIL_OVERRUN, 0.0),
+                    (a + d.stroke + PROJECTED_RAIL_OVERRUN, 0.0),
+                    (0, 0),
+                )
+                half = 0.5 * d.stroke
+                stop = pymunk.SlideJoint(
+                    space.static_body, slider, (a + half, 0.0), (0.0, 0.0), 0.0, half
+                )
+                stop.error_bias = error_bias
+                extra: tuple = (stop,)
+            else:
+                rail = pymunk.GrooveJoint(
+                    space.static_body, slider, (a, 0.0), (a + d.stroke, 0.0), (0, 0)
+                )
+                extra = ()
+            arm = PROJECTED_SERVO_ARM if self.projection else SERVO_ARM
+            servo = pymunk.PinJoint(drive, slider, (-arm, 0.0), (0.0, 0.0))
+            servo.max_bias = SERVO_CORRECTION_SPEED
+            servo.max_force = d.max_force
+            servo.error_bias = error_bias
+            pin_b = pymunk.PivotJoint(slider, leg, (b, 0.0))
+            pin_c = pymunk.PivotJoint(leg, platform, (cx, cy))
+            rail.error_bias = pin_b.error_bias = error_bias
+            pin_c.error_bias = platform_error_bias
+            space.add(slider, drive, leg)
+            joints.append((rail, *extra, pin_b, pin_c))
+            sliders.append(slider)
+            drives.append(drive)
+            servos.append(servo)
+            legs.append(leg)
+        # The iterative solver visits constraints in the order they were added; with the
+        # servos last, an unsaturated servo's slider ends each iteration at exactly the
+        # commanded velocity.
+        for group in joints:
+            space.add(*group)
+        space.add(*servos)
+        self.space = space
+        self.platform = platform
+        self.sliders = tuple(sliders)
+        self.drives = tuple(drives)
+        self.servos = tuple(servos)
+        self.legs = tuple(legs)
+        # Readout order: platform, then slider, drive and leg of each leg in turn (the order in
+        # which the bodies were added, which is the order Chipmunk iterates them in).
+        self._bodies = (platform, *(b for i in range(3) for b in (sliders[i], drives[i], legs[i])))
+        self._warm_start(space, (platform, *sliders, *legs))
+        self._fast = self._fast_path(space, drives, servos) if self.use_fast_path else None
+        self._state = self._read()
+
+    def _fast_path(
+        self,
+        space: pymunk.Space,
+        drives: list[pymunk.Body],
+        servos: list[pymunk.PinJoint],
+    ) -> tuple | None:
+        """Handles for calling Chipmunk directly: one call reads every body (pymunk's batch
+        iterator into a reused array); ``None`` if unavailable or if its layout does not match
+        the public API's readout here."""
+        if not _FAST:
+            return None
+        # The C arrays are freed when these handles are garbage collected.  Twice the room a
+        # readout needs: the array then never grows (moves), so a view of it stays valid.
+        array = _ffi.gc(
+            _cp.pmFloatArrayNew(2 * _BODY_FIELDS * (len(self._bodies) + 1)), _cp.pmFloatArrayFree
+        )
+        unused = _ffi.gc(_cp.pmIntArrayNew(0), _cp.pmIntArrayFree)
+        request = _ffi.new("pmBatchedData *")
+        request.fields = _cp.POSITION | _cp.ANGLE | _cp.VELOCITY | _cp.ANGULAR_VELOCITY
+        request.floatArray = array
+        request.intArray = unused
+        fast = (
+            space._space,
+            tuple(sv._constraint for sv in servos),
+            (array, request, _ffi.addressof(_cp, "pmSpaceBodyGetIteratorFuncBatched")),
+            tuple(b._body for b in drives),
+            unused,
+            _ffi.addressof(_cp, "pmSpaceBodySetIteratorFuncBatched"),
+            memoryview(_ffi.buffer(array.arr, 8 * _BODY_FIELDS * len(self._bodies))).cast("d"),
+        )
+        if Planar3PSim._batch_layout_ok is None:  # checked once per process
+            public = self._public_values()
+            Planar3PSim._batch_layout_ok = self._batch_values(fast)[: len(public)] == public
+        return fast if Planar3PSim._batch_layout_ok else None
+
+    def _warm_start(self, space: pymunk.Space, bodies: tuple[pymunk.Body, ...]) -> None:
+        """Solve the joint loads of the initial (resting) state before the first step.
+
+        One physics step with many solver iterations caches every constraint's impulse (the
+        solver warm-starts from it); the bodies are then put back exactly where and as they
+        were (at rest).  Without it, the first steps under gravity start from zero joint forces
+        and an ill-conditioned configuration sags before the solver catches up.  This first
+        step also goes through pymunk's public API, which validates the bodies, so later steps
+        may call Chipmunk directly.
+        """
+        saved = [(b.position, b.angle) for b in bodies]
+        space.iterations = WARM_START_ITERATIONS
+        space.step(self._h)
+        for body, (position, angle) in zip(bodies, saved, strict=True):
+            body.position = position
+            body.angle = angle
+            body.velocity = (0.0, 0.0)
+            body.angular_velocity = 0.0
+        space.iterations = self.iterations
+
+    # ------------------------------------------------------------------ stepping
+    def step(self, velocity_command: ArrayLike) -> SimState:
+        """Hold the slider velocity commands (m/s, 3 values) for one control period ``dt``.
+
+        The servos follow the commands within the actuator force limit; returns the new state.
+        """
+        v = np.asarray(velocity_command, dtype=np.float64)
+        if v.shape != (3,) or not np.isfinite(v).all():
+            raise ValueError(f"velocity_command must be 3 finite numbers (m/s), got {v!r}")
+        v0, v1, v2 = v.tolist()
+        return self.step_unchecked(v0, v1, v2)
+
+    def step_unchecked(self, v0: float, v1: float, v2: float) -> SimState:
+        """:meth:`step` without input validation, for callers that validated already."""
+        self._commands.extend((v0, v1, v2))
+        if self._projector is None:  # (with projection, done when the state is written back)
+            self._limit_following_error()
+        if self._fast is None:
+            for drive, v in zip(self.drives, (v0, v1, v2), strict=True):
+                drive.velocity = (v, 0.0)
+        else:
+            set_velocity = _cp.cpBodySetVelocity
+            d0, d1, d2 = self._fast[3]
+            set_velocity(d0, (v0, 0.0))
+            set_velocity(d1, (v1, 0.0))
+            set_velocity(d2, (v2, 0.0))
+        h = self._h
+        f0 = f1 = f2 = 0.0
+        m0 = m1 = m2 = 0.0
+        if self._fast is None:
+            servos = self.servos
+            for _ in range(self.substeps):
+                self.space.step(h)
+                j0, j1, j2 = servos[0].impulse, servos[1].impulse, servos[2].impulse
+                f0, f1, f2 = f0 + j0, f1 + j1, f2 + j2
+                m0, m1, m2 = max(m0, j0), max(m1, j1), max(m2, j2)
+        else:
+            f0, f1, f2, m0, m1, m2 = substep_impulses(
+                self._fast[0], self._fast[1], h, self.substeps
+            )
+        self._time += self.dt
+        scale = self._force_scale
+        self._forces = (f0 * scale, f1 * scale, f2 * scale)
+        limit = self._force_limit
+        self._saturated = (m0 >= limit, m1 >= limit, m2 >= limit)
+        self._state = self._read() if self._projector is None else self._project()
+        return self._state
+
+    def _project(self) -> SimState:
+        """Project the bodies onto the constraint manifold, write them back, return the state."""
+        fast = self._fast
+        if fast is None:
+            v = self._public_values()
+        else:
+            array_, request, iterator = fast[2]
+            array_.num = 0
+            _cp.cpSpaceEachBody(fast[0], iterator, request)
+            v = fast[6].tolist()  # (the readout's first 60 numbers, through a view)
+        pr = self._projector.project(v, self._saturated)  # type: ignore[union-attr]
+        out = pr.bodies
+        # The drives' setpoints for the next step (:meth:`_limit_following_error`, here on the
+        # values written back: drive x at 12, 30, 48; its slider's x 6 numbers before).
+        lim = FOLLOWING_ERROR_LIMIT
+        s1, s2, s3 = out[6], out[24], out[42]
+        if out[12] - s1 > lim:
+            out[12] = s1 + lim
+        elif s1 - out[12] > lim:
+            out[12] = s1 - lim
+        if out[30] - s2 > lim:
+            out[30] = s2 + lim
+        elif s2 - out[30] > lim:
+            out[30] = s2 - lim
+        if out[48] - s3 > lim:
+            out[48] = s3 + lim
+        elif s3 - out[48] > lim:
+            out[48] = s3 - lim
+        if fast is None:
+            for n, body in enumerate(self._bodies):
+                o = 6 * n
+                if body.body_type == pymunk.Body.KINEMATIC:
+                    if out[o] != v[o]:
+                        body.position = (out[o], out[o + 1])
+                    continue
+                body.position = (out[o], out[o + 1])
+                body.angle = out[o + 2]
+                body.velocity = (out[o + 3], out[o + 4])
+                body.angular_velocity = out[o + 5]
+        else:
+            fast[6][:] = array("d", out)  # (through the view: one copy)
+            array_.num = 0
+            _cp.cpSpaceEachBody(fast[0], fast[5], request)
+        self._setpoints = [out[12], out[30], out[48]]
+        self.geometry = pr.geometry
+        return SimState(
+            self._time,
+            pr.rho,
+            pr.rho_dot,
+            (pr.pose[0], pr.pose[1], _wrap(pr.pose[2])),
+            pr.twist,
+            pr.leg_angles,
+            self._forces,
+            self._saturated,
+            pr.closure_error,
+        )
+
+    def _limit_following_error(self) -> None:
+        """Pull each drive's setpoint to within :data:`FOLLOWING_ERROR_LIMIT` of its slider."""
+        rho, setpoints = self._state.rho, self._setpoints
+        for i, drive in enumerate(self.drives):
+            slider_x = self._origins[i] + rho[i]
+            if setpoints[i] - slider_x > FOLLOWING_ERROR_LIMIT:
+                drive.position = (slider_x + FOLLOWING_ERROR_LIMIT, 0.0)
+            elif slider_x - setpoints[i] > FOLLOWING_ERROR_LIMIT:
+                drive.position = (slider_x - FOLLOWING_ERROR_LIMIT, 0.0)
+
+    # ------------------------------------------------------------------ snapshots
+    def get_state(self) -> SimSnapshot:
+        """A snapshot from which :meth:`set_state` / :meth:`from_state` restore this simulation
+        bit for bit (plain data; its size grows with the steps since the build)."""
+        pose, mode, settings = self._origin
+        return SimSnapshot(self.design.to_dict(), pose, mode, dict(settings), tuple(self._commands))
+
+    @classmethod
+    def from_state(cls, snapshot: SimSnapshot) -> Planar3PSim:
+        """A new simulation in the state of ``snapshot`` (rebuilt, then the recorded commands
+        replayed: pymunk's solver caches are restored with everything else)."""
+        if not isinstance(snapshot, SimSnapshot):
+            raise ValueError(f"expected a SimSnapshot, got {type(snapshot).__name__}")
+        commands = snapshot.commands
+        if len(commands) % 3 or not all(math.isfinite(c) for c in commands):
+            raise ValueError("snapshot commands must be finite, three per step")
+        sim = cls(
+            Design.from_dict(snapshot.design),
+            snapshot.pose,
+            snapshot.working_mode,
+            **snapshot.settings,
+        )
+        step = sim.step_unchecked
+        for i in range(0, len(commands), 3):
+            step(commands[i], commands[i + 1], commands[i + 2])
+        return sim
+
+    def set_state(self, snapshot: SimSnapshot) -> None:
+        """Put this simulation in the state of ``snapshot`` (see :meth:`from_state`)."""
+        self.__dict__.update(Planar3PSim.from_state(snapshot).__dict__)
+
+    def __getstate__(self) -> dict:
+        # pymunk's C structures cannot be pickled; a snapshot rebuilds them exactly.
+        return {"snapshot": self.get_state()}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(Planar3PSim.from_state(state["snapshot"]).__dict__)
+
+    # ------------------------------------------------------------------ readout
+    @property
+    def state(self) -> SimState:
+        """The state after the last step (or at construction)."""
+        return self._state
+
+    def _public_values(self) -> list[float]:
+        """``x, y, angle, vx, vy, angular velocity`` of every body in readout order, through
+        pymunk's public API."""
+        out: list[float] = []
+        for b in self._bodies:
+            p, v = b.position, b.velocity
+            out += (p.x, p.y, b.angle, v.x, v.y, b.angular_velocity)
+        return out
+
+    @staticmethod
+    def _batch_values(fast: tuple) -> list[float]:
+        """The same numbers as :meth:`_public_values`, read by one Chipmunk call."""
+        array, request, iterator = fast[2]
+        array.num = 0
+        _cp.cpSpaceEachBody(fast[0], iterator, request)
+        return _ffi.unpack(array.arr, array.num)
+
+    def _read(self) -> SimState:
+        k, legs_len, origins = self._k, self._legs, self._origins
+        v = self._public_values() if self._fast is None else self._batch_values(self._fast)
+        px, py, th, pvx, pvy, w = v[:6]
+        c, s = math.cos(th), math.sin(th)
+        half = 0.5 * k[0]
+        gx, gy = px - half * c, py - half * s
+        err2 = 0.0  # largest squared joint separation (m^2)
+        nan_check = 0.0
+        rho, rho_dot, alphas, setpoints = [], [], [], []
+        for i, o in enumerate((6, 24, 42)):
+            # Slider, drive and leg of leg i: 18 numbers from offset o (x, y, angle, vx, vy, w).
+            sx, sy, _, svx, _, _, drive_x, _, _, _, _, _, lx, ly, phi, _, _, _ = v[o : o + 18]
+            rho.append(sx - origins[i])
+            rho_dot.append(svx)
+            setpoints.append(drive_x)
+            hl = 0.5 * legs_len[i]
+            lc, ls = hl * math.cos(phi), hl * math.sin(phi)
+            # Pivot at B_i: slider centre vs the leg's lower end; at C_i: the leg's upper end
+            # vs the platform point at distance k_i from G; and the slider's offset from its rail.
+            bx, by = lx - lc - sx, ly - ls - sy
+            cx, cy = lx + lc - (gx + k[i] * c), ly + ls - (gy + k[i] * s)
+            e2 = max(bx * bx + by * by, cx * cx + cy * cy, sy * sy)
+            if e2 > err2:
+                err2 = e2
+            nan_check += bx + by + cx + cy + sy  # max() and > skip NaN; a sum keeps it
+            alphas.append(_wrap(phi))
+        err = math.sqrt(err2) if math.isfinite(nan_check) else math.nan
+        self._setpoints = setpoints
+        return SimState(
+            self._time,
+            (rho[0], rho[1], rho[2]),
+            (rho_dot[0], rho_dot[1], rho_dot[2]),
+            (gx, gy, _wrap(th)),
+            (pvx + w * half * s, pvy - w * half * c, w),
+            (alphas[0], alphas[1], alphas[2]),
+            self._forces,
+            self._saturated,
+            err,
+        )
+
+    def closure_error(self) -> float:
+        """Largest joint separation of the closed loop (m) in the current state."""
+        return self._state.closure_error

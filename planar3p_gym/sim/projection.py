@@ -1,0 +1,317 @@
+"""Post-stabilisation: put a simulated state exactly back on the mechanism's constraint manifold.
+
+pymunk integrates the bodies with an iterative constraint solver, so after each step the closed
+chain is slightly open (the joints drift apart) and its velocities slightly violate the joints.
+:class:`LoopProjector` removes both (a projection method in the sense of post-stabilisation of
+differential-algebraic equations):
+
+* **Coordinates.** ``q = (rho_1, rho_2, rho_3, Q_x, Q_y, theta)``: the slider travels (m), the
+  position of a reference point ``Q`` of the platform (m) and its angle (rad).  ``Q`` is the
+  centre of mass of the platform with half of each leg's mass lumped at its joint ``C_i``, so
+  the metric below is diagonal.  Sliders sit exactly on their rails; each leg is placed exactly
+  from its two joints ``B_i``, ``C_i``, so only the three loop equations remain.
+* **Loop equations** ``f_i(q) = |C_i - B_i|^2 - L_i^2 = 0`` with ``B_i = (a_i + rho_i, 0)`` and
+  ``C_i = Q + r_i e(theta)``.  Row ``i`` of ``J = (1/2) df/dq`` is
+  ``[-u_ix at rho_i | u_ix, u_iy, r_i (u_iy cos theta - u_ix sin theta)]`` with
+  ``u_i = C_i - B_i``: full rank at parallel singularities (the ``rho`` block is
+  ``-diag(u_ix)``) unless a leg is also perpendicular to its rail.
+* **Metric** ``W = diag(m_rho, m_rho, m_rho, M, M, I_Q)`` (kg, kg m^2): each slider with half
+  of its leg (``m_rho = m_slider + m_leg / 2``), the platform with the other halves (``M``),
+  and the moment of inertia of that lumped platform about ``Q`` (the lumped-mass approximation
+  of the chain's kinetic-energy metric: the legs' rotational inertia is not in it).  A slider
+  whose servo is within its force limit is held by it (the servo is a constraint on its
+  velocity; its weight is infinite), so the correction moves the platform, which is then the
+  exact direct kinematics of the travels, and the servo keeps its travel; a saturated (or
+  released) servo's slider moves with its own mass.  Near a parallel singularity the platform
+  alone cannot close the loop (``J W^-1 J^T`` becomes singular when every slider is held:
+  its determinant relative to the product of its diagonal falls below
+  :data:`HELD_CONDITION`), and near a fold of the direct kinematics the held travels may have
+  no pose nearby (Newton has not converged after :data:`HELD_NEWTON_STEPS`); then the
+  projection starts again with every slider moving with its own mass.
+* **End stops**: a slider found past an end of its stroke is put back just into contact with
+  the stop (:data:`STOP_CONTACT`) and held there during the projection.  Its velocity: zero
+  while its servo's setpoint lies beyond the stop (the servo pushes it onto the stop: it rests
+  there; the velocity the solver leaves after an impact would otherwise make it bounce off
+  and back every step), else only its component away from the stop is kept (it leaves).
+* **Positions**: Newton steps of the mass-weighted minimal correction
+  ``dq = -W^-1 J^T (J W^-1 J^T)^-1 f / 2`` until every leg-length error is below
+  :data:`POSITION_TOLERANCE` (m), at most :data:`MAX_NEWTON_STEPS`.
+* **Velocities**: ``q_dot`` is projected onto ``J q_dot = 0`` in the same metric,
+  ``q_dot' = q_dot - W^-1 J^T (J W^-1 J^T)^-1 J q_dot`` (the correction is the smallest change
+  of the kinetic energy measured by ``W`` that restores the joints, and never increases it).
+* **Legs** (positions, angles, velocities, angular velocities) are then recomputed from the
+  slider and platform values.
+
+Everything is plain-float arithmetic with hand-written 3x3 solves: this runs once per control
+step, where numpy's per-call overhead on 3x3 arrays would cost more than the work.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+from planar3p_gym.machine.design import Design
+
+__all__ = [
+    "HELD_CONDITION",
+    "HELD_NEWTON_STEPS",
+    "MAX_NEWTON_STEPS",
+    "POSITION_TOLERANCE",
+    "STOP_CONTACT",
+    "LoopProjector",
+    "Projected",
+]
+
+#: Leg-length error (m) below which the position projection stops.
+POSITION_TOLERANCE = 1e-11
+#: A slider past an end stop is put back this far into it (m): touching, so the stop keeps
+#: holding it during the next step.
+STOP_CONTACT = 1e-9
+#: Largest number of Newton steps of one position projection.
+MAX_NEWTON_STEPS = 8
+#: Newton steps allowed with servo-held sliders fixed before starting again with every slider
+#: free (near a fold of the direct kinematics the held travels may have no pose nearby).
+HELD_NEWTON_STEPS = 4
+#: Smallest ``det(G) / (G_11 G_22 G_33)`` of ``G = J W^-1 J^T`` with the servo-held sliders
+#: fixed; below it (close to a parallel singularity, where it vanishes like the square of
+#: ``det A``) the held sliders take their share of the correction.
+HELD_CONDITION = 1e-6
+
+
+class Projected(NamedTuple):
+    """The state on the manifold (SI units).
+
+    Attributes:
+        bodies: ``x, y, angle, vx, vy, angular velocity`` of every body in the simulation's
+            readout order (platform, then slider, drive and leg of each leg), to write back.
+        rho: slider travels (m).
+        rho_dot: travel rates (m/s).
+        pose: ``(x, y, theta)`` of the gripper ``G`` (m, m, rad; ``theta`` not wrapped).
+        twist: ``(x_dot, y_dot, theta_dot)`` of ``G`` (m/s, m/s, rad/s).
+        leg_angles: ``alpha_i = atan2(u_iy, u_ix)`` (rad, in ``(-pi, pi]``).
+        closure_error: largest leg-length error ``| |C_i - B_i| - L_i |`` after the projection
+            (m); the joints at ``B_i`` and the rails are closed exactly by construction.
+        newton_steps: position Newton steps taken.
+        geometry: ``(u_1x, u_1y, u_2x, u_2y, u_3x, u_3y, cos theta, sin theta)``: the leg
+            vectors ``u_i = C_i - B_i`` (m) at the projected pose (what the configuration
+            measures and the observation are computed from on the fast paths).
+    """
+
+    bodies: list[float]
+    rho: tuple[float, float, float]
+    rho_dot: tuple[float, float, float]
+    pose: tuple[float, float, float]
+    twist: tuple[float, float, float]
+    leg_angles: tuple[float, float, float]
+    closure_error: float
+    newton_steps: int
+    geometry: tuple[float, float, float, float, float, float, float, float]
+
+
+def _at_stop(
+    travel: float, rate: float, setpoint: float, stroke: float
+) -> tuple[float, float, float]:
+    """A slider found past an end of its stroke: ``(travel, rate, inverse mass)`` put back just
+    into the stop (:data:`STOP_CONTACT`, m) and held (inverse mass 0).  It is at rest while its
+    servo's ``setpoint`` (m) is beyond the stop (pushing into it), else it keeps only its
+    velocity away from the stop (m/s)."""
+    if travel < 0.0:
+        return -STOP_CONTACT, (0.0 if setpoint <= 0.0 else max(rate, 0.0)), 0.0
+    return stroke + STOP_CONTACT, (0.0 if setpoint >= stroke else min(rate, 0.0)), 0.0
+
+
+class LoopProjector:
+    """Mass-weighted projection of a simulated 3-PRR state onto its constraint manifold.
+
+    Args:
+        design: the machine (its masses give the metric, its geometry the loop equations).
+    """
+
+    def __init__(self, design: Design) -> None:
+        self.design = design
+        k = design.joint_offsets
+        m_leg, m_p = design.leg_mass, design.platform_mass
+        half = 0.5 * k[0]  # platform centre of mass, from G along e (m)
+        lump = 0.5 * m_leg
+        self.m_rho = design.slider_mass + lump
+        self.m_platform = m_p + 3.0 * lump
+        # Reference point Q: centre of mass of the platform and the three lumped half-legs.
+        self.k_q = (m_p * half + lump * (k[0] + k[1] + k[2])) / self.m_platform
+        self.r = tuple(ki - self.k_q for ki in k)
+        self.d_centre = half - self.k_q  # platform centre from Q along e (m)
+        self.i_q = (
+            m_p * k[0] * k[0] / 12.0
+            + m_p * self.d_centre * self.d_centre
+            + lump * sum(ri * ri for ri in self.r)
+        )
+        self.legs = design.leg_lengths
+        self.origins = design.rail_origins
+        self.stroke = design.stroke
+        l1, l2, l3 = self.legs
+        self._constants = (
+            self.origins,
+            self.r,
+            self.legs,
+            (l1 * l1, l2 * l2, l3 * l3),
+            # Convergence test on f_i = |u_i|^2 - L_i^2 ~ 2 L_i (|u_i| - L_i).
+            tuple(2.0 * li * POSITION_TOLERANCE for li in self.legs),
+            self.d_centre,
+            self.k_q,
+            self.stroke,
+            1.0 / self.m_platform,
+            1.0 / self.i_q,
+            1.0 / self.m_rho,
+        )
+
+    def project(
+        self, v: list[float], saturated: tuple[bool, bool, bool] = (True, True, True)
+    ) -> Projected:
+        """Project the readout ``v`` (60 numbers: ``x, y, angle, vx, vy, w`` of the 10 bodies
+        in readout order) onto the manifold; returns the new body values and the state.
+
+        ``saturated[i]`` says whether servo ``i`` was at its force limit (its slider then
+        moves with its own mass; otherwise its servo holds it, see the module docstring)."""
+        (
+            (a1, a2, a3), (r1, r2, r3), (l1, l2, l3), (ll1, ll2, ll3), (ft1, ft2, ft3),
+            dc, kq, stroke, ip, ii, free,
+        ) = self._constants  # fmt: skip
+        i1 = free if saturated[0] else 0.0
+        i2 = free if saturated[1] else 0.0
+        i3 = free if saturated[2] else 0.0
+        hold = i1 == 0.0 or i2 == 0.0 or i3 == 0.0
+
+        px, py, th, pvx, pvy, w = v[0], v[1], v[2], v[3], v[4], v[5]
+        c, s = math.cos(th), math.sin(th)
+        qx, qy = px - dc * c, py - dc * s
+        qvx, qvy = pvx + dc * w * s, pvy - dc * w * c
+        p1, p2, p3 = v[6] - a1, v[24] - a2, v[42] - a3
+        d1, d2, d3 = v[9], v[27], v[45]
+        if not (0.0 <= p1 <= stroke and 0.0 <= p2 <= stroke and 0.0 <= p3 <= stroke):
+            # A slider past an end stop (rare path): into the stop and held (the argument
+            # after its rate is its servo's setpoint).
+            if p1 < 0.0 or p1 > stroke:
+                p1, d1, i1 = _at_stop(p1, d1, v[12] - a1, stroke)
+            if p2 < 0.0 or p2 > stroke:
+                p2, d2, i2 = _at_stop(p2, d2, v[30] - a2, stroke)
+            if p3 < 0.0 or p3 > stroke:
+                p3, d3, i3 = _at_stop(p3, d3, v[48] - a3, stroke)
+            hold = True
+
+        # All three held: the rho block of J W^-1 J^T and the travel updates vanish; skipping
+        # them gives the same numbers (0 * x added to a float leaves it unchanged).
+        held3 = i1 == 0.0 and i2 == 0.0 and i3 == 0.0
+        start = (p1, p2, p3, qx, qy, th, c, s)
+        limit = HELD_NEWTON_STEPS if hold else MAX_NEWTON_STEPS
+        steps = 0
+        while True:
+            # Leg vectors u_i = C_i - B_i and the loop residuals f_i = |u_i|^2 - L_i^2.
+            x1, y1 = qx + r1 * c - a1 - p1, qy + r1 * s
+            x2, y2 = qx + r2 * c - a2 - p2, qy + r2 * s
+            x3, y3 = qx + r3 * c - a3 - p3, qy + r3 * s
+            xx1, xx2, xx3 = x1 * x1, x2 * x2, x3 * x3
+            n1, n2, n3 = xx1 + y1 * y1, xx2 + y2 * y2, xx3 + y3 * y3  # |u_i|^2
+            f1, f2, f3 = n1 - ll1, n2 - ll2, n3 - ll3
+            # Row i of J: -x_i at rho_i, then (x_i, y_i, t_i); G = J W^-1 J^T (symmetric).
+            t1, t2, t3 = r1 * (y1 * c - x1 * s), r2 * (y2 * c - x2 * s), r3 * (y3 * c - x3 * s)
+            if held3:  # every slider held (the usual case): x_i^2 i_i = 0 drops out exactly
+                g11 = n1 * ip + t1 * t1 * ii
+                g22 = n2 * ip + t2 * t2 * ii
+                g33 = n3 * ip + t3 * t3 * ii
+            else:
+                g11 = xx1 * i1 + n1 * ip + t1 * t1 * ii
+                g22 = xx2 * i2 + n2 * ip + t2 * t2 * ii
+                g33 = xx3 * i3 + n3 * ip + t3 * t3 * ii
+            g12 = (x1 * x2 + y1 * y2) * ip + t1 * t2 * ii
+            g13 = (x1 * x3 + y1 * y3) * ip + t1 * t3 * ii
+            g23 = (x2 * x3 + y2 * y3) * ip + t2 * t3 * ii
+            # Adjugate and determinant (G is positive definite where J has full rank).
+            h11 = g22 * g33 - g23 * g23
+            h12 = g13 * g23 - g12 * g33
+            h13 = g12 * g23 - g13 * g22
+            det = g11 * h11 + g12 * h12 + g13 * h13
+            converged = -ft1 <= f1 <= ft1 and -ft2 <= f2 <= ft2 and -ft3 <= f3 <= ft3
+            if hold and (
+                det <= HELD_CONDITION * g11 * g22 * g33 or (not converged and steps >= limit)
+            ):
+                # Too close to a parallel singularity for the platform alone (or no pose near
+                # for the held travels): start again with every slider free.
+                p1, p2, p3, qx, qy, th, c, s = start
+                i1 = i2 = i3 = free
+                hold = held3 = False
+                limit = steps + MAX_NEWTON_STEPS
+                continue
+            if converged or steps >= limit or det <= 0.0:
+                break
+            h22 = g11 * g33 - g13 * g13
+            h23 = g12 * g13 - g11 * g23
+            h33 = g11 * g22 - g12 * g12
+            # lambda = G^-1 f / 2, dq = -W^-1 J^T lambda.
+            k = 0.5 / det
+            m1 = (h11 * f1 + h12 * f2 + h13 * f3) * k
+            m2 = (h12 * f1 + h22 * f2 + h23 * f3) * k
+            m3 = (h13 * f1 + h23 * f2 + h33 * f3) * k
+            if not held3:
+                p1 += x1 * m1 * i1
+                p2 += x2 * m2 * i2
+                p3 += x3 * m3 * i3
+            qx -= (x1 * m1 + x2 * m2 + x3 * m3) * ip
+            qy -= (y1 * m1 + y2 * m2 + y3 * m3) * ip
+            th -= (t1 * m1 + t2 * m2 + t3 * m3) * ii
+            c, s = math.cos(th), math.sin(th)
+            steps += 1
+        closure = max(abs(math.sqrt(n1) - l1), abs(math.sqrt(n2) - l2), abs(math.sqrt(n3) - l3))
+
+        # Velocities: q_dot' = q_dot - W^-1 J^T G^-1 J q_dot, with J at the projected q.
+        if det > 0.0:
+            h22 = g11 * g33 - g13 * g13
+            h23 = g12 * g13 - g11 * g23
+            h33 = g11 * g22 - g12 * g12
+            k = 1.0 / det
+            j1 = (qvx - d1) * x1 + qvy * y1 + w * t1
+            j2 = (qvx - d2) * x2 + qvy * y2 + w * t2
+            j3 = (qvx - d3) * x3 + qvy * y3 + w * t3
+            m1 = (h11 * j1 + h12 * j2 + h13 * j3) * k
+            m2 = (h12 * j1 + h22 * j2 + h23 * j3) * k
+            m3 = (h13 * j1 + h23 * j2 + h33 * j3) * k
+            d1 += x1 * m1 * i1
+            d2 += x2 * m2 * i2
+            d3 += x3 * m3 * i3
+            qvx -= (x1 * m1 + x2 * m2 + x3 * m3) * ip
+            qvy -= (y1 * m1 + y2 * m2 + y3 * m3) * ip
+            w -= (t1 * m1 + t2 * m2 + t3 * m3) * ii
+
+        # Bodies from the projected coordinates.  Leg i: midpoint of B_i C_i, along u_i, the
+        # rigid motion of its two ends (B_i moves at (d_i, 0), C_i at Q_dot + r_i w e_perp).
+        ws, wc = w * s, w * c  # theta_dot e_perp = (-ws, wc)
+        b1, b2, b3 = a1 + p1, a2 + p2, a3 + p3
+        c1x, c1y = qvx - r1 * ws, qvy + r1 * wc
+        c2x, c2y = qvx - r2 * ws, qvy + r2 * wc
+        c3x, c3y = qvx - r3 * ws, qvy + r3 * wc
+        al1, al2, al3 = math.atan2(y1, x1), math.atan2(y2, x2), math.atan2(y3, x3)
+        out = [
+            qx + dc * c, qy + dc * s, th, qvx - dc * ws, qvy + dc * wc, w,
+            b1, 0.0, v[8], d1, 0.0, 0.0,
+            v[12], v[13], v[14], v[15], v[16], v[17],
+            b1 + 0.5 * x1, 0.5 * y1, al1, 0.5 * (d1 + c1x), 0.5 * c1y,
+            (x1 * c1y - y1 * (c1x - d1)) / n1,
+            b2, 0.0, v[26], d2, 0.0, 0.0,
+            v[30], v[31], v[32], v[33], v[34], v[35],
+            b2 + 0.5 * x2, 0.5 * y2, al2, 0.5 * (d2 + c2x), 0.5 * c2y,
+            (x2 * c2y - y2 * (c2x - d2)) / n2,
+            b3, 0.0, v[44], d3, 0.0, 0.0,
+            v[48], v[49], v[50], v[51], v[52], v[53],
+            b3 + 0.5 * x3, 0.5 * y3, al3, 0.5 * (d3 + c3x), 0.5 * c3y,
+            (x3 * c3y - y3 * (c3x - d3)) / n3,
+        ]  # fmt: skip
+        return Projected(
+            out,
+            (p1, p2, p3),
+            (d1, d2, d3),
+            (qx - kq * c, qy - kq * s, th),
+            (qvx + kq * ws, qvy - kq * wc, w),
+            (al1, al2, al3),
+            closure,
+            steps,
+            (x1, y1, x2, y2, x3, y3, c, s),
+        )

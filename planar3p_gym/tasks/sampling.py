@@ -1,0 +1,555 @@
+"""The reaching task: sampling start and target poses, and the success test.
+
+Poses are drawn by rejection from the search rectangle (uniform ``x``, ``y >= 0``,
+``theta``) and kept when they are reachable in the episode's working mode with every travel
+away from the end stops, both singularity margins above thresholds, and holding forces well
+within the actuators' limit (so that a machine told to stand still can).  A target is paired with
+a start only if it has the same assembly mode (``sign det A``) and, by default, the straight
+path between them in pose space stays reachable, in that assembly mode, with margins: every
+task the environment samples can be solved without crossing a singularity.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import operator
+from collections.abc import Callable, Mapping
+from dataclasses import asdict, dataclass, replace
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from planar3p_gym.checks import as_finite_float, as_int
+from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.design import Design
+from planar3p_gym.machine.kinematics import pose_distance
+from planar3p_gym.machine.slider_line import slider_line_reaches
+from planar3p_gym.machine.statics import holding_forces_at
+
+__all__ = [
+    "SCHEDULABLE_FIELDS",
+    "PoseSampler",
+    "TaskConfig",
+    "check_mode",
+    "check_pose",
+    "has_pairs",
+    "path_is_clear",
+    "sample_pair",
+    "sample_poses",
+    "updated_config",
+]
+
+
+#: The :class:`TaskConfig` fields that may change between episodes of a running environment
+#: (:meth:`planar3p_gym.envs.core.Planar3PEnv.set_task_config`, training curricula): the success
+#: test and the mix of training pairs.  The others decide which working modes have pairs at
+#: all, which an environment checks once, when it is made.
+SCHEDULABLE_FIELDS = (
+    "position_tolerance",
+    "orientation_tolerance",
+    "rest_speed",
+    "near_singular_fraction",
+    "near_singular_margin",
+    "detour_fraction",
+)
+
+
+def updated_config(cfg: TaskConfig, changes: Mapping[str, Any]) -> TaskConfig:
+    """``cfg`` with ``changes`` (a mapping of :data:`SCHEDULABLE_FIELDS` to new values), checked
+    as any :class:`TaskConfig`; ``ValueError`` naming the field otherwise."""
+    if not isinstance(changes, Mapping):
+        raise ValueError(f"task config changes must be a mapping, got {changes!r}")
+    unknown = [k for k in changes if k not in SCHEDULABLE_FIELDS]
+    if unknown:
+        raise ValueError(
+            f"TaskConfig field(s) {unknown} cannot change in a running environment; "
+            f"schedulable: {', '.join(SCHEDULABLE_FIELDS)}"
+        )
+    return replace(cfg, **changes)
+
+
+#: Upper bound of ``TaskConfig.path_points``: 1000 poses put checks well under a millimetre
+#: apart on any path across the workspace, and keep a candidate batch's check small in memory.
+MAX_PATH_POINTS = 1000
+
+
+@dataclass(frozen=True)
+class TaskConfig:
+    """Parameters of the reaching task.
+
+    Attributes:
+        position_tolerance: success when ``G`` is within this distance of the target (m).
+        orientation_tolerance: ... and the angle within this of the target angle (rad).
+        rest_speed: ... and every slider slower than this (m/s): "nearly at rest".
+        min_parallel_margin: sampled poses have at least this parallel margin.
+        min_serial_margin: sampled poses have at least this serial margin.
+        max_holding_force: sampled poses need at most this fraction of ``design.max_force`` to
+            be held at rest against gravity (:func:`planar3p_gym.machine.statics.holding_forces`).
+        travel_margin: sampled poses keep this fraction of the stroke free at both ends.
+        min_distance: start and target differ by at least this pose distance
+            ``|dp| + L_ref |dtheta|`` (m).
+        clear_path: require the straight start-target path to stay clear of singularities.
+        path_parallel_margin: parallel margin required along that path.
+        path_serial_margin: serial margin required along that path.
+        path_points: number of poses at which the path is checked (2 to 1000).
+        near_singular_fraction: share of the drawn pairs (neither end given) whose straight
+            path instead comes within ``near_singular_margin`` of a parallel singularity, or
+            crosses one and comes back, while staying reachable with ``path_serial_margin``:
+            the kind of pair of the benchmark's ``hard`` suite, for training near
+            singularities.  0 (the default) draws no extra random number.
+        near_singular_margin: parallel margin such a path comes within.
+        detour_fraction: share of the drawn pairs (neither end given, not near-singular)
+            that otherwise meet every rule above but which the straight line in slider space
+            (every slider at a constant rate) does not solve: it carries the gripper to the
+            target's mirror image about the rail line or loses the branch
+            (:mod:`planar3p_gym.machine.slider_line`).  These need a detour in slider space, the
+            pairs on which PPO from scratch fails the benchmark's ``standard`` suite; for
+            training on them more often.  0 (the default) draws no extra random number.
+    """
+
+    position_tolerance: float = 0.002
+    orientation_tolerance: float = math.radians(1.0)
+    rest_speed: float = 0.01
+    min_parallel_margin: float = 0.04
+    min_serial_margin: float = 0.2
+    max_holding_force: float = 0.75
+    travel_margin: float = 0.03
+    min_distance: float = 0.03
+    clear_path: bool = True
+    path_parallel_margin: float = 0.02
+    path_serial_margin: float = 0.1
+    path_points: int = 24
+    near_singular_fraction: float = 0.0
+    near_singular_margin: float = 0.01
+    detour_fraction: float = 0.0
+
+    @property
+    def success_tolerances(self) -> tuple[float, float, float]:
+        """``(position_tolerance, orientation_tolerance, rest_speed)``: m, rad, m/s."""
+        return (self.position_tolerance, self.orientation_tolerance, self.rest_speed)
+
+    def __post_init__(self) -> None:
+        for name, value in asdict(self).items():
+            if name == "clear_path":
+                if not isinstance(value, (bool, np.bool_)):
+                    raise ValueError(f"TaskConfig.clear_path must be a bool, got {value!r}")
+                object.__setattr__(self, name, bool(value))
+                continue
+            if name == "path_points":
+                count = as_int(value)
+                if count is None or not 2 <= count <= MAX_PATH_POINTS:
+                    raise ValueError(
+                        f"TaskConfig.path_points must be an integer in [2, {MAX_PATH_POINTS}], "
+                        f"got {value!r}"
+                    )
+                object.__setattr__(self, name, count)
+                continue
+            number = as_finite_float(value)
+            if number is None or number < 0:
+                raise ValueError(f"TaskConfig.{name} must be a finite number >= 0, got {value!r}")
+            object.__setattr__(self, name, number)  # plain floats (NumPy scalars accepted)
+        for name in ("position_tolerance", "orientation_tolerance", "rest_speed"):
+            if getattr(self, name) <= 0:
+                raise ValueError(f"TaskConfig.{name} must be > 0, got {getattr(self, name)!r}")
+        for name in (
+            "min_parallel_margin",
+            "min_serial_margin",
+            "path_parallel_margin",
+            "path_serial_margin",
+            "near_singular_margin",
+        ):
+            if getattr(self, name) >= 1:
+                raise ValueError(f"TaskConfig.{name} must be < 1, got {getattr(self, name)!r}")
+        if not 0 < self.max_holding_force <= 1:
+            raise ValueError(
+                f"TaskConfig.max_holding_force must be in (0, 1], got {self.max_holding_force!r}"
+            )
+        for name in ("near_singular_fraction", "detour_fraction"):
+            if getattr(self, name) > 1:
+                raise ValueError(
+                    f"TaskConfig.{name} must be in [0, 1], got {getattr(self, name)!r}"
+                )
+        if self.travel_margin >= 0.5:
+            raise ValueError(f"TaskConfig.travel_margin must be < 0.5, got {self.travel_margin!r}")
+
+
+def _acceptable(
+    design: Design, poses: np.ndarray, mode: np.ndarray, cfg: TaskConfig
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mask of acceptable poses ``(N,)`` and their assembly modes (0 where not acceptable)."""
+    lo, hi = cfg.travel_margin * design.stroke, (1.0 - cfg.travel_margin) * design.stroke
+    ok, rho, asm = kinematics.screen_poses(
+        design,
+        poses,
+        mode,
+        travel=(lo, hi),
+        min_parallel=cfg.min_parallel_margin,
+        min_serial=cfg.min_serial_margin,
+    )
+    det = asm.astype(np.float64)
+    if ok.any():
+        forces = holding_forces_at(design, poses[ok], rho[ok])
+        ok[ok] = np.abs(forces).max(axis=-1) <= cfg.max_holding_force * design.max_force
+    return ok, det
+
+
+def sample_poses(
+    design: Design,
+    mode: ArrayLike,
+    rng: np.random.Generator,
+    cfg: TaskConfig,
+    batch: int = 4096,
+    max_batches: int | None = 200,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Acceptable poses drawn by rejection: ``(poses (M, 3), assembly (M,))``, ``M >= 1``.
+
+    Raises ``ValueError`` if the working mode has no acceptable pose after ``max_batches``
+    batches; ``max_batches=None`` draws until one is found (only for a mode known to have
+    acceptable poses, see :func:`check_mode`).
+    """
+    x0, x1, _, h = design.search_rectangle
+    mode = np.asarray(mode, dtype=np.float64)
+    for _ in range(max_batches) if max_batches is not None else itertools.count():
+        u = rng.random((batch, 3))
+        poses = np.column_stack(
+            [x0 + (x1 - x0) * u[:, 0], h * u[:, 1], math.pi * (2.0 * u[:, 2] - 1.0)]
+        )
+        ok, det = _acceptable(design, poses, mode, cfg)
+        if ok.any():
+            return poses[ok], det[ok]
+    raise ValueError(
+        f"no pose of working mode {tuple(int(m) for m in mode)} meets the task's margins "
+        f"(parallel >= {cfg.min_parallel_margin}, serial >= {cfg.min_serial_margin}, holding "
+        f"force <= {cfg.max_holding_force} max_force) on this design"
+    )
+
+
+def interpolate(start: np.ndarray, target: np.ndarray, n: int) -> np.ndarray:
+    """``n`` poses on the straight path from ``start`` to ``target`` (shortest rotation);
+    shapes ``(..., 3)`` -> ``(..., n, 3)``."""
+    t = _steps(operator.index(n))
+    delta = target - start
+    delta = np.concatenate(
+        [delta[..., :2], (delta[..., 2:] + math.pi) % (2.0 * math.pi) - math.pi], axis=-1
+    )
+    return start[..., None, :] + t * delta[..., None, :]
+
+
+@lru_cache(maxsize=16)
+def _steps(n: int) -> np.ndarray:
+    """``linspace(0, 1, n)`` as a read-only column (n, 1)."""
+    t = np.linspace(0.0, 1.0, n)[:, None]
+    t.setflags(write=False)
+    return t
+
+
+def path_is_clear(
+    design: Design,
+    start: np.ndarray,
+    targets: np.ndarray,
+    mode: ArrayLike,
+    assembly: float,
+    cfg: TaskConfig,
+) -> np.ndarray:
+    """Mask ``(N,)``: the straight path from ``start`` to each target stays reachable within
+    the stroke, with the path margins, in the assembly mode ``assembly``."""
+    return kinematics.screen_paths(
+        design,
+        interpolate(start[None, :], targets, cfg.path_points),  # (N, P, 3)
+        np.asarray(mode, dtype=np.float64),
+        min_parallel=cfg.path_parallel_margin,
+        min_serial=cfg.path_serial_margin,
+        assembly=assembly,
+    )
+
+
+class PoseSampler:
+    """Acceptable poses of one working mode, drawn by rejection in batches and handed out in
+    order (a batch yields tens of poses, so most resets need no new batch).
+
+    Every random number comes from the generator passed to :meth:`draw`; :meth:`clear` drops
+    the pool (the environment does so when it is re-seeded, so a seed fixes the episode).
+    """
+
+    def __init__(self, design: Design, mode: ArrayLike, cfg: TaskConfig) -> None:
+        self.design = design
+        self.mode = tuple(int(m) for m in np.asarray(mode).tolist())
+        self.cfg = cfg
+        self._pool: list[tuple[np.ndarray, float]] = []
+
+    def clear(self) -> None:
+        """Forget the pooled poses."""
+        self._pool.clear()
+
+    def _refill(self, rng: np.random.Generator) -> None:
+        try:
+            poses, dets = sample_poses(self.design, self.mode, rng, self.cfg)
+        except ValueError:
+            # Rare in a mode whose acceptable poses are sparse: if the mode has poses at all
+            # (check_mode raises if not), keep drawing from the same stream until one is found.
+            check_mode(self.design, self.mode, self.cfg)
+            poses, dets = sample_poses(self.design, self.mode, rng, self.cfg, max_batches=None)
+        self._pool.extend(zip(poses, dets.tolist(), strict=True))
+
+    def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, float]:
+        """The next pose and its assembly mode."""
+        if not self._pool:
+            self._refill(rng)
+        return self._pool.pop(0)
+
+    def draw_many(self, rng: np.random.Generator, assembly: float, n: int) -> np.ndarray:
+        """Up to ``n`` next poses of assembly mode ``assembly``, shape (m, 3); ``m == 0`` when
+        none turned up in 50 refills (the assembly mode is rare or empty in this working
+        mode: the caller draws another start)."""
+        for _ in range(50):
+            picked = [i for i, (_, det) in enumerate(self._pool) if det == assembly][:n]
+            if picked:
+                out = np.array([self._pool[i][0] for i in picked])
+                for i in reversed(picked):
+                    del self._pool[i]
+                return out
+            self._refill(rng)
+        return np.empty((0, 3))
+
+
+def sample_pair(
+    design: Design,
+    mode: ArrayLike,
+    rng: np.random.Generator,
+    cfg: TaskConfig,
+    start: np.ndarray | None = None,
+    target: np.ndarray | None = None,
+    sampler: PoseSampler | None = None,
+    max_tries: int = 100,
+) -> tuple[np.ndarray, np.ndarray]:
+    """A ``(start, target)`` pair for the task; either may be given (already validated).
+
+    The target has the start's assembly mode, is at least ``min_distance`` away and, with
+    ``clear_path``, is joined to the start by a straight path clear of singularities.
+
+    With neither given, draws until a pair is found (after ``max_tries`` failed starts it
+    checks, once, that the working mode has pairs at all: :func:`check_mode`); a given start
+    or target that cannot be paired in ``max_tries`` tries raises ``ValueError``.
+    """
+    if start is not None and target is not None:
+        return start, target
+    sampler = sampler or PoseSampler(design, mode, cfg)
+    free = start is None and target is None
+    if free and cfg.near_singular_fraction > 0 and rng.random() < cfg.near_singular_fraction:
+        pair = _near_singular_pair(design, mode, rng, cfg, sampler)
+        if pair is not None:
+            return pair
+    elif free and cfg.detour_fraction > 0 and rng.random() < cfg.detour_fraction:
+        pair = _detour_pair(design, mode, rng, cfg, sampler)
+        if pair is not None:
+            return pair
+    for attempt in itertools.count():
+        if attempt == max_tries:
+            if not free:
+                break
+            check_mode(design, tuple(int(m) for m in np.asarray(mode).tolist()), cfg)
+        if start is None:
+            s, det = sampler.draw(rng)
+        else:
+            s = start
+            rho = kinematics.inverse(design, s, mode).rho
+            det = float(kinematics.assembly_mode(design, s, rho))
+        if target is not None:
+            if _first_ok(design, s, target[None, :], mode, det, cfg) == 0:
+                return s, target
+            if start is not None:
+                break
+            continue
+        cands = sampler.draw_many(rng, det, 8)
+        first = _first_ok(design, s, cands, mode, det, cfg) if len(cands) else None
+        if first is not None:
+            return s, cands[first]
+        if start is None:
+            continue
+    raise ValueError(
+        "could not pair a start with a target under the task's constraints "
+        "(same assembly mode, minimum distance, clear path); relax TaskConfig or give both"
+    )
+
+
+#: Candidate targets screened per start by :func:`_near_singular_pair`, and starts tried.
+NEAR_SINGULAR_CANDIDATES = 64
+NEAR_SINGULAR_STARTS = 200
+
+
+def _near_singular_pair(
+    design: Design, mode: ArrayLike, rng: np.random.Generator, cfg: TaskConfig, sampler: PoseSampler
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """A pair of the same assembly mode, ``min_distance`` apart, whose straight path stays
+    reachable within the stroke with ``path_serial_margin`` but comes within
+    ``near_singular_margin`` of a parallel singularity (or crosses one): by rejection over
+    :data:`NEAR_SINGULAR_CANDIDATES` targets per start; ``None`` after
+    :data:`NEAR_SINGULAR_STARTS` starts (a design with no such pairs: the caller draws an
+    ordinary pair)."""
+    m = np.asarray(mode, dtype=np.float64)
+
+    def near_singular(s: np.ndarray, det: float, cands: np.ndarray) -> np.ndarray:
+        paths = interpolate(s[None, :], cands, cfg.path_points)
+        reachable = kinematics.screen_paths(design, paths, m, min_serial=cfg.path_serial_margin)
+        clear = kinematics.screen_paths(
+            design, paths, m, min_parallel=cfg.near_singular_margin, assembly=det
+        )
+        return reachable & ~clear
+
+    return _pair_by_rejection(
+        design, rng, cfg, sampler, near_singular, NEAR_SINGULAR_CANDIDATES, NEAR_SINGULAR_STARTS
+    )
+
+
+#: Candidate targets screened per start by :func:`_detour_pair`, and starts tried.
+DETOUR_CANDIDATES = 64
+DETOUR_STARTS = 200
+
+
+def _detour_pair(
+    design: Design, mode: ArrayLike, rng: np.random.Generator, cfg: TaskConfig, sampler: PoseSampler
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """A pair meeting every rule of an ordinary pair that the straight line in slider space
+    does not solve (:func:`planar3p_gym.machine.slider_line.slider_line_reaches`): by rejection over
+    :data:`DETOUR_CANDIDATES` targets per start; ``None`` after :data:`DETOUR_STARTS` starts
+    (no such pairs: the caller draws an ordinary pair)."""
+
+    def detour(s: np.ndarray, det: float, cands: np.ndarray) -> np.ndarray:
+        ok = (
+            path_is_clear(design, s, cands, mode, det, cfg)
+            if cfg.clear_path
+            else np.ones(len(cands), dtype=bool)
+        )
+        if ok.any():
+            ok[ok] = ~slider_line_reaches(design, s, cands[ok], mode)
+        return ok
+
+    return _pair_by_rejection(design, rng, cfg, sampler, detour, DETOUR_CANDIDATES, DETOUR_STARTS)
+
+
+def _pair_by_rejection(
+    design: Design,
+    rng: np.random.Generator,
+    cfg: TaskConfig,
+    sampler: PoseSampler,
+    accept: Callable[[np.ndarray, float, np.ndarray], np.ndarray],
+    candidates: int,
+    starts: int,
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """The first pair ``(start, target)`` that ``accept(start, assembly, targets)`` marks
+    among ``candidates`` targets of the start's assembly mode at least ``min_distance`` away,
+    trying up to ``starts`` starts; ``None`` if none."""
+    for _ in range(starts):
+        s, det = sampler.draw(rng)
+        cands = sampler.draw_many(rng, det, candidates)
+        if not len(cands):
+            continue
+        cands = cands[
+            pose_distance(s[None, :], cands, design.characteristic_length) >= cfg.min_distance
+        ]
+        if not len(cands):
+            continue
+        hits = np.flatnonzero(accept(s, det, cands))
+        if hits.size:
+            return s, cands[int(hits[0])]
+    return None
+
+
+def _first_ok(
+    design: Design,
+    start: np.ndarray,
+    targets: np.ndarray,
+    mode: ArrayLike,
+    assembly: float,
+    cfg: TaskConfig,
+) -> int | None:
+    """Index of the first of ``targets`` (N, 3) that may be paired with ``start``, or None.
+
+    The paths are checked lazily: the first far-enough target alone (it usually passes), then
+    the others together.
+    """
+    far = pose_distance(start[None, :], targets, design.characteristic_length) >= cfg.min_distance
+    idx = np.flatnonzero(far)
+    if not cfg.clear_path or not idx.size:
+        return int(idx[0]) if idx.size else None
+    for chunk in (idx[:1], idx[1:]):
+        if chunk.size:
+            clear = path_is_clear(design, start, targets[chunk], mode, assembly, cfg)
+            if clear.any():
+                return int(chunk[int(np.argmax(clear))])
+    return None
+
+
+#: Budget of :func:`check_mode`: batches of 4096 uniform poses searched (fixed seed).
+CHECK_BATCHES = 400
+
+
+def check_mode(design: Design, mode: ArrayLike, cfg: TaskConfig) -> None:
+    """Raise ``ValueError`` unless working mode ``mode`` of ``design`` has a start/target pair
+    meeting ``cfg``, found among ``CHECK_BATCHES`` batches of 4096 uniform poses drawn with a
+    fixed internal seed (the episode's random stream is not touched).  The result is cached.
+
+    A mode that passes has pairs with positive probability, so :func:`sample_pair` without a
+    given start or target always ends; one that fails has, at best, a vanishing share.
+    """
+    reason = _mode_problem(design, tuple(int(m) for m in np.asarray(mode).tolist()), cfg)
+    if reason is not None:
+        raise ValueError(reason)
+
+
+def has_pairs(design: Design, mode: ArrayLike, cfg: TaskConfig) -> bool:
+    """Whether :func:`check_mode` accepts ``mode``."""
+    return _mode_problem(design, tuple(int(m) for m in np.asarray(mode).tolist()), cfg) is None
+
+
+@lru_cache(maxsize=256)
+def _mode_problem(design: Design, mode: tuple[int, int, int], cfg: TaskConfig) -> str | None:
+    """Why ``mode`` has no usable pair (see :func:`check_mode`), or ``None``."""
+    rng = np.random.default_rng(0)
+    m = np.asarray(mode, dtype=np.float64)
+    pools: dict[float, list[np.ndarray]] = {1.0: [], -1.0: []}
+    found = 0
+    for _ in range(CHECK_BATCHES):
+        try:
+            poses, dets = sample_poses(design, m, rng, cfg, max_batches=1)
+        except ValueError:
+            continue
+        found += len(poses)
+        for pose, det in zip(poses, dets.tolist(), strict=True):
+            others = pools[det]
+            if others and _first_ok(design, pose, np.array(others[-64:]), m, det, cfg) is not None:
+                return None
+            others.append(pose)
+    what = "pose" if not found else "start/target pair (same assembly mode, min_distance apart"
+    what += "" if not found else (", clear path)" if cfg.clear_path else ")")
+    return (
+        f"working mode {mode} of this design has no {what} meeting the task's margins "
+        f"(parallel >= {cfg.min_parallel_margin}, serial >= {cfg.min_serial_margin}, holding "
+        f"force <= {cfg.max_holding_force} max_force, travel margin {cfg.travel_margin}) in "
+        f"{CHECK_BATCHES * 4096} uniform samples ({found} acceptable poses); choose another "
+        "working mode or relax the TaskConfig"
+    )
+
+
+def check_pose(design: Design, pose: ArrayLike, mode: ArrayLike, name: str) -> np.ndarray:
+    """Validate a user-given pose: 3 finite numbers, reachable in ``mode`` within the stroke and
+    not at a parallel singularity.  Returns it as a float array, or raises ``ValueError``."""
+    try:
+        p = np.asarray(pose, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be 3 numbers (x, y, theta), got {pose!r}") from exc
+    if p.shape != (3,) or not np.isfinite(p).all():
+        raise ValueError(f"{name} must be 3 finite numbers (x, y, theta), got {pose!r}")
+    rho, reachable = kinematics.inverse(design, p, mode)
+    if not bool(reachable):
+        raise ValueError(
+            f"{name} {tuple(p.tolist())} is not reachable in working mode "
+            f"{tuple(int(m) for m in np.asarray(mode))} within the stroke [0, {design.stroke}] m "
+            f"(travels {np.round(rho, 6).tolist()} m)"
+        )
+    if float(kinematics.parallel_margin(design, p, rho)) < 1e-6:
+        raise ValueError(f"{name} {tuple(p.tolist())} is at a parallel singularity")
+    return p
