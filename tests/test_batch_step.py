@@ -9,8 +9,9 @@ import gymnasium as gym
 import numpy as np
 
 import planar3p_gym  # noqa: F401  (registers the ids)
-from planar3p_gym.sim.batch_step import BatchProjector, BatchReach
+from planar3p_gym.sim.batch_step import BatchProjector
 from planar3p_gym.sim.physics import _wrap
+from planar3p_gym.tasks.reach_step import BatchReach
 
 
 def readouts(seed: int, n: int) -> tuple[object, list[list[float]], np.ndarray]:

@@ -11,7 +11,6 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import planar3p_gym
 from planar3p_gym.envs.vector import Planar3PVectorEnv
 from planar3p_gym.tasks import sampling as task
 

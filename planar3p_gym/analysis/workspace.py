@@ -49,6 +49,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.kinematics import ALL_MODES
+from planar3p_gym.machine.margins import inverse_condition_batch
 
 __all__ = [
     "DEFAULT_MIN_PARALLEL",
@@ -291,47 +292,10 @@ def _margins(
         - c0[..., 1] * (c1[..., 0] * c2[..., 2] - c1[..., 2] * c2[..., 0])
         + c0[..., 2] * (c1[..., 0] * c2[..., 1] - c1[..., 1] * c2[..., 0])
     )
-    parallel = _inverse_condition(c0, c1, c2, det)
+    parallel = inverse_condition_batch(np.stack((c0, c1, c2), axis=-1))
+    parallel[np.isnan(det)] = np.nan  # (a leg that cannot close)
     det_b = np.prod(ux / legs, axis=-1)
     return RowMargins(parallel, serial, det, det_b)
-
-
-def _inverse_condition(
-    c0: FloatArray, c1: FloatArray, c2: FloatArray, det: FloatArray
-) -> FloatArray:
-    """``sigma_min / sigma_max`` of 3x3 matrices given by columns ``(..., 3)``, in closed form.
-
-    The eigenvalues of ``M^T M`` are the roots of ``l^3 - p1 l^2 + p2 l - p3`` with
-    ``p1 = |M|_F^2``, ``p2`` the sum of squared 2x2 minors and ``p3 = det^2``.  The largest
-    root comes from the trigonometric formula; the smallest from the remaining quadratic in
-    the stable form ``l_min = (p3 / l_max) / l_mid``, so it keeps its relative accuracy.
-    """
-    p1 = (c0 * c0 + c1 * c1 + c2 * c2).sum(axis=-1)
-    # 2x2 minors: pairs of rows (i, j) and pairs of columns
-    minors = 0.0
-    for i, j in ((0, 1), (0, 2), (1, 2)):
-        m01 = c0[..., i] * c1[..., j] - c0[..., j] * c1[..., i]
-        m02 = c0[..., i] * c2[..., j] - c0[..., j] * c2[..., i]
-        m12 = c1[..., i] * c2[..., j] - c1[..., j] * c2[..., i]
-        minors = minors + m01 * m01 + m02 * m02 + m12 * m12
-    p2 = minors
-    p3 = det * det
-    # depressed cubic l = t + p1/3
-    q = p1 / 3.0
-    pp = p2 - p1 * p1 / 3.0  # t^3 + pp t + qq = 0
-    qq = -2.0 * p1**3 / 27.0 + p1 * p2 / 3.0 - p3
-    with np.errstate(invalid="ignore", divide="ignore"):
-        m = 2.0 * np.sqrt(np.maximum(-pp / 3.0, 0.0))
-        arg = np.where(m > 0, 3.0 * qq / (pp * np.where(m > 0, m, 1.0)), 0.0)
-        phi = np.arccos(np.clip(arg, -1.0, 1.0)) / 3.0
-        l_max = np.maximum(q + m * np.cos(phi), 0.0)
-        rest = p1 - l_max  # l_mid + l_min
-        prod = np.where(l_max > 0, p3 / l_max, 0.0)  # l_mid * l_min
-        disc = np.maximum(rest * rest - 4.0 * prod, 0.0)
-        l_mid = 0.5 * (rest + np.sqrt(disc))
-        l_min = np.where(l_mid > 0, prod / l_mid, 0.0)
-        out = np.sqrt(np.clip(l_min / l_max, 0.0, 1.0))
-    return np.where(l_max > 0, out, 0.0)
 
 
 def row_margins(

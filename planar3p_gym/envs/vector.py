@@ -50,10 +50,11 @@ from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
 from planar3p_gym.envs.track import Planar3PTrackEnv
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim import physics
-from planar3p_gym.sim.batch_step import BatchProjector, BatchReach, BatchState
+from planar3p_gym.sim.batch_step import BatchProjector, BatchState
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task_module
 from planar3p_gym.tasks.observation import travel_goal_entries
+from planar3p_gym.tasks.reach_step import BatchReach
 from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [

@@ -63,7 +63,8 @@ import numpy as np
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
-from planar3p_gym.tasks.rewards import pose_error, precision_penalty, reward_terms
+from planar3p_gym.tasks.observation import within_tolerances
+from planar3p_gym.tasks.rewards import reward_terms
 
 if TYPE_CHECKING:
     from planar3p_gym.envs.core import Planar3PEnv
@@ -211,12 +212,9 @@ class Task:
         """Default success test: within ``position_tolerance`` (m) and
         ``orientation_tolerance`` (rad) of the reference with every slider slower than
         ``rest_speed`` (m/s).  ``errors`` are (position error (m), orientation error (rad))."""
-        cfg = self.env.task_config
         pos_err, ang_err = errors
-        return (
-            pos_err <= cfg.position_tolerance
-            and abs(ang_err) <= cfg.orientation_tolerance
-            and max(abs(v) for v in state.rho_dot) <= cfg.rest_speed
+        return within_tolerances(
+            pos_err, ang_err, np.array(state.rho_dot), *self.env.task_config.success_tolerances
         )
 
     def termination(
@@ -253,10 +251,9 @@ class Task:
         length = env.design.characteristic_length
         return reward_terms(
             env.reward_weights,
-            pose_err=pose_error(pos_err, ang_err, length),
-            precision_err=precision_penalty(
-                pos_err, ang_err, length, env.reward_weights.precision_scale
-            ),
+            position_error=pos_err,
+            orientation_error=ang_err,
+            length=length,
             parallel_margin=measures.parallel_margin if self.parallel_barrier else 1.0,
             serial_margin=measures.serial_margin if self.serial_barrier else 1.0,
             action=action,

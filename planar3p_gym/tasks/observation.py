@@ -44,6 +44,7 @@ import math
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from planar3p_gym.machine.design import Design
 
@@ -57,6 +58,9 @@ __all__ = [
     "observation_space",
     "travel_goal_bounds",
     "travel_goal_entries",
+    "within_tolerances",
+    "wrap_angle",
+    "write_reach_values",
 ]
 
 #: ``(name, size, description)`` of each block, in order.
@@ -164,9 +168,58 @@ def observation_space(design: Design) -> spaces.Box:
     return spaces.Box(low, high, dtype=np.float32)
 
 
+@njit(cache=True)
 def wrap_angle(angle: float) -> float:
     """``angle`` (rad) wrapped into ``[-pi, pi)``."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@njit(cache=True)
+def write_reach_values(
+    out: np.ndarray,
+    rho: np.ndarray, rho_dot: np.ndarray, pose: np.ndarray, c: float, s: float,
+    twist: np.ndarray, legs_cs: np.ndarray, target: np.ndarray, tc: float, ts: float,
+    parallel_margin: float, serial_margin: float, length: float,
+) -> tuple[float, float, float]:  # fmt: skip
+    """Write the 31 values of the observation (module docstring; float64, not yet clipped)
+    into ``out`` and return the errors ``(dx, dy, dtheta)`` (m, m, rad): the one definition of
+    the layout, used by :func:`build_observation`, the fused reach step and the vector env.
+
+    ``rho``, ``rho_dot``, ``pose``, ``twist``, ``target`` are 3 values each (SI units),
+    ``(c, s)`` the platform's and ``(tc, ts)`` the target's ``cos, sin``, ``legs_cs`` the 6
+    values ``cos alpha_i, sin alpha_i``, ``length`` the characteristic length (m).
+    """
+    dx, dy = target[0] - pose[0], target[1] - pose[1]
+    dth = wrap_angle(target[2] - pose[2])
+    for j in range(3):
+        out[j] = rho[j]
+        out[3 + j] = rho_dot[j]
+        out[10 + j] = twist[j]
+    out[6], out[7], out[8], out[9] = pose[0], pose[1], c, s
+    for j in range(6):
+        out[13 + j] = legs_cs[j]
+    out[19], out[20], out[21], out[22] = target[0], target[1], tc, ts
+    out[23], out[24], out[25] = dx, dy, dth
+    out[26], out[27] = parallel_margin, serial_margin
+    out[28] = math.tanh(dx / FINE_ERROR_SCALE)
+    out[29] = math.tanh(dy / FINE_ERROR_SCALE)
+    out[30] = math.tanh(length * dth / FINE_ERROR_SCALE)
+    return dx, dy, dth
+
+
+@njit(cache=True)
+def within_tolerances(
+    position_error: float, orientation_error: float, rho_dot: np.ndarray,
+    position_tolerance: float, orientation_tolerance: float, rest_speed: float,
+) -> bool:  # fmt: skip
+    """The success test of a pose-reaching step: within ``position_tolerance`` (m) and
+    ``orientation_tolerance`` (rad) of the target with every slider slower than
+    ``rest_speed`` (m/s) (:attr:`planar3p_gym.tasks.sampling.TaskConfig.success_tolerances`)."""
+    return (
+        position_error <= position_tolerance
+        and abs(orientation_error) <= orientation_tolerance
+        and max(abs(rho_dot[0]), abs(rho_dot[1]), abs(rho_dot[2])) <= rest_speed
+    )
 
 
 def build_observation(
@@ -184,38 +237,27 @@ def build_observation(
 ) -> np.ndarray:
     """The observation vector (float32, clipped to ``[low, high]``) of one state;
     ``length`` is the design's characteristic length (m)."""
-    x, y, th = pose
-    tx, ty, tth = target
     a1, a2, a3 = leg_angles
-    dth = wrap_angle(tth - th)
-    values = [
-        *rho,
-        *rho_dot,
-        x,
-        y,
-        math.cos(th),
-        math.sin(th),
-        *twist,
-        math.cos(a1),
-        math.sin(a1),
-        math.cos(a2),
-        math.sin(a2),
-        math.cos(a3),
-        math.sin(a3),
-        tx,
-        ty,
-        math.cos(tth),
-        math.sin(tth),
-        tx - x,
-        ty - y,
-        dth,
-        parallel_margin,
-        serial_margin,
-        math.tanh((tx - x) / FINE_ERROR_SCALE),
-        math.tanh((ty - y) / FINE_ERROR_SCALE),
-        math.tanh(length * dth / FINE_ERROR_SCALE),
-    ]
-    obs = np.array(values, dtype=np.float32)
+    values = np.empty(OBS_SIZE)
+    write_reach_values(
+        values,
+        np.array(rho, dtype=np.float64),
+        np.array(rho_dot, dtype=np.float64),
+        np.array(pose, dtype=np.float64),
+        math.cos(pose[2]),
+        math.sin(pose[2]),
+        np.array(twist, dtype=np.float64),
+        np.array(
+            [math.cos(a1), math.sin(a1), math.cos(a2), math.sin(a2), math.cos(a3), math.sin(a3)]
+        ),
+        np.array(target, dtype=np.float64),
+        math.cos(target[2]),
+        math.sin(target[2]),
+        float(parallel_margin),
+        float(serial_margin),
+        float(length),
+    )
+    obs = values.astype(np.float32)
     # Same result as np.clip, at half its call overhead.
     np.minimum(obs, high, out=obs)
     return np.maximum(obs, low, out=obs)

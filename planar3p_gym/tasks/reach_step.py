@@ -22,16 +22,20 @@ import math
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numba import njit
 
-from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures, _inverse_condition
+from planar3p_gym.machine.margins import leg_margins, leg_margins_batch
+from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.tasks import rewards
-from planar3p_gym.tasks.observation import FINE_ERROR_SCALE, wrap_angle
+from planar3p_gym.tasks.observation import OBS_SIZE, within_tolerances, write_reach_values
+from planar3p_gym.tasks.rewards import TERM_NAMES, weighted_terms_batch
 
 if TYPE_CHECKING:
     from planar3p_gym.envs.core import Planar3PEnv
+    from planar3p_gym.sim.batch_step import BatchState
     from planar3p_gym.sim.physics import SimState
 
-__all__ = ["ReachStep", "leg_measures"]
+__all__ = ["BatchReach", "ReachStep", "leg_measures"]
 
 
 def leg_measures(
@@ -40,26 +44,9 @@ def leg_measures(
 ) -> tuple[float, float, int, float, float, float]:  # fmt: skip
     """``(parallel margin, serial margin, sign det A, |u_1|, |u_2|, |u_3|)`` from
     ``geometry = (u_1x, u_1y, u_2x, u_2y, u_3x, u_3y, cos theta, sin theta)`` (m, 1), the
-    joint offsets ``k`` (m), leg lengths (m) and characteristic length ``ref`` (m): the
-    quantities of :meth:`ScalarKinematics.measures` (same formulas)."""
-    x1, y1, x2, y2, x3, y3, c, s = geometry
-    k1, k2, k3 = k
-    l1, l2, l3 = legs
-    a, b, cc = x1 / l1, y1 / l1, k1 * (y1 * c - x1 * s) / (l1 * ref)
-    d, e, f = x2 / l2, y2 / l2, k2 * (y2 * c - x2 * s) / (l2 * ref)
-    g, h, i = x3 / l3, y3 / l3, k3 * (y3 * c - x3 * s) / (l3 * ref)
-    det = a * (e * i - f * h) - b * (d * i - f * g) + cc * (d * h - e * g)
-    n1 = math.sqrt(x1 * x1 + y1 * y1)
-    n2 = math.sqrt(x2 * x2 + y2 * y2)
-    n3 = math.sqrt(x3 * x3 + y3 * y3)
-    serial = min(
-        1.0,
-        abs(x1) / n1 if n1 > 0.0 else 0.0,
-        abs(x2) / n2 if n2 > 0.0 else 0.0,
-        abs(x3) / n3 if n3 > 0.0 else 0.0,
-    )
-    parallel = _inverse_condition(((a, b, cc), (d, e, f), (g, h, i)), det)  # type: ignore[arg-type]
-    return parallel, serial, int(det > 0.0) - int(det < 0.0), n1, n2, n3
+    joint offsets ``k`` (m), leg lengths (m) and characteristic length ``ref`` (m):
+    :func:`planar3p_gym.machine.margins.leg_margins`."""
+    return leg_margins(*geometry, *k, *legs, ref)
 
 
 class ReachStep:
@@ -109,36 +96,24 @@ class ReachStep:
         to float32 and clipped to the bounds (what a vector env does over the batch)."""
         parallel, serial, sign, n1, n2, n3 = leg_measures(geometry, self.k, self.legs, self.ref)
         x1, y1, x2, y2, x3, y3, c, s = geometry
-        px, py, th = state.pose
-        tx, ty, tth = target
-        dx, dy = tx - px, ty - py
-        dth = wrap_angle(tth - th)
+        values = np.empty(OBS_SIZE)
+        rho_dot = np.array(state.rho_dot)
+        dx, dy, dth = write_reach_values(
+            values, np.array(state.rho), rho_dot, np.array(state.pose), c, s,
+            np.array(state.twist), np.array((x1 / n1, y1 / n1, x2 / n2, y2 / n2, x3 / n3, y3 / n3)),
+            np.array(target), target_cs[0], target_cs[1], parallel, serial, self.ref,
+        )  # fmt: skip
         length = self.ref
-        rho, rho_dot, twist = state.rho, state.rho_dot, state.twist
-        values = [
-            rho[0], rho[1], rho[2], rho_dot[0], rho_dot[1], rho_dot[2],
-            px, py, c, s, twist[0], twist[1], twist[2],
-            x1 / n1, y1 / n1, x2 / n2, y2 / n2, x3 / n3, y3 / n3,
-            tx, ty, target_cs[0], target_cs[1], dx, dy, dth, parallel, serial,
-            math.tanh(dx / FINE_ERROR_SCALE),
-            math.tanh(dy / FINE_ERROR_SCALE),
-            math.tanh(length * dth / FINE_ERROR_SCALE),
-        ]  # fmt: skip
         pos_err = math.sqrt(dx * dx + dy * dy)
-        pos_tol, ang_tol, rest = self.tolerances
         if sign == -assembly:
             reason: str | None = "singularity_crossing"
-        elif (
-            pos_err <= pos_tol
-            and abs(dth) <= ang_tol
-            and max(abs(rho_dot[0]), abs(rho_dot[1]), abs(rho_dot[2])) <= rest
-        ):
+        elif within_tolerances(pos_err, dth, rho_dot, *self.tolerances):
             reason = "success"
         else:
             reason = None
         terms = reward_terms(self.weights, pos_err, dth, length, parallel, serial, action, reason)
         measures = ConfigurationMeasures(parallel, serial, sign, state.leg_angles)
-        return values, measures, reason, terms, pos_err, dth
+        return values.tolist(), measures, reason, terms, pos_err, dth
 
 
 def reward_terms(
@@ -152,16 +127,138 @@ def reward_terms(
     reason: str | None,
 ) -> dict[str, float]:
     """:func:`planar3p_gym.tasks.rewards.reward_terms` of the reach task (both barriers on) for
-    weights ``w``, errors (m, rad), margins and the termination ``reason`` (the pose distance
-    is formed once for the pose and precision terms)."""
-    distance = pos_err + length * abs(ang_err)
+    weights ``w``, errors (m, rad), margins and the termination ``reason``."""
     return rewards.reward_terms(
         w,
-        pose_err=distance / length,
-        precision_err=1.0 - math.exp(-distance / w.precision_scale),
+        position_error=pos_err,
+        orientation_error=ang_err,
+        length=length,
         parallel_margin=parallel,
         serial_margin=serial,
         action=action,
         success=reason == "success",
         failure=reason == "singularity_crossing",
     )
+
+
+@njit(cache=True)
+def reach_values_batch(
+    rho: np.ndarray, rho_dot: np.ndarray, pose: np.ndarray, c: np.ndarray, s: np.ndarray,
+    twist: np.ndarray, legs_cs: np.ndarray, target: np.ndarray, target_cs: np.ndarray,
+    parallel: np.ndarray, serial: np.ndarray, length: float, tolerances: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """:func:`~planar3p_gym.tasks.observation.write_reach_values` and
+    :func:`~planar3p_gym.tasks.observation.within_tolerances` of ``N`` environments (arrays
+    ``(k, N)`` of the single env's values): the observation values ``(N, 31)``, the position
+    and orientation errors ``(2, N)`` (m, rad) and the success tests ``(N,)`` (before the
+    crossing test)."""
+    n = c.shape[0]
+    rows = np.empty((n, OBS_SIZE))
+    errors = np.empty((2, n))
+    success = np.empty(n, np.bool_)
+    for j in range(n):
+        dx, dy, dth = write_reach_values(
+            rows[j], rho[:, j], rho_dot[:, j], pose[:, j], c[j], s[j], twist[:, j],
+            legs_cs[:, j], target[:, j], target_cs[0, j], target_cs[1, j],
+            parallel[j], serial[j], length,
+        )  # fmt: skip
+        pos_err = math.sqrt(dx * dx + dy * dy)
+        errors[0, j], errors[1, j] = pos_err, dth
+        success[j] = within_tolerances(
+            pos_err, dth, rho_dot[:, j], tolerances[0, j], tolerances[1, j], tolerances[2, j]
+        )
+    return rows, errors, success
+
+
+class BatchReach:
+    """:meth:`planar3p_gym.tasks.reach_step.ReachStep.outputs` over a batch.
+
+    Args:
+        reach: the :class:`~planar3p_gym.tasks.reach_step.ReachStep` of one of the (identically
+            configured) environments.
+    """
+
+    def __init__(self, reach: Any) -> None:
+        self.k = np.array(reach.k).reshape(3, 1)
+        self.legs = np.array(reach.legs).reshape(3, 1)
+        self.ref = reach.ref
+        self.low = reach.low.astype(np.float32)
+        self.high = reach.high.astype(np.float32)
+        self.weights = reach.weights
+
+    def measures(self, st: BatchState) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(parallel margin, serial margin, sign det A, |u_i|)`` as in
+        :func:`planar3p_gym.tasks.reach_step.leg_measures`."""
+        return leg_margins_batch(
+            np.ascontiguousarray(st.ux),
+            np.ascontiguousarray(st.uy),
+            np.ascontiguousarray(st.c),
+            np.ascontiguousarray(st.s),
+            self.k[:, 0],
+            self.legs[:, 0],
+            self.ref,
+        )
+
+    def outputs(
+        self,
+        st: BatchState,
+        target: np.ndarray,
+        target_cs: np.ndarray,
+        assembly: np.ndarray,
+        action: np.ndarray,
+        tolerances: np.ndarray,
+    ) -> dict[str, np.ndarray]:
+        """Observations ``(N, 31)`` float32, margins, sign, termination (``reason``: 0 none,
+        1 success, 2 singularity crossing), reward terms and errors of finite states;
+        ``target`` ``(3, N)``, ``target_cs`` ``(2, N)``, ``assembly`` ``(N,)``, ``action``
+        ``(3, N)`` clipped, ``tolerances`` ``(3, N)``: each environment's position (m),
+        orientation (rad) and rest-speed (m/s) tolerances (``ReachStep.tolerances``)."""
+        parallel, serial, sign, norm = self.measures(st)
+        n = st.c.shape[0]
+        legs_cs = np.empty((6, n))
+        legs_cs[0::2] = st.ux / norm
+        legs_cs[1::2] = st.uy / norm
+        rows, errors, success = reach_values_batch(
+            np.ascontiguousarray(st.rho),
+            np.ascontiguousarray(st.rho_dot),
+            np.ascontiguousarray(st.pose),
+            np.ascontiguousarray(st.c),
+            np.ascontiguousarray(st.s),
+            np.ascontiguousarray(st.twist),
+            legs_cs,
+            np.ascontiguousarray(target, dtype=np.float64),
+            np.ascontiguousarray(target_cs, dtype=np.float64),
+            parallel,
+            serial,
+            self.ref,
+            np.ascontiguousarray(tolerances, dtype=np.float64),
+        )
+        length = self.ref
+        obs = rows.astype(np.float32)
+        np.minimum(obs, self.high, out=obs)
+        np.maximum(obs, self.low, out=obs)
+        pos_err, dth = errors
+        crossing = sign == -assembly
+        success &= ~crossing
+        terms_array = weighted_terms_batch(
+            self.weights.as_array(),
+            np.ascontiguousarray(pos_err),
+            np.ascontiguousarray(dth),
+            length,
+            np.ascontiguousarray(parallel),
+            np.ascontiguousarray(serial),
+            np.ascontiguousarray(action, dtype=np.float64),
+            np.ascontiguousarray(success),
+            np.ascontiguousarray(crossing),
+        )
+        terms = dict(zip(TERM_NAMES, terms_array, strict=True))
+        return {
+            "obs": obs,
+            "parallel": parallel,
+            "serial": serial,
+            "sign": sign,
+            "reason": success.astype(np.int64) + 2 * crossing,
+            "terms": terms,
+            "position_error": pos_err,
+            "orientation_error": dth,
+        }

@@ -18,6 +18,9 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 
+import numpy as np
+from numba import njit
+
 from planar3p_gym.checks import as_finite_float
 
 __all__ = [
@@ -29,6 +32,8 @@ __all__ = [
     "precision_penalty",
     "reward_terms",
     "singularity_penalty",
+    "weighted_terms",
+    "weighted_terms_batch",
 ]
 
 #: The singularity penalty of one margin is capped at this value (it stays finite at 0).
@@ -41,6 +46,8 @@ BARRIER_CAP = 100.0
 MAX_WEIGHT = 1e6
 #: The fields of :class:`RewardWeights` that are weights (the others are scales and margins).
 WEIGHT_NAMES = ("pose", "precision", "singularity", "action", "success", "failure")
+#: Names of the weighted terms, in the order of :func:`weighted_terms`.
+TERM_NAMES = WEIGHT_NAMES
 
 
 @dataclass(frozen=True)
@@ -89,6 +96,18 @@ class RewardWeights:
         for name in ("parallel_margin_ref", "serial_margin_ref"):
             if not 0 < getattr(self, name) <= 1:
                 raise ValueError(f"{name} must be in (0, 1], got {getattr(self, name)!r}")
+        array = np.array(
+            [
+                self.pose, self.precision, self.precision_scale, self.singularity, self.action,
+                self.success, self.failure, self.parallel_margin_ref, self.serial_margin_ref,
+            ]
+        )  # fmt: skip
+        array.flags.writeable = False
+        object.__setattr__(self, "_array", array)
+
+    def as_array(self) -> np.ndarray:
+        """The fields in the order :func:`weighted_terms` reads them (read-only float64)."""
+        return self._array  # type: ignore[attr-defined]
 
 
 def pose_error(position_error: float, orientation_error: float, length: float) -> float:
@@ -117,6 +136,7 @@ def precision_penalty(
     return 1.0 - math.exp(-(position_error + length * abs(orientation_error)) / scale)
 
 
+@njit(cache=True)
 def barrier(margin: float, ref: float) -> float:
     """Singularity barrier of one margin (dimensionless): 0 at or above ``ref``, ``ref/margin -
     1`` below it, capped at :data:`BARRIER_CAP` (reached at ``margin = ref / (cap + 1)``)."""
@@ -140,32 +160,81 @@ def action_effort(action: tuple[float, float, float]) -> float:
     return (action[0] ** 2 + action[1] ** 2 + action[2] ** 2) / 3.0
 
 
+@njit(cache=True)
+def weighted_terms(
+    w: np.ndarray,
+    position_error: float, orientation_error: float, length: float,
+    parallel_margin: float, serial_margin: float,
+    a0: float, a1: float, a2: float, success: bool, failure: bool,
+) -> tuple[float, float, float, float, float, float]:  # fmt: skip
+    """The weighted terms ``(pose, precision, singularity, action, success, failure)`` of one
+    step: the one definition of the reward, which :func:`reward_terms` (one env) and
+    :func:`weighted_terms_batch` (a vector env) call.
+
+    ``w`` is :meth:`RewardWeights.as_array`; the errors are in m and rad, ``length`` is the
+    design's characteristic length (m); a margin of 1 switches its barrier off.
+    """
+    distance = position_error + length * abs(orientation_error)
+    return (
+        -w[0] * (distance / length),
+        -w[1] * (1.0 - math.exp(-distance / w[2])),
+        -w[3] * (barrier(parallel_margin, w[7]) + barrier(serial_margin, w[8])),
+        -w[4] * ((a0 * a0 + a1 * a1 + a2 * a2) / 3.0),
+        w[5] if success else 0.0,
+        -w[6] if failure else 0.0,
+    )
+
+
+@njit(cache=True)
+def weighted_terms_batch(
+    w: np.ndarray,
+    position_error: np.ndarray, orientation_error: np.ndarray, length: float,
+    parallel_margin: np.ndarray, serial_margin: np.ndarray,
+    action: np.ndarray, success: np.ndarray, failure: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """:func:`weighted_terms` of ``N`` environments (arrays ``(N,)``, ``action`` ``(3, N)``):
+    an array ``(6, N)`` in the order of :data:`TERM_NAMES`."""
+    n = position_error.shape[0]
+    out = np.empty((6, n))
+    for j in range(n):
+        terms = weighted_terms(
+            w, position_error[j], orientation_error[j], length,
+            parallel_margin[j], serial_margin[j],
+            action[0, j], action[1, j], action[2, j], success[j], failure[j],
+        )  # fmt: skip
+        for t in range(6):
+            out[t, j] = terms[t]
+    return out
+
+
 def reward_terms(
     weights: RewardWeights,
     *,
-    pose_err: float,
-    precision_err: float,
+    position_error: float,
+    orientation_error: float,
+    length: float,
     parallel_margin: float,
     serial_margin: float,
     action: tuple[float, float, float],
     success: bool,
     failure: bool,
 ) -> dict[str, float]:
-    """The weighted terms; their sum is the reward.
+    """The weighted terms by name (:data:`TERM_NAMES`); their sum is the reward.
 
-    ``pose_err`` is :func:`pose_error`, ``precision_err`` is :func:`precision_penalty`.
+    ``position_error`` (m) and ``orientation_error`` (rad) are the errors to the target,
+    ``length`` the characteristic length (m); pass a margin of 1 to switch its barrier off.
     """
-    return {
-        "pose": -weights.pose * pose_err,
-        "precision": -weights.precision * precision_err,
-        "singularity": -weights.singularity
-        * singularity_penalty(
-            parallel_margin,
-            serial_margin,
-            weights.parallel_margin_ref,
-            weights.serial_margin_ref,
-        ),
-        "action": -weights.action * action_effort(action),
-        "success": weights.success if success else 0.0,
-        "failure": -weights.failure if failure else 0.0,
-    }
+    values = weighted_terms(
+        weights.as_array(),
+        float(position_error),
+        float(orientation_error),
+        float(length),
+        float(parallel_margin),
+        float(serial_margin),
+        float(action[0]),
+        float(action[1]),
+        float(action[2]),
+        bool(success),
+        bool(failure),
+    )
+    return dict(zip(TERM_NAMES, values, strict=True))

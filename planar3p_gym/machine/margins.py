@@ -1,0 +1,150 @@
+"""The singularity margins of one configuration, defined once and compiled.
+
+Every per-step user of the margins -- the env's general step
+(:class:`~planar3p_gym.machine.scalar_kinematics.ScalarKinematics`), the fused reach step
+(:mod:`planar3p_gym.tasks.reach_step`), the native vector env's batched step
+(:mod:`planar3p_gym.sim.batch_step`) and the workspace study's grids
+(:mod:`planar3p_gym.analysis.workspace`) -- calls the functions below: :func:`leg_margins` for
+one configuration, :func:`leg_margins_batch` and :func:`inverse_condition_batch` for many (the
+same scalar definition in a compiled loop).  The SVD of
+:func:`planar3p_gym.machine.kinematics.parallel_margin` is the mathematical definition they are
+tested against.
+
+From the leg vectors ``u_i = C_i - B_i`` (m) and ``(cos theta, sin theta)`` of the platform:
+
+* the rows of ``A_bar`` are ``(u_ix, u_iy, k_i (u_iy cos theta - u_ix sin theta) / L_ref) / L_i``
+  (dimensionless; ``k_i`` the joint offsets on the platform, ``L_i`` the leg lengths,
+  ``L_ref`` the characteristic length, all m);
+* the **parallel margin** is ``sigma_min / sigma_max`` of ``A_bar`` in ``[0, 1]`` (0 at a
+  parallel singularity), from the eigenvalues of ``A_bar^T A_bar`` in closed form: the largest
+  by the trigonometric solution of the cubic, the smallest from the sum and product of the
+  other two, which stays accurate near zero (where a parallel singularity is);
+* the **serial margin** is ``min_i |cos alpha_i| = min_i |u_ix| / |u_i|`` in ``[0, 1]``;
+* ``sign(det A_bar)`` labels the assembly mode (0 exactly at a parallel singularity).
+
+Why compiled: these run once per control step of every environment, where numpy's per-call
+overhead on 3x3 arrays costs more than the arithmetic, and over millions of grid points in the
+workspace study, where plain Python would be too slow; numba compiles the one definition for
+both (``cache=True``: compiled once per installation, then loaded from ``__pycache__``).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+__all__ = ["inverse_condition", "inverse_condition_batch", "leg_margins", "leg_margins_batch"]
+
+
+@njit(cache=True)
+def inverse_condition(
+    a: float, b: float, c: float, d: float, e: float, f: float, g: float, h: float, i: float
+) -> float:
+    """``sigma_min / sigma_max`` of the 3x3 matrix with rows ``(a, b, c), (d, e, f),
+    (g, h, i)`` (module docstring), in ``[0, 1]``."""
+    det = a * (e * i - f * h) - b * (d * i - f * g) + c * (d * h - e * g)
+    s00 = a * a + d * d + g * g
+    s11 = b * b + e * e + h * h
+    s22 = c * c + f * f + i * i
+    s01 = a * b + d * e + g * h
+    s02 = a * c + d * f + g * i
+    s12 = b * c + e * f + h * i
+    q = (s00 + s11 + s22) / 3.0
+    p1 = s01 * s01 + s02 * s02 + s12 * s12
+    p2 = (s00 - q) ** 2 + (s11 - q) ** 2 + (s22 - q) ** 2 + 2.0 * p1
+    if p2 <= 1e-300:
+        return 1.0 if q > 0.0 else 0.0
+    p = math.sqrt(p2 / 6.0)
+    b00, b11, b22 = (s00 - q) / p, (s11 - q) / p, (s22 - q) / p
+    b01, b02, b12 = s01 / p, s02 / p, s12 / p
+    r = 0.5 * (
+        b00 * (b11 * b22 - b12 * b12)
+        - b01 * (b01 * b22 - b12 * b02)
+        + b02 * (b01 * b12 - b11 * b02)
+    )
+    phi = math.acos(max(-1.0, min(1.0, r))) / 3.0
+    lam1 = q + 2.0 * p * math.cos(phi)
+    if lam1 <= 0.0:
+        return 0.0
+    # lambda_2 + lambda_3 and lambda_2 * lambda_3 = det^2 / lambda_1 are both accurate, so the
+    # smaller root of t^2 - sum t + prod (in its cancellation-free form) is too, even when
+    # lambda_2 and lambda_3 are both tiny (A_bar of rank about 1).
+    total = max(3.0 * q - lam1, 0.0)
+    prod = det * det / lam1
+    disc = math.sqrt(max(total * total - 4.0 * prod, 0.0))
+    denom = total + disc
+    lam3 = 2.0 * prod / denom if denom > 0.0 else 0.0
+    return math.sqrt(max(lam3, 0.0) / lam1)
+
+
+@njit(cache=True)
+def leg_margins(
+    ux1: float, uy1: float, ux2: float, uy2: float, ux3: float, uy3: float,
+    c: float, s: float,
+    k1: float, k2: float, k3: float, l1: float, l2: float, l3: float, ref: float,
+) -> tuple[float, float, int, float, float, float]:  # fmt: skip
+    """``(parallel margin, serial margin, sign det A, |u_1|, |u_2|, |u_3|)`` from the leg
+    vectors ``u_i`` (m), ``cos/sin theta``, the joint offsets ``k_i`` (m), the leg lengths
+    ``l_i`` (m) and the characteristic length ``ref`` (m) (module docstring)."""
+    a, b, cc = ux1 / l1, uy1 / l1, k1 * (uy1 * c - ux1 * s) / (l1 * ref)
+    d, e, f = ux2 / l2, uy2 / l2, k2 * (uy2 * c - ux2 * s) / (l2 * ref)
+    g, h, i = ux3 / l3, uy3 / l3, k3 * (uy3 * c - ux3 * s) / (l3 * ref)
+    det = a * (e * i - f * h) - b * (d * i - f * g) + cc * (d * h - e * g)
+    n1 = math.sqrt(ux1 * ux1 + uy1 * uy1)
+    n2 = math.sqrt(ux2 * ux2 + uy2 * uy2)
+    n3 = math.sqrt(ux3 * ux3 + uy3 * uy3)
+    serial = min(
+        1.0,
+        abs(ux1) / n1 if n1 > 0.0 else 0.0,
+        abs(ux2) / n2 if n2 > 0.0 else 0.0,
+        abs(ux3) / n3 if n3 > 0.0 else 0.0,
+    )
+    parallel = inverse_condition(a, b, cc, d, e, f, g, h, i)
+    sign = (1 if det > 0.0 else 0) - (1 if det < 0.0 else 0)
+    return parallel, serial, sign, n1, n2, n3
+
+
+@njit(cache=True)
+def leg_margins_batch(
+    ux: np.ndarray, uy: np.ndarray, c: np.ndarray, s: np.ndarray,
+    k: np.ndarray, legs: np.ndarray, ref: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """:func:`leg_margins` of ``N`` configurations: ``ux``, ``uy`` ``(3, N)`` (m), ``c``,
+    ``s`` ``(N,)``, ``k`` and ``legs`` ``(3,)`` (m); returns the parallel and serial margins
+    ``(N,)``, ``sign det A`` ``(N,)`` int64 and ``|u_i|`` ``(3, N)`` (m)."""
+    n = c.shape[0]
+    parallel = np.empty(n)
+    serial = np.empty(n)
+    sign = np.empty(n, np.int64)
+    norm = np.empty((3, n))
+    for j in range(n):
+        out = leg_margins(
+            ux[0, j], uy[0, j], ux[1, j], uy[1, j], ux[2, j], uy[2, j], c[j], s[j],
+            k[0], k[1], k[2], legs[0], legs[1], legs[2], ref,
+        )  # fmt: skip
+        parallel[j], serial[j], sign[j] = out[0], out[1], out[2]
+        norm[0, j], norm[1, j], norm[2, j] = out[3], out[4], out[5]
+    return parallel, serial, sign, norm
+
+
+@njit(cache=True)
+def _inverse_condition_flat(m: np.ndarray) -> np.ndarray:
+    n = m.shape[0]
+    out = np.empty(n)
+    for j in range(n):
+        out[j] = inverse_condition(
+            m[j, 0], m[j, 1], m[j, 2], m[j, 3], m[j, 4], m[j, 5], m[j, 6], m[j, 7], m[j, 8]
+        )
+    return out
+
+
+def inverse_condition_batch(rows: np.ndarray) -> np.ndarray:
+    """:func:`inverse_condition` of matrices ``(..., 3, 3)`` (rows last but one), shape
+    ``(...)``."""
+    rows = np.asarray(rows, dtype=np.float64)
+    if rows.shape[-2:] != (3, 3):
+        raise ValueError(f"rows must have shape (..., 3, 3), got {rows.shape}")
+    flat = np.ascontiguousarray(rows.reshape(-1, 9))
+    return _inverse_condition_flat(flat).reshape(rows.shape[:-2])
