@@ -8,7 +8,7 @@ original model (``Planar3P-v0``: 8 substeps x 18 iterations, no projection) and 
 Two measurements per model:
 
 * **smooth motions**: ``--pairs`` open-loop minimum-jerk motions between well-conditioned poses
-  (:mod:`planar3p_gym.machine.motions`; commands up to 0.8 of the speed limit), as in
+  (:mod:`planar3p_gym.tasks.motions`; commands up to 0.8 of the speed limit), as in
   ``tests/test_physics.py``: the largest closure error (the largest joint separation, m) of
   each motion and the largest gap between the simulated pose and the exact direct kinematics
   of the simulated travels (``|(dx, dy, L_ref dtheta)|``, m);
@@ -38,9 +38,9 @@ from planar3p_agents.evaluation.episodes import reset_episode
 from planar3p_agents.evaluation.throughput import write_json_atomic
 from planar3p_gym import Design
 from planar3p_gym.envs.core import DEFAULT_WORKING_MODE
-from planar3p_gym.machine import motions
 from planar3p_gym.sim import physics
 from planar3p_gym.sim.physics import Planar3PSim
+from planar3p_gym.tasks import motions
 
 #: The two models: simulation settings and registered id.
 MODELS = {

@@ -15,7 +15,8 @@ import pytest
 import planar3p_gym
 from planar3p_gym import ENV_ID, MAX_EPISODE_STEPS
 from planar3p_gym.envs.core import TERMINATION_REASONS
-from planar3p_gym.machine import kinematics, motions
+from planar3p_gym.machine import kinematics
+from planar3p_gym.tasks import motions
 from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.observation import OBS_FIELDS, OBS_SIZE, SLICES
 from planar3p_gym.tasks.rewards import BARRIER_CAP, RewardWeights, singularity_penalty

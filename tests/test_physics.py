@@ -25,9 +25,10 @@ import numpy as np
 import pytest
 
 from planar3p_gym import Design
-from planar3p_gym.machine import kinematics, motions
+from planar3p_gym.machine import kinematics
 from planar3p_gym.sim import physics
 from planar3p_gym.sim.physics import DEFAULT_ITERATIONS, DEFAULT_SUBSTEPS, Planar3PSim
+from planar3p_gym.tasks import motions
 from planar3p_gym.tasks import sampling as task
 
 DESIGN = Design.fig8()

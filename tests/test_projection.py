@@ -18,11 +18,12 @@ import pytest
 
 import planar3p_gym
 from planar3p_gym import Design
-from planar3p_gym.machine import kinematics, motions, statics
+from planar3p_gym.machine import kinematics, statics
 from planar3p_gym.machine.scalar_kinematics import ScalarKinematics
 from planar3p_gym.sim import physics
 from planar3p_gym.sim.physics import Planar3PSim
 from planar3p_gym.sim.projection import POSITION_TOLERANCE, LoopProjector
+from planar3p_gym.tasks import motions
 from planar3p_gym.tasks import sampling as task
 
 DESIGN = Design.fig8()

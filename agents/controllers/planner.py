@@ -26,8 +26,8 @@ from numpy.typing import NDArray
 from planar3p_agents.controllers.base import PolicyAdapter
 from planar3p_agents.controllers.travel_follower import TravelFollower, observed_configuration
 from planar3p_gym.machine.design import Design
-from planar3p_gym.machine.motions import MIN_JERK_PEAK, minimum_jerk
 from planar3p_gym.tasks.joint_paths import PathLimits, find_joint_path
+from planar3p_gym.tasks.motions import MIN_JERK_PEAK, minimum_jerk
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
 __all__ = ["BaseObservation", "JointPathPlanner"]

@@ -285,7 +285,15 @@ class Planar3PEnv(gym.Env):
         self._target_cs = (1.0, 0.0)  # cos, sin of the target angle (fused reach step)
         # The reach task on the projected physics takes the fused step (reach_step.py).
         self._reach_step = (
-            ReachStep(self) if self.projection and type(self.task) is ReachTask else None
+            ReachStep(
+                self.design,
+                self._obs_low,
+                self._obs_high,
+                self.reward_weights,
+                self.task_config.success_tolerances,
+            )
+            if self.projection and type(self.task) is ReachTask
+            else None
         )
         self._steps = 0
         self._spec: dict[str, Any] = {}

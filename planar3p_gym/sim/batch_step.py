@@ -1,8 +1,9 @@
-"""The projection and the reach step's outputs over a batch of simulations, in numpy.
+"""The projection over a batch of simulations, in numpy.
 
-:class:`BatchProjector` is :meth:`planar3p_gym.sim.projection.LoopProjector.project` and
-:class:`BatchReach` is :meth:`planar3p_gym.tasks.reach_step.ReachStep.outputs` (then the time
-limit's bookkeeping is the vector env's), each applied to ``N`` simulations at once: every
+:class:`BatchProjector` is :meth:`planar3p_gym.sim.projection.LoopProjector.project` applied to
+``N`` simulations at once (the reach step's outputs over the batch are
+:class:`planar3p_gym.tasks.reach_step.BatchReach`, which compiles the single env's formulas in a
+loop): every
 per-simulation scalar of those functions becomes an array over the batch (legs stacked as
 arrays of shape ``(3, N)``) and every operation is the same, in the same order.  Elementwise
 ``+ - * /`` and ``sqrt`` are correctly rounded in both, so the results are the same numbers,
@@ -35,7 +36,7 @@ from planar3p_gym.sim.projection import (
     LoopProjector,
 )
 
-__all__ = ["BatchProjector", "BatchReach", "BatchState"]
+__all__ = ["BatchProjector", "BatchState"]
 
 _TWO_PI = 2.0 * math.pi
 

@@ -56,7 +56,7 @@ Contract every task must meet (the fixed benchmark suites and the tests rely on 
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
@@ -67,12 +67,15 @@ from planar3p_gym.tasks.observation import within_tolerances
 from planar3p_gym.tasks.rewards import reward_terms
 
 if TYPE_CHECKING:
-    from planar3p_gym.envs.core import Planar3PEnv
+    from planar3p_gym.machine.design import Design
+    from planar3p_gym.sim.physics import Planar3PSim
+    from planar3p_gym.tasks.rewards import RewardWeights
 
 __all__ = [
     "ModeTriple",
     "Pose",
     "Task",
+    "TaskEnv",
     "count_option",
     "finite_numbers",
     "mode_option",
@@ -123,6 +126,29 @@ def mode_option(arg: Any, name: str) -> ModeTriple:
     return m  # type: ignore[return-value]
 
 
+class TaskEnv(Protocol):
+    """What a task may read of the environment it is bound to (:meth:`Task.bind`): the
+    machine, the settings of its episodes and the simulation, nothing of Gymnasium.  The
+    environment (:class:`planar3p_gym.envs.core.Planar3PEnv`) provides it; a task never imports
+    the environment's module, so the layers stay one-way (tasks below envs)."""
+
+    design: Design
+    task_config: task.TaskConfig
+    reward_weights: RewardWeights
+    #: Control period (s) and the breakdown threshold on the loop-closure error (m).
+    dt: float
+    breakdown_distance: float
+    np_random: np.random.Generator
+
+    @property
+    def sim(self) -> Planar3PSim: ...
+
+    @property
+    def modes(self) -> list[tuple[int, int, int]]:
+        """Working modes episodes may start in."""
+        ...
+
+
 class Task:
     """Base class of the tasks; see the module docstring for the contract.
 
@@ -151,10 +177,10 @@ class Task:
     parallel_barrier: ClassVar[bool] = True
     serial_barrier: ClassVar[bool] = True
 
-    env: Planar3PEnv
+    env: TaskEnv
 
     # ------------------------------------------------------------------ set-up
-    def bind(self, env: Planar3PEnv) -> None:
+    def bind(self, env: TaskEnv) -> None:
         """Attach to ``env`` (its design, working modes, task config, reward weights, ``dt``).
         Raise ``ValueError`` here if no episode can exist under the env's settings.
         Subclasses call this first (it also starts the cache of :meth:`pose_sampler`)."""

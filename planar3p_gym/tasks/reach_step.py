@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numba import njit
 
+from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.margins import leg_margins, leg_margins_batch
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.tasks import rewards
@@ -31,7 +32,6 @@ from planar3p_gym.tasks.observation import OBS_SIZE, within_tolerances, write_re
 from planar3p_gym.tasks.rewards import TERM_NAMES, weighted_terms_batch
 
 if TYPE_CHECKING:
-    from planar3p_gym.envs.core import Planar3PEnv
     from planar3p_gym.sim.batch_step import BatchState
     from planar3p_gym.sim.physics import SimState
 
@@ -53,18 +53,27 @@ class ReachStep:
     """Fused outputs of a reach step of ``env`` (module docstring); constants cached here.
 
     Args:
-        env: a :class:`~planar3p_gym.envs.core.Planar3PEnv` with ``projection=True`` and the reach
-            task.
+        design: the machine (:class:`~planar3p_gym.machine.design.Design`).
+        low, high: the observation's bounds (31 values).
+        weights: the reward weights (:class:`~planar3p_gym.tasks.rewards.RewardWeights`).
+        tolerances: position (m), orientation (rad) and rest-speed (m/s) tolerances of the
+            success test (:attr:`~planar3p_gym.tasks.sampling.TaskConfig.success_tolerances`).
     """
 
-    def __init__(self, env: Planar3PEnv) -> None:
-        d = env.design
-        self.k = d.joint_offsets
-        self.legs = d.leg_lengths
-        self.ref = d.characteristic_length
-        self.low, self.high = env._obs_low, env._obs_high
-        self.weights = env.reward_weights
-        self.tolerances = env.task_config.success_tolerances
+    def __init__(
+        self,
+        design: Design,
+        low: np.ndarray,
+        high: np.ndarray,
+        weights: rewards.RewardWeights,
+        tolerances: tuple[float, float, float],
+    ) -> None:
+        self.k = design.joint_offsets
+        self.legs = design.leg_lengths
+        self.ref = design.characteristic_length
+        self.low, self.high = low, high
+        self.weights = weights
+        self.tolerances = tolerances
 
     def outputs(
         self,

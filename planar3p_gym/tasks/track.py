@@ -59,10 +59,10 @@ from typing import Any, ClassVar
 import numpy as np
 
 from planar3p_gym.machine import kinematics
-from planar3p_gym.machine.motions import MIN_JERK_PEAK
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.base import Pose, Task, pose_list
+from planar3p_gym.tasks.motions import MIN_JERK_PEAK
 from planar3p_gym.tasks.observation import SPEED_BOUND_FACTOR
 from planar3p_gym.tasks.track_references import (
     CHECK_POINTS,

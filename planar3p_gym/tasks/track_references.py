@@ -1,7 +1,7 @@
 """The references of :mod:`planar3p_gym.tasks.track`: their JSON form, checked
 (:func:`parse_reference`), and the pose and velocity they prescribe at a time
 (:func:`reference_at`).  Random segments follow the minimum-jerk time law
-(:func:`planar3p_gym.machine.motions.minimum_jerk`) between waypoints; the figure-eight is
+(:func:`planar3p_gym.tasks.motions.minimum_jerk`) between waypoints; the figure-eight is
 ``x = cx + ax sin phi``, ``y = cy + ay sin 2 phi``, ``theta = ctheta + atheta sin phi`` with a
 smooth ramp of the phase from rest.
 """
@@ -13,8 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from planar3p_gym.machine.motions import minimum_jerk
 from planar3p_gym.tasks.base import Task, pose_list
+from planar3p_gym.tasks.motions import minimum_jerk
 
 __all__ = [
     "CHECK_POINTS",

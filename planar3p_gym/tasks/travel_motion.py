@@ -3,7 +3,7 @@ followed with a minimum-jerk time law (:mod:`planar3p_gym.tasks.assembly_change`
 
 Used by the task's sampler (:func:`planar3p_gym.tasks.crossing_checks.verify_crossing`) and by
 the crossing baseline (:class:`planar3p_agents.controllers.crossing.CrossingController`).  The time law,
-:func:`planar3p_gym.machine.motions.minimum_jerk`, is re-exported here under its old name.
+:func:`planar3p_gym.tasks.motions.minimum_jerk`, is re-exported here under its old name.
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
-from planar3p_gym.machine.motions import MIN_JERK_PEAK, minimum_jerk
 from planar3p_gym.tasks import sampling as task
+from planar3p_gym.tasks.motions import MIN_JERK_PEAK, minimum_jerk
 
 __all__ = [
     "TravelCurve",
