@@ -141,10 +141,14 @@ def test_modes_agree_for_small_motions():
     np.testing.assert_allclose(total, a_sim, rtol=1e-5, atol=1e-7)
 
 
-def test_modes_agree_in_closed_loop_for_a_small_motion(env):
+def test_modes_agree_in_closed_loop_for_a_small_motion():
     """A small pure rotation: while the sequential controller rotates, both modes issue the
     same commands and the simulated motions coincide; both reach the target, the sequential
-    one stopping its rotation within its phase threshold."""
+    one stopping its rotation within its phase threshold.  On the unprojected model, whose
+    gripper keeps its position to 1e-5 m during a pure rotation command; on the exact machine
+    the simultaneous controller corrects a position drift of ~0.2 mm that the sequential one
+    leaves to its later phases, so their commands differ by ~1 %."""
+    env = gym.make(planar3p_gym.ENV_ID, projection=False)
     target = EASY_START + np.array([0.0, 0.0, math.radians(2.0)])
     paths, finals = [], []
     for mode in ("simultaneous", "sequential"):

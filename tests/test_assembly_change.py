@@ -64,7 +64,9 @@ def test_infeasible_requests_raise(env):
 
 def test_gravity_in_the_plane_is_rejected_at_construction():
     with pytest.raises(ValueError, match="too few feasible assembly changes"):
-        Planar3PAssemblyChangeEnv(design=Design.fig8())
+        # (On the unprojected model; see the closing note of the layout issue: on the exact
+        # machine the simulated demonstration crossings under gravity pass the check.)
+        Planar3PAssemblyChangeEnv(design=Design.fig8(), projection=False)
 
 
 def test_reward_has_no_parallel_barrier(env):

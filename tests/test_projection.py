@@ -186,11 +186,19 @@ def test_random_soak_closes_the_loop_on_every_step():
     working modes: the mechanism runs into end stops, saturates and passes close to (and
     through) parallel singularities.  On every step the closure error, as reported and as
     measured from the pymunk bodies, is at most 1e-9 m; wherever the parallel margin is at
-    least 0.02 the pose is within 1e-6 m of the exact DK of the travels (every 5th step)."""
+    least 0.02 the pose is within 1e-6 m of the exact DK of the travels (every 5th step).
+
+    Except on the few steps where the projection reports that it failed (closure error inf:
+    an environment's episode ends there with ``"physics_breakdown"``): they come in the runs
+    where the solver's step near a parallel singularity left the chain far open, which the
+    projection used to turn into a silent jump of the sliders (issue 27: in 6 of these 16
+    runs by up to 29 cm, at up to 21 m/s, 23 cm past an end stop).  Every other step keeps
+    its sliders on their stroke and within the rate limit (tests/test_end_stops.py)."""
     kin = ScalarKinematics(DESIGN)
     rng = np.random.default_rng(5)
     worst_closure = worst_body = worst_gap = 0.0
-    low_margin_steps = checked = 0
+    low_margin_steps = checked = failed = 0
+    limit = LoopProjector(DESIGN).rate_limit
     for mode in [(1, 1, -1), (1, 1, 1), (-1, -1, 1), (1, -1, -1)]:
         for p in starts(mode, 4, seed=2):
             sim = Planar3PSim(DESIGN, p, mode, **V1)
@@ -198,6 +206,11 @@ def test_random_soak_closes_the_loop_on_every_step():
                 if n % 10 == 0:
                     cmd = rng.uniform(-1.0, 1.0, 3) * DESIGN.max_speed
                 st = sim.step(cmd)
+                if st.closure_error == math.inf:
+                    failed += 1
+                    continue
+                assert -5e-4 <= min(st.rho) and max(st.rho) <= DESIGN.stroke + 5e-4
+                assert max(abs(r) for r in st.rho_dot) <= limit
                 worst_closure = max(worst_closure, st.closure_error)
                 worst_body = max(worst_body, sim._read().closure_error)
                 margin = kin.measures(st.pose, st.rho).parallel_margin
@@ -207,6 +220,7 @@ def test_random_soak_closes_the_loop_on_every_step():
                     checked += 1
     assert low_margin_steps > 50  # the soak did go near parallel singularities
     assert checked > 400
+    assert failed <= 0.01 * 16 * 200, failed
     assert worst_closure <= CLOSURE_TARGET, worst_closure
     assert worst_body <= CLOSURE_TARGET, worst_body
     assert worst_gap <= DK_TARGET, worst_gap

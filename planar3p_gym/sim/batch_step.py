@@ -13,7 +13,10 @@ CPUs with AVX-512), are evaluated with :mod:`math`, element by element (:func:`_
 Newton iteration's data-dependent control flow (convergence, the restart with free sliders,
 the step limits) is followed per simulation with masks: a simulation that has stopped keeps
 its coordinates, and re-evaluating the loop equations at unchanged coordinates gives the
-same values, so its final quantities are those it stopped with.
+same values, so its final quantities are those it stopped with.  The rare paths off the common
+one (a free slider that the correction would move past an end stop, a failed projection, a
+slider above the rate limit) are detected with the same tests and those simulations are
+projected by :meth:`LoopProjector.project` itself, one by one.
 
 ``tests/test_vector_env.py`` checks the native vector env, which steps through these,
 against single environments, bit for bit.
@@ -27,9 +30,11 @@ from typing import Any
 import numpy as np
 
 from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT
+from planar3p_gym.sim.physics import _wrap as _wrap_float
 from planar3p_gym.sim.projection import (
     HELD_CONDITION,
     HELD_NEWTON_STEPS,
+    MAX_CLOSURE_ERROR,
     MAX_NEWTON_STEPS,
     POSITION_TOLERANCE,
     STOP_CONTACT,
@@ -102,6 +107,8 @@ class BatchProjector:
         self.ft = 2.0 * self.legs * POSITION_TOLERANCE
         self.dc, self.kq, self.stroke = p.d_centre, p.k_q, p.stroke
         self.ip, self.ii, self.free = 1.0 / p.m_platform, 1.0 / p.i_q, 1.0 / p.m_rho
+        self.rate_limit, self.dt, self.reach = p.rate_limit, p.dt, p.reach
+        self.scalar = p
 
     def project(self, buf: np.ndarray, saturated: np.ndarray) -> BatchState:
         """Project the readouts in ``buf`` (shape ``(N, >= 60)``: ``x, y, angle, vx, vy, w``
@@ -117,6 +124,11 @@ class BatchProjector:
         ip, ii, free = self.ip, self.ii, self.free
         inv = np.where(saturated, free, 0.0)  # (3, N) inverse masses of the sliders
         hold = ~saturated.all(axis=0)
+        free_phase = ~hold  # (LoopProjector.project's free_phase)
+        # Simulations whose projection leaves the common path (a slider that the correction
+        # puts past an end stop, a failure, a slider above the rate limit): LoopProjector
+        # itself projects them (below), so they get its numbers whatever path it takes.
+        scalar = np.zeros(n, dtype=bool)
 
         th = v[2].copy()
         w = v[5].copy()
@@ -137,6 +149,7 @@ class BatchProjector:
                     d[i, j] = 0.0 if setpoint >= stroke else min(d[i, j], 0.0)
                 inv[i, j] = 0.0
             hold = hold | out.any(axis=0)
+        stopped = out
 
         start = (p.copy(), qx.copy(), qy.copy(), th.copy(), c.copy(), s.copy())
         limit = np.where(hold, HELD_NEWTON_STEPS, MAX_NEWTON_STEPS)
@@ -161,19 +174,31 @@ class BatchProjector:
                 h13 = g12 * g23 - g13 * g22
                 det = g11 * h11 + g12 * h12 + g13 * h13
                 converged = ((-self.ft <= f) & (f <= self.ft)).all(axis=0)
-                restart = (
+                trigger = (
                     active
                     & hold
                     & ((det <= HELD_CONDITION * g11 * g22 * g33) | (~converged & (steps >= limit)))
                 )
+                restart = trigger & ~free_phase
+                # A failure, or a converged correction with a free slider past an end stop.
+                leave = (trigger & free_phase) | (
+                    active
+                    & ~trigger
+                    & converged
+                    & ((inv != 0.0) & ((p < 0.0) | (p > stroke))).any(axis=0)
+                )
+                if leave.any():
+                    scalar |= leave
+                    active = active & ~leave
                 if restart.any():
                     p0, qx0, qy0, th0, c0, s0 = start
                     p = np.where(restart, p0, p)
                     qx, qy = np.where(restart, qx0, qx), np.where(restart, qy0, qy)
                     th = np.where(restart, th0, th)
                     c, s = np.where(restart, c0, c), np.where(restart, s0, s)
-                    inv = np.where(restart, free, inv)
-                    hold = hold & ~restart
+                    inv = np.where(restart, np.where(stopped, 0.0, free), inv)
+                    hold = np.where(restart, stopped.any(axis=0), hold)
+                    free_phase = free_phase | restart
                     limit = np.where(restart, steps + MAX_NEWTON_STEPS, limit)
                 active = active & (restart | ~(converged | (steps >= limit) | (det <= 0.0)))
                 move = active & ~restart
@@ -207,6 +232,14 @@ class BatchProjector:
             root = np.sqrt(nn)
             err = np.abs(root - legs)
             closure = np.maximum(np.maximum(err[0], err[1]), err[2])
+            # LoopProjector.project's failure tests: closure, det, the reach of each slider
+            # from its drive's setpoint at the start of the step.
+            was = v[[12, 30, 48]] - a - v[[15, 33, 51]] * self.dt
+            scalar |= (
+                ~(closure <= MAX_CLOSURE_ERROR)
+                | (det <= 0.0)
+                | ~(np.abs(p - was) <= self.reach).all(axis=0)
+            )
 
             # Velocities onto the tangent space where det > 0.
             h22 = g11 * g33 - g13 * g13
@@ -228,6 +261,8 @@ class BatchProjector:
             qvx = np.where(ok, qvx - (xm[0] + xm[1] + xm[2]) * ip, qvx)
             qvy = np.where(ok, qvy - (ym[0] + ym[1] + ym[2]) * ip, qvy)
             w = np.where(ok, w - (tm[0] + tm[1] + tm[2]) * ii, w)
+            limit_ = self.rate_limit
+            scalar |= ~((-limit_ <= d) & (d <= limit_)).all(axis=0)
 
             ws, wc = w * s, w * c
             b = a + p
@@ -250,6 +285,23 @@ class BatchProjector:
                 rows[o + 15] = 0.5 * (d[i] + cx[i])
                 rows[o + 16] = 0.5 * cy[i]
                 rows[o + 17] = (x[i] * cy[i] - y[i] * (cx[i] - d[i])) / nn[i]
+            pose = np.stack((qx - kq * c, qy - kq * s, _wrap(th)))
+            twist = np.stack((qvx + kq * ws, qvy - kq * wc, w))
+            for j in np.nonzero(scalar)[0].tolist():
+                pr = self.scalar.project(
+                    v[:, j].tolist(), tuple(bool(b) for b in saturated[:, j].tolist())
+                )
+                rows[:, j] = pr.bodies
+                p[:, j], d[:, j], al[:, j], twist[:, j] = (
+                    pr.rho,
+                    pr.rho_dot,
+                    pr.leg_angles,
+                    pr.twist,
+                )
+                pose[:, j] = (pr.pose[0], pr.pose[1], _wrap_float(pr.pose[2]))
+                closure[j] = pr.closure_error
+                x1, y1, x2, y2, x3, y3, c[j], s[j] = pr.geometry
+                x[:, j], y[:, j] = (x1, x2, x3), (y1, y2, y3)
             # Drive setpoints within the following-error limit of their sliders.
             for o in (12, 30, 48):
                 slider_x = rows[o - 6]
@@ -261,8 +313,6 @@ class BatchProjector:
                     np.where(behind, slider_x - FOLLOWING_ERROR_LIMIT, rows[o]),
                 )
             buf[:, :60] = rows.T
-            pose = np.stack((qx - kq * c, qy - kq * s, _wrap(th)))
-            twist = np.stack((qvx + kq * ws, qvy - kq * wc, w))
             total = (
                 p.sum(axis=0)
                 + d.sum(axis=0)

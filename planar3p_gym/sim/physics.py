@@ -30,7 +30,12 @@ mass-weighted Newton steps on the three loop equations, velocities onto their ta
 legs rebuilt from their joints) and written back into pymunk, which keeps doing the dynamics
 (gravity, force-limited servos, end stops).  The drift no longer accumulates, so the solver can
 run fewer substeps and iterations (:data:`PROJECTED_SUBSTEPS`, :data:`PROJECTED_ITERATIONS`).
-The reported ``closure_error`` is then the largest leg-length error left by the projection.
+The reported ``closure_error`` is then the largest leg-length error left by the projection,
+or ``inf`` where the projection failed (no closed state with the sliders on their stroke near
+the simulated one, or a slider moved farther in the step than the rate limit allows: the
+projection's module docstring, "Failure"); the state is then not finite and the environments
+end the episode with ``"physics_breakdown"``.  The projection holds the end stops as
+constraints and bounds the slider rates (``tests/test_end_stops.py``).
 Two details of the model differ with projection, both for what few solver iterations leave:
 the servo's arm is long (:data:`PROJECTED_SERVO_ARM`), so a slider's small excursions off its
 rail do not leak into the servo's direction; and the grooves only keep the sliders on their
@@ -138,7 +143,8 @@ class SimState(NamedTuple):
             last control step (N).
         saturated: whether each servo hit ``max_force`` during the last control step.
         closure_error: largest joint separation of the loop (m): pivots at ``B_i``, ``C_i``
-            and the sliders' distance from their rail line.
+            and the sliders' distance from their rail line (with projection: the largest
+            leg-length error, ``inf`` where the projection failed).
     """
 
     time: float
@@ -293,7 +299,9 @@ class Planar3PSim:
         self._forces = (0.0, 0.0, 0.0)
         self._saturated = (False, False, False)
         self.projection = bool(projection)
-        self._projector = LoopProjector(design) if self.projection else None
+        self._projector = (
+            LoopProjector(design, self.dt, FOLLOWING_ERROR_LIMIT) if self.projection else None
+        )
         self._origin = (
             (float(p[0]), float(p[1]), float(p[2])),
             tuple(int(m) for m in working_mode),

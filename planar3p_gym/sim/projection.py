@@ -28,17 +28,39 @@ differential-algebraic equations):
   :data:`HELD_CONDITION`), and near a fold of the direct kinematics the held travels may have
   no pose nearby (Newton has not converged after :data:`HELD_NEWTON_STEPS`); then the
   projection starts again with every slider moving with its own mass.
-* **End stops**: a slider found past an end of its stroke is put back just into contact with
-  the stop (:data:`STOP_CONTACT`) and held there during the projection.  Its velocity: zero
+* **End stops** are constraints of the projection: a slider found past an end of its stroke
+  is put back just into contact with the stop (:data:`STOP_CONTACT`) and held there during
+  the projection, and so is a free slider that the correction would move past a stop (the
+  correction is then solved again from the start with it held: near a parallel singularity
+  the correction with free sliders can move them far along their rails).  Its velocity: zero
   while its servo's setpoint lies beyond the stop (the servo pushes it onto the stop: it rests
   there; the velocity the solver leaves after an impact would otherwise make it bounce off
-  and back every step), else only its component away from the stop is kept (it leaves).
+  and back every step), else only its component away from the stop is kept (it leaves).  A
+  slider held on a stop stays held when the projection starts again with free sliders.
 * **Positions**: Newton steps of the mass-weighted minimal correction
   ``dq = -W^-1 J^T (J W^-1 J^T)^-1 f / 2`` until every leg-length error is below
   :data:`POSITION_TOLERANCE` (m), at most :data:`MAX_NEWTON_STEPS`.
 * **Velocities**: ``q_dot`` is projected onto ``J q_dot = 0`` in the same metric,
   ``q_dot' = q_dot - W^-1 J^T (J W^-1 J^T)^-1 J q_dot`` (the correction is the smallest change
   of the kinetic energy measured by ``W`` that restores the joints, and never increases it).
+  **Rate limit**: where a slider would then be faster than ``(1 + RATE_ALLOWANCE) max_speed``
+  (:attr:`LoopProjector.rate_limit`), ``q_dot'`` is scaled down as a whole to it (it stays
+  tangent, sliders on a stop stay at rest or leaving, the kinetic energy only falls).
+* **Failure**: where no closed state with the sliders on their stroke is found near the
+  simulated one, the projection says so: :attr:`Projected.closure_error` is ``inf``, which
+  the simulation reports as a non-finite state and the environments as
+  ``"physics_breakdown"``.  That is when, with the sliders on stops held, the correction is
+  too ill-conditioned (every other slider already free: e.g. all three on stops at a
+  parallel singularity) or Newton leaves a leg-length error above :data:`MAX_CLOSURE_ERROR`,
+  and (given the control period ``dt``) when a slider ends farther from where it was at the
+  start of the step than the rate limit allows: its drive's setpoint then (known from the
+  readout: its position less the commanded velocity times ``dt``) is within the following
+  error of the slider, so the bound is ``following_error + rate_limit dt`` (21 mm on the
+  default design at 50 Hz; the servos move a slider 4 mm a step).  Near a parallel
+  singularity one step of the solver can leave the chain centimetres to metres open at many
+  m/s; without this test the correction turned that into a silent jump of the sliders.  The
+  failed state is still written back (travels put within the stroke, velocities as
+  simulated under the rate limit); the episode ends there.
 * **Legs** (positions, angles, velocities, angular velocities) are then recomputed from the
   slider and platform values.
 
@@ -56,8 +78,10 @@ from planar3p_gym.machine.design import Design
 __all__ = [
     "HELD_CONDITION",
     "HELD_NEWTON_STEPS",
+    "MAX_CLOSURE_ERROR",
     "MAX_NEWTON_STEPS",
     "POSITION_TOLERANCE",
+    "RATE_ALLOWANCE",
     "STOP_CONTACT",
     "LoopProjector",
     "Projected",
@@ -65,6 +89,16 @@ __all__ = [
 
 #: Leg-length error (m) below which the position projection stops.
 POSITION_TOLERANCE = 1e-11
+#: Largest leg-length error (m) a successful projection leaves; a larger one (Newton has not
+#: converged) makes the projection fail (:attr:`Projected.closure_error` is then ``inf``).
+MAX_CLOSURE_ERROR = 1e-9
+#: Slider rates above the servos' ``max_speed`` that the projection allows, in units of
+#: ``max_speed``: the rate limit is ``(1 + RATE_ALLOWANCE) max_speed`` (1 m/s on the default
+#: design).  A servo drives its slider at most at ``max_speed`` plus its following-error
+#: correction (0.02 m/s); a saturated servo's slider is moved faster by the chain when a leg
+#: stops against an end stop or near a parallel singularity (the unprojected model,
+#: ``Planar3P-v0``, reaches 3.5 ``max_speed`` in 300 000 random and bang-bang steps).
+RATE_ALLOWANCE = 4.0
 #: A slider past an end stop is put back this far into it (m): touching, so the stop keeps
 #: holding it during the next step.
 STOP_CONTACT = 1e-9
@@ -92,6 +126,7 @@ class Projected(NamedTuple):
         leg_angles: ``alpha_i = atan2(u_iy, u_ix)`` (rad, in ``(-pi, pi]``).
         closure_error: largest leg-length error ``| |C_i - B_i| - L_i |`` after the projection
             (m); the joints at ``B_i`` and the rails are closed exactly by construction.
+            ``inf`` when the projection failed (module docstring, "Failure").
         newton_steps: position Newton steps taken.
         geometry: ``(u_1x, u_1y, u_2x, u_2y, u_3x, u_3y, cos theta, sin theta)``: the leg
             vectors ``u_i = C_i - B_i`` (m) at the projected pose (what the configuration
@@ -126,9 +161,19 @@ class LoopProjector:
 
     Args:
         design: the machine (its masses give the metric, its geometry the loop equations).
+        dt: the control period (s) of the simulation whose readouts are projected; with it,
+            a projection that leaves a slider farther from where it was at the start of the
+            step than the rate limit allows fails (module docstring, "Failure").  ``None``
+            (the default): no such check (for readouts that are not simulation steps).
+        following_error: the largest distance (m) between a slider and its drive's setpoint
+            at the start of a step (the simulation's
+            :data:`~planar3p_gym.physics.FOLLOWING_ERROR_LIMIT`); with ``dt``, where a slider
+            was is known from its drive to within it.
     """
 
-    def __init__(self, design: Design) -> None:
+    def __init__(
+        self, design: Design, dt: float | None = None, following_error: float = 0.0
+    ) -> None:
         self.design = design
         k = design.joint_offsets
         m_leg, m_p = design.leg_mass, design.platform_mass
@@ -148,6 +193,12 @@ class LoopProjector:
         self.legs = design.leg_lengths
         self.origins = design.rail_origins
         self.stroke = design.stroke
+        #: Largest slider rate the projection leaves (m/s, :data:`RATE_ALLOWANCE`).
+        self.rate_limit = (1.0 + RATE_ALLOWANCE) * design.max_speed
+        #: The control period (s; 0 without one) and the farthest (m) a slider may end from
+        #: its drive's setpoint at the start of the step (``inf``: no check).
+        self.dt = 0.0 if dt is None else float(dt)
+        self.reach = math.inf if dt is None else float(following_error) + self.rate_limit * self.dt
         l1, l2, l3 = self.legs
         self._constants = (
             self.origins,
@@ -162,6 +213,9 @@ class LoopProjector:
             1.0 / self.m_platform,
             1.0 / self.i_q,
             1.0 / self.m_rho,
+            self.rate_limit,
+            self.dt,
+            self.reach,
         )
 
     def project(
@@ -174,7 +228,7 @@ class LoopProjector:
         moves with its own mass; otherwise its servo holds it, see the module docstring)."""
         (
             (a1, a2, a3), (r1, r2, r3), (l1, l2, l3), (ll1, ll2, ll3), (ft1, ft2, ft3),
-            dc, kq, stroke, ip, ii, free,
+            dc, kq, stroke, ip, ii, free, rate_limit, dt, reach,
         ) = self._constants  # fmt: skip
         i1 = free if saturated[0] else 0.0
         i2 = free if saturated[1] else 0.0
@@ -187,15 +241,22 @@ class LoopProjector:
         qvx, qvy = pvx + dc * w * s, pvy - dc * w * c
         p1, p2, p3 = v[6] - a1, v[24] - a2, v[42] - a3
         d1, d2, d3 = v[9], v[27], v[45]
+        # Whether every servo-held slider has been freed (no restart left); which sliders sit
+        # on an end stop (held there for the rest of the projection).
+        free_phase = not hold
+        stop1 = stop2 = stop3 = False
         if not (0.0 <= p1 <= stroke and 0.0 <= p2 <= stroke and 0.0 <= p3 <= stroke):
             # A slider past an end stop (rare path): into the stop and held (the argument
             # after its rate is its servo's setpoint).
             if p1 < 0.0 or p1 > stroke:
                 p1, d1, i1 = _at_stop(p1, d1, v[12] - a1, stroke)
+                stop1 = True
             if p2 < 0.0 or p2 > stroke:
                 p2, d2, i2 = _at_stop(p2, d2, v[30] - a2, stroke)
+                stop2 = True
             if p3 < 0.0 or p3 > stroke:
                 p3, d3, i3 = _at_stop(p3, d3, v[48] - a3, stroke)
+                stop3 = True
             hold = True
 
         # All three held: the rho block of J W^-1 J^T and the travel updates vanish; skipping
@@ -204,6 +265,7 @@ class LoopProjector:
         start = (p1, p2, p3, qx, qy, th, c, s)
         limit = HELD_NEWTON_STEPS if hold else MAX_NEWTON_STEPS
         steps = 0
+        failed = False
         while True:
             # Leg vectors u_i = C_i - B_i and the loop residuals f_i = |u_i|^2 - L_i^2.
             x1, y1 = qx + r1 * c - a1 - p1, qy + r1 * s
@@ -234,12 +296,46 @@ class LoopProjector:
             if hold and (
                 det <= HELD_CONDITION * g11 * g22 * g33 or (not converged and steps >= limit)
             ):
+                if free_phase:
+                    # Only sliders on their end stops are held, and the platform with the free
+                    # sliders cannot close the loop with them there: the projection fails.
+                    failed = True
+                    break
                 # Too close to a parallel singularity for the platform alone (or no pose near
-                # for the held travels): start again with every slider free.
+                # for the held travels): start again with every slider free but those on an
+                # end stop.
                 p1, p2, p3, qx, qy, th, c, s = start
-                i1 = i2 = i3 = free
-                hold = held3 = False
+                i1 = 0.0 if stop1 else free
+                i2 = 0.0 if stop2 else free
+                i3 = 0.0 if stop3 else free
+                hold = stop1 or stop2 or stop3
+                held3 = stop1 and stop2 and stop3
+                free_phase = True
                 limit = steps + MAX_NEWTON_STEPS
+                continue
+            if converged and (
+                (i1 != 0.0 and not 0.0 <= p1 <= stroke)
+                or (i2 != 0.0 and not 0.0 <= p2 <= stroke)
+                or (i3 != 0.0 and not 0.0 <= p3 <= stroke)
+            ):
+                # The end stops are constraints of the projection: a free slider that the
+                # correction put past a stop is fixed at the stop (velocity into it removed,
+                # :func:`_at_stop`) and the correction solved again from the start with it held.
+                e1, e2, e3, qx, qy, th, c, s = start
+                if i1 != 0.0 and not 0.0 <= p1 <= stroke:
+                    e1, d1, i1 = _at_stop(p1, d1, v[12] - a1, stroke)
+                    stop1 = True
+                if i2 != 0.0 and not 0.0 <= p2 <= stroke:
+                    e2, d2, i2 = _at_stop(p2, d2, v[30] - a2, stroke)
+                    stop2 = True
+                if i3 != 0.0 and not 0.0 <= p3 <= stroke:
+                    e3, d3, i3 = _at_stop(p3, d3, v[48] - a3, stroke)
+                    stop3 = True
+                start = (e1, e2, e3, qx, qy, th, c, s)
+                p1, p2, p3 = e1, e2, e3
+                hold = True
+                held3 = i1 == 0.0 and i2 == 0.0 and i3 == 0.0
+                limit = steps + (MAX_NEWTON_STEPS if free_phase else HELD_NEWTON_STEPS)
                 continue
             if converged or steps >= limit or det <= 0.0:
                 break
@@ -261,9 +357,33 @@ class LoopProjector:
             c, s = math.cos(th), math.sin(th)
             steps += 1
         closure = max(abs(math.sqrt(n1) - l1), abs(math.sqrt(n2) - l2), abs(math.sqrt(n3) - l3))
-
-        # Velocities: q_dot' = q_dot - W^-1 J^T G^-1 J q_dot, with J at the projected q.
-        if det > 0.0:
+        if (
+            failed
+            or not closure <= MAX_CLOSURE_ERROR
+            or det <= 0.0
+            # Each slider within reach of where it was at the start of the step: its drive's
+            # setpoint then (now less the commanded velocity times dt).
+            or not abs(p1 - (v[12] - a1 - v[15] * dt)) <= reach
+            or not abs(p2 - (v[30] - a2 - v[33] * dt)) <= reach
+            or not abs(p3 - (v[48] - a3 - v[51] * dt)) <= reach
+        ):
+            # No closed state with the sliders on their stroke near the simulated one: the
+            # step is reported as failed (closure error inf, a physics breakdown), with every
+            # travel put within its stroke and the velocities left as simulated.
+            failed = True
+            closure = math.inf
+            if not 0.0 <= p1 <= stroke:
+                p1, d1, i1 = _at_stop(p1, d1, v[12] - a1, stroke)
+            if not 0.0 <= p2 <= stroke:
+                p2, d2, i2 = _at_stop(p2, d2, v[30] - a2, stroke)
+            if not 0.0 <= p3 <= stroke:
+                p3, d3, i3 = _at_stop(p3, d3, v[48] - a3, stroke)
+            x1, y1 = qx + r1 * c - a1 - p1, qy + r1 * s
+            x2, y2 = qx + r2 * c - a2 - p2, qy + r2 * s
+            x3, y3 = qx + r3 * c - a3 - p3, qy + r3 * s
+            n1, n2, n3 = x1 * x1 + y1 * y1, x2 * x2 + y2 * y2, x3 * x3 + y3 * y3
+        else:
+            # Velocities: q_dot' = q_dot - W^-1 J^T G^-1 J q_dot, with J at the projected q.
             h22 = g11 * g33 - g13 * g13
             h23 = g12 * g13 - g11 * g23
             h33 = g11 * g22 - g12 * g12
@@ -280,6 +400,16 @@ class LoopProjector:
             qvx -= (x1 * m1 + x2 * m2 + x3 * m3) * ip
             qvy -= (y1 * m1 + y2 * m2 + y3 * m3) * ip
             w -= (t1 * m1 + t2 * m2 + t3 * m3) * ii
+        if not (
+            -rate_limit <= d1 <= rate_limit
+            and -rate_limit <= d2 <= rate_limit
+            and -rate_limit <= d3 <= rate_limit
+        ):
+            # A slider faster than the servos and the stops allow: the velocities scaled down
+            # as a whole (still tangent to the manifold; the kinetic energy only falls).
+            top = max(abs(d1), abs(d2), abs(d3))
+            k = rate_limit / top if rate_limit < top < math.inf else 0.0
+            d1, d2, d3, qvx, qvy, w = d1 * k, d2 * k, d3 * k, qvx * k, qvy * k, w * k
 
         # Bodies from the projected coordinates.  Leg i: midpoint of B_i C_i, along u_i, the
         # rigid motion of its two ends (B_i moves at (d_i, 0), C_i at Q_dot + r_i w e_perp).
