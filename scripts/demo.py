@@ -35,7 +35,7 @@ import gymnasium as gym  # noqa: E402
 import planar3p_gym  # noqa: E402
 from planar3p_agents.evaluation import reach_suites as su  # noqa: E402
 from planar3p_agents.evaluation.episode_gif import record_gif  # noqa: E402
-from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_suite, task_baseline  # noqa: E402
+from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_suite  # noqa: E402
 from planar3p_agents.policies.factory import (  # noqa: E402
     TRUSTED_FILES_NOTE,
     PolicyError,
@@ -62,9 +62,7 @@ def _benchmark_main():
 
 
 def _maker(spec: str, suite: str | None, seed: int):
-    """``env -> policy`` for a GIF: a task baseline on a task suite, else :func:`load_policy`."""
-    if suite is not None and spec in TASK_SUITES[suite].baselines:
-        return lambda env: task_baseline(spec, suite, env)
+    """``env -> policy`` for a GIF (:func:`load_policy` for the GIF's environment)."""
     return lambda env: load_policy(spec, env=env, seed=seed)
 
 

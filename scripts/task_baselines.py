@@ -24,7 +24,7 @@ def _print(label: str, figures: dict[str, float]) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     from planar3p_agents.studies.task_baselines import (
-        BASELINES,
+        STUDY_POLICIES,
         TABLE_HEADER,
         run_baselines,
         run_fidelity,
@@ -35,7 +35,7 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--episodes", type=int, default=50, help="episodes per id and policy")
     p.add_argument("--seed", type=int, default=0, help="first episode seed")
-    p.add_argument("--ids", default=",".join(BASELINES), help="comma-separated env ids")
+    p.add_argument("--ids", default=",".join(STUDY_POLICIES), help="comma-separated env ids")
     p.add_argument("--fidelity", action="store_true", help="run the crossing-fidelity study")
     p.add_argument(
         "--verify-rates",
@@ -93,9 +93,9 @@ def main(argv: list[str] | None = None) -> int:
                 _print(f"reach (no crossing), analytic: projection={projection} gravity={g}", f)
         return 0
     ids = [s for s in args.ids.split(",") if s]
-    unknown = [i for i in ids if i not in BASELINES]
+    unknown = [i for i in ids if i not in STUDY_POLICIES]
     if unknown:
-        print(f"error: unknown ids {unknown}; known: {list(BASELINES)}", file=sys.stderr)
+        print(f"error: unknown ids {unknown}; known: {list(STUDY_POLICIES)}", file=sys.stderr)
         return 2
     if args.gravity is not None and not (args.gravity >= 0 and args.gravity < 1e3):
         print("error: --gravity must be in [0, 1000) m/s^2", file=sys.stderr)
@@ -107,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
             from planar3p_gym.envs.assembly_change import assembly_change_design
 
             kwargs["design"] = assembly_change_design().with_(gravity=args.gravity)
-        for policy in BASELINES[env_id]:
+        for policy in STUDY_POLICIES[env_id]:
             try:
                 res = run_baselines(env_id, policy, args.episodes, args.seed, kwargs)
             except ValueError as exc:

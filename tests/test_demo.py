@@ -12,7 +12,7 @@ from conftest import load_script
 
 from planar3p_agents.controllers.floor import ZeroPolicy
 from planar3p_agents.evaluation.episode_gif import GIF_SIZE, record_gif
-from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_suite, task_baseline
+from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_suite
 from planar3p_agents.policies.factory import load_policy
 
 
@@ -34,7 +34,7 @@ def test_record_gif_plays_the_fixed_episode(tmp_path, mode_change_episode, monke
     env_id = TASK_SUITES["mode-change"].env_id
     outcome = record_gif(
         env_id,
-        lambda env: task_baseline("planner", "mode-change", env),
+        lambda env: load_policy("planner", env),
         mode_change_episode.reset_options(),
         tmp_path / "planner.gif",
         frame_every=3,

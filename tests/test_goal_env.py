@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import planar3p_gym
-from planar3p_agents.controllers.goal_adapter import GoalAdapter
+from planar3p_agents.policies.factory import load_policy
 from planar3p_gym.envs.goal import ROBOT_INDEX, flat_observation
 from planar3p_gym.tasks.goal import goal_of_pose, pose_of_goal
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
@@ -23,7 +23,7 @@ def analytic_episode(env: gym.Env, seed: int | None = None, options=None):
     """Run the analytic controller (through the goal adapter) to the end of an episode:
     ``(actions, [(obs, reward, terminated, truncated, info)])``."""
     obs, _ = env.reset(seed=seed, options=options)
-    ctrl = GoalAdapter.analytic(env)
+    ctrl = load_policy("analytic-simultaneous", env)
     actions, steps = [], []
     while True:
         a, _ = ctrl.predict(obs)

@@ -8,9 +8,11 @@ import pytest
 from task_helpers import play_episode
 
 import planar3p_gym  # noqa: F401
+from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.crossing import CrossingController
-from planar3p_agents.controllers.planner import BaseObservation, JointPathPlanner
-from planar3p_agents.studies.task_baselines import make_baseline, run_baselines
+from planar3p_agents.controllers.planner import JointPathPlanner
+from planar3p_agents.policies.factory import load_policy
+from planar3p_agents.studies.task_baselines import run_baselines
 
 
 def _play(env, policy, seed):
@@ -33,7 +35,7 @@ def test_simple_motions_do_not_change_working_mode():
     episodes it does not reach the target in the other working mode (in 6 of 50 seeded
     episodes it does, after the leg drifts across; README)."""
     env = gym.make("Planar3PModeChange-v0")
-    policy = make_baseline("analytic-simultaneous", env)
+    policy = load_policy("analytic-simultaneous", env)
     for seed in range(100, 103):
         info = _play(env, policy, seed)
         assert not info["is_success"] and not info["in_target_mode"]
@@ -55,15 +57,16 @@ def test_run_baselines_counts_episodes():
 
 def test_bad_input():
     env = gym.make("Planar3PModeChange-v0")
-    with pytest.raises(ValueError, match="unknown baseline"):
-        make_baseline("nope", env)
+    with pytest.raises(ValueError, match="unknown policy"):
+        load_policy("nope", env)
     with pytest.raises(ValueError, match="mode-change observation"):
         JointPathPlanner().predict(np.zeros(31))
     with pytest.raises(ValueError, match="observation"):
         CrossingController().predict(np.zeros(5))
     with pytest.raises(ValueError, match="speed_fraction"):
         JointPathPlanner(speed_fraction=0.0)
-    assert isinstance(make_baseline("analytic-simultaneous", env), BaseObservation)
+    analytic = load_policy("analytic-simultaneous", env)
+    assert isinstance(analytic, AnalyticController) and analytic.obs_size == 37
 
 
 def test_verification_rate_on_the_horizontal_machine():

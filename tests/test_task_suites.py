@@ -1,5 +1,5 @@
-"""Task suites (agents/evaluation/task_suites.py): seeded episode specs of the task ids, replayed exactly,
-their baselines, and the benchmark script on them."""
+"""Task suites (agents/evaluation/task_suites.py): seeded episode specs of the task ids,
+replayed exactly, their baselines, and the benchmark script on them."""
 
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ from planar3p_agents.evaluation import episodes as ep
 from planar3p_agents.evaluation import intervals as st
 from planar3p_agents.evaluation import reach_suites as su
 from planar3p_agents.evaluation import task_suites as ts
+from planar3p_agents.policies.factory import load_policy
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -57,8 +58,8 @@ def test_unknown_task_suite_and_baseline():
     with pytest.raises(ValueError, match="unknown task suite"):
         ts.make_task_suite("juggling", 2, seed=0)
     env = ts.make_task_env("goal")
-    with pytest.raises(ValueError, match="does not apply"):
-        ts.task_baseline("planner", "goal", env)
+    with pytest.raises(ValueError, match="does not apply to Planar3PGoal-v0"):
+        load_policy("planner", env)
 
 
 def test_tracking_suite_metrics_and_replay():
@@ -67,8 +68,8 @@ def test_tracking_suite_metrics_and_replay():
     the reference velocity forward removes most of the feedback controller's lag."""
     env = ts.make_task_env("track-figure-eight")
     suite = ts.make_task_suite("track-figure-eight", 2, seed=0, env=env)
-    ff = ts.task_baseline("analytic-feedforward", "track-figure-eight", env)
-    fb = ts.task_baseline("analytic-simultaneous", "track-figure-eight", env)
+    ff = load_policy("analytic-feedforward", env)
+    fb = load_policy("analytic-simultaneous", env)
     res_ff = ep.evaluate(env, ff, suite, policy_name="ff")
     res_fb = ep.evaluate(env, fb, suite, policy_name="fb")
     again = ep.evaluate(env, ff, suite, policy_name="ff")
@@ -109,13 +110,18 @@ def test_script_on_task_suites_and_replay(tmp_path, bench, capsys):
 
 
 def test_script_policies_that_do_not_apply(tmp_path, bench, capsys):
+    """A baseline is played on every suite whose id it supports (the registry's), skipped with
+    a warning on the others; a suite left without any policy is an error."""
     out = tmp_path / "x"
     base = ["--suites", "goal", "--episodes", "1", "--no-progress", "--out", str(out)]
-    assert bench.main([*base, "--policies", "analytic-sequential"]) == 2
-    assert "no policy" in capsys.readouterr().err and not out.exists()
-    assert bench.main([*base, "--policies", "baselines,random", "--no-plots"]) == 0
-    assert "random does not apply to task suite goal" in capsys.readouterr().err
-    assert [r["policy"] for r in read_csv(out / "episodes.csv")] == ["analytic-simultaneous"]
+    assert bench.main([*base, "--policies", "planner"]) == 2
+    err = capsys.readouterr().err
+    assert "planner does not apply to suite goal (Planar3PGoal-v0" in err and "no policy" in err
+    assert not out.exists()
+    assert bench.main([*base, "--policies", "baselines,crossing,random", "--no-plots"]) == 0
+    assert "crossing does not apply to suite goal" in capsys.readouterr().err
+    rows = read_csv(out / "episodes.csv")
+    assert [r["policy"] for r in rows] == ["analytic-simultaneous", "random"]
 
 
 def test_load_suite_policies_shares_reach_policies():
@@ -128,24 +134,28 @@ def test_load_suite_policies_shares_reach_policies():
     assert meta["zero"] == ("zero", None)
 
 
-def test_a_retuned_analytic_controller_plays_reach_suites_only():
-    """``analytic-simultaneous:gain=K`` is played on reach suites and skipped, with a warning,
-    on task suites (whose analytic baselines are the task's own adaptations)."""
+def test_a_retuned_analytic_controller_plays_every_suite():
+    """``analytic-simultaneous:gain=K`` is played on reach and task suites alike (the analytic
+    controller reads every id's observation); the task's own baselines are skipped, with a
+    warning, on a suite of another id."""
     reach = gym.make(planar3p_gym.ENV_ID)
     track = ts.make_task_env("track-segments")
     warnings: list[str] = []
     per_suite, meta = bm.load_suite_policies(
-        ["baselines", "analytic-simultaneous:gain=12"],
+        ["baselines", "analytic-simultaneous:gain=12", "planner"],
         ["standard", "track-segments"],
         {"standard": reach, "track-segments": track},
         warn=warnings.append,
     )
     assert per_suite["standard"]["analytic-simultaneous:gain=12"].position_gain == 12.0
-    assert "analytic-simultaneous:gain=12" not in per_suite["track-segments"]
+    retuned = per_suite["track-segments"]["analytic-simultaneous:gain=12"]
+    assert retuned.position_gain == 12.0 and retuned.obs_size == 34
     assert meta["analytic-simultaneous:gain=12"] == ("analytic-simultaneous:gain=12", None)
+    assert "analytic-feedforward" in per_suite["track-segments"]
+    assert not any("planner" in pols for pols in per_suite.values())
     assert warnings == [
-        "analytic-simultaneous:gain=12 does not apply to task suite track-segments (its "
-        f"baselines: {ts.TASK_SUITES['track-segments'].baselines})"
+        f"planner does not apply to suite {suite} ({env_id}; it plays on Planar3PModeChange-v0)"
+        for suite, env_id in (("standard", "Planar3P-v0"), ("track-segments", "Planar3PTrack-v0"))
     ]
 
 
@@ -158,7 +168,7 @@ def test_mode_and_assembly_change_suites(suite, baseline, flag):
     own flags in the metrics (target-describing ones left out), and an identical replay."""
     env = ts.make_task_env(suite)
     episodes = ts.make_task_suite(suite, 1, seed=0, env=env)
-    policy = ts.task_baseline(baseline, suite, env)
+    policy = load_policy(baseline, env)
     first = ep.evaluate(env, policy, episodes, policy_name=baseline)
     again = ep.evaluate(env, policy, episodes, policy_name=baseline)
     assert [r.row() for r in again] == [r.row() for r in first]

@@ -26,8 +26,13 @@ proportion: the platform creeps towards the singularity instead of being thrown 
 Rates vanish with the errors, which lets the environment's "at rest" success test pass.
 
 Only the observation is used: leg angles and platform orientation (as ``cos``/``sin``), and the
-position and orientation errors (``planar3p_gym.tasks.observation.SLICES``).  The calling convention
-is Stable-Baselines3's ``predict``, for single observations ``(31,)`` or batches ``(n, 31)``.
+position and orientation errors (``planar3p_gym.tasks.observation.SLICES``), all among the 31
+entries every flat observation of the package starts with.  The calling convention is
+Stable-Baselines3's ``predict``, for single observations ``(m,)`` or batches ``(n, m)``, with
+``m`` the ``observation_size`` the controller was made for (31, the entries of
+``Planar3P-v0``, by default; :meth:`AnalyticController.from_env` and
+:func:`planar3p_agents.policies.factory.load_policy` take the id's, e.g. 37 on
+``Planar3PModeChange-v0``).
 """
 
 from __future__ import annotations
@@ -107,6 +112,9 @@ class AnalyticController(BatchPolicy):
             ``|e_theta| <= rotation_done`` and is re-entered when ``|e_theta| >
             rotation_reenter`` (rad).
         vertical_done, vertical_reenter: the same for ``|e_y|`` and the vertical phase (m).
+        observation_size: length of the observations :meth:`predict` accepts (at least the
+            31 entries of ``Planar3P-v0``, which are the ones read; default the class's
+            ``obs_size``): the flat observation of the id the controller plays on.
 
     :meth:`predict` returns actions in ``[-1, 1]`` (slider rates over ``max_speed``), float32.
     """
@@ -126,6 +134,7 @@ class AnalyticController(BatchPolicy):
         rotation_reenter: float = math.radians(0.8),
         vertical_done: float = 0.0006,
         vertical_reenter: float = 0.0012,
+        observation_size: int | None = None,
     ) -> None:
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
@@ -164,14 +173,38 @@ class AnalyticController(BatchPolicy):
         self.rotation_reenter = float(rotation_reenter)
         self.vertical_done = float(vertical_done)
         self.vertical_reenter = float(vertical_reenter)
+        if observation_size is not None:
+            if not (
+                isinstance(observation_size, (int, np.integer))
+                and not isinstance(observation_size, bool)
+                and observation_size >= type(self).obs_size
+            ):
+                raise ValueError(
+                    f"observation_size must be an int >= {type(self).obs_size}, "
+                    f"got {observation_size!r}"
+                )
+            self.obs_size = int(observation_size)
         self._phase: NDArray[np.int64] | None = None
 
-    #: Length of the observations :meth:`predict` accepts (subclasses may append entries).
+    #: Default length of the observations :meth:`predict` accepts (``observation_size``
+    #: overrides it per controller; subclasses may need more entries).
     obs_size: int = OBS_SIZE
 
     @classmethod
     def from_env(cls, env: Any, mode: str = "simultaneous", **kwargs: Any) -> AnalyticController:
-        """A controller for the design of ``env`` (a ``Planar3PEnv``, possibly wrapped)."""
+        """A controller for the design and the flat observation of ``env`` (an env of the
+        package, possibly wrapped; :func:`planar3p_agents.controllers.layout.
+        observation_layout`).  ``ValueError`` for a goal env (``Dict`` observation): use
+        :func:`planar3p_agents.policies.factory.load_policy`, which adds the goal adapter."""
+        from planar3p_agents.controllers.layout import observation_layout
+
+        layout = observation_layout(env)
+        if layout.goal:
+            raise ValueError(
+                f"{layout.env_id} has a Dict observation: use "
+                f"planar3p_agents.policies.factory.load_policy(name, env)"
+            )
+        kwargs.setdefault("observation_size", layout.size)
         return cls(env.unwrapped.design, mode, **kwargs)
 
     def __repr__(self) -> str:
@@ -181,8 +214,9 @@ class AnalyticController(BatchPolicy):
         )
 
     # ------------------------------------------------------------------ SB3-style API
-    def reset(self) -> None:
-        """Forget the remembered phases (a new episode starts in the rotation phase)."""
+    def reset(self, seed: Any = None) -> None:
+        """Forget the remembered phases (a new episode starts in the rotation phase);
+        ``seed`` is accepted for the benchmark's calling convention (nothing is random)."""
         self._phase = None
 
     def act(

@@ -113,9 +113,18 @@ class PolicyAdapter:
         self.policy = policy
 
     def reset(self, seed: Any = None) -> None:
-        """Reset the wrapped policy's memory, if it has one."""
-        if callable(getattr(self.policy, "reset", None)):
-            self.policy.reset()
+        """Reset the wrapped policy's memory, if it has one (with ``seed`` when one is given
+        and the policy takes it, e.g. a random policy)."""
+        reset = getattr(self.policy, "reset", None)
+        if not callable(reset):
+            return
+        if seed is None:
+            reset()
+            return
+        try:
+            reset(seed=seed)
+        except TypeError:
+            reset()
 
     def adapt(self, observation: Any) -> Any:
         """The observation the wrapped policy is given."""

@@ -11,8 +11,8 @@ slider speed (feed-forward rates plus a proportional correction of the travel er
 verifies in simulation.  Near the singularity the servos saturate and the platform passes the
 singular pose on its momentum, onto the other branch of the direct kinematics, which the
 travel references then lead to the target.  Once the references have arrived, the paper's
-simultaneous simple motions (:class:`planar3p_agents.controllers.analytic.AnalyticController`) remove the remaining
-error.
+simultaneous simple motions
+(:class:`planar3p_agents.controllers.analytic.AnalyticController`) remove the remaining error.
 
 Calling convention: Stable-Baselines3's ``predict``; a new episode is recognised by
 ``episode_start`` (or :meth:`CrossingController.reset`).  The crossing-fidelity study that
@@ -28,7 +28,8 @@ from numpy.typing import NDArray
 
 from planar3p_agents.controllers.travel_follower import TravelFollower, observed_configuration
 
-# The fidelity study lives in planar3p_agents.studies.crossing_fidelity; its names stay importable from here.
+# The fidelity study lives in planar3p_agents.studies.crossing_fidelity; its names stay
+# importable from here.
 from planar3p_agents.studies.crossing_fidelity import (
     CROSSING_MARGIN,
     crossing_fidelity,

@@ -1,7 +1,8 @@
 """Floor references: a uniformly random policy and a zero (do-nothing) policy.
 
-Both follow Stable-Baselines3's ``predict`` convention (:class:`planar3p_agents.controllers.base.BatchPolicy`)
-and accept single observations ``(obs_dim,)`` or batches ``(n, obs_dim)`` of any length.
+Both follow Stable-Baselines3's ``predict`` convention
+(:class:`planar3p_agents.controllers.base.BatchPolicy`) and accept single observations
+``(obs_dim,)`` or batches ``(n, obs_dim)`` of any length.
 """
 
 from __future__ import annotations

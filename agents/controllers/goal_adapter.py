@@ -1,6 +1,9 @@
 """Run policies written for the flat observation of ``Planar3P-v0`` (e.g. the analytic
-controller) on the goal-conditioned envs (``Planar3PGoal-v0``, ``Planar3PGoalDense-v0``); its
-measurements there are in :mod:`planar3p_agents.studies.goal_track_baselines`."""
+controller) on the goal-conditioned envs (``Planar3PGoal-v0``, ``Planar3PGoalDense-v0``).
+
+:func:`planar3p_agents.policies.factory.load_policy` puts every built-in baseline that plays a
+goal id behind this adapter; the analytic controller's measurements there are in
+:mod:`planar3p_agents.studies.goal_track_baselines`."""
 
 from __future__ import annotations
 
@@ -9,7 +12,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.base import PolicyAdapter
 from planar3p_gym.envs.goal import flat_observation
 
@@ -32,12 +34,6 @@ class GoalAdapter(PolicyAdapter):
         if not length > 0:
             raise ValueError(f"length must be > 0 (m), got {length!r}")
         self.length = float(length)
-
-    @classmethod
-    def analytic(cls, env: Any, mode: str = "simultaneous", **kwargs: Any) -> GoalAdapter:
-        """The analytic controller for the design of ``env`` (a goal env, possibly wrapped)."""
-        design = env.unwrapped.design
-        return cls(AnalyticController(design, mode, **kwargs), design.characteristic_length)
 
     def adapt(self, observation: dict[str, ArrayLike]) -> np.ndarray:
         """The flat observation(s) of a goal observation (single or batched ``Dict``

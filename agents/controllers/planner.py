@@ -5,11 +5,9 @@
   the observed target (pose, travels and working mode are in the observation), follows it with
   minimum-jerk travel references (feed-forward rate plus a proportional correction of the
   travel error), and finishes with the paper's simultaneous simple motions
-  (:class:`planar3p_agents.controllers.analytic.AnalyticController`) once the travels have arrived.  Moving in
-  travel space is what lets a leg pass the perpendicular to its rail: the slider under an
-  upright leg just moves on while the platform stays put to first order.
-* :class:`BaseObservation` runs a policy written for the 31-entry ``Planar3P-v0`` observation
-  on a task whose observation appends entries (it drops them), e.g. the analytic controller.
+  (:class:`planar3p_agents.controllers.analytic.AnalyticController`) once the travels have
+  arrived.  Moving in travel space is what lets a leg pass the perpendicular to its rail: the
+  slider under an upright leg just moves on while the platform stays put to first order.
 
 Calling convention: Stable-Baselines3's ``predict`` (single observations or batches); a new
 episode is recognised by ``episode_start`` (as SB3's evaluation loops pass it) or by
@@ -18,32 +16,23 @@ episode is recognised by ``episode_start`` (as SB3's evaluation loops pass it) o
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
 from numpy.typing import NDArray
 
-from planar3p_agents.controllers.base import PolicyAdapter
+from planar3p_agents.controllers.layout import extra_slice, task_observation_size
 from planar3p_agents.controllers.travel_follower import TravelFollower, observed_configuration
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.joint_paths import PathLimits, find_joint_path
 from planar3p_gym.tasks.motions import MIN_JERK_PEAK, minimum_jerk
-from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
+from planar3p_gym.tasks.observation import SLICES
 
-__all__ = ["BaseObservation", "JointPathPlanner"]
+__all__ = ["JointPathPlanner"]
 
 #: Index of the target travels and target working mode in the mode-change observation.
-TARGET_TRAVELS = slice(OBS_SIZE, OBS_SIZE + 3)
-TARGET_MODE = slice(OBS_SIZE + 3, OBS_SIZE + 6)
-
-
-class BaseObservation(PolicyAdapter):
-    """``policy`` (SB3-style ``predict`` on the 31-entry observation) applied to the first 31
-    entries of a longer observation."""
-
-    def adapt(self, observation: Any) -> np.ndarray:
-        """The first 31 entries of each observation."""
-        return np.asarray(observation)[..., :OBS_SIZE]
+TARGET_TRAVELS = extra_slice("mode_change", "target_rho")
+TARGET_MODE = extra_slice("mode_change", "target_working_mode")
+#: Length of the mode-change observation.
+MODE_CHANGE_OBS_SIZE = task_observation_size("mode_change")
 
 
 class _Plan:
@@ -85,8 +74,10 @@ class JointPathPlanner(TravelFollower):
     observation).  If no certified path exists from there, the straight travel line is used.
     """
 
-    obs_size = OBS_SIZE + 6
-    obs_expected = f"({OBS_SIZE + 6},) or (n, {OBS_SIZE + 6}) (the mode-change observation)"
+    obs_size = MODE_CHANGE_OBS_SIZE
+    obs_expected = (
+        f"({MODE_CHANGE_OBS_SIZE},) or (n, {MODE_CHANGE_OBS_SIZE}) (the mode-change observation)"
+    )
 
     def __init__(
         self,

@@ -12,8 +12,9 @@ with ``base`` an analytic controller evaluated on the raw observation (actions a
 * :class:`ResidualTrackPolicy` (``Planar3PTrack-v0``): ``base`` is the feed-forward tracking
   controller (:class:`planar3p_agents.controllers.tracking.TrackingController`);
 * :class:`ResidualReachPolicy` (``Planar3P-v0``/``-v1``): ``base`` is the benchmark's
-  ``analytic-simultaneous`` controller (:class:`planar3p_agents.controllers.analytic.AnalyticController` with its
-  default gains), the controller the learned policy is compared with.
+  ``analytic-simultaneous`` controller
+  (:class:`planar3p_agents.controllers.analytic.AnalyticController` with its default gains),
+  the controller the learned policy is compared with.
 
 The head's output layer starts at zero, so the untrained policy's mean *is* the base controller,
 and the correction can never exceed ``residual_scale`` of the slider speed limit per slider.
@@ -29,8 +30,8 @@ features extractors scale the observation by fixed physical scales instead (pose
 error scale, speeds per ``max_speed``, travels over the stroke) and append the base action.
 
 Only the design's numbers are stored with a model (``policy_kwargs["design"]``, a
-:meth:`planar3p_gym.machine.design.Design.to_dict` mapping, default ``Design.fig8()``): the design of
-the environment it is played in must be the same.
+:meth:`planar3p_gym.machine.design.Design.to_dict` mapping, default ``Design.fig8()``): the
+design of the environment it is played in must be the same.
 """
 
 from __future__ import annotations

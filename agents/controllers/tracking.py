@@ -1,11 +1,15 @@
 """The analytic controller with the reference velocity fed forward, for ``Planar3PTrack-v0``.
 
-Resolved-rate tracking: the commanded twist is the reference twist (observation entries 31-33)
-plus the analytic controller's proportional feedback on the errors to the reference pose,
+Resolved-rate tracking: the commanded twist is the reference twist (the ``reference_velocity``
+entries the tracking task appends, 31-33:
+:data:`planar3p_agents.controllers.layout.TASK_EXTRA_FIELDS`) plus the analytic controller's
+proportional feedback on the errors to the reference pose,
 ``twist = (x_dot_ref + k_p e_x, y_dot_ref + k_p e_y, theta_dot_ref + k_theta e_theta)``,
 mapped to slider rates with the paper's simple-motion formula, with the same uniform
-saturation and serial-singularity brake as :class:`planar3p_agents.controllers.analytic.AnalyticController`.
-Its measurements on the tracking id are in :mod:`planar3p_agents.studies.goal_track_baselines`.
+saturation and serial-singularity brake as
+:class:`planar3p_agents.controllers.analytic.AnalyticController`.  Its measurements on the
+tracking id are in :mod:`planar3p_agents.studies.goal_track_baselines`; by name it is the
+baseline ``analytic-feedforward`` of :func:`planar3p_agents.policies.factory.load_policy`.
 """
 
 from __future__ import annotations
@@ -15,14 +19,16 @@ from typing import Any
 import numpy as np
 
 from planar3p_agents.controllers.analytic import AnalyticController, FloatArray
+from planar3p_agents.controllers.layout import extra_slice, task_observation_size
 from planar3p_gym.machine.design import Design
-from planar3p_gym.tasks.observation import OBS_SIZE
 
 __all__ = ["TRACK_OBS_SIZE", "TrackingController"]
 
 #: Length of the tracking observation: the 31 entries of ``Planar3P-v0`` and the reference
 #: velocity.
-TRACK_OBS_SIZE = OBS_SIZE + 3
+TRACK_OBS_SIZE = task_observation_size("track")
+#: The reference velocity ``(x_dot, y_dot, theta_dot)`` in the tracking observation.
+REFERENCE_VELOCITY = extra_slice("track", "reference_velocity")
 
 
 class TrackingController(AnalyticController):
@@ -50,8 +56,17 @@ class TrackingController(AnalyticController):
 
     @classmethod
     def from_env(cls, env: Any, mode: str = "simultaneous", **kwargs: Any) -> TrackingController:
-        """A controller for the design of ``env`` (a ``Planar3PTrackEnv``, possibly wrapped)."""
+        """A controller for the design of ``env`` (a ``Planar3PTrackEnv``, possibly wrapped);
+        ``ValueError`` if its observation has no reference velocity."""
+        from planar3p_agents.controllers.layout import observation_layout
+
+        layout = observation_layout(env)
+        if "reference_velocity" not in layout.names:
+            raise ValueError(
+                f"TrackingController needs the reference velocity of Planar3PTrack-v0's "
+                f"observation; {layout.env_id} has none"
+            )
         return cls(env.unwrapped.design, mode=mode, **kwargs)
 
     def _feedforward(self, obs: FloatArray) -> FloatArray | None:
-        return self.feedforward * obs[:, OBS_SIZE:TRACK_OBS_SIZE]
+        return self.feedforward * obs[:, REFERENCE_VELOCITY]

@@ -1,10 +1,11 @@
 """What the travel-space baselines share: read the configuration from the observation, plan a
 travel motion at the first step of each episode, follow it, then finish with simple motions.
 
-:class:`TravelFollower` is the base of :class:`planar3p_agents.controllers.planner.JointPathPlanner` (mode change)
-and :class:`planar3p_agents.controllers.crossing.CrossingController` (assembly change); a subclass says how a plan
-is made from the first observation (:meth:`TravelFollower.plan`) and what it commands at a
-time (:meth:`TravelFollower.follow`).
+:class:`TravelFollower` is the base of
+:class:`planar3p_agents.controllers.planner.JointPathPlanner` (mode change) and
+:class:`planar3p_agents.controllers.crossing.CrossingController` (assembly change); a subclass
+says how a plan is made from the first observation (:meth:`TravelFollower.plan`) and what it
+commands at a time (:meth:`TravelFollower.follow`).
 """
 
 from __future__ import annotations
@@ -41,9 +42,9 @@ def observed_configuration(obs: ArrayLike) -> dict[str, NDArray[np.float64]]:
 def check_follower_arguments(
     design: Any, dt: float, speed_fraction: float, travel_gain: float
 ) -> None:
-    """``ValueError`` unless ``design`` is a :class:`~planar3p_gym.machine.design.Design`, ``dt`` (s)
-    and ``travel_gain`` (1/s) are finite and > 0 and ``speed_fraction`` is in ``(0, 1]`` (the
-    arguments of the travel-following baselines)."""
+    """``ValueError`` unless ``design`` is a :class:`~planar3p_gym.machine.design.Design`,
+    ``dt`` (s) and ``travel_gain`` (1/s) are finite and > 0 and ``speed_fraction`` is in
+    ``(0, 1]`` (the arguments of the travel-following baselines)."""
     if not isinstance(design, Design):
         raise ValueError(f"design must be a planar3p_gym.Design, got {type(design).__name__}")
     for name, value in (("dt", dt), ("travel_gain", travel_gain)):

@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from planar3p_agents.controllers.layout import env_id_of
+from planar3p_agents.controllers.registry import BASELINES
 from planar3p_agents.evaluation.episodes import EpisodeResult, evaluate
 from planar3p_agents.evaluation.intervals import summarize
 from planar3p_agents.evaluation.reach_suites import (
@@ -35,9 +37,8 @@ from planar3p_agents.evaluation.reach_suites import (
 )
 from planar3p_agents.evaluation.report import write_report, write_rows, write_summary
 from planar3p_agents.evaluation.report_plots import plot_errors, plot_success, plot_trajectories
-from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_suite, task_baseline
+from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_suite
 from planar3p_agents.policies.factory import (
-    BUILTIN_POLICIES,
     PolicyError,
     load_policy,
     parse_policy_spec,
@@ -144,18 +145,20 @@ def load_suite_policies(
     warn: Callable[[str], None] = _warn,
     play_envs: PlayEnvs | None = None,
 ) -> tuple[dict[str, dict[str, Any]], dict[str, tuple[str, int | None]]]:
-    """The policies each suite (a name of :data:`~planar3p_agents.evaluation.reach_suites.SUITE_NAMES` or of
-    :data:`~planar3p_agents.evaluation.task_suites.TASK_SUITES`) is played with: suite -> (label -> policy), and
-    label -> (specification, training seed or ``None``).
+    """The policies each suite (a name of
+    :data:`~planar3p_agents.evaluation.reach_suites.SUITE_NAMES` or of
+    :data:`~planar3p_agents.evaluation.task_suites.TASK_SUITES`) is played with: suite ->
+    (label -> policy), and label -> (specification, training seed or ``None``).
 
     ``baselines`` stands for the suite's baselines (:data:`REACH_BASELINES` on the reach
-    suites, the task's own in :data:`planar3p_agents.evaluation.task_suites.TASK_SUITES`).  On a reach suite every
-    specification is loaded once with :func:`planar3p_agents.policies.factory.load_policy` in its environment
-    ``envs[suite]``; on a task suite a baseline name builds that task's baseline, a model is
-    loaded against the task's environment (its spaces must match), and a built-in name the
-    task does not list is skipped (``warn`` says so).  A model whose run recorded an argument
-    that changes the observation (``travel_goal``) is loaded against ``play_envs``' variant
-    of the suite's environment (:mod:`planar3p_agents.policies.play_envs`), the one :func:`run_benchmark`
+    suites, the task's own in :data:`planar3p_agents.evaluation.task_suites.TASK_SUITES`).  Every
+    specification is loaded with :func:`planar3p_agents.policies.factory.load_policy` for the
+    suite's environment ``envs[suite]`` (once for all the reach suites): a built-in baseline
+    for the suite's id, skipped (``warn`` says so) on a suite whose id it does not play
+    (:data:`planar3p_agents.controllers.registry.BASELINES`); a model against the environment's
+    spaces, which it must match.  A model whose run recorded an argument that changes the
+    observation (``travel_goal``) is loaded against ``play_envs``' variant of the suite's
+    environment (:mod:`planar3p_agents.policies.play_envs`), the one :func:`run_benchmark`
     plays it in.  :class:`~planar3p_agents.policies.factory.PolicyError`
     (a ``ValueError``) for a bad specification, a label given twice, or a suite left without
     any policy.
@@ -190,17 +193,15 @@ def _load_suite_policies(
             label = policy_label(text)
             if label in pols:
                 raise PolicyError(f"policy {text!r} given twice (as {label!r})")
-            if task and (text in TASK_BASELINE_NAMES or text in BUILTIN_POLICIES):
-                if text not in base:
-                    warn(f"{text} does not apply to task suite {name} (its baselines: {base})")
-                    continue
-                pols[label] = task_baseline(text, name, envs[name])
-                meta.setdefault(label, (text, None))
-                continue
             ps = parse_policy_spec(text)
-            if task and ps.kind == "builtin":  # a retuned analytic controller (:gain=K)
-                warn(f"{text} does not apply to task suite {name} (its baselines: {base})")
-                continue
+            if ps.kind == "builtin":
+                env_id = env_id_of(envs[name])
+                if env_id not in BASELINES[ps.name].ids:
+                    warn(
+                        f"{text} does not apply to suite {name} ({env_id}; it plays on "
+                        f"{', '.join(BASELINES[ps.name].ids)})"
+                    )
+                    continue
             if task:
                 pols[label] = load_policy(ps, env=envs[name], seed=seed, device=device)
             else:

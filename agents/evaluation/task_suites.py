@@ -6,28 +6,22 @@ Every task id describes its episodes by a JSON ``info["episode_spec"]`` at reset
 :mod:`planar3p_gym.tasks.base`).  A task suite is therefore generic: episode ``i`` is the
 environment's own draw after ``reset(seed=s_i)``, with ``s_i`` derived from the suite's seed,
 name and ``i`` alone (so a shorter suite is a prefix of a longer one), and the spec is saved in
-``suites.json`` (:class:`~planar3p_agents.evaluation.reach_suites.EpisodeSpec` ``options``) and replayed by the runner.
-The episodes are thus exactly those the environment samples for training, frozen.
+``suites.json`` (:class:`~planar3p_agents.evaluation.reach_suites.EpisodeSpec` ``options``) and
+replayed by the runner.  The episodes are thus exactly those the environment samples for
+training, frozen.
 
-:data:`TASK_SUITES` lists the suites (environment id, its keyword arguments, the baselines);
-:func:`task_baseline` builds a baseline for a suite's environment:
-
-* ``analytic-simultaneous``: the paper's simultaneous simple motions on every task (through
-  :class:`planar3p_agents.controllers.goal_adapter.GoalAdapter` on the ``Dict`` goal observation, on the first 31
-  entries of a longer observation otherwise; on tracking without feed-forward);
-* ``analytic-feedforward`` (tracking): the same controller with the reference velocity fed
-  forward (:class:`planar3p_agents.controllers.tracking.TrackingController`);
-* ``planner`` (mode change): resolved travel-space motion through a certified path
-  (:class:`planar3p_agents.controllers.planner.JointPathPlanner`), and ``crossing`` (assembly change): the dynamic
-  crossing demonstration (:class:`planar3p_agents.controllers.crossing.CrossingController`), both built by
-  :func:`planar3p_agents.studies.task_baselines.make_baseline`;
-* ``zero``: zero slider velocity (flat observations).
+:data:`TASK_SUITES` lists the suites (environment id, its keyword arguments, the baselines
+played by default).  The baselines are names of the one baseline registry,
+:data:`planar3p_agents.controllers.registry.BASELINES` (each supporting the suite's id), built
+like any policy by :func:`planar3p_agents.policies.factory.load_policy` for the suite's
+environment: ``analytic-simultaneous`` (the paper's simultaneous simple motions, on every
+task), ``analytic-feedforward`` (tracking: the reference velocity fed forward),
+``planner`` (mode change), ``crossing`` (assembly change) and ``zero``.
 """
 
 from __future__ import annotations
 
 import copy
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -41,7 +35,6 @@ __all__ = [
     "TaskSuiteDef",
     "make_task_env",
     "make_task_suite",
-    "task_baseline",
     "task_episode_seed",
 ]
 
@@ -53,7 +46,8 @@ class TaskSuiteDef:
     Attributes:
         env_id: registered Gymnasium id.
         env_kwargs: keyword arguments of ``gymnasium.make``.
-        baselines: names for :func:`task_baseline`, in report order.
+        baselines: names of :data:`planar3p_agents.controllers.registry.BASELINES` played by
+            default (the benchmark's ``baselines``), in report order.
         description: one line for the report.
         index: a small integer naming the suite in seed sequences (never reused).
     """
@@ -165,59 +159,3 @@ def make_task_suite(name: str, n_episodes: int, seed: int, env: Any = None) -> S
         "description": d.description,
     }
     return Suite(name, int(seed), episodes, params)
-
-
-def _analytic(env: Any) -> Any:
-    if isinstance(env.observation_space, gym.spaces.Dict):
-        from planar3p_agents.controllers.goal_adapter import GoalAdapter
-
-        return GoalAdapter.analytic(env)
-    if getattr(env.unwrapped.task, "name", "") == "track":
-        from planar3p_agents.controllers.tracking import TrackingController
-
-        return TrackingController.from_env(env, feedforward=0.0)
-    from planar3p_agents.studies.task_baselines import make_baseline
-
-    return make_baseline("analytic-simultaneous", env)
-
-
-def _feedforward(env: Any) -> Any:
-    from planar3p_agents.controllers.tracking import TrackingController
-
-    return TrackingController.from_env(env, feedforward=1.0)
-
-
-def _task_baseline(name: str) -> Callable[[Any], Any]:
-    def make(env: Any) -> Any:
-        from planar3p_agents.studies.task_baselines import make_baseline
-
-        return make_baseline(name, env)
-
-    return make
-
-
-def _zero(env: Any) -> Any:
-    from planar3p_agents.controllers.floor import ZeroPolicy
-
-    return ZeroPolicy()
-
-
-_BASELINES: dict[str, Callable[[Any], Any]] = {
-    "analytic-simultaneous": _analytic,
-    "analytic-feedforward": _feedforward,
-    "planner": _task_baseline("planner"),
-    "crossing": _task_baseline("crossing"),
-    "zero": _zero,
-}
-
-
-def task_baseline(name: str, suite: str, env: Any) -> Any:
-    """Baseline ``name`` of task suite ``suite``, for ``env`` (the suite's environment);
-    ``ValueError`` if the suite does not list it."""
-    d = _definition(suite)
-    if name not in d.baselines:
-        raise ValueError(
-            f"policy {name!r} does not apply to task suite {suite!r}; its baselines: "
-            f"{', '.join(d.baselines)} (or a model file that fits {d.env_id})"
-        )
-    return _BASELINES[name](env)

@@ -1,10 +1,18 @@
-"""Policy registry and loader: a policy name or a model path -> an object with SB3's ``predict``.
+"""The one policy factory: a policy name or a model path, and the environment it is to play,
+-> an object with SB3's ``predict`` for that environment's observations (:func:`load_policy`).
 
-Accepted specifications (:func:`load_policy`):
+Accepted specifications:
 
-* built-in names: ``analytic-simultaneous``, ``analytic-sequential`` (:mod:`planar3p_agents.controllers.analytic`),
-  ``random``, ``zero`` (:mod:`planar3p_agents.controllers.floor`); an analytic name followed by ``:gain=K`` is
-  that controller with position and orientation gains ``K`` (1/s) instead of the default 6;
+* built-in baselines, the names of :data:`planar3p_agents.controllers.registry.BASELINES`
+  (``analytic-simultaneous``, ``analytic-sequential``, ``analytic-feedforward``, ``planner``,
+  ``crossing``, ``random``, ``zero``), each listing the registered ids it plays on.  On
+  every id it supports a baseline reads that id's observation
+  (:func:`planar3p_agents.controllers.layout.observation_layout`: the 31 entries of
+  ``Planar3P-v0`` and whatever the task appends; on the goal ids' ``Dict`` observation through
+  :class:`~planar3p_agents.controllers.goal_adapter.GoalAdapter`); on an id it does not support
+  it is refused (:class:`PolicyError`, a ``ValueError``, naming the id and the ids it
+  supports).  An analytic name followed by ``:gain=K`` is that controller with position and
+  orientation gains ``K`` (1/s) instead of the default 6;
 * ``pretrained:<name>``: the model ``agents/zoo/pretrained/<name>.zip`` shipped with the package,
   with its statistics ``<name>_vecnormalize.pkl``; both are checked against the SHA-256 sums in
   ``agents/zoo/pretrained/SHA256SUMS`` before anything is loaded (:func:`verify_pretrained`);
@@ -24,10 +32,11 @@ named is refused, because evaluating it without them would silently measure some
 Every failure to resolve or load a specification raises :class:`PolicyError` (a
 ``ValueError``) with a message that says what was wrong.
 
-This module loads (:func:`load_policy`); the parts live in :mod:`planar3p_agents.policies.spec`
+This module loads (:func:`load_policy`); the parts live in
+:mod:`planar3p_agents.controllers.registry` (the baselines), :mod:`planar3p_agents.policies.spec`
 (specifications and labels), :mod:`planar3p_agents.zoo.manifest` (the checksum manifest) and
-:mod:`planar3p_agents.policies.sb3_models` (SB3 model and statistics files), and their names are re-exported
-here.
+:mod:`planar3p_agents.policies.sb3_models` (SB3 model and statistics files), and their names
+are re-exported here.
 """
 
 from __future__ import annotations
@@ -35,8 +44,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from planar3p_agents.controllers.analytic import AnalyticController
-from planar3p_agents.controllers.floor import RandomPolicy, ZeroPolicy
+from planar3p_agents.controllers.goal_adapter import GoalAdapter
+from planar3p_agents.controllers.layout import observation_layout
+from planar3p_agents.controllers.registry import BASELINES, BaselineContext
 from planar3p_agents.policies.sb3_models import (
     SB3Policy,
     load_sb3_model,
@@ -61,6 +71,7 @@ from planar3p_agents.zoo.manifest import MANIFEST, file_sha256, verify_pretraine
 from planar3p_gym.machine.design import Design
 
 __all__ = [
+    "BASELINES",
     "BUILTIN_POLICIES",
     "MANIFEST",
     "NO_STATS",
@@ -85,17 +96,21 @@ __all__ = [
 
 def load_policy(
     spec: str | PolicySpec,
-    *,
     env: Any = None,
+    *,
     design: Design | None = None,
     seed: int | None = None,
     device: str = "cpu",
     vecnormalize: str | Path | None = None,
 ) -> Any:
-    """The policy named by ``spec`` (see the module docstring), ready to ``predict``.
+    """The policy named by ``spec`` (see the module docstring), ready to ``predict`` on the
+    observations of ``env``.
 
-    ``env`` (optional) supplies the design of the analytic controllers and the spaces a
-    model must match; ``design`` can be given instead.  ``seed`` seeds the random policy.
+    ``env``: the environment the policy is to play (any registered id, possibly wrapped).  A
+    baseline is built for its id and observation and refused (:class:`PolicyError`) on an id
+    it does not support; a model must match its spaces.  Without ``env`` a baseline is built
+    for ``Planar3P-v0`` with ``design`` (default ``Design.fig8()``).  ``design`` replaces the
+    environment's design for the analytic controllers.  ``seed`` seeds the random policy.
     ``vecnormalize``: statistics file of a model path (or :data:`NO_STATS`), like the spec's
     ``:stats=`` suffix (giving both is an error).  Model and statistics files are code: see
     :data:`TRUSTED_FILES_NOTE`.
@@ -108,17 +123,8 @@ def load_policy(
         if stats is not None:
             raise PolicyError(f"statistics named twice for {ps.text!r} (spec and argument)")
         stats = _stats_value(str(vecnormalize))
-    if design is None and env is not None:
-        design = env.unwrapped.design
     if ps.kind == "builtin":
-        gains = {} if ps.gain is None else {"position_gain": ps.gain, "orientation_gain": ps.gain}
-        if ps.name == "analytic-simultaneous":
-            return AnalyticController(design, "simultaneous", **gains)
-        if ps.name == "analytic-sequential":
-            return AnalyticController(design, "sequential", **gains)
-        if ps.name == "random":
-            return RandomPolicy(env.action_space if env is not None else None, seed=seed)
-        return ZeroPolicy()
+        return _baseline(ps, env, design, seed)
     assert ps.path is not None
     if ps.text.startswith(PRETRAINED_PREFIX):
         files = verify_pretrained(ps.name[len(PRETRAINED_PREFIX) :], ps.path.parent)
@@ -126,3 +132,30 @@ def load_policy(
     return load_sb3_model(
         ps.path, ps.algo, device=device, name=ps.name, check_env=env, vecnormalize=stats
     )
+
+
+def _baseline(ps: PolicySpec, env: Any, design: Design | None, seed: int | None) -> Any:
+    """The built-in baseline ``ps`` for ``env`` (:data:`BASELINES`)."""
+    entry = BASELINES[ps.name]
+    try:
+        layout = observation_layout(env)
+    except ValueError as exc:
+        raise PolicyError(f"cannot play {ps.text!r} on this environment: {exc}") from exc
+    if layout.env_id not in entry.ids:
+        assumed = " (no env given: Planar3P-v0 assumed)" if env is None else ""
+        raise PolicyError(
+            f"baseline {ps.name!r} does not apply to {layout.env_id}{assumed}; it plays on "
+            f"{', '.join(entry.ids)}"
+        )
+    if design is None:
+        design = env.unwrapped.design if env is not None else Design.fig8()
+    context = BaselineContext(
+        env=env,
+        design=design,
+        layout=layout,
+        action_space=env.action_space if env is not None else None,
+        seed=seed,
+        gain=ps.gain,
+    )
+    policy = entry.build(context)
+    return GoalAdapter(policy, design.characteristic_length) if layout.goal else policy

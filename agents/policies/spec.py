@@ -11,6 +11,9 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+# The built-in names and which take :gain=K: the baseline registry's.
+from planar3p_agents.controllers.registry import ANALYTIC_POLICIES, BUILTIN_POLICIES
+
 __all__ = [
     "ANALYTIC_POLICIES",
     "BUILTIN_POLICIES",
@@ -36,15 +39,6 @@ TRUSTED_FILES_NOTE = (
     "(MODEL.zip:stats=STATS.pkl, or :stats=none to go without)."
 )
 
-#: Built-in policies and what they are.
-BUILTIN_POLICIES: dict[str, str] = {
-    "analytic-simultaneous": "simple motions superposed (resolved-rate control)",
-    "analytic-sequential": "simple motions one at a time: rotation, vertical, horizontal",
-    "random": "uniformly random actions (seeded)",
-    "zero": "zero slider velocity",
-}
-#: The built-in analytic controllers, which take ``:gain=K`` (their feedback gains, 1/s).
-ANALYTIC_POLICIES = ("analytic-simultaneous", "analytic-sequential")
 #: ``analytic-simultaneous:gain=12``: the controller with position and orientation gains 12 1/s
 #: (default 6 1/s), e.g. to compare a learned policy with a retuned controller.
 GAIN_MARK = ":gain="

@@ -1,8 +1,10 @@
 """Baselines on the goal-conditioned and tracking ids (the logic of
-``scripts/goal_track_baselines.py``): the analytic controller through
-:class:`planar3p_agents.controllers.goal_adapter.GoalAdapter` on ``Planar3PGoal-v0`` / ``Planar3PGoalDense-v0``, and
-:class:`planar3p_agents.controllers.tracking.TrackingController` with and without feed-forward on
-``Planar3PTrack-v0``.  Episodes: the first reset with ``seed``, the following ones unseeded.
+``scripts/goal_track_baselines.py``): the analytic controller (``analytic-simultaneous``,
+through :class:`planar3p_agents.controllers.goal_adapter.GoalAdapter`) on ``Planar3PGoal-v0`` /
+``Planar3PGoalDense-v0``, and on ``Planar3PTrack-v0`` with and without the reference velocity
+fed forward (``analytic-feedforward``, ``analytic-simultaneous``), all built by
+:func:`planar3p_agents.policies.factory.load_policy`.  Episodes: the first reset with ``seed``,
+the following ones unseeded.
 """
 
 from __future__ import annotations
@@ -13,8 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 import planar3p_gym
-from planar3p_agents.controllers.goal_adapter import GoalAdapter
-from planar3p_agents.controllers.tracking import TrackingController
+from planar3p_agents.policies.factory import load_policy
 
 __all__ = [
     "TRACKING_BASELINES",
@@ -25,8 +26,12 @@ __all__ = [
     "tracking_baselines",
 ]
 
-#: Controllers compared on the tracking id: label -> feed-forward scale.
-TRACKING_BASELINES = {"analytic (feedback)": 0.0, "analytic + feed-forward": 1.0}
+#: Controllers compared on the tracking id: label -> baseline name (registry of
+#: :mod:`planar3p_agents.controllers.registry`).
+TRACKING_BASELINES = {
+    "analytic (feedback)": "analytic-simultaneous",
+    "analytic + feed-forward": "analytic-feedforward",
+}
 
 
 def play_episodes(
@@ -58,9 +63,12 @@ def play_episodes(
 
 def goal_baseline(env_id: str, episodes: int, seed: int) -> dict[str, float]:
     """Success rate, mean steps of the successful episodes and mean return of the analytic
-    controller (through :class:`GoalAdapter`) on a goal id, over ``episodes`` episodes."""
+    controller (``analytic-simultaneous``) on a goal id, over ``episodes`` episodes."""
     env = gym.make(env_id)
-    played = play_episodes(env, GoalAdapter.analytic(env), episodes, seed)
+    try:
+        played = play_episodes(env, load_policy("analytic-simultaneous", env), episodes, seed)
+    finally:
+        env.close()
     steps = [n for _, n, _, last in played if last["is_success"]]
     return {
         "episodes": episodes,
@@ -112,10 +120,11 @@ def tracking_baselines(
     ``Planar3PTrack-v0`` per reference kind, keyed ``"<kind>/<label>"``."""
     out = {}
     for kind in kinds:
-        for label, ff in TRACKING_BASELINES.items():
+        for label, name in TRACKING_BASELINES.items():
             env = gym.make(planar3p_gym.TRACK_ENV_ID, reference=kind)
-            ctrl = TrackingController.from_env(env, feedforward=ff)
-            out[f"{kind}/{label}"] = summarize_tracking(
-                run_tracking_episodes(env, ctrl, episodes, seed)
-            )
+            try:
+                rows = run_tracking_episodes(env, load_policy(name, env), episodes, seed)
+            finally:
+                env.close()
+            out[f"{kind}/{label}"] = summarize_tracking(rows)
     return out

@@ -3,10 +3,10 @@
 
 Every policy plays the same seeded episodes of an id (``reset(seed=seed + i)``); reported per
 policy: success rate (with a 95 % Wilson interval), median time to success, median final
-errors, termination reasons.  Policies: ``planner`` (:class:`planar3p_agents.controllers.planner.JointPathPlanner`,
-mode change), ``crossing`` (:class:`planar3p_agents.controllers.crossing.CrossingController`, assembly change),
-``analytic-simultaneous`` (the paper's superposed simple motions on the first 31 observation
-entries).
+errors, termination reasons.  Policies (:data:`STUDY_POLICIES`, names of the baseline registry
+:data:`planar3p_agents.controllers.registry.BASELINES`, built by
+:func:`planar3p_agents.policies.factory.load_policy`): ``planner`` (mode change), ``crossing``
+(assembly change), ``analytic-simultaneous`` (the paper's superposed simple motions).
 """
 
 from __future__ import annotations
@@ -20,39 +20,25 @@ import gymnasium as gym
 import numpy as np
 
 import planar3p_gym  # noqa: F401  (registers the ids)
-from planar3p_agents.controllers.analytic import AnalyticController
-from planar3p_agents.controllers.crossing import CrossingController
-from planar3p_agents.controllers.planner import BaseObservation, JointPathPlanner
 from planar3p_agents.evaluation.intervals import success_interval
+from planar3p_agents.policies.factory import load_policy
 from planar3p_agents.studies.crossing_fidelity import crossing_fidelity
+from planar3p_gym.envs.registry import ASSEMBLY_CHANGE_ENV_ID, ENV_ID, MODE_CHANGE_ENV_ID
 
 __all__ = [
-    "BASELINES",
+    "STUDY_POLICIES",
     "TaskResult",
-    "make_baseline",
     "run_baselines",
     "run_fidelity",
     "run_reach_fidelity",
     "verification_rate",
 ]
 
-#: Baseline policy names per id.
-BASELINES: dict[str, tuple[str, ...]] = {
-    "Planar3PModeChange-v0": ("planner", "analytic-simultaneous"),
-    "Planar3PAssemblyChange-v0": ("crossing", "analytic-simultaneous"),
+#: The ids of this study and the baselines it plays on each (registry names).
+STUDY_POLICIES: dict[str, tuple[str, ...]] = {
+    MODE_CHANGE_ENV_ID: ("planner", "analytic-simultaneous"),
+    ASSEMBLY_CHANGE_ENV_ID: ("crossing", "analytic-simultaneous"),
 }
-
-
-def make_baseline(name: str, env: Any) -> Any:
-    """The baseline policy ``name`` for ``env`` (SB3-style ``predict``); ``ValueError`` if
-    unknown."""
-    if name == "planner":
-        return JointPathPlanner.from_env(env)
-    if name == "crossing":
-        return CrossingController.from_env(env)
-    if name == "analytic-simultaneous":
-        return BaseObservation(AnalyticController.from_env(env, "simultaneous"))
-    raise ValueError(f"unknown baseline {name!r}; known: planner, crossing, analytic-simultaneous")
 
 
 @dataclass
@@ -94,7 +80,7 @@ def run_baselines(
     """Play ``episodes`` episodes of ``env_id`` (seeds ``seed``, ``seed + 1``, ...) with the
     baseline ``policy``."""
     env = gym.make(env_id, **(env_kwargs or {}))
-    pol = make_baseline(policy, env)
+    pol = load_policy(policy, env)
     res = TaskResult(env_id, policy, episodes, 0)
     try:
         for i in range(episodes):
@@ -135,13 +121,13 @@ def run_reach_fidelity(
     episodes: int, seed: int, projection: bool, gravity: float = 0.0
 ) -> dict[str, float]:
     """The same measurements on reach episodes without a crossing, for comparison:
-    ``Planar3P-v0`` (projected) or ``Planar3P-v0`` (plain solver) on ``Design.fig8`` with
+    ``Planar3P-v0`` with the projected physics (the id's) or the plain solver
+    (``projection=False``, its default substeps and iterations) on ``Design.fig8`` with
     ``gravity`` (m/s^2), played by the simultaneous simple motions."""
     from planar3p_gym import Design
 
-    env_id = "Planar3P-v0" if projection else "Planar3P-v0"
-    env = gym.make(env_id, design=Design.fig8(gravity=gravity))
-    pol = AnalyticController.from_env(env, "simultaneous")
+    env = gym.make(ENV_ID, design=Design.fig8(gravity=gravity), projection=projection)
+    pol = load_policy("analytic-simultaneous", env)
     rows = [crossing_fidelity(env, pol, seed + i) for i in range(episodes)]
     env.close()
     return _summary(rows, projection)
@@ -150,7 +136,8 @@ def run_reach_fidelity(
 def run_fidelity(
     episodes: int, seed: int, projection: bool, gravity: float | None = None
 ) -> dict[str, float]:
-    """Medians and extremes of :func:`planar3p_agents.studies.crossing_fidelity.crossing_fidelity` over ``episodes``
+    """Medians and extremes of
+    :func:`planar3p_agents.studies.crossing_fidelity.crossing_fidelity` over ``episodes``
     seeded episodes of ``Planar3PAssemblyChange-v0`` played by the crossing controller, with
     the projected physics (the id's) or the plain solver (8 substeps, 18 iterations).
     ``gravity`` (m/s^2) replaces the design's (the sampler's simulated check is then turned
@@ -165,8 +152,8 @@ def run_fidelity(
             design=assembly_change_design().with_(gravity=gravity),
             crossing_limits={"verify": False},
         )
-    env = gym.make("Planar3PAssemblyChange-v0", **kwargs)
-    pol = CrossingController.from_env(env)
+    env = gym.make(ASSEMBLY_CHANGE_ENV_ID, **kwargs)
+    pol = load_policy("crossing", env)
     rows = [crossing_fidelity(env, pol, seed + i) for i in range(episodes)]
     env.close()
     return _summary(rows, projection)
