@@ -152,7 +152,7 @@ class BatchProjector:
         stopped = out
 
         start = (p.copy(), qx.copy(), qy.copy(), th.copy(), c.copy(), s.copy())
-        limit = np.where(hold, HELD_NEWTON_STEPS, MAX_NEWTON_STEPS)
+        limit = np.where(hold & ~free_phase, HELD_NEWTON_STEPS, MAX_NEWTON_STEPS)
         steps = np.zeros(n, dtype=np.int64)
         active = np.ones(n, dtype=bool)
         roll = [1, 2, 0]

@@ -263,7 +263,8 @@ class LoopProjector:
         # them gives the same numbers (0 * x added to a float leaves it unchanged).
         held3 = i1 == 0.0 and i2 == 0.0 and i3 == 0.0
         start = (p1, p2, p3, qx, qy, th, c, s)
-        limit = HELD_NEWTON_STEPS if hold else MAX_NEWTON_STEPS
+        # (Held only by the end stops: the steps of the last attempt.)
+        limit = HELD_NEWTON_STEPS if hold and not free_phase else MAX_NEWTON_STEPS
         steps = 0
         failed = False
         while True:
