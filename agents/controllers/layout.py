@@ -8,12 +8,10 @@ joint-space goal (:data:`planar3p_gym.tasks.observation.TRAVEL_GOAL_FIELDS`).  T
 have a ``Dict`` observation instead, from which
 :class:`planar3p_agents.controllers.goal_adapter.GoalAdapter` rebuilds the 31 entries.
 
-The environments name the blocks of the 31 entries and of the joint-space goal, but not the
-entries a task appends (only their bounds); :data:`TASK_EXTRA_FIELDS` names them here, from
-the task envs' docstrings, and :func:`observation_layout` checks the total against the env's
-observation space, so a task that changes its entries fails loudly instead of feeding a
-controller the wrong numbers.  (Once the tasks publish their fields, e.g. a ``Task``
-attribute ``observation_fields`` in the form of ``OBS_FIELDS``, this table reads them.)
+Each task names the entries it appends (:attr:`planar3p_gym.tasks.base.Task.observation_fields`);
+:data:`TASK_EXTRA_FIELDS` collects them and :func:`observation_layout` checks the total against
+the env's observation space, so a task that changes its entries fails loudly instead of
+feeding a controller the wrong numbers.
 
 :func:`env_id_of` tells which registered id an environment is (its spec, else its task).
 """
@@ -26,13 +24,9 @@ from typing import Any
 from gymnasium import spaces
 
 from planar3p_gym.envs.registry import (
-    ASSEMBLY_CHANGE_ENV_ID,
     ENV_ID,
     ENV_SPECS,
     GOAL_DENSE_ENV_ID,
-    GOAL_ENV_ID,
-    MODE_CHANGE_ENV_ID,
-    TRACK_ENV_ID,
 )
 from planar3p_gym.tasks.observation import OBS_SIZE, TRAVEL_GOAL_FIELDS
 
@@ -52,33 +46,42 @@ REGISTERED_IDS: tuple[str, ...] = tuple(row.id for row in ENV_SPECS)
 
 Field = tuple[str, int, str]
 
+
+def _task_classes() -> dict[str, Any]:
+    """Each task's class by :attr:`~planar3p_gym.tasks.base.Task.name`."""
+    from planar3p_gym.tasks.base import Task
+
+    found: dict[str, Any] = {}
+    todo = list(Task.__subclasses__())
+    while todo:
+        cls = todo.pop()
+        todo.extend(cls.__subclasses__())
+        if cls.name and cls.name not in found:
+            found[cls.name] = cls
+    return found
+
+
+def _import_tasks() -> None:
+    import planar3p_gym.tasks.assembly_change
+    import planar3p_gym.tasks.goal
+    import planar3p_gym.tasks.mode_change
+    import planar3p_gym.tasks.reach
+    import planar3p_gym.tasks.track  # noqa: F401
+
+
+_import_tasks()
 #: ``(name, size, description)`` of the entries each task appends to the 31 entries of
-#: ``Planar3P-v0``, in order (keyed by :attr:`planar3p_gym.tasks.base.Task.name`).
+#: ``Planar3P-v0``, in order (keyed by :attr:`planar3p_gym.tasks.base.Task.name`): each task's
+#: own :attr:`~planar3p_gym.tasks.base.Task.observation_fields`.
 TASK_EXTRA_FIELDS: dict[str, tuple[Field, ...]] = {
-    "reach": (),
-    "goal": (),
-    "track": (
-        ("reference_velocity", 3, "x_dot, y_dot, theta_dot of the reference (m/s, m/s, rad/s)"),
-    ),
-    "mode_change": (
-        ("target_rho", 3, "slider travels of the target pose in its working mode (m)"),
-        ("target_working_mode", 3, "the target's working mode, sign cos alpha_i (+-1)"),
-    ),
-    "assembly_change": (
-        ("target_rho", 3, "slider travels of the target pose (m)"),
-        ("target_assembly", 1, "the target's assembly mode (+-1)"),
-        ("signed_parallel_margin", 1, "sign det A times the parallel margin, in [-1, 1]"),
-    ),
+    name: tuple(cls.observation_fields) for name, cls in _task_classes().items()
 }
 
-#: The id of each task's environment (goal: by its reward type, ``"sparse"`` or ``"dense"``).
-TASK_IDS: dict[str, str] = {
-    "reach": ENV_ID,
-    "goal": GOAL_ENV_ID,
-    "track": TRACK_ENV_ID,
-    "mode_change": MODE_CHANGE_ENV_ID,
-    "assembly_change": ASSEMBLY_CHANGE_ENV_ID,
-}
+#: The id of each task's environment, from the registration table (goal: the sparse id; the
+#: dense one is told by its reward type).
+TASK_IDS: dict[str, str] = {}
+for _row in ENV_SPECS:
+    TASK_IDS.setdefault(_row.task, _row.id)
 
 
 def _slices(fields: tuple[Field, ...], start: int) -> dict[str, slice]:

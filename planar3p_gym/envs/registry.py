@@ -43,13 +43,15 @@ class EnvRegistration:
 
     ``max_episode_steps`` is the time limit in control steps (50 Hz by default);
     ``vector_entry_point`` is ``None`` where the id has no native vector env; ``summary`` is the
-    one-line description of the table in the README and the docs.
+    one-line description of the table in the README and the docs; ``task`` names the task.
     """
 
     id: str
     entry_point: str
     max_episode_steps: int
     summary: str
+    #: :attr:`planar3p_gym.tasks.base.Task.name` of the id's task.
+    task: str
     vector_entry_point: str | None = None
     kwargs: dict[str, Any] = field(default_factory=dict)
 
@@ -63,6 +65,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
         f"{_ENVS}.core:Planar3PEnv",
         250,
         "reach a target pose and stop there (the mission's id)",
+        "reach",
         vector_entry_point=f"{_ENVS}.vector:Planar3PVectorEnv",
     ),
     EnvRegistration(
@@ -70,6 +73,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
         f"{_ENVS}.goal:Planar3PGoalEnv",
         100,
         "goal-conditioned reach, sparse reward (HER)",
+        "goal",
         kwargs={"reward_type": "sparse"},
     ),
     EnvRegistration(
@@ -77,6 +81,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
         f"{_ENVS}.goal:Planar3PGoalEnv",
         100,
         "goal-conditioned reach, dense reward",
+        "goal",
         kwargs={"reward_type": "dense"},
     ),
     EnvRegistration(
@@ -84,6 +89,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
         f"{_ENVS}.track:Planar3PTrackEnv",
         500,
         "follow a moving reference pose",
+        "track",
         vector_entry_point=f"{_ENVS}.vector:Planar3PTrackVectorEnv",
     ),
     EnvRegistration(
@@ -91,6 +97,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
         f"{_ENVS}.mode_change:Planar3PModeChangeEnv",
         400,
         "reach a target pose in another working mode (through serial singularities)",
+        "mode_change",
         vector_entry_point=f"{_ENVS}.vector:Planar3PModeChangeVectorEnv",
     ),
     EnvRegistration(
@@ -98,6 +105,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
         f"{_ENVS}.assembly_change:Planar3PAssemblyChangeEnv",
         600,
         "reach a target pose in the other assembly mode (through a parallel singularity)",
+        "assembly_change",
         vector_entry_point=f"{_ENVS}.vector:Planar3PAssemblyChangeVectorEnv",
     ),
 )

@@ -119,6 +119,11 @@ class AssemblyChangeTask(TravelShaping, Task):
     """
 
     name: ClassVar[str] = "assembly_change"
+    observation_fields = (
+        ("target_rho", 3, "slider travels of the target pose (m)"),
+        ("target_assembly", 1, "the target's assembly mode (+-1)"),
+        ("signed_parallel_margin", 1, "sign det A times the parallel margin, in [-1, 1]"),
+    )
     option_keys: ClassVar[tuple[str, ...]] = ("start", "target", "working_mode")
     termination_reasons: ClassVar[tuple[str, ...]] = ("success", "physics_breakdown")
     failure_reasons: ClassVar[tuple[str, ...]] = ("physics_breakdown",)

@@ -172,6 +172,10 @@ class Task:
     failure_reasons: ClassVar[tuple[str, ...]] = ("singularity_crossing", "physics_breakdown")
     #: Task-specific ``info`` keys (metrics) added by :meth:`step_info`.
     metric_keys: ClassVar[tuple[str, ...]] = ()
+    #: ``(name, size, description)`` of the entries :meth:`observation_extra` appends to the
+    #: 31 entries of :data:`planar3p_gym.tasks.observation.OBS_FIELDS`, in order (their one
+    #: definition: controllers and documentation read them here).
+    observation_fields: ClassVar[tuple[tuple[str, int, str], ...]] = ()
     #: Whether the default reward keeps its barrier near parallel / serial singularities; a
     #: task whose problem is to pass one turns that barrier off (its margin counts as 1).
     parallel_barrier: ClassVar[bool] = True

@@ -106,6 +106,10 @@ class ModeChangeTask(TravelShaping, Task):
     """
 
     name: ClassVar[str] = "mode_change"
+    observation_fields = (
+        ("target_rho", 3, "slider travels of the target pose in its working mode (m)"),
+        ("target_working_mode", 3, "the target's working mode, sign cos alpha_i (+-1)"),
+    )
     option_keys: ClassVar[tuple[str, ...]] = (
         "start",
         "target",

@@ -121,6 +121,9 @@ class TrackTask(Task):
     """
 
     name: ClassVar[str] = "track"
+    observation_fields = (
+        ("reference_velocity", 3, "x_dot, y_dot, theta_dot of the reference (m/s, m/s, rad/s)"),
+    )
     option_keys: ClassVar[tuple[str, ...]] = ("start", "working_mode", "reference")
     termination_reasons: ClassVar[tuple[str, ...]] = ("singularity_crossing", "physics_breakdown")
     metric_keys: ClassVar[tuple[str, ...]] = TRACKING_METRICS

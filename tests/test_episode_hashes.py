@@ -1,0 +1,70 @@
+"""Regression guard: seeded episodes of every registered id replay bit for bit.
+
+For each id a random policy (seeded) plays ``STEPS`` steps from ``reset(seed=...)``, resetting
+as episodes end; the observations, rewards, episode ends and the physical quantities of
+``info`` are hashed.  A change to the physics, a task's sampler, its reward or its observation
+fails here: such a change must be deliberate, and then the hashes below are regenerated once
+(``python tests/test_episode_hashes.py`` prints them) and the change is named in CHANGELOG.md.
+"""
+
+from __future__ import annotations
+
+import hashlib
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import planar3p_gym
+
+#: Steps hashed per id (episodes are reset as they end).
+STEPS = 120
+#: Seed of each id's first reset and of its random actions.
+SEED = 3
+INFO_KEYS = ("pose", "rho", "rho_dot", "actuator_forces", "closure_error", "parallel_margin")
+
+#: sha256 of each id's stream, recorded with ``python tests/test_episode_hashes.py``.
+EXPECTED: dict[str, str] = {}
+
+
+def _update(h: hashlib._Hash, value: object) -> None:
+    if isinstance(value, dict):
+        for key in sorted(value):
+            h.update(key.encode())
+            _update(h, value[key])
+    else:
+        h.update(np.ascontiguousarray(np.asarray(value, dtype=np.float64)).tobytes())
+
+
+def episode_digest(env_id: str, steps: int = STEPS, seed: int = SEED) -> str:
+    """Hash of ``steps`` steps of a seeded random policy on ``env_id`` (module docstring)."""
+    env = gym.make(env_id)
+    env.action_space.seed(seed)
+    h = hashlib.sha256()
+    obs, info = env.reset(seed=seed)
+    _update(h, obs)
+    for _ in range(steps):
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        _update(h, obs)
+        _update(h, [reward, float(terminated), float(truncated)])
+        for key in INFO_KEYS:
+            _update(h, info[key])
+        if terminated or truncated:
+            obs, info = env.reset()
+            _update(h, obs)
+    env.close()
+    return h.hexdigest()
+
+
+def test_every_registered_id_has_a_recorded_hash():
+    assert sorted(EXPECTED) == sorted(spec.id for spec in planar3p_gym.ENV_SPECS)
+
+
+@pytest.mark.parametrize("env_id", sorted(EXPECTED))
+def test_seeded_episodes_replay_bit_for_bit(env_id):
+    assert episode_digest(env_id) == EXPECTED[env_id]
+
+
+if __name__ == "__main__":
+    for spec in planar3p_gym.ENV_SPECS:
+        print(f'    "{spec.id}": "{episode_digest(spec.id)}",')
