@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym.tasks.base import Pose, finite_numbers
 from planar3p_gym.tasks.reach import ReachTask
-from planar3p_gym.tasks.rewards import RewardWeights
+from planar3p_gym.tasks.rewards import RewardWeights, weighted_terms_batch
 from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
@@ -192,12 +192,22 @@ def goal_reward(
     if reward_type == "sparse":
         goal = success.astype(np.float64) - 1.0
     else:
-        dist = pos + length * np.abs(ang)
-        goal = (
-            -weights.pose * (dist / length)
-            - weights.precision * (1.0 - np.exp(-dist / weights.precision_scale))
-            + weights.success * success
+        # The reach reward's pose, precision and success terms (one definition), with the
+        # barriers and the effort off: those are goal-free and are in ``free``.
+        n = pos.shape[0]
+        ones = np.ones(n)
+        terms = weighted_terms_batch(
+            weights.as_array(),
+            np.ascontiguousarray(pos, dtype=np.float64),
+            np.ascontiguousarray(ang, dtype=np.float64),
+            float(length),
+            ones,
+            ones,
+            np.zeros((3, n)),
+            np.ascontiguousarray(success),
+            np.zeros(n, np.bool_),
         )
+        goal = terms[0] + terms[1] + terms[4]
     return goal + free
 
 
