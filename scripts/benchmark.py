@@ -19,7 +19,7 @@ Examples::
 
     python scripts/benchmark.py --quick
     python scripts/benchmark.py --policies baselines,runs/a/model.zip:stats=runs/a/vecnormalize.pkl
-    python scripts/benchmark.py --policies pretrained:ppo_kickstart --suites standard,hard
+    python scripts/benchmark.py --policies pretrained:ppo_reach_residual --suites standard,hard
     python scripts/benchmark.py --suites goal,track-segments,mode-change --out res/tasks
 
 The logic lives in ``planar3p_agents.evaluation.benchmark`` (this file parses, validates and prints).  Exit status:

@@ -26,6 +26,7 @@ from planar3p_agents.policies.factory import (
     parse_policy_spec,
     policy_label,
 )
+from planar3p_agents.zoo.layout import shipped_model
 from planar3p_gym import Design
 from planar3p_gym.tasks.observation import SLICES
 
@@ -330,10 +331,10 @@ def test_training_seed_from_the_run_record(tmp_path):
     (tmp_path / "noseed").mkdir()
     (tmp_path / "noseed" / "config.json").write_text(json.dumps({"config": {"seed": True}}))
     assert bm.training_seed(tmp_path / "noseed" / "model.zip") is None
-    shipped = ROOT / "agents" / "zoo" / "pretrained"
     for name in list_pretrained():
-        record = json.loads((shipped / f"{name}.json").read_text())
-        assert bm.training_seed(shipped / f"{name}.zip") == record["run"]["config"]["seed"]
+        shipped = shipped_model(name)
+        record = json.loads(shipped.provenance.read_text())
+        assert bm.training_seed(shipped.model) == record["run"]["config"]["seed"]
 
 
 def test_episodes_csv_carries_the_training_seed(tmp_path, bench):

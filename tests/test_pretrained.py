@@ -28,19 +28,24 @@ from planar3p_agents.policies.factory import (
     verify_pretrained,
 )
 from planar3p_agents.policies.play_envs import observation_kwargs
+from planar3p_agents.zoo.layout import shipped_model
 
 SHIPPED = list_pretrained()
 #: A shipped policy of ``Planar3P-v0`` (the tests below play it there; the list is sorted by name).
-REACH_V0 = "ppo_kickstart"
+REACH_V0 = "ppo_reach_scratch"
+
+
+def _record(name: str) -> dict:
+    return json.loads(shipped_model(name).provenance.read_text())
 
 
 def test_a_policy_is_shipped_small_with_its_statistics_and_provenance() -> None:
     assert SHIPPED, "agents/zoo/pretrained/ holds no policy"
     for name in SHIPPED:
-        model = PRETRAINED_DIR / f"{name}.zip"
-        assert model.stat().st_size < 5 * 2**20  # a few MB at most
-        assert (PRETRAINED_DIR / f"{name}_vecnormalize.pkl").is_file()
-        record = json.loads((PRETRAINED_DIR / f"{name}.json").read_text())
+        shipped = shipped_model(name)
+        assert shipped.model.stat().st_size < 5 * 2**20  # a few MB at most
+        assert shipped.stats.is_file()
+        record = _record(name)
         assert "train.py" in record["run"]["command"]  # the command that reproduces it
 
 
@@ -48,7 +53,7 @@ def test_a_policy_is_shipped_small_with_its_statistics_and_provenance() -> None:
 def test_pretrained_policy_loads_and_acts(name: str) -> None:
     """Played in the id it was trained on (its provenance), without training-only kwargs but
     with those that change the observation (``travel_goal``)."""
-    record = json.loads((PRETRAINED_DIR / f"{name}.json").read_text())
+    record = _record(name)
     config = record["run"]["config"]
     env = gym.make(config["env_id"], **observation_kwargs(config.get("env_kwargs")))
     policy = load_policy(f"pretrained:{name}", env=env)
@@ -110,19 +115,26 @@ def test_shipped_files_match_the_manifest() -> None:
     sums = (PRETRAINED_DIR / MANIFEST).read_text().splitlines()
     listed = {line.split("  ")[1] for line in sums}
     for name in SHIPPED:
-        assert {f"{name}.zip", f"{name}_vecnormalize.pkl", f"{name}.json"} <= listed
-        files = verify_pretrained(name)
-        assert [p.name for p in files] == [f"{name}.zip", f"{name}_vecnormalize.pkl"]
+        shipped = shipped_model(name)
+        files = {shipped.relative(p) for p in shipped.files()}
+        assert len(files) == 5 and files <= listed  # provenance, model, stats, config, args
+        verified = verify_pretrained(name)
+        assert verified == [shipped.model, shipped.stats]
+        assert [p.name for p in verified] == [f"{shipped.env_id}.zip", "vecnormalize.pkl"]
+    # every file of every model folder is listed: the page and the manifest only are not
+    every = {p.relative_to(PRETRAINED_DIR).as_posix() for p in PRETRAINED_DIR.rglob("*")}
+    assert {p for p in every if (PRETRAINED_DIR / p).is_file()} == listed | {"README.md", MANIFEST}
     for line in sums:  # sha256sum format, and the sums are those of the files
         digest, name = line.split("  ")
         assert file_sha256(PRETRAINED_DIR / name) == digest
 
 
-@pytest.mark.parametrize("suffix", [".zip", "_vecnormalize.pkl"])
+@pytest.mark.parametrize("suffix", [".zip", "vecnormalize.pkl"])
 def test_a_corrupted_shipped_file_is_refused(tmp_path, monkeypatch, suffix) -> None:
     name = SHIPPED[0]
     copy = _shipped_copy(tmp_path)
-    target = copy / f"{name}{suffix}"
+    shipped = shipped_model(name, copy)
+    target = shipped.model if suffix == ".zip" else shipped.stats
     data = bytearray(target.read_bytes())
     data[len(data) // 2] ^= 0x01  # one flipped bit
     target.write_bytes(bytes(data))
@@ -137,7 +149,8 @@ def test_a_shipped_file_replaced_by_code_is_never_unpickled(tmp_path, monkeypatc
     name = SHIPPED[0]
     copy = _shipped_copy(tmp_path)
     marker = tmp_path / "ran.txt"
-    (copy / f"{name}_vecnormalize.pkl").write_bytes(pickle.dumps(_RunsCode(marker)))
+    shipped = shipped_model(name, copy)
+    shipped.stats.write_bytes(pickle.dumps(_RunsCode(marker)))
     monkeypatch.setattr(policy_spec, "PRETRAINED_DIR", copy)
     with pytest.raises(PolicyError, match="checksum mismatch"):
         load_policy(f"pretrained:{name}")
@@ -147,7 +160,7 @@ def test_a_shipped_file_replaced_by_code_is_never_unpickled(tmp_path, monkeypatc
         "".join(
             line + "\n"
             for line in (copy / MANIFEST).read_text().splitlines()
-            if not line.endswith(f"{name}.zip")
+            if not line.endswith(shipped.relative(shipped.model))
         )
     )
     with pytest.raises(PolicyError, match="not listed"):
@@ -169,7 +182,7 @@ def test_statistics_beside_a_model_are_never_loaded_unnamed(tmp_path, model, sta
     model_path, stats_path = tmp_path / model, tmp_path / stats
     stats_path.parent.mkdir(parents=True, exist_ok=True)
     model_path.parent.mkdir(parents=True, exist_ok=True)
-    shutil.copyfile(PRETRAINED_DIR / f"{REACH_V0}.zip", model_path)
+    shutil.copyfile(shipped_model(REACH_V0).model, model_path)
     marker = tmp_path / "ran.txt"
     stats_path.write_bytes(pickle.dumps(_RunsCode(marker)))
     env = gym.make("Planar3P-v0")
@@ -186,8 +199,8 @@ def test_named_statistics_are_loaded(tmp_path) -> None:
     model = tmp_path / "model.zip"
     stats = tmp_path / "somewhere" / "stats.pkl"
     stats.parent.mkdir()
-    shutil.copyfile(PRETRAINED_DIR / f"{name}.zip", model)
-    shutil.copyfile(PRETRAINED_DIR / f"{name}_vecnormalize.pkl", stats)
+    shutil.copyfile(shipped_model(name).model, model)
+    shutil.copyfile(shipped_model(name).stats, stats)
     env = gym.make("Planar3P-v0")
     shipped = load_policy(f"pretrained:{name}", env=env)
     for policy in (
@@ -219,9 +232,95 @@ def test_shipped_models_report_their_training_arguments(tmp_path):
     """A shipped model's environment arguments come from its provenance record (the
     benchmark plays a model with the observation arguments it was trained with); an
     unreadable record gives ``None``, never an error."""
-    assert run_env_kwargs(PRETRAINED_DIR / "ppo_assembly_change.zip") == {"travel_shaping": 2.0}
-    assert run_env_kwargs(PRETRAINED_DIR / "ppo_v1_scratch.zip") == {}
-    (tmp_path / "m.json").write_text("{not json")
-    assert run_env_kwargs(tmp_path / "m.zip") is None
-    (tmp_path / "m.json").write_text(json.dumps({"name": "m"}))  # no "run" entry
-    assert run_env_kwargs(tmp_path / "m.zip") is None
+    assert run_env_kwargs(shipped_model("ppo_assembly_change").model) == {"travel_shaping": 2.0}
+    assert run_env_kwargs(shipped_model(REACH_V0).model) == {}
+    copy = tmp_path / "pretrained"
+    shutil.copytree(shipped_model(REACH_V0).folder, copy / "m")
+    model = shipped_model("m", copy).model
+    (copy / "m" / "provenance.json").write_text("{not json")
+    assert run_env_kwargs(model) is None
+    (copy / "m" / "provenance.json").write_text(json.dumps({"name": "m"}))  # no "run" entry
+    assert run_env_kwargs(model) is None
+
+
+# ---------------------------------------------- the id a model was trained on (issue 22, 8)
+def test_a_pretrained_model_is_refused_on_another_id() -> None:
+    """``load_policy`` refuses a model trained on another id, naming both ids, before it
+    loads anything (here the mode-change policy, whose observation would not even fit)."""
+    with pytest.raises(PolicyError) as err:
+        load_policy("pretrained:ppo_mode_change", env=gym.make("Planar3P-v0"))
+    message = str(err.value)
+    assert "trained on Planar3PModeChange-v0" in message and "environment is Planar3P-v0" in message
+    assert "provenance.json" in message  # where the id was read
+
+
+def test_the_goal_policy_plays_both_goal_ids() -> None:
+    """The two goal ids register one environment class (they differ in the reward only): the
+    policy trained on the dense one plays the sparse one (its benchmark suite ``goal``)."""
+    policy = load_policy("pretrained:ppo_goal", env=gym.make("Planar3PGoal-v0"))
+    assert policy.name == "pretrained:ppo_goal"
+
+
+def _tiny_model(path: Path, env_id: str = "Planar3P-v0") -> Path:
+    from stable_baselines3 import PPO
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    PPO("MlpPolicy", gym.make(env_id), n_steps=32, batch_size=32, seed=0).save(path)
+    return path
+
+
+def test_a_run_model_is_refused_on_another_id(tmp_path) -> None:
+    """The id comes from the run's ``config.json`` (beside the model, or one level up for a
+    checkpoint); a model whose run records none, or an unreadable one, is not refused for it."""
+    model = _tiny_model(tmp_path / "run" / "model.zip")
+    ckpt = _tiny_model(tmp_path / "run" / "checkpoints" / "rl_model_64_steps.zip")
+    config = tmp_path / "run" / "config.json"
+    config.write_text(json.dumps({"config": {"env_id": "Planar3PTrack-v0", "env_kwargs": {}}}))
+    env = gym.make("Planar3P-v0")
+    for path in (model, ckpt):
+        with pytest.raises(PolicyError, match=r"trained on Planar3PTrack-v0 .*Planar3P-v0") as err:
+            load_policy(f"{path}:stats=none", env=env)
+        assert str(config) in str(err.value)
+    config.write_text(json.dumps({"config": {"env_id": "Planar3P-v0"}}))
+    assert load_policy(f"{model}:stats=none", env=env).env_kwargs is None
+    for text in ("{not json", json.dumps({"config": {"seed": 1}})):
+        config.write_text(text)
+        load_policy(f"{model}:stats=none", env=env)
+
+
+def test_planar3p_v1_models_play_on_v0(tmp_path) -> None:
+    """``Planar3P-v1`` ran the machine ``Planar3P-v0`` runs now: its models play there, and
+    nowhere else; the message says what the id became."""
+    model = _tiny_model(tmp_path / "run" / "model.zip")
+    (tmp_path / "run" / "config.json").write_text(json.dumps({"config": {"env_id": "Planar3P-v1"}}))
+    load_policy(f"{model}:stats=none", env=gym.make("Planar3P-v0"))
+    with pytest.raises(PolicyError, match=r"Planar3P-v1 \(now Planar3P-v0\)"):
+        load_policy(f"{model}:stats=none", env=gym.make("Planar3PModeChange-v0"))
+
+
+def test_an_rl_zoo_model_is_refused_on_another_id(tmp_path) -> None:
+    """rl-zoo3's ``args.yml`` (an ``OrderedDict`` with an ``EnvironmentName`` in PyYAML's Python
+    tags, read as plain data: nothing in it is constructed) records the id of its models."""
+    from planar3p_agents.policies.sb3_models import training_record
+
+    run = tmp_path / "logs" / "ppo" / "Planar3P-v0_1"
+    model = _tiny_model(run / "Planar3P-v0.zip")
+    best = _tiny_model(run / "best_model.zip")
+    (run / "Planar3P-v0").mkdir()
+    (run / "Planar3P-v0" / "args.yml").write_text(
+        "!!python/object/apply:collections.OrderedDict\n"
+        "- - - algo\n    - ppo\n"
+        "  - - env\n    - !!python/object/new:huggingface_sb3.naming_schemes.EnvironmentName\n"
+        "      args:\n      - Planar3PModeChange-v0\n      state:\n        _gym_id: x\n"
+        "  - - env_kwargs\n    - travel_shaping: 2.0\n"
+        "  - - seed\n    - 7\n"
+    )
+    record = training_record(model)
+    assert (record.env_id, record.env_kwargs, record.seed) == (
+        "Planar3PModeChange-v0",
+        {"travel_shaping": 2.0},
+        7,
+    )
+    for path in (model, best):
+        with pytest.raises(PolicyError, match="trained on Planar3PModeChange-v0"):
+            load_policy(f"{path}:stats=none", env=gym.make("Planar3P-v0"))

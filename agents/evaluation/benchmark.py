@@ -46,6 +46,7 @@ from planar3p_agents.policies.factory import (
     run_env_kwargs,
 )
 from planar3p_agents.policies.play_envs import PlayEnvs, observation_kwargs
+from planar3p_agents.zoo.layout import shipped_model_of
 from planar3p_gym.machine.design import Design
 
 #: What ``baselines`` stands for on the reach suites.
@@ -112,13 +113,15 @@ def training_seed(model_path: str | Path | None) -> int | None:
 
     Reads (JSON only, never a pickle) ``config.json`` of a ``scripts/train.py`` run (beside the
     model or one level up, for checkpoints: ``{"config": {"seed": ...}}``) or the record of a
-    shipped model, ``<name>.json`` beside ``<name>.zip`` (``{"run": {"config": {...}}}``).
+    shipped model, ``<name>/provenance.json`` (``{"run": {"config": {...}}}``;
+    :mod:`planar3p_agents.zoo.layout`), or ``<stem>.json`` beside ``<stem>.zip``.
     """
     if model_path is None:
         return None
     p = Path(model_path)
+    shipped = shipped_model_of(p)
     records = [
-        (p.with_suffix(".json"), ("run", "config")),
+        (shipped.provenance if shipped else p.with_suffix(".json"), ("run", "config")),
         *((d / "config.json", ("config",)) for d in (p.parent, p.parent.parent)),
     ]
     for path, keys in records:

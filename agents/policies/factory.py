@@ -13,9 +13,10 @@ Accepted specifications:
   it is refused (:class:`PolicyError`, a ``ValueError``, naming the id and the ids it
   supports).  An analytic name followed by ``:gain=K`` is that controller with position and
   orientation gains ``K`` (1/s) instead of the default 6;
-* ``pretrained:<name>``: the model ``agents/zoo/pretrained/<name>.zip`` shipped with the package,
-  with its statistics ``<name>_vecnormalize.pkl``; both are checked against the SHA-256 sums in
-  ``agents/zoo/pretrained/SHA256SUMS`` before anything is loaded (:func:`verify_pretrained`);
+* ``pretrained:<name>``: the model shipped with the package in ``agents/zoo/pretrained/<name>/``
+  (:mod:`planar3p_agents.zoo.layout`), with its statistics; its folder is checked against the
+  SHA-256 sums in ``agents/zoo/pretrained/SHA256SUMS`` before anything is loaded
+  (:func:`verify_pretrained`);
 * a path to a Stable-Baselines3 model (``.zip``) saved by PPO, SAC, TD3, A2C or DDPG; the
   algorithm is read from the file, or forced with a prefix ``ppo:``, ``sac:``, ``td3:``,
   ``a2c:``, ``ddpg:`` (e.g. ``sac:runs/x/model.zip``).
@@ -67,6 +68,7 @@ from planar3p_agents.policies.spec import (
     parse_policy_spec,
     policy_label,
 )
+from planar3p_agents.zoo.layout import shipped_model_of
 from planar3p_agents.zoo.manifest import MANIFEST, file_sha256, verify_pretrained, write_manifest
 from planar3p_gym.machine.design import Design
 
@@ -127,7 +129,9 @@ def load_policy(
         return _baseline(ps, env, design, seed)
     assert ps.path is not None
     if ps.text.startswith(PRETRAINED_PREFIX):
-        files = verify_pretrained(ps.name[len(PRETRAINED_PREFIX) :], ps.path.parent)
+        shipped = shipped_model_of(ps.path)  # <root>/<name>/<algo>/<env id>_1/<env id>.zip
+        root = shipped.root if shipped is not None else ps.path.parent  # (else: refused there)
+        files = verify_pretrained(ps.name[len(PRETRAINED_PREFIX) :], root)
         stats = files[1] if len(files) > 1 else NO_STATS
     return load_sb3_model(
         ps.path, ps.algo, device=device, name=ps.name, check_env=env, vecnormalize=stats

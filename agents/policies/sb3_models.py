@@ -1,8 +1,10 @@
 """Stable-Baselines3 model files: which algorithm saved one, where its ``VecNormalize``
-statistics may lie, and loading both into an :class:`SB3Policy` (:func:`load_sb3_model`).
+statistics may lie, what its training recorded (:func:`training_record`: the id, the
+environment arguments, the seed), and loading both into an :class:`SB3Policy`
+(:func:`load_sb3_model`), which refuses a model trained on another id than the environment's.
 
-Model and statistics files are code (:data:`planar3p_agents.policies.spec.TRUSTED_FILES_NOTE`): nothing
-is unpickled that the caller did not name, and a model with statistics beside it and none
+Model and statistics files are code (:data:`planar3p_agents.policies.spec.TRUSTED_FILES_NOTE`):
+nothing is unpickled that the caller did not name, and a model with statistics beside it and none
 named is refused rather than evaluated without them.
 """
 
@@ -12,6 +14,7 @@ import json
 import pickle
 import re
 import zipfile
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -21,8 +24,19 @@ from numpy.typing import ArrayLike
 from planar3p_agents.controllers.base import PolicyAdapter
 from planar3p_agents.policies.play_envs import observation_kwargs
 from planar3p_agents.policies.spec import NO_STATS, SB3_ALGORITHMS, STATS_MARK, PolicyError
+from planar3p_agents.zoo.layout import shipped_model_of
 
-__all__ = ["SB3Policy", "load_sb3_model", "run_env_kwargs", "vecnormalize_candidates"]
+__all__ = [
+    "RENAMED_IDS",
+    "SB3Policy",
+    "TrainingRecord",
+    "check_trained_id",
+    "load_sb3_model",
+    "run_env_kwargs",
+    "same_task",
+    "training_record",
+    "vecnormalize_candidates",
+]
 
 
 def _detect_algorithm(path: Path) -> str:
@@ -63,10 +77,10 @@ def vecnormalize_candidates(path: Path) -> list[Path]:
 
     Matches ``scripts/train.py``'s run directory (``model.zip`` + ``vecnormalize.pkl``,
     ``best_model.zip`` + ``best_vecnormalize.pkl``, ``checkpoints/rl_model_<n>_steps.zip`` +
-    ``rl_model_vecnormalize_<n>_steps.pkl``), the pretrained layout (``<name>.zip`` +
-    ``<name>_vecnormalize.pkl``) and rl-zoo3's (``<run>/<env id>.zip`` or ``best_model.zip``
-    + ``<run>/<env id>/vecnormalize.pkl``).  Nothing is loaded from these places unless named:
-    :func:`load_sb3_model` refuses a model that has statistics there and none named.
+    ``rl_model_vecnormalize_<n>_steps.pkl``), ``<stem>.zip`` + ``<stem>_vecnormalize.pkl``, and
+    rl-zoo3's (``<run>/<env id>.zip`` or ``best_model.zip`` + ``<run>/<env id>/vecnormalize.pkl``,
+    which is also the layout of the shipped models).  Nothing is loaded from these places unless
+    named: :func:`load_sb3_model` refuses a model that has statistics there and none named.
     """
     stem = path.stem
     out = [path.with_name(f"{stem}_vecnormalize.pkl")]
@@ -98,22 +112,152 @@ def _unnamed_stats_error(path: Path, found: Path) -> PolicyError:
     )
 
 
-def run_env_kwargs(path: Path) -> dict[str, Any] | None:
-    """The environment keyword arguments a model was trained with, if its run directory
-    (``scripts/train.py``) has a ``config.json`` that records them, or a shipped model its
-    provenance record ``<name>.json`` (``agents/zoo/pretrained``); else ``None``."""
-    shipped = path.with_suffix(".json")
-    for cand in (path.parent / "config.json", path.parent.parent / "config.json", shipped):
+@dataclass(frozen=True)
+class TrainingRecord:
+    """What a model's training recorded about it, read from JSON or YAML (never a pickle).
+
+    Attributes:
+        source: the file read: a run's ``config.json`` (``scripts/train.py``), a shipped
+            model's provenance record (:mod:`planar3p_agents.zoo.layout`) or rl-zoo3's
+            ``args.yml``.
+        env_id: the id it was trained on (``None`` if not recorded or unreadable).
+        env_kwargs: its environment keyword arguments (``None`` if not recorded).
+        seed: its training seed (``None`` if not recorded).
+    """
+
+    source: Path
+    env_id: str | None = None
+    env_kwargs: dict[str, Any] | None = None
+    seed: int | None = None
+
+
+def _zoo_args_candidates(path: Path) -> list[Path]:
+    """rl-zoo3's ``args.yml`` of a model: ``<run>/<env id>/args.yml`` beside ``<run>/<env
+    id>.zip`` (or beside ``best_model.zip`` / checkpoints in ``<run>/``)."""
+    out = [path.with_suffix("") / "args.yml"]
+    if path.parent.is_dir():
+        out.extend(sorted(c for c in path.parent.glob("*/args.yml") if c not in out))
+    return out
+
+
+def _read_yaml_data(text: str) -> Any:
+    """YAML as plain data: Python tags (rl-zoo3 writes ``args.yml`` with them) become lists and
+    mappings, never objects."""
+    import yaml
+
+    class _DataLoader(yaml.SafeLoader):
+        pass
+
+    def _plain(loader: yaml.SafeLoader, suffix: str, node: yaml.Node) -> Any:
+        if isinstance(node, yaml.MappingNode):
+            return loader.construct_mapping(node, deep=True)
+        if isinstance(node, yaml.SequenceNode):
+            return loader.construct_sequence(node, deep=True)
+        return loader.construct_scalar(node)  # type: ignore[arg-type]
+
+    _DataLoader.add_multi_constructor("", _plain)
+    data = yaml.load(text, Loader=_DataLoader)  # a SafeLoader that builds no object
+    if isinstance(data, list) and len(data) == 1 and isinstance(data[0], list):
+        data = data[0]  # the argument list of ``!!python/object/apply:collections.OrderedDict``
+    if isinstance(data, list) and all(isinstance(i, list) and len(i) == 2 for i in data):
+        data = {k: v for k, v in data if isinstance(k, str)}  # an OrderedDict as its pairs
+    return data
+
+
+def _env_name(value: Any) -> str | None:
+    """An env id as recorded: a string, or rl-zoo3's ``EnvironmentName`` as plain data."""
+    if isinstance(value, dict):
+        value = (value.get("args") or [None])[0]
+    return value if isinstance(value, str) and value else None
+
+
+def _read_record(path: Path, kind: str) -> TrainingRecord:
+    """The record at ``path`` (``kind``: ``run``, ``shipped`` or ``zoo``); an unreadable one
+    records nothing."""
+    try:
+        if kind == "zoo":
+            data = _read_yaml_data(path.read_text())
+            env_id, kwargs, seed = (
+                _env_name(data.get("env")),
+                data.get("env_kwargs"),
+                data.get("seed"),
+            )
+        else:
+            data = json.loads(path.read_text())
+            config = data["run"]["config"] if kind == "shipped" else data.get("config", data)
+            env_id, kwargs, seed = (
+                config.get("env_id"),
+                config.get("env_kwargs"),
+                config.get("seed"),
+            )
+    except Exception:  # unreadable JSON or YAML of any kind records nothing
+        return TrainingRecord(path)
+    return TrainingRecord(
+        path,
+        env_id if isinstance(env_id, str) and env_id else None,
+        dict(kwargs) if isinstance(kwargs, dict) else None,
+        seed if isinstance(seed, int) and not isinstance(seed, bool) else None,
+    )
+
+
+def training_record(path: str | Path) -> TrainingRecord | None:
+    """What the training of the model ``path`` recorded, from the first record found: a shipped
+    model's provenance, its run's ``config.json`` (beside the model, or one level up for a
+    checkpoint), rl-zoo3's ``args.yml``; ``None`` if there is none."""
+    p = Path(path)
+    shipped = shipped_model_of(p)
+    candidates = [(shipped.provenance, "shipped")] if shipped is not None else []
+    candidates += [(p.parent / "config.json", "run"), (p.parent.parent / "config.json", "run")]
+    candidates += [(c, "zoo") for c in _zoo_args_candidates(p)]
+    for cand, kind in candidates:
         if cand.is_file():
-            try:
-                data = json.loads(cand.read_text())
-                if cand == shipped:
-                    data = data["run"]
-                kwargs = data.get("config", data).get("env_kwargs")
-            except (OSError, ValueError, AttributeError, KeyError, TypeError):
-                return None
-            return dict(kwargs) if isinstance(kwargs, dict) else None
+            return _read_record(cand, kind)
     return None
+
+
+def run_env_kwargs(path: Path) -> dict[str, Any] | None:
+    """The environment keyword arguments a model was trained with, if its training record
+    (:func:`training_record`) has them; else ``None``."""
+    record = training_record(path)
+    return record.env_kwargs if record is not None else None
+
+
+#: Ids that no longer exist and the id whose machine and task they ran (their models play there).
+RENAMED_IDS: dict[str, str] = {"Planar3P-v1": "Planar3P-v0"}
+
+
+def _entry_point(env_id: str) -> Any:
+    from gymnasium.envs.registration import registry
+
+    spec = registry.get(env_id)
+    return spec.entry_point if spec is not None else None
+
+
+def same_task(trained_id: str, env_id: str) -> bool:
+    """Whether a model trained on ``trained_id`` may play ``env_id``: the same id (after
+    :data:`RENAMED_IDS`), or two registrations of the same environment class that differ only
+    in their defaults (``Planar3PGoal-v0`` and ``Planar3PGoalDense-v0``: the reward)."""
+    trained = RENAMED_IDS.get(trained_id, trained_id)
+    if trained == env_id:
+        return True
+    entry = _entry_point(trained)
+    return entry is not None and entry == _entry_point(env_id)
+
+
+def check_trained_id(path: Path, env: Any) -> None:
+    """:class:`PolicyError` naming both ids if the model ``path`` was trained on another id
+    than ``env``'s (:func:`same_task`); nothing if either id is unknown."""
+    spec = getattr(env, "spec", None) or getattr(getattr(env, "unwrapped", None), "spec", None)
+    env_id = getattr(spec, "id", None)
+    record = training_record(path)
+    if not env_id or record is None or record.env_id is None or same_task(record.env_id, env_id):
+        return
+    renamed = RENAMED_IDS.get(record.env_id)
+    hint = f" (now {renamed})" if renamed else ""
+    raise PolicyError(
+        f"model {path} was trained on {record.env_id}{hint} (recorded in {record.source}), "
+        f"the environment is {env_id}: play it on {renamed or record.env_id}"
+    )
 
 
 def _load_vecnormalize(path: Path) -> Any:
@@ -220,7 +364,8 @@ def load_sb3_model(
     Both are code (:data:`TRUSTED_FILES_NOTE`).  ``vecnormalize``: the statistics file, or
     :data:`NO_STATS` to go without; ``None`` refuses a model that has statistics beside it
     (:func:`vecnormalize_candidates`) rather than load them unasked or silently ignore them.
-    ``check_env``: an environment whose observation and action spaces the model must match.
+    ``check_env``: an environment the model must fit: trained on its id (:func:`check_trained_id`,
+    checked before anything is loaded) and with its observation and action spaces.
     Raises :class:`PolicyError` for a missing, corrupt or mismatched model.
     """
     p = Path(path)
@@ -235,6 +380,8 @@ def load_sb3_model(
         vn_path = Path(vecnormalize).expanduser()
         if not vn_path.is_file():
             raise PolicyError(f"statistics file not found: {vn_path}")
+    if check_env is not None:
+        check_trained_id(p, check_env)
     key = algo or _detect_algorithm(p)
     if key not in SB3_ALGORITHMS:
         raise PolicyError(f"unknown SB3 algorithm {key!r}; known: {', '.join(SB3_ALGORITHMS)}")

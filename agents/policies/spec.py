@@ -2,7 +2,8 @@
 or ``sac:runs/x/model.zip:stats=runs/x/vecnormalize.pkl`` means, resolved without loading
 anything (:func:`parse_policy_spec`), and its short label (:func:`policy_label`).
 
-The syntax is described in :mod:`planar3p_agents.policies.factory`, which loads what a specification names.
+The syntax is described in :mod:`planar3p_agents.policies.factory`, which loads what a
+specification names.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from pathlib import Path
 
 # The built-in names and which take :gain=K: the baseline registry's.
 from planar3p_agents.controllers.registry import ANALYTIC_POLICIES, BUILTIN_POLICIES
+from planar3p_agents.zoo.layout import PRETRAINED_DIR, shipped_model, shipped_names
 
 __all__ = [
     "ANALYTIC_POLICIES",
@@ -35,15 +37,14 @@ __all__ = [
 TRUSTED_FILES_NOTE = (
     "Model (.zip) and statistics (.pkl) files are code: loading one can run arbitrary "
     "commands, so load only files you trust. Shipped pretrained:<name> files are checked "
-    "against agents/zoo/pretrained/SHA256SUMS first; statistics are loaded only when named "
+    "against agents/zoo/pretrained/SHA256SUMS first (rl-zoo3's enjoy does not check them: run "
+    "scripts/ship_policy.py --verify NAME before it); statistics are loaded only when named "
     "(MODEL.zip:stats=STATS.pkl, or :stats=none to go without)."
 )
 
 #: ``analytic-simultaneous:gain=12``: the controller with position and orientation gains 12 1/s
 #: (default 6 1/s), e.g. to compare a learned policy with a retuned controller.
 GAIN_MARK = ":gain="
-#: Where ``pretrained:<name>`` models live.
-PRETRAINED_DIR = Path(__file__).resolve().parents[1] / "zoo" / "pretrained"
 #: Stable-Baselines3 algorithms a model file may come from (prefix -> class name).
 SB3_ALGORITHMS: dict[str, str] = {
     "ppo": "PPO",
@@ -90,11 +91,9 @@ class PolicySpec:
 
 
 def list_pretrained(directory: Path | None = None) -> list[str]:
-    """Names of the shipped pretrained models (``pretrained:<name>``)."""
-    d = directory or PRETRAINED_DIR
-    if not d.is_dir():
-        return []
-    return sorted(p.stem for p in d.glob("*.zip"))
+    """Names of the shipped pretrained models (``pretrained:<name>``; the layout is
+    :mod:`planar3p_agents.zoo.layout`)."""
+    return shipped_names(directory or PRETRAINED_DIR)
 
 
 def _known() -> str:
@@ -161,13 +160,18 @@ def parse_policy_spec(text: str) -> PolicySpec:
         name = spec[len(PRETRAINED_PREFIX) :]
         if not name or "/" in name or "\\" in name or name.startswith("."):
             raise PolicyError(f"invalid pretrained model name {name!r}")
-        path = PRETRAINED_DIR / f"{name}.zip"
-        if not path.is_file():
+        try:
+            path = shipped_model(name, PRETRAINED_DIR).model
+        except ValueError as exc:
             have = list_pretrained()
+            folder = PRETRAINED_DIR / name
+            why = f"{folder} does not exist" if not folder.exists() else str(exc)
             raise PolicyError(
-                f"unknown pretrained model {name!r}: {path} does not exist; "
+                f"unknown pretrained model {name!r}: {why}; "
                 f"available: {', '.join(have) if have else 'none shipped yet'}"
-            )
+            ) from exc
+        if not path.is_file():
+            raise PolicyError(f"shipped model {name!r} has no model file {path}")
         return PolicySpec(spec, "model", spec, path, None)
     algo = None
     head, sep, rest = spec.partition(":")

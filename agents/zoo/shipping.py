@@ -1,36 +1,39 @@
-"""Ship a trained model from a run directory into ``agents/zoo/pretrained/`` in two layouts.
+"""Ship a trained model from a run directory into ``agents/zoo/pretrained/`` as
+``pretrained:<name>``.
 
-1. This project's: ``<name>.zip`` (the model), ``<name>_vecnormalize.pkl`` (its observation
-   statistics, if the run normalised) and ``<name>.json`` (provenance: the run's config and
-   command, its metrics, the versions), which ``pretrained:<name>`` loads.
-2. rl-zoo3's, so that ``python -m rl_zoo3.enjoy --algo ALGO --env ID -f agents/zoo/pretrained
-   --gym-packages planar3p_gym`` plays it::
+The model is stored once, in the layout of :mod:`planar3p_agents.zoo.layout`: one rl-zoo3 log
+folder per shipped model, ``<name>/<algo>/<env id>_1/`` (the model ``<env id>.zip``, and in
+``<env id>/`` its statistics ``vecnormalize.pkl``, the hyperparameters ``config.yml`` and the
+arguments ``args.yml``), with the provenance record ``<name>/provenance.json`` (the run's config
+and command, its metrics, the versions).  ``pretrained:<name>`` loads it after checking the
+manifest; ``python -m rl_zoo3.enjoy --algo ALGO --env ID -f agents/zoo/pretrained/<name>
+--exp-id 1 --gym-packages planar3p_gym`` plays the same files (after ``scripts/ship_policy.py
+--verify <name>``: rl-zoo3 checks nothing).
 
-       <algo>/<env id>_<n>/<env id>.zip                  the model
-       <algo>/<env id>_<n>/<env id>/vecnormalize.pkl     its statistics
-       <algo>/<env id>_<n>/<env id>/config.yml           the hyperparameters (zoo format)
-       <algo>/<env id>_<n>/<env id>/args.yml             algo, env id, env kwargs, seed, name
+Shipped files carry no absolute path and no host name (:mod:`planar3p_agents.zoo.portable`):
+the run directory is written ``runs/<run>`` in the record and in the model's ``data``
+(``tensorboard_log``; the weights are copied byte for byte), and shipping refuses a run whose
+files would still carry one.  A re-shipped name replaces its folder as a whole.  Afterwards the
+checksum manifest (:func:`planar3p_agents.zoo.manifest.write_manifest`) is rewritten.
 
-   ``<n>`` is the experiment id (``--exp-id``; enjoy's default is the highest): a re-shipped
-   name keeps its id, a new name gets the next one.
-
-Afterwards the checksum manifest (:func:`planar3p_agents.zoo.manifest.write_manifest`) is rewritten.
-rl-zoo3's own packaging (``rl_zoo3.push_to_hub``) uploads to the Hugging Face hub and needs
-its training layout, so it does not do this job; the zoo layout written here is what its
-``enjoy`` / ``record_video`` read.  Files are written atomically.
+rl-zoo3's own packaging (``rl_zoo3.push_to_hub``) uploads to the Hugging Face hub and needs its
+training layout, so it does not do this job; the layout written here is what its ``enjoy`` /
+``record_video`` read.
 """
 
 from __future__ import annotations
 
 import json
+import shutil
+import tempfile
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from planar3p_agents.policies.spec import PRETRAINED_DIR
 from planar3p_agents.training.checkpoints import checkpoint_path
+from planar3p_agents.zoo.layout import ShippedModel, check_name, read_provenance, shipped_model
 from planar3p_agents.zoo.manifest import write_manifest
+from planar3p_agents.zoo.portable import machine_traces, portable_model, portable_record
 from planar3p_gym.atomic_files import copy_atomic, write_atomic
 
 __all__ = ["CHECKPOINT_PREFIX", "MODELS", "model_files", "ship", "zoo_layout"]
@@ -43,11 +46,8 @@ MODELS = {
     "kickstart_model": ("kickstart_model.zip", "kickstart_vecnormalize.pkl"),
 }
 _LEGACY_BEST = ("best_model.zip", "best_vecnormalize.pkl")
-
-
-def _copy(src: Path, dst: Path) -> None:
-    dst.parent.mkdir(parents=True, exist_ok=True)
-    copy_atomic(src, dst)
+#: The repository (paths inside it are recorded relative to it).
+_REPO = Path(__file__).resolve().parents[2]
 
 
 def _write(dst: Path, text: str) -> None:
@@ -55,63 +55,39 @@ def _write(dst: Path, text: str) -> None:
     write_atomic(dst, text)
 
 
-def _check_name(name: str) -> None:
-    if not name or not name.replace("_", "").replace("-", "").isalnum():
-        raise ValueError(f"invalid name {name!r} (letters, digits, - and _)")
+def _zoo_files(model: ShippedModel, record: dict[str, Any]) -> None:
+    """Write rl-zoo3's ``config.yml`` and ``args.yml`` of ``model`` from its provenance."""
+    import yaml
 
-
-def _experiment_id(base: Path, env_id: str, name: str) -> int:
-    """The zoo experiment id of ``name`` under ``base`` (existing, else the next free one)."""
-    ids = {}
-    for args in base.glob(f"{env_id}_*/{env_id}/args.yml"):
-        exp = args.parent.parent.name[len(env_id) + 1 :]
-        if exp.isdigit():
-            shipped = (yaml.safe_load(args.read_text()) or {}).get("shipped_name")
-            ids[int(exp)] = shipped
-    for exp, shipped in ids.items():
-        if shipped == name:
-            return exp
-    return max(ids, default=0) + 1
-
-
-def zoo_layout(name: str, directory: Path | None = None) -> Path:
-    """Write (or rewrite) the rl-zoo3 layout of the shipped ``pretrained:<name>`` from its
-    files and provenance in ``directory``; returns the experiment folder."""
-    d = directory or PRETRAINED_DIR
-    _check_name(name)
-    try:
-        record = json.loads((d / f"{name}.json").read_text())
-        config = record["run"]["config"]
-        algo, env_id = config["algo"], config["env_id"]
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise ValueError(f"no readable provenance {d / (name + '.json')}: {exc}") from exc
-    model = d / f"{name}.zip"
-    if not model.is_file():
-        raise ValueError(f"{model} does not exist")
-    base = d / algo
-    exp = base / f"{env_id}_{_experiment_id(base, env_id, name)}"
-    _copy(model, exp / f"{env_id}.zip")
-    stats = d / f"{name}_vecnormalize.pkl"
-    entry: dict[str, Any] = dict(record["run"].get("entry") or {})
-    entry["normalize"] = stats.is_file()  # the zoo loads <env id>/vecnormalize.pkl if true
+    run = record["run"]
+    config = run["config"]
+    entry: dict[str, Any] = dict(run.get("entry") or {})
+    entry["normalize"] = model.stats.is_file()  # the zoo loads <env id>/vecnormalize.pkl if true
     entry.update(n_envs=config.get("n_envs"), n_timesteps=config.get("n_timesteps"))
-    if stats.is_file():
-        _copy(stats, exp / env_id / "vecnormalize.pkl")
-    else:
-        (exp / env_id / "vecnormalize.pkl").unlink(missing_ok=True)
     entry.pop("env_kwargs", None)
-    _write(exp / env_id / "config.yml", yaml.safe_dump(entry, sort_keys=True))
+    _write(model.zoo_config, yaml.safe_dump(entry, sort_keys=True))
     args = {
-        "algo": algo,
-        "env": env_id,
+        "algo": model.algo,
+        "env": model.env_id,
         "env_kwargs": config.get("env_kwargs") or None,
         "seed": config.get("seed"),
         "n_timesteps": config.get("n_timesteps"),
-        "shipped_name": name,
-        "command": record["run"].get("command", ""),
+        "shipped_name": model.name,
+        "command": run.get("command", ""),
     }
-    _write(exp / env_id / "args.yml", yaml.safe_dump(args, sort_keys=True))
-    return exp
+    _write(model.zoo_args, yaml.safe_dump(args, sort_keys=True))
+
+
+def zoo_layout(name: str, directory: Path | None = None) -> Path:
+    """Rewrite rl-zoo3's ``config.yml`` and ``args.yml`` of the shipped ``pretrained:<name>`` in
+    ``directory`` from its provenance record (e.g. after the record was edited); returns the
+    experiment folder.  ``ValueError`` if the model or its record is missing.  The manifest is
+    not rewritten here."""
+    model = shipped_model(name, directory or PRETRAINED_DIR)
+    if not model.model.is_file():
+        raise ValueError(f"{model.model} does not exist")
+    _zoo_files(model, read_provenance(model.provenance))
+    return model.experiment
 
 
 #: ``checkpoint:<steps>``: the run's checkpoint after ``<steps>`` environment steps.
@@ -132,20 +108,10 @@ def model_files(model: str) -> tuple[str, str]:
     )
 
 
-def ship(
-    run: Path,
-    name: str,
-    model: str = "best_model",
-    out: Path | None = None,
-    note: str = "",
-) -> list[Path]:
-    """Copy ``model`` of the run directory ``run`` into ``out`` (default
-    ``agents/zoo/pretrained``) as ``pretrained:<name>`` in both layouts; returns the files
-    written.  ``ValueError`` (nothing written) if the name or the run is not usable."""
-    _check_name(name)
+def _read_run(run: Path, model: str) -> tuple[Path, Path, dict[str, Any], str]:
+    """The model file, its statistics (maybe absent), the run record and the model's relative
+    path; ``ValueError`` if the run is not usable."""
     model_rel, stats_rel = model_files(model)
-    out = Path(out) if out is not None else PRETRAINED_DIR
-    run = Path(run)
     if model == "best_model" and not (run / model_rel).is_file():
         model_rel, stats_rel = _LEGACY_BEST
     src, config = run / model_rel, run / "config.json"
@@ -154,9 +120,30 @@ def ship(
             raise ValueError(f"{path} does not exist")
     try:
         run_record = json.loads(config.read_text())
-        run_record["config"]["algo"], run_record["config"]["env_id"]
+        ShippedModel(
+            PRETRAINED_DIR, "x", run_record["config"]["algo"], run_record["config"]["env_id"]
+        )
     except (ValueError, KeyError, TypeError) as exc:
         raise ValueError(f"{config} is not a run's config.json: {exc}") from exc
+    return src, run / stats_rel, run_record, model_rel
+
+
+def ship(
+    run: Path,
+    name: str,
+    model: str = "best_model",
+    out: Path | None = None,
+    note: str = "",
+) -> list[Path]:
+    """Copy ``model`` of the run directory ``run`` into ``out`` (default
+    ``agents/zoo/pretrained``) as ``pretrained:<name>`` (layout:
+    :mod:`planar3p_agents.zoo.layout`) and rewrite the manifest; returns the files written
+    (the manifest last).  ``ValueError`` (nothing written) if the name or the run is not usable,
+    or if a file to ship would carry an absolute path or the host name."""
+    check_name(name)
+    run = Path(run)
+    out = Path(out) if out is not None else PRETRAINED_DIR
+    src, stats, run_record, model_rel = _read_run(run, model)
     if out.exists() and not out.is_dir():
         raise ValueError(f"{out} is not a directory")
     record: dict[str, Any] = {
@@ -170,17 +157,28 @@ def ship(
         path = run / extra
         if path.is_file():
             record[extra.removesuffix(".json")] = json.loads(path.read_text())
-    written = [out / f"{name}.zip"]
-    _copy(src, written[0])
-    stats = run / stats_rel
-    if stats.is_file():
-        written.append(out / f"{name}_vecnormalize.pkl")
-        _copy(stats, written[-1])
-    else:
-        (out / f"{name}_vecnormalize.pkl").unlink(missing_ok=True)
-    written.append(out / f"{name}.json")
-    _write(written[-1], json.dumps(record, indent=2))
-    exp = zoo_layout(name, out)
-    written += sorted(p for p in exp.rglob("*") if p.is_file())
-    written.append(write_manifest(out))
-    return written
+    record = portable_record(record, run, _REPO)
+    config = record["run"]["config"]
+    out.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".ship-{name}-", dir=out))
+    try:
+        staged = ShippedModel(staging, name, config["algo"], config["env_id"])
+        portable_model(src, staged.model, run, _REPO)
+        if stats.is_file():
+            staged.stats.parent.mkdir(parents=True, exist_ok=True)
+            copy_atomic(stats, staged.stats)
+        _write(staged.provenance, json.dumps(record, indent=2) + "\n")
+        _zoo_files(staged, record)
+        traces = machine_traces(staged.files())
+        if traces:
+            raise ValueError(
+                "a shipped file would carry a trace of this machine (absolute path or host "
+                "name); fix the run's files and ship again:\n  " + "\n  ".join(traces)
+            )
+        final = ShippedModel(out, name, staged.algo, staged.env_id)
+        if final.folder.exists():  # a re-shipped name: its folder is replaced as a whole
+            final.folder.rename(staging / ".replaced")
+        staged.folder.rename(final.folder)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return [*final.files(), write_manifest(out)]
