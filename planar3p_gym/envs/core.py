@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import importlib
 import itertools
 import math
 from dataclasses import asdict
@@ -53,6 +54,7 @@ __all__ = [
     "TERMINATION_REASONS",
     "Planar3PEnv",
     "check_reset_options",
+    "make_task",
     "parse_action",
 ]
 
@@ -70,6 +72,35 @@ TERMINATION_REASONS = ("success", "singularity_crossing", "physics_breakdown")
 KEYBOARD_KEYS = (("q", "a"), ("w", "s"), ("e", "d"))
 #: Speed commanded by a pressed key, as a fraction of ``max_speed``.
 KEYBOARD_SPEED = 0.5
+
+
+def make_task(task: Task | str | None, task_kwargs: dict[str, Any] | None) -> Task:
+    """The task of a :class:`Planar3PEnv`: ``task`` itself, a new :class:`ReachTask` for
+    ``None``, or the Task class at ``"module:Class"`` built with ``task_kwargs``; ``ValueError``
+    naming the argument otherwise."""
+    if task_kwargs is not None and not isinstance(task_kwargs, dict):
+        raise ValueError(f"task_kwargs must be a dict or None, got {task_kwargs!r}")
+    if isinstance(task, str):
+        module, sep, name = task.partition(":")
+        try:
+            cls = getattr(importlib.import_module(module), name) if sep else None
+        except (ImportError, AttributeError) as exc:
+            raise ValueError(f"task {task!r} cannot be imported: {exc}") from exc
+        if not (isinstance(cls, type) and issubclass(cls, Task)):
+            raise ValueError(
+                f"task must name a planar3p_gym.tasks.Task subclass as 'module:Class', got {task!r}"
+            )
+        try:
+            return cls(**(task_kwargs or {}))
+        except TypeError as exc:
+            raise ValueError(f"task_kwargs do not fit {task}: {exc}") from exc
+    if task_kwargs:
+        raise ValueError("task_kwargs applies only to a task given as 'module:Class'")
+    if task is None:
+        return ReachTask()
+    if not isinstance(task, Task):
+        raise ValueError(f"task must be a planar3p_gym.tasks.Task, got {task!r}")
+    return task
 
 
 class Planar3PEnv(gym.Env):
@@ -160,8 +191,11 @@ class Planar3PEnv(gym.Env):
       inverse kinematics, m) and ``tanh((target_rho - rho) / 1 cm)`` to the observation
       (:data:`planar3p_gym.tasks.observation.TRAVEL_GOAL_FIELDS`); reach task only, default
       ``False``.
-    - ``task``: a :class:`planar3p_gym.tasks.Task` (default :class:`~planar3p_gym.tasks.
-      ReachTask`, this docstring's task); other registered ids pass theirs.
+    - ``task``: a :class:`planar3p_gym.tasks.Task`, or the ``"module:Class"`` path of a Task
+      class built with ``task_kwargs`` (a dict of its constructor arguments) -- how a
+      registration row names a new task without an environment class of its own
+      (:mod:`planar3p_gym.tasks`, "Adding a task").  Default :class:`~planar3p_gym.tasks.
+      ReachTask`, this docstring's task; other registered ids pass theirs.
 
     ``info["episode_spec"]`` (at reset) is a JSON-serialisable dict describing the episode;
     ``reset(options=spec)`` replays it exactly (:mod:`planar3p_gym.tasks.base`).
@@ -190,14 +224,11 @@ class Planar3PEnv(gym.Env):
         breakdown_threshold: float = 0.01,
         render_mode: str | None = None,
         render_size: tuple[int, int] = (640, 480),
-        task: Task | None = None,
+        task: Task | str | None = None,
+        task_kwargs: dict[str, Any] | None = None,
         travel_goal: bool = False,
     ) -> None:
-        if task is None:
-            task = ReachTask()
-        if not isinstance(task, Task):
-            raise ValueError(f"task must be a planar3p_gym.tasks.Task, got {task!r}")
-        self.task = task
+        self.task = make_task(task, task_kwargs)
         self.design = design_from(design)
         if isinstance(working_mode, str):
             if working_mode != "random":
