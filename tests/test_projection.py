@@ -293,8 +293,8 @@ def test_projection_gains_no_energy_in_a_free_swing(max_force):
         if projection:
             project = sim._projector.project
 
-            def recording(v, saturated, project=project, changes=changes):
-                out = project(v, saturated)
+            def recording(v, saturated, *args, project=project, changes=changes):
+                out = project(v, saturated, *args)
                 changes.append(mechanical_energy(design, out.bodies) - mechanical_energy(design, v))
                 return out
 

@@ -63,6 +63,7 @@ from numpy.typing import ArrayLike
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.sim.projection import LoopProjector
+from planar3p_gym.sim.projection import wrap_angle as _wrap
 
 __all__ = [
     "DEFAULT_ITERATIONS",
@@ -191,11 +192,6 @@ class SimSnapshot:
     def steps(self) -> int:
         """Control steps since the build."""
         return len(self.commands) // 3
-
-
-def _wrap(angle: float) -> float:
-    """Angle wrapped into ``(-pi, pi]``."""
-    return math.pi - (math.pi - angle) % (2.0 * math.pi)
 
 
 def substep_impulses(
@@ -515,24 +511,12 @@ class Planar3PSim:
             array_.num = 0
             _cp.cpSpaceEachBody(fast[0], iterator, request)
             v = fast[6].tolist()  # (the readout's first 60 numbers, through a view)
-        pr = self._projector.project(v, self._saturated)  # type: ignore[union-attr]
+        # (The drives' setpoints for the next step are pulled to within
+        # FOLLOWING_ERROR_LIMIT of their sliders, :meth:`_limit_following_error`.)
+        pr = self._projector.project(  # type: ignore[union-attr]
+            v, self._saturated, FOLLOWING_ERROR_LIMIT
+        )
         out = pr.bodies
-        # The drives' setpoints for the next step (:meth:`_limit_following_error`, here on the
-        # values written back: drive x at 12, 30, 48; its slider's x 6 numbers before).
-        lim = FOLLOWING_ERROR_LIMIT
-        s1, s2, s3 = out[6], out[24], out[42]
-        if out[12] - s1 > lim:
-            out[12] = s1 + lim
-        elif s1 - out[12] > lim:
-            out[12] = s1 - lim
-        if out[30] - s2 > lim:
-            out[30] = s2 + lim
-        elif s2 - out[30] > lim:
-            out[30] = s2 - lim
-        if out[48] - s3 > lim:
-            out[48] = s3 + lim
-        elif s3 - out[48] > lim:
-            out[48] = s3 - lim
         if fast is None:
             for n, body in enumerate(self._bodies):
                 o = 6 * n

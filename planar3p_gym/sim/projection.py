@@ -64,14 +64,20 @@ differential-algebraic equations):
 * **Legs** (positions, angles, velocities, angular velocities) are then recomputed from the
   slider and platform values.
 
-Everything is plain-float arithmetic with hand-written 3x3 solves: this runs once per control
-step, where numpy's per-call overhead on 3x3 arrays would cost more than the work.
+The projection is defined once, in :func:`project_readout` (plain-float arithmetic with
+hand-written 3x3 solves, compiled by numba: it runs once per control step of every
+environment, where numpy's per-call overhead on 3x3 arrays would cost more than the work);
+:class:`LoopProjector` calls it for one simulation and :func:`project_batch` loops over the
+simulations of a native vector env with the same compiled function.
 """
 
 from __future__ import annotations
 
 import math
 from typing import NamedTuple
+
+import numpy as np
+from numba import njit
 
 from planar3p_gym.machine.design import Design
 
@@ -85,6 +91,9 @@ __all__ = [
     "STOP_CONTACT",
     "LoopProjector",
     "Projected",
+    "project_batch",
+    "project_readout",
+    "wrap_angle",
 ]
 
 #: Leg-length error (m) below which the position projection stops.
@@ -144,6 +153,13 @@ class Projected(NamedTuple):
     geometry: tuple[float, float, float, float, float, float, float, float]
 
 
+@njit(cache=True)
+def wrap_angle(angle: float) -> float:
+    """Angle (rad) wrapped into ``(-pi, pi]``."""
+    return math.pi - (math.pi - angle) % (2.0 * math.pi)
+
+
+@njit(cache=True)
 def _at_stop(
     travel: float, rate: float, setpoint: float, stroke: float
 ) -> tuple[float, float, float]:
@@ -200,249 +216,307 @@ class LoopProjector:
         self.dt = 0.0 if dt is None else float(dt)
         self.reach = math.inf if dt is None else float(following_error) + self.rate_limit * self.dt
         l1, l2, l3 = self.legs
-        self._constants = (
-            self.origins,
-            self.r,
-            self.legs,
-            (l1 * l1, l2 * l2, l3 * l3),
-            # Convergence test on f_i = |u_i|^2 - L_i^2 ~ 2 L_i (|u_i| - L_i).
-            tuple(2.0 * li * POSITION_TOLERANCE for li in self.legs),
-            self.d_centre,
-            self.k_q,
-            self.stroke,
-            1.0 / self.m_platform,
-            1.0 / self.i_q,
-            1.0 / self.m_rho,
-            self.rate_limit,
-            self.dt,
-            self.reach,
-        )
+        #: The numbers :func:`project_readout` reads (its argument ``consts``).
+        self.constants = np.array(
+            [
+                *self.origins, *self.r, *self.legs, l1 * l1, l2 * l2, l3 * l3,
+                # Convergence test on f_i = |u_i|^2 - L_i^2 ~ 2 L_i (|u_i| - L_i).
+                *(2.0 * li * POSITION_TOLERANCE for li in self.legs),
+                self.d_centre, self.k_q, self.stroke, 1.0 / self.m_platform, 1.0 / self.i_q,
+                1.0 / self.m_rho, self.rate_limit, self.dt, self.reach,
+            ]
+        )  # fmt: skip
+        self.constants.flags.writeable = False
 
     def project(
-        self, v: list[float], saturated: tuple[bool, bool, bool] = (True, True, True)
+        self,
+        v: list[float],
+        saturated: tuple[bool, bool, bool] = (True, True, True),
+        setpoint_limit: float = math.inf,
     ) -> Projected:
         """Project the readout ``v`` (60 numbers: ``x, y, angle, vx, vy, w`` of the 10 bodies
         in readout order) onto the manifold; returns the new body values and the state.
 
         ``saturated[i]`` says whether servo ``i`` was at its force limit (its slider then
-        moves with its own mass; otherwise its servo holds it, see the module docstring)."""
-        (
-            (a1, a2, a3), (r1, r2, r3), (l1, l2, l3), (ll1, ll2, ll3), (ft1, ft2, ft3),
-            dc, kq, stroke, ip, ii, free, rate_limit, dt, reach,
-        ) = self._constants  # fmt: skip
-        i1 = free if saturated[0] else 0.0
-        i2 = free if saturated[1] else 0.0
-        i3 = free if saturated[2] else 0.0
-        hold = i1 == 0.0 or i2 == 0.0 or i3 == 0.0
-
-        px, py, th, pvx, pvy, w = v[0], v[1], v[2], v[3], v[4], v[5]
-        c, s = math.cos(th), math.sin(th)
-        qx, qy = px - dc * c, py - dc * s
-        qvx, qvy = pvx + dc * w * s, pvy - dc * w * c
-        p1, p2, p3 = v[6] - a1, v[24] - a2, v[42] - a3
-        d1, d2, d3 = v[9], v[27], v[45]
-        # Whether every servo-held slider has been freed (no restart left); which sliders sit
-        # on an end stop (held there for the rest of the projection).
-        free_phase = not hold
-        stop1 = stop2 = stop3 = False
-        if not (0.0 <= p1 <= stroke and 0.0 <= p2 <= stroke and 0.0 <= p3 <= stroke):
-            # A slider past an end stop (rare path): into the stop and held (the argument
-            # after its rate is its servo's setpoint).
-            if p1 < 0.0 or p1 > stroke:
-                p1, d1, i1 = _at_stop(p1, d1, v[12] - a1, stroke)
-                stop1 = True
-            if p2 < 0.0 or p2 > stroke:
-                p2, d2, i2 = _at_stop(p2, d2, v[30] - a2, stroke)
-                stop2 = True
-            if p3 < 0.0 or p3 > stroke:
-                p3, d3, i3 = _at_stop(p3, d3, v[48] - a3, stroke)
-                stop3 = True
-            hold = True
-
-        # All three held: the rho block of J W^-1 J^T and the travel updates vanish; skipping
-        # them gives the same numbers (0 * x added to a float leaves it unchanged).
-        held3 = i1 == 0.0 and i2 == 0.0 and i3 == 0.0
-        start = (p1, p2, p3, qx, qy, th, c, s)
-        # (Held only by the end stops: the steps of the last attempt.)
-        limit = HELD_NEWTON_STEPS if hold and not free_phase else MAX_NEWTON_STEPS
-        steps = 0
-        failed = False
-        while True:
-            # Leg vectors u_i = C_i - B_i and the loop residuals f_i = |u_i|^2 - L_i^2.
-            x1, y1 = qx + r1 * c - a1 - p1, qy + r1 * s
-            x2, y2 = qx + r2 * c - a2 - p2, qy + r2 * s
-            x3, y3 = qx + r3 * c - a3 - p3, qy + r3 * s
-            xx1, xx2, xx3 = x1 * x1, x2 * x2, x3 * x3
-            n1, n2, n3 = xx1 + y1 * y1, xx2 + y2 * y2, xx3 + y3 * y3  # |u_i|^2
-            f1, f2, f3 = n1 - ll1, n2 - ll2, n3 - ll3
-            # Row i of J: -x_i at rho_i, then (x_i, y_i, t_i); G = J W^-1 J^T (symmetric).
-            t1, t2, t3 = r1 * (y1 * c - x1 * s), r2 * (y2 * c - x2 * s), r3 * (y3 * c - x3 * s)
-            if held3:  # every slider held (the usual case): x_i^2 i_i = 0 drops out exactly
-                g11 = n1 * ip + t1 * t1 * ii
-                g22 = n2 * ip + t2 * t2 * ii
-                g33 = n3 * ip + t3 * t3 * ii
-            else:
-                g11 = xx1 * i1 + n1 * ip + t1 * t1 * ii
-                g22 = xx2 * i2 + n2 * ip + t2 * t2 * ii
-                g33 = xx3 * i3 + n3 * ip + t3 * t3 * ii
-            g12 = (x1 * x2 + y1 * y2) * ip + t1 * t2 * ii
-            g13 = (x1 * x3 + y1 * y3) * ip + t1 * t3 * ii
-            g23 = (x2 * x3 + y2 * y3) * ip + t2 * t3 * ii
-            # Adjugate and determinant (G is positive definite where J has full rank).
-            h11 = g22 * g33 - g23 * g23
-            h12 = g13 * g23 - g12 * g33
-            h13 = g12 * g23 - g13 * g22
-            det = g11 * h11 + g12 * h12 + g13 * h13
-            converged = -ft1 <= f1 <= ft1 and -ft2 <= f2 <= ft2 and -ft3 <= f3 <= ft3
-            if hold and (
-                det <= HELD_CONDITION * g11 * g22 * g33 or (not converged and steps >= limit)
-            ):
-                if free_phase:
-                    # Only sliders on their end stops are held, and the platform with the free
-                    # sliders cannot close the loop with them there: the projection fails.
-                    failed = True
-                    break
-                # Too close to a parallel singularity for the platform alone (or no pose near
-                # for the held travels): start again with every slider free but those on an
-                # end stop.
-                p1, p2, p3, qx, qy, th, c, s = start
-                i1 = 0.0 if stop1 else free
-                i2 = 0.0 if stop2 else free
-                i3 = 0.0 if stop3 else free
-                hold = stop1 or stop2 or stop3
-                held3 = stop1 and stop2 and stop3
-                free_phase = True
-                limit = steps + MAX_NEWTON_STEPS
-                continue
-            if converged and (
-                (i1 != 0.0 and not 0.0 <= p1 <= stroke)
-                or (i2 != 0.0 and not 0.0 <= p2 <= stroke)
-                or (i3 != 0.0 and not 0.0 <= p3 <= stroke)
-            ):
-                # The end stops are constraints of the projection: a free slider that the
-                # correction put past a stop is fixed at the stop (velocity into it removed,
-                # :func:`_at_stop`) and the correction solved again from the start with it held.
-                e1, e2, e3, qx, qy, th, c, s = start
-                if i1 != 0.0 and not 0.0 <= p1 <= stroke:
-                    e1, d1, i1 = _at_stop(p1, d1, v[12] - a1, stroke)
-                    stop1 = True
-                if i2 != 0.0 and not 0.0 <= p2 <= stroke:
-                    e2, d2, i2 = _at_stop(p2, d2, v[30] - a2, stroke)
-                    stop2 = True
-                if i3 != 0.0 and not 0.0 <= p3 <= stroke:
-                    e3, d3, i3 = _at_stop(p3, d3, v[48] - a3, stroke)
-                    stop3 = True
-                start = (e1, e2, e3, qx, qy, th, c, s)
-                p1, p2, p3 = e1, e2, e3
-                hold = True
-                held3 = i1 == 0.0 and i2 == 0.0 and i3 == 0.0
-                limit = steps + (MAX_NEWTON_STEPS if free_phase else HELD_NEWTON_STEPS)
-                continue
-            if converged or steps >= limit or det <= 0.0:
-                break
-            h22 = g11 * g33 - g13 * g13
-            h23 = g12 * g13 - g11 * g23
-            h33 = g11 * g22 - g12 * g12
-            # lambda = G^-1 f / 2, dq = -W^-1 J^T lambda.
-            k = 0.5 / det
-            m1 = (h11 * f1 + h12 * f2 + h13 * f3) * k
-            m2 = (h12 * f1 + h22 * f2 + h23 * f3) * k
-            m3 = (h13 * f1 + h23 * f2 + h33 * f3) * k
-            if not held3:
-                p1 += x1 * m1 * i1
-                p2 += x2 * m2 * i2
-                p3 += x3 * m3 * i3
-            qx -= (x1 * m1 + x2 * m2 + x3 * m3) * ip
-            qy -= (y1 * m1 + y2 * m2 + y3 * m3) * ip
-            th -= (t1 * m1 + t2 * m2 + t3 * m3) * ii
-            c, s = math.cos(th), math.sin(th)
-            steps += 1
-        closure = max(abs(math.sqrt(n1) - l1), abs(math.sqrt(n2) - l2), abs(math.sqrt(n3) - l3))
-        if (
-            failed
-            or not closure <= MAX_CLOSURE_ERROR
-            or det <= 0.0
-            # Each slider within reach of where it was at the start of the step: its drive's
-            # setpoint then (now less the commanded velocity times dt).
-            or not abs(p1 - (v[12] - a1 - v[15] * dt)) <= reach
-            or not abs(p2 - (v[30] - a2 - v[33] * dt)) <= reach
-            or not abs(p3 - (v[48] - a3 - v[51] * dt)) <= reach
-        ):
-            # No closed state with the sliders on their stroke near the simulated one: the
-            # step is reported as failed (closure error inf, a physics breakdown), with every
-            # travel put within its stroke and the velocities left as simulated.
-            failed = True
-            closure = math.inf
-            if not 0.0 <= p1 <= stroke:
-                p1, d1, i1 = _at_stop(p1, d1, v[12] - a1, stroke)
-            if not 0.0 <= p2 <= stroke:
-                p2, d2, i2 = _at_stop(p2, d2, v[30] - a2, stroke)
-            if not 0.0 <= p3 <= stroke:
-                p3, d3, i3 = _at_stop(p3, d3, v[48] - a3, stroke)
-            x1, y1 = qx + r1 * c - a1 - p1, qy + r1 * s
-            x2, y2 = qx + r2 * c - a2 - p2, qy + r2 * s
-            x3, y3 = qx + r3 * c - a3 - p3, qy + r3 * s
-            n1, n2, n3 = x1 * x1 + y1 * y1, x2 * x2 + y2 * y2, x3 * x3 + y3 * y3
-        else:
-            # Velocities: q_dot' = q_dot - W^-1 J^T G^-1 J q_dot, with J at the projected q.
-            h22 = g11 * g33 - g13 * g13
-            h23 = g12 * g13 - g11 * g23
-            h33 = g11 * g22 - g12 * g12
-            k = 1.0 / det
-            j1 = (qvx - d1) * x1 + qvy * y1 + w * t1
-            j2 = (qvx - d2) * x2 + qvy * y2 + w * t2
-            j3 = (qvx - d3) * x3 + qvy * y3 + w * t3
-            m1 = (h11 * j1 + h12 * j2 + h13 * j3) * k
-            m2 = (h12 * j1 + h22 * j2 + h23 * j3) * k
-            m3 = (h13 * j1 + h23 * j2 + h33 * j3) * k
-            d1 += x1 * m1 * i1
-            d2 += x2 * m2 * i2
-            d3 += x3 * m3 * i3
-            qvx -= (x1 * m1 + x2 * m2 + x3 * m3) * ip
-            qvy -= (y1 * m1 + y2 * m2 + y3 * m3) * ip
-            w -= (t1 * m1 + t2 * m2 + t3 * m3) * ii
-        if not (
-            -rate_limit <= d1 <= rate_limit
-            and -rate_limit <= d2 <= rate_limit
-            and -rate_limit <= d3 <= rate_limit
-        ):
-            # A slider faster than the servos and the stops allow: the velocities scaled down
-            # as a whole (still tangent to the manifold; the kinetic energy only falls).
-            top = max(abs(d1), abs(d2), abs(d3))
-            k = rate_limit / top if rate_limit < top < math.inf else 0.0
-            d1, d2, d3, qvx, qvy, w = d1 * k, d2 * k, d3 * k, qvx * k, qvy * k, w * k
-
-        # Bodies from the projected coordinates.  Leg i: midpoint of B_i C_i, along u_i, the
-        # rigid motion of its two ends (B_i moves at (d_i, 0), C_i at Q_dot + r_i w e_perp).
-        ws, wc = w * s, w * c  # theta_dot e_perp = (-ws, wc)
-        b1, b2, b3 = a1 + p1, a2 + p2, a3 + p3
-        c1x, c1y = qvx - r1 * ws, qvy + r1 * wc
-        c2x, c2y = qvx - r2 * ws, qvy + r2 * wc
-        c3x, c3y = qvx - r3 * ws, qvy + r3 * wc
-        al1, al2, al3 = math.atan2(y1, x1), math.atan2(y2, x2), math.atan2(y3, x3)
-        out = [
-            qx + dc * c, qy + dc * s, th, qvx - dc * ws, qvy + dc * wc, w,
-            b1, 0.0, v[8], d1, 0.0, 0.0,
-            v[12], v[13], v[14], v[15], v[16], v[17],
-            b1 + 0.5 * x1, 0.5 * y1, al1, 0.5 * (d1 + c1x), 0.5 * c1y,
-            (x1 * c1y - y1 * (c1x - d1)) / n1,
-            b2, 0.0, v[26], d2, 0.0, 0.0,
-            v[30], v[31], v[32], v[33], v[34], v[35],
-            b2 + 0.5 * x2, 0.5 * y2, al2, 0.5 * (d2 + c2x), 0.5 * c2y,
-            (x2 * c2y - y2 * (c2x - d2)) / n2,
-            b3, 0.0, v[44], d3, 0.0, 0.0,
-            v[48], v[49], v[50], v[51], v[52], v[53],
-            b3 + 0.5 * x3, 0.5 * y3, al3, 0.5 * (d3 + c3x), 0.5 * c3y,
-            (x3 * c3y - y3 * (c3x - d3)) / n3,
-        ]  # fmt: skip
-        return Projected(
-            out,
-            (p1, p2, p3),
-            (d1, d2, d3),
-            (qx - kq * c, qy - kq * s, th),
-            (qvx + kq * ws, qvy - kq * wc, w),
-            (al1, al2, al3),
-            closure,
-            steps,
-            (x1, y1, x2, y2, x3, y3, c, s),
+        moves with its own mass; otherwise its servo holds it, see the module docstring).
+        Drive setpoints are left within ``setpoint_limit`` (m) of their sliders."""
+        out, st, closure, steps = project_readout(
+            np.asarray(v, dtype=np.float64),
+            bool(saturated[0]),
+            bool(saturated[1]),
+            bool(saturated[2]),
+            self.constants,
+            float(setpoint_limit),
         )
+        s = st.tolist()
+        return Projected(
+            out.tolist(),
+            (s[0], s[1], s[2]),
+            (s[3], s[4], s[5]),
+            (s[6], s[7], s[8]),
+            (s[9], s[10], s[11]),
+            (s[12], s[13], s[14]),
+            float(closure),
+            int(steps),
+            (s[15], s[16], s[17], s[18], s[19], s[20], s[21], s[22]),
+        )
+
+
+@njit(cache=True)
+def project_readout(
+    v: np.ndarray, s0: bool, s1: bool, s2: bool, consts: np.ndarray, setpoint_limit: float
+) -> tuple[np.ndarray, np.ndarray, float, int]:
+    """:meth:`LoopProjector.project` of one readout ``v`` (60 float64) with the projector's
+    constants ``consts`` (:attr:`LoopProjector.constants`), the servo saturation flags and the
+    largest distance (m) a drive's setpoint may be left from its slider (``inf``: none).
+
+    Returns ``(bodies, state, closure_error, newton_steps)``: the 60 body values to write back,
+    and ``state`` = ``rho``, ``rho_dot``, ``pose`` (theta not wrapped), ``twist``, leg angles and
+    the geometry ``(u_1x, u_1y, u_2x, u_2y, u_3x, u_3y, cos theta, sin theta)`` (23 values).
+    """
+    a1, a2, a3, r1, r2, r3 = consts[0], consts[1], consts[2], consts[3], consts[4], consts[5]
+    l1, l2, l3, ll1, ll2, ll3 = consts[6], consts[7], consts[8], consts[9], consts[10], consts[11]
+    ft1, ft2, ft3, dc, kq, stroke = (
+        consts[12], consts[13], consts[14], consts[15], consts[16], consts[17]
+    )  # fmt: skip
+    ip, ii, free, rate_limit, dt, reach = (
+        consts[18], consts[19], consts[20], consts[21], consts[22], consts[23]
+    )  # fmt: skip
+    i1 = free if s0 else 0.0
+    i2 = free if s1 else 0.0
+    i3 = free if s2 else 0.0
+    hold = i1 == 0.0 or i2 == 0.0 or i3 == 0.0
+
+    px, py, th, pvx, pvy, w = v[0], v[1], v[2], v[3], v[4], v[5]
+    c, s = math.cos(th), math.sin(th)
+    qx, qy = px - dc * c, py - dc * s
+    qvx, qvy = pvx + dc * w * s, pvy - dc * w * c
+    p1, p2, p3 = v[6] - a1, v[24] - a2, v[42] - a3
+    d1, d2, d3 = v[9], v[27], v[45]
+    # Whether every servo-held slider has been freed (no restart left); which sliders sit
+    # on an end stop (held there for the rest of the projection).
+    free_phase = not hold
+    stop1 = stop2 = stop3 = False
+    if not (0.0 <= p1 <= stroke and 0.0 <= p2 <= stroke and 0.0 <= p3 <= stroke):
+        # A slider past an end stop (rare path): into the stop and held (the argument
+        # after its rate is its servo's setpoint).
+        if p1 < 0.0 or p1 > stroke:
+            p1, d1, i1 = _at_stop(p1, d1, v[12] - a1, stroke)
+            stop1 = True
+        if p2 < 0.0 or p2 > stroke:
+            p2, d2, i2 = _at_stop(p2, d2, v[30] - a2, stroke)
+            stop2 = True
+        if p3 < 0.0 or p3 > stroke:
+            p3, d3, i3 = _at_stop(p3, d3, v[48] - a3, stroke)
+            stop3 = True
+        hold = True
+
+    # All three held: the rho block of J W^-1 J^T and the travel updates vanish; skipping
+    # them gives the same numbers (0 * x added to a float leaves it unchanged).
+    held3 = i1 == 0.0 and i2 == 0.0 and i3 == 0.0
+    start = (p1, p2, p3, qx, qy, th, c, s)
+    # (Held only by the end stops: the steps of the last attempt.)
+    limit = HELD_NEWTON_STEPS if hold and not free_phase else MAX_NEWTON_STEPS
+    steps = 0
+    failed = False
+    while True:
+        # Leg vectors u_i = C_i - B_i and the loop residuals f_i = |u_i|^2 - L_i^2.
+        x1, y1 = qx + r1 * c - a1 - p1, qy + r1 * s
+        x2, y2 = qx + r2 * c - a2 - p2, qy + r2 * s
+        x3, y3 = qx + r3 * c - a3 - p3, qy + r3 * s
+        xx1, xx2, xx3 = x1 * x1, x2 * x2, x3 * x3
+        n1, n2, n3 = xx1 + y1 * y1, xx2 + y2 * y2, xx3 + y3 * y3  # |u_i|^2
+        f1, f2, f3 = n1 - ll1, n2 - ll2, n3 - ll3
+        # Row i of J: -x_i at rho_i, then (x_i, y_i, t_i); G = J W^-1 J^T (symmetric).
+        t1, t2, t3 = r1 * (y1 * c - x1 * s), r2 * (y2 * c - x2 * s), r3 * (y3 * c - x3 * s)
+        if held3:  # every slider held (the usual case): x_i^2 i_i = 0 drops out exactly
+            g11 = n1 * ip + t1 * t1 * ii
+            g22 = n2 * ip + t2 * t2 * ii
+            g33 = n3 * ip + t3 * t3 * ii
+        else:
+            g11 = xx1 * i1 + n1 * ip + t1 * t1 * ii
+            g22 = xx2 * i2 + n2 * ip + t2 * t2 * ii
+            g33 = xx3 * i3 + n3 * ip + t3 * t3 * ii
+        g12 = (x1 * x2 + y1 * y2) * ip + t1 * t2 * ii
+        g13 = (x1 * x3 + y1 * y3) * ip + t1 * t3 * ii
+        g23 = (x2 * x3 + y2 * y3) * ip + t2 * t3 * ii
+        # Adjugate and determinant (G is positive definite where J has full rank).
+        h11 = g22 * g33 - g23 * g23
+        h12 = g13 * g23 - g12 * g33
+        h13 = g12 * g23 - g13 * g22
+        det = g11 * h11 + g12 * h12 + g13 * h13
+        converged = -ft1 <= f1 <= ft1 and -ft2 <= f2 <= ft2 and -ft3 <= f3 <= ft3
+        if hold and (det <= HELD_CONDITION * g11 * g22 * g33 or (not converged and steps >= limit)):
+            if free_phase:
+                # Only sliders on their end stops are held, and the platform with the free
+                # sliders cannot close the loop with them there: the projection fails.
+                failed = True
+                break
+            # Too close to a parallel singularity for the platform alone (or no pose near
+            # for the held travels): start again with every slider free but those on an
+            # end stop.
+            p1, p2, p3, qx, qy, th, c, s = start
+            i1 = 0.0 if stop1 else free
+            i2 = 0.0 if stop2 else free
+            i3 = 0.0 if stop3 else free
+            hold = stop1 or stop2 or stop3
+            held3 = stop1 and stop2 and stop3
+            free_phase = True
+            limit = steps + MAX_NEWTON_STEPS
+            continue
+        if converged and (
+            (i1 != 0.0 and not 0.0 <= p1 <= stroke)
+            or (i2 != 0.0 and not 0.0 <= p2 <= stroke)
+            or (i3 != 0.0 and not 0.0 <= p3 <= stroke)
+        ):
+            # The end stops are constraints of the projection: a free slider that the
+            # correction put past a stop is fixed at the stop (velocity into it removed,
+            # :func:`_at_stop`) and the correction solved again from the start with it held.
+            e1, e2, e3, qx, qy, th, c, s = start
+            if i1 != 0.0 and not 0.0 <= p1 <= stroke:
+                e1, d1, i1 = _at_stop(p1, d1, v[12] - a1, stroke)
+                stop1 = True
+            if i2 != 0.0 and not 0.0 <= p2 <= stroke:
+                e2, d2, i2 = _at_stop(p2, d2, v[30] - a2, stroke)
+                stop2 = True
+            if i3 != 0.0 and not 0.0 <= p3 <= stroke:
+                e3, d3, i3 = _at_stop(p3, d3, v[48] - a3, stroke)
+                stop3 = True
+            start = (e1, e2, e3, qx, qy, th, c, s)
+            p1, p2, p3 = e1, e2, e3
+            hold = True
+            held3 = i1 == 0.0 and i2 == 0.0 and i3 == 0.0
+            limit = steps + (MAX_NEWTON_STEPS if free_phase else HELD_NEWTON_STEPS)
+            continue
+        if converged or steps >= limit or det <= 0.0:
+            break
+        h22 = g11 * g33 - g13 * g13
+        h23 = g12 * g13 - g11 * g23
+        h33 = g11 * g22 - g12 * g12
+        # lambda = G^-1 f / 2, dq = -W^-1 J^T lambda.
+        k = 0.5 / det
+        m1 = (h11 * f1 + h12 * f2 + h13 * f3) * k
+        m2 = (h12 * f1 + h22 * f2 + h23 * f3) * k
+        m3 = (h13 * f1 + h23 * f2 + h33 * f3) * k
+        if not held3:
+            p1 += x1 * m1 * i1
+            p2 += x2 * m2 * i2
+            p3 += x3 * m3 * i3
+        qx -= (x1 * m1 + x2 * m2 + x3 * m3) * ip
+        qy -= (y1 * m1 + y2 * m2 + y3 * m3) * ip
+        th -= (t1 * m1 + t2 * m2 + t3 * m3) * ii
+        c, s = math.cos(th), math.sin(th)
+        steps += 1
+    closure = max(abs(math.sqrt(n1) - l1), abs(math.sqrt(n2) - l2), abs(math.sqrt(n3) - l3))
+    if (
+        failed
+        or not closure <= MAX_CLOSURE_ERROR
+        or det <= 0.0
+        # Each slider within reach of where it was at the start of the step: its drive's
+        # setpoint then (now less the commanded velocity times dt).
+        or not abs(p1 - (v[12] - a1 - v[15] * dt)) <= reach
+        or not abs(p2 - (v[30] - a2 - v[33] * dt)) <= reach
+        or not abs(p3 - (v[48] - a3 - v[51] * dt)) <= reach
+    ):
+        # No closed state with the sliders on their stroke near the simulated one: the
+        # step is reported as failed (closure error inf, a physics breakdown), with every
+        # travel put within its stroke and the velocities left as simulated.
+        failed = True
+        closure = math.inf
+        if not 0.0 <= p1 <= stroke:
+            p1, d1, i1 = _at_stop(p1, d1, v[12] - a1, stroke)
+        if not 0.0 <= p2 <= stroke:
+            p2, d2, i2 = _at_stop(p2, d2, v[30] - a2, stroke)
+        if not 0.0 <= p3 <= stroke:
+            p3, d3, i3 = _at_stop(p3, d3, v[48] - a3, stroke)
+        x1, y1 = qx + r1 * c - a1 - p1, qy + r1 * s
+        x2, y2 = qx + r2 * c - a2 - p2, qy + r2 * s
+        x3, y3 = qx + r3 * c - a3 - p3, qy + r3 * s
+        n1, n2, n3 = x1 * x1 + y1 * y1, x2 * x2 + y2 * y2, x3 * x3 + y3 * y3
+    else:
+        # Velocities: q_dot' = q_dot - W^-1 J^T G^-1 J q_dot, with J at the projected q.
+        h22 = g11 * g33 - g13 * g13
+        h23 = g12 * g13 - g11 * g23
+        h33 = g11 * g22 - g12 * g12
+        k = 1.0 / det
+        j1 = (qvx - d1) * x1 + qvy * y1 + w * t1
+        j2 = (qvx - d2) * x2 + qvy * y2 + w * t2
+        j3 = (qvx - d3) * x3 + qvy * y3 + w * t3
+        m1 = (h11 * j1 + h12 * j2 + h13 * j3) * k
+        m2 = (h12 * j1 + h22 * j2 + h23 * j3) * k
+        m3 = (h13 * j1 + h23 * j2 + h33 * j3) * k
+        d1 += x1 * m1 * i1
+        d2 += x2 * m2 * i2
+        d3 += x3 * m3 * i3
+        qvx -= (x1 * m1 + x2 * m2 + x3 * m3) * ip
+        qvy -= (y1 * m1 + y2 * m2 + y3 * m3) * ip
+        w -= (t1 * m1 + t2 * m2 + t3 * m3) * ii
+    if not (
+        -rate_limit <= d1 <= rate_limit
+        and -rate_limit <= d2 <= rate_limit
+        and -rate_limit <= d3 <= rate_limit
+    ):
+        # A slider faster than the servos and the stops allow: the velocities scaled down
+        # as a whole (still tangent to the manifold; the kinetic energy only falls).
+        top = max(abs(d1), abs(d2), abs(d3))
+        k = rate_limit / top if rate_limit < top < math.inf else 0.0
+        d1, d2, d3, qvx, qvy, w = d1 * k, d2 * k, d3 * k, qvx * k, qvy * k, w * k
+
+    # Bodies from the projected coordinates.  Leg i: midpoint of B_i C_i, along u_i, the
+    # rigid motion of its two ends (B_i moves at (d_i, 0), C_i at Q_dot + r_i w e_perp).
+    ws, wc = w * s, w * c  # theta_dot e_perp = (-ws, wc)
+    b1, b2, b3 = a1 + p1, a2 + p2, a3 + p3
+    c1x, c1y = qvx - r1 * ws, qvy + r1 * wc
+    c2x, c2y = qvx - r2 * ws, qvy + r2 * wc
+    c3x, c3y = qvx - r3 * ws, qvy + r3 * wc
+    al1, al2, al3 = math.atan2(y1, x1), math.atan2(y2, x2), math.atan2(y3, x3)
+    out = np.array([
+        qx + dc * c, qy + dc * s, th, qvx - dc * ws, qvy + dc * wc, w,
+        b1, 0.0, v[8], d1, 0.0, 0.0,
+        v[12], v[13], v[14], v[15], v[16], v[17],
+        b1 + 0.5 * x1, 0.5 * y1, al1, 0.5 * (d1 + c1x), 0.5 * c1y,
+        (x1 * c1y - y1 * (c1x - d1)) / n1,
+        b2, 0.0, v[26], d2, 0.0, 0.0,
+        v[30], v[31], v[32], v[33], v[34], v[35],
+        b2 + 0.5 * x2, 0.5 * y2, al2, 0.5 * (d2 + c2x), 0.5 * c2y,
+        (x2 * c2y - y2 * (c2x - d2)) / n2,
+        b3, 0.0, v[44], d3, 0.0, 0.0,
+        v[48], v[49], v[50], v[51], v[52], v[53],
+        b3 + 0.5 * x3, 0.5 * y3, al3, 0.5 * (d3 + c3x), 0.5 * c3y,
+        (x3 * c3y - y3 * (c3x - d3)) / n3,
+    ])  # fmt: skip
+    # Drive setpoints (x at 12, 30, 48) within ``setpoint_limit`` of their sliders (6 before).
+    for o in (12, 30, 48):
+        if out[o] - out[o - 6] > setpoint_limit:
+            out[o] = out[o - 6] + setpoint_limit
+        elif out[o - 6] - out[o] > setpoint_limit:
+            out[o] = out[o - 6] - setpoint_limit
+    state = np.array([
+        p1, p2, p3, d1, d2, d3, qx - kq * c, qy - kq * s, th,
+        qvx + kq * ws, qvy - kq * wc, w, al1, al2, al3,
+        x1, y1, x2, y2, x3, y3, c, s,
+    ])  # fmt: skip
+    return out, state, closure, steps
+
+
+@njit(cache=True)
+def project_batch(
+    buf: np.ndarray, saturated: np.ndarray, consts: np.ndarray, setpoint_limit: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`project_readout` of every row of ``buf`` (``(N, >= 60)`` readouts, written back
+    in place) with ``saturated`` ``(3, N)``; returns the states ``(23, N)`` (theta wrapped into
+    ``(-pi, pi]``, as :class:`~planar3p_gym.sim.physics.SimState` holds it) and the closure
+    errors ``(N,)`` (m)."""
+    n = buf.shape[0]
+    states = np.empty((23, n))
+    closure = np.empty(n)
+    for j in range(n):
+        out, state, err, _ = project_readout(
+            buf[j, :60].copy(), saturated[0, j], saturated[1, j], saturated[2, j], consts,
+            setpoint_limit,
+        )  # fmt: skip
+        buf[j, :60] = out
+        state[8] = wrap_angle(state[8])
+        states[:, j] = state
+        closure[j] = err
+    return states, closure
