@@ -9,7 +9,7 @@ Two measurements per model:
 
 * **smooth motions**: ``--pairs`` open-loop minimum-jerk motions between well-conditioned poses
   (:mod:`planar3p_gym.tasks.motions`; commands up to 0.8 of the speed limit), as in
-  ``tests/test_physics.py``: the largest closure error (the largest joint separation, m) of
+  ``tests/sim/test_physics.py``: the largest closure error (the largest joint separation, m) of
   each motion and the largest gap between the simulated pose and the exact direct kinematics
   of the simulated travels (``|(dx, dy, L_ref dtheta)|``, m);
 * **controller episodes**: ``--episodes`` episodes per benchmark suite driven by the analytic

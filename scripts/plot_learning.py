@@ -6,7 +6,7 @@ seeds of the evaluation success rate and return is drawn against environment ste
 range over seeds shaded.  Also prints a table of every run (steps, wall time, steps/s, final
 success rate) as markdown.  The work is done by :mod:`planar3p_agents.evaluation.learning_curves`.
 
-    python scripts/plot_learning.py runs/sac-s1 runs/ppo-s1 --out docs/figures/learning.png
+    python scripts/plot_learning.py runs/sac-s1 runs/ppo-s1 --out results/learning.png
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Workspace and singularity study of the 3-PRR manipulator (MECHANISM.md, Section 6).
+"""Workspace and singularity study of the 3-PRR manipulator (docs/mechanism.md, the workspace study).
 
 Runs the paper's relative-workspace study ``S(L)`` on the ``fig8`` preset (21 strokes from
 0.10 to 0.30 m, 201 x 201 grid, 360 orientations, 8 working modes) on one core and prints its

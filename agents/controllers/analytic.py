@@ -1,4 +1,4 @@
-"""The paper's analytic controller: the "simple motions" of ``MECHANISM.md``, Section 5.
+"""The paper's analytic controller: the "simple motions" of ``docs/mechanism.md``.
 
 Solving ``A p_dot = B rho_dot`` row by row gives, wherever ``cos alpha_i != 0``::
 

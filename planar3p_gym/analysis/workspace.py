@@ -1,4 +1,4 @@
-"""Workspace and singularity analysis of the 3-PRR manipulator (``MECHANISM.md``, Section 6).
+"""Workspace and singularity analysis of the 3-PRR manipulator (``docs/mechanism.md``, the workspace study).
 
 Everything here is vectorised numpy; no Python loop runs over grid points.
 

@@ -109,7 +109,7 @@ class Planar3PEnv(gym.Env):
     ## Description
     Three sliders move on parallel horizontal rails (``y = 0``); each carries a rigid leg whose
     other end is pinned to a straight platform holding, in line, the joints ``C_1, C_2, C_3``
-    and the gripper point ``G`` (``MECHANISM.md``).  The closed chain is a pymunk rigid-body
+    and the gripper point ``G`` (``docs/mechanism.md``).  The closed chain is a pymunk rigid-body
     model with gravity; each slider is driven by a force-limited velocity servo.  The agent
     commands slider velocities and must bring the gripper to a target position and
     orientation, without crossing a parallel singularity (where the platform can no longer be

@@ -19,7 +19,7 @@ computes the projection onto the constraint manifold, the configuration measures
 observations, the termination and the reward over the whole batch in numpy
 (:mod:`planar3p_gym.sim.batch_step`).  Both do the single environment's operations in the same
 order, so the trajectories are the single environments' bit for bit
-(``tests/test_vector_env.py``).  numpy's overhead per operation makes the numpy batch pay only
+(``tests/envs/test_vector_env.py``).  numpy's overhead per operation makes the numpy batch pay only
 for many environments (:data:`NUMPY_BATCH_MIN`; ``batch="auto"``, the default, chooses by it).
 In numpy mode the projected bodies are written back into pymunk at the start of the next step
 (with the new servo commands).  Either way the single environments' own attributes

@@ -55,7 +55,7 @@ class Design:
     """Geometric and physical parameters of a 3-PRR manipulator with a collinear platform.
 
     The platform carries, in order, the joints ``C_1, C_2, C_3`` and the gripper point ``G``
-    (see ``MECHANISM.md``).  Rails lie on ``y = 0``; slider ``i`` travels ``rho_i in [0, stroke]``
+    (see ``docs/mechanism.md``).  Rails lie on ``y = 0``; slider ``i`` travels ``rho_i in [0, stroke]``
     from its rail origin ``(a_i, 0)``.
 
     Attributes:

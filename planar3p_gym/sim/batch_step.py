@@ -7,7 +7,7 @@ calls through :class:`~planar3p_gym.sim.projection.LoopProjector`): the same num
 single environments, bit for bit.  The reach step's outputs over the batch are
 :class:`planar3p_gym.tasks.reach_step.BatchReach`.
 
-``tests/test_vector_env.py`` checks the native vector env against single environments, bit for
+``tests/envs/test_vector_env.py`` checks the native vector env against single environments, bit for
 bit.
 """
 

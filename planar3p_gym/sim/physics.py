@@ -22,7 +22,7 @@ first order), by about ``h^2 omega^2 r / 2`` per physics step ``h``, and each st
 share of the error (``error_bias``).  The platform's pivots ``C_i`` join two turning bodies and
 drift most, so they get a stronger correction (``platform_error_bias``); a stronger one
 everywhere would need more solver iterations to stay stable where holding the mechanism takes
-large forces.  ``tests/test_physics.py`` checks the defaults against the fidelity bound.
+large forces.  ``tests/sim/test_physics.py`` checks the defaults against the fidelity bound.
 
 Projection (``projection=True``, used by ``Planar3P-v0``): after each control step the bodies
 are projected exactly back onto the constraint manifold (:mod:`planar3p_gym.sim.projection`:
@@ -35,7 +35,7 @@ or ``inf`` where the projection failed (no closed state with the sliders on thei
 the simulated one, or a slider moved farther in the step than the rate limit allows: the
 projection's module docstring, "Failure"); the state is then not finite and the environments
 end the episode with ``"physics_breakdown"``.  The projection holds the end stops as
-constraints and bounds the slider rates (``tests/test_end_stops.py``).
+constraints and bounds the slider rates (``tests/sim/test_end_stops.py``).
 Two details of the model differ with projection, both for what few solver iterations leave:
 the servo's arm is long (:data:`PROJECTED_SERVO_ARM`), so a slider's small excursions off its
 rail do not leak into the servo's direction; and the grooves only keep the sliders on their

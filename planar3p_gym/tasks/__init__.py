@@ -6,7 +6,7 @@ the task reads the environment only through :class:`~planar3p_gym.tasks.base.Tas
 Adding a task
 -------------
 A new task needs its module, one row of the registration table and its tests -- nothing
-else (``tests/test_adding_a_task.py`` does exactly this with a toy task):
+else (``tests/tasks/test_adding_a_task.py`` does exactly this with a toy task):
 
 1. **The task module** ``planar3p_gym/tasks/<name>.py``: a :class:`~planar3p_gym.tasks.base.Task`
    subclass (or a subclass of :class:`ReachTask`) with
@@ -31,7 +31,7 @@ else (``tests/test_adding_a_task.py`` does exactly this with a toy task):
    the native vector env (it steps such a task environment by environment).
 3. **Its tests**: Gymnasium's ``check_env`` on the id, a seeded replay, the native vector env
    against single envs, and the task's own behaviour; then regenerate the episode hashes
-   (``python tests/test_episode_hashes.py``), which must list every id.
+   (``python tests/envs/test_episode_hashes.py``), which must list every id.
 
 Optional, on the agents' side: fixed benchmark suites
 (:mod:`planar3p_agents.evaluation.task_suites`) and baselines

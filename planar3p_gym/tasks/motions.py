@@ -2,7 +2,7 @@
 straight pose paths), and the gap between a simulated pose and the exact direct kinematics of
 its travels.
 
-Used to measure the physics model's fidelity (``tests/test_physics.py``,
+Used to measure the physics model's fidelity (``tests/sim/test_physics.py``,
 ``scripts/fidelity.py``): the commands follow the paper's simple-motion rates
 (:func:`planar3p_gym.machine.kinematics.simple_motion_rates`) along the straight path in pose space with
 the minimum-jerk time law (:func:`minimum_jerk`), so speeds and accelerations are zero at both

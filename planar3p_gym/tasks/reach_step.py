@@ -10,7 +10,7 @@ arithmetic, what the general step of :class:`planar3p_gym.envs.core.Planar3PEnv`
 errors to the target, the termination and the reward terms.  The formulas are those; only
 intermediate values are shared (``cos alpha_i = u_ix / |u_i|`` instead of ``cos(atan2(...))``,
 ``|dp|`` as ``sqrt(dx^2 + dy^2)``), so the numbers agree with the general step to float64
-rounding (``tests/test_reach_step.py``).
+rounding (``tests/sim/test_batch_step.py``).
 
 :mod:`planar3p_gym.sim.batch_step` does the same arithmetic, operation for operation, on numpy
 arrays over the environments of a vector env; keep the two in step.

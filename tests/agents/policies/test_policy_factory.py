@@ -253,8 +253,8 @@ def test_same_outcomes_as_the_replaced_entry_points(name, env_id):
 # ---------------------------------------------------------------------- models
 def test_a_model_is_checked_against_the_env_it_is_to_play(tmp_path, monkeypatch):
     """A model path goes to the SB3 loader with the environment to match (its spaces; a model
-    that does not fit the id is refused there: tests/test_goal_policies.py,
-    tests/test_travel_goal.py), on every id alike."""
+    that does not fit the id is refused there: tests/agents/policies/test_goal_policies.py,
+    tests/tasks/test_travel_goal.py), on every id alike."""
     from planar3p_agents.policies import factory
 
     seen = []

@@ -12,7 +12,7 @@ third column over ``L_ref``), so leg-length residuals ``r`` move the pose by at 
 
 The physical behaviour tests run on both models (fixture ``model``): ``v0``, the defaults
 without projection, and ``v1``, projection on with :data:`PROJECTED_SUBSTEPS` and
-:data:`PROJECTED_ITERATIONS` (``Planar3P-v0``); ``tests/test_projection.py`` has the stricter
+:data:`PROJECTED_ITERATIONS` (``Planar3P-v0``); ``tests/sim/test_projection.py`` has the stricter
 checks that only the projected model meets.
 """
 
@@ -462,7 +462,7 @@ def test_fidelity_script_reports_closure_and_dk_gap(tmp_path, capsys):
     import importlib.util
     from pathlib import Path
 
-    path = Path(__file__).resolve().parents[1] / "scripts" / "fidelity.py"
+    path = Path(__file__).resolve().parents[2] / "scripts" / "fidelity.py"
     spec = importlib.util.spec_from_file_location("fidelity_script", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)

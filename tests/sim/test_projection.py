@@ -4,7 +4,7 @@ model ``Planar3P-v0`` (``projection=True`` with the projected solver settings).
 Targets (issue 12): loop-closure error at most 1e-9 m on every step, near singularities too;
 the simulated pose within 1e-6 m (``|(dx, dy, L_ref dtheta)|``) of the exact direct kinematics
 of the simulated travels wherever the parallel margin is at least 0.02; no energy gained from
-the projection in a free swing.  The physical behaviour tests of ``tests/test_physics.py``
+the projection in a free swing.  The physical behaviour tests of ``tests/sim/test_physics.py``
 run on this model too.
 """
 
@@ -193,7 +193,7 @@ def test_random_soak_closes_the_loop_on_every_step():
     where the solver's step near a parallel singularity left the chain far open, which the
     projection used to turn into a silent jump of the sliders (issue 27: in 6 of these 16
     runs by up to 29 cm, at up to 21 m/s, 23 cm past an end stop).  Every other step keeps
-    its sliders on their stroke and within the rate limit (tests/test_end_stops.py)."""
+    its sliders on their stroke and within the rate limit (tests/sim/test_end_stops.py)."""
     kin = ScalarKinematics(DESIGN)
     rng = np.random.default_rng(5)
     worst_closure = worst_body = worst_gap = 0.0
@@ -227,7 +227,7 @@ def test_random_soak_closes_the_loop_on_every_step():
 
 
 def test_smooth_motions_follow_the_exact_kinematics():
-    """The resolved-rate motions of ``tests/test_physics.py``: closure at most 1e-9 m and the
+    """The resolved-rate motions of ``tests/sim/test_physics.py``: closure at most 1e-9 m and the
     pose within 1e-6 m of the exact DK of the travels on every step, in the starting
     assembly mode, ending within 1 mm of the target (open loop)."""
     for start, target in motions.well_conditioned_pairs(DESIGN, MODE, 3, 0):
@@ -247,7 +247,7 @@ def test_smooth_motions_follow_the_exact_kinematics():
 @pytest.mark.parametrize("mode", [MODE, (1, 1, 1), (-1, -1, -1)])
 def test_servos_carry_the_static_holding_forces(mode):
     """At rest under gravity the projected model's servos carry the statics' forces (the
-    tolerance of ``tests/test_statics.py``: 5 % or 0.05 N)."""
+    tolerance of ``tests/machine/test_statics.py``: 5 % or 0.05 N)."""
     for pose in starts(mode, 3, seed=3):
         sim = Planar3PSim(DESIGN, pose, mode, **V1)
         for _ in range(50):

@@ -12,7 +12,7 @@ import pytest
 
 from planar3p_agents.evaluation import throughput
 
-SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "bench_env.py"
+SCRIPT = Path(__file__).resolve().parents[3] / "scripts" / "bench_env.py"
 
 
 def load_script():

@@ -28,7 +28,7 @@ def make(kind: str, **kwargs) -> gym.Env:
 
 @pytest.mark.parametrize("kind", KINDS)
 def test_observation_is_the_reach_observation_plus_the_reference_velocity(kind):
-    # (Gymnasium's and SB3's env checkers run on every task id in tests/test_tasks.py.)
+    # (Gymnasium's and SB3's env checkers run on every task id in tests/tasks/test_tasks.py.)
     assert make(kind).observation_space.shape == (OBS_SIZE + 3,)
 
 

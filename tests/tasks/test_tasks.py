@@ -117,7 +117,7 @@ FLAT_TASK_IDS = [
 @pytest.mark.parametrize(("env_id", "kwargs"), FLAT_TASK_IDS, ids=lambda v: str(v or ""))
 def test_env_checkers_pass_without_warnings(env_id, kwargs):
     """Gymnasium's and SB3's env checkers on every flat-observation task id (the goal ids:
-    tests/test_goal_env.py)."""
+    tests/envs/test_goal_env.py)."""
     from gymnasium.utils.env_checker import check_env
 
     sb3_checker = pytest.importorskip("stable_baselines3.common.env_checker")

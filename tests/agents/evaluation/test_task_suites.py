@@ -20,7 +20,7 @@ from planar3p_agents.evaluation import reach_suites as su
 from planar3p_agents.evaluation import task_suites as ts
 from planar3p_agents.policies.factory import load_policy
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def test_generic_mechanism_on_planar3p_v0(monkeypatch):

@@ -30,7 +30,7 @@ from planar3p_agents.zoo.layout import shipped_model
 from planar3p_gym import Design
 from planar3p_gym.tasks.observation import SLICES
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 DESIGN = Design.fig8()
 
 

@@ -4,7 +4,7 @@ For each id a random policy (seeded) plays ``STEPS`` steps from ``reset(seed=...
 as episodes end; the observations, rewards, episode ends and the physical quantities of
 ``info`` are hashed.  A change to the physics, a task's sampler, its reward or its observation
 fails here: such a change must be deliberate, and then the hashes below are regenerated once
-(``python tests/test_episode_hashes.py`` prints them) and the change is named in CHANGELOG.md.
+(``python tests/envs/test_episode_hashes.py`` prints them) and the change is named in CHANGELOG.md.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ STEPS = 120
 SEED = 3
 INFO_KEYS = ("pose", "rho", "rho_dot", "actuator_forces", "closure_error", "parallel_margin")
 
-#: sha256 of each id's stream, recorded with ``python tests/test_episode_hashes.py``.
+#: sha256 of each id's stream, recorded with ``python tests/envs/test_episode_hashes.py``.
 EXPECTED: dict[str, str] = {}
 
 

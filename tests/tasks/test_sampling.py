@@ -229,7 +229,7 @@ def test_near_singular_pairs_come_within_the_margin():
 def test_near_singular_fraction_mixes_and_replays():
     """A fraction of 0.5 gives both kinds of pair; the same seed gives the same pairs; the
     default (0) leaves the draws of the plain task untouched (an extra random number would
-    shift them: pinned by tests/test_v0_regression.py as well)."""
+    shift them: pinned by tests/sim/test_unprojected_regression.py as well)."""
     design, mode = Design.fig8(), (1, 1, -1)
     cfg = task.TaskConfig(near_singular_fraction=0.5)
 

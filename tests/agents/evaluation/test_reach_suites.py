@@ -14,7 +14,7 @@ from planar3p_gym import Design
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.statics import holding_forces
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 DESIGN = Design.fig8()
 
 
