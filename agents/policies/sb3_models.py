@@ -32,6 +32,7 @@ __all__ = [
     "TrainingRecord",
     "check_trained_id",
     "load_sb3_model",
+    "load_yaml_data",
     "run_env_kwargs",
     "same_task",
     "training_record",
@@ -140,9 +141,9 @@ def _zoo_args_candidates(path: Path) -> list[Path]:
     return out
 
 
-def _read_yaml_data(text: str) -> Any:
-    """YAML as plain data: Python tags (rl-zoo3 writes ``args.yml`` with them) become lists and
-    mappings, never objects."""
+def load_yaml_data(text: str) -> Any:
+    """YAML as plain data: Python tags (rl-zoo3 writes ``args.yml`` with them) become lists,
+    mappings and strings, never objects (a :class:`yaml.SafeLoader` that builds none)."""
     import yaml
 
     class _DataLoader(yaml.SafeLoader):
@@ -156,7 +157,12 @@ def _read_yaml_data(text: str) -> Any:
         return loader.construct_scalar(node)  # type: ignore[arg-type]
 
     _DataLoader.add_multi_constructor("", _plain)
-    data = yaml.load(text, Loader=_DataLoader)  # a SafeLoader that builds no object
+    return yaml.load(text, Loader=_DataLoader)
+
+
+def _read_yaml_data(text: str) -> Any:
+    """:func:`load_yaml_data` of an rl-zoo3 ``args.yml``, an ``OrderedDict`` made a dict."""
+    data = load_yaml_data(text)
     if isinstance(data, list) and len(data) == 1 and isinstance(data[0], list):
         data = data[0]  # the argument list of ``!!python/object/apply:collections.OrderedDict``
     if isinstance(data, list) and all(isinstance(i, list) and len(i) == 2 for i in data):

@@ -20,6 +20,8 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
+from planar3p_agents.policies.sb3_models import load_yaml_data
+
 __all__ = [
     "ABSOLUTE_PATH_MARKS",
     "file_strings",
@@ -91,19 +93,8 @@ def _pickle_strings(data: bytes) -> Iterator[str]:
 def _yaml_strings(text: str) -> Iterator[str]:
     import yaml
 
-    class _Loader(yaml.SafeLoader):
-        pass
-
-    def _any_tag(loader: yaml.SafeLoader, suffix: str, node: yaml.Node) -> Any:
-        if isinstance(node, yaml.MappingNode):
-            return loader.construct_mapping(node, deep=True)
-        if isinstance(node, yaml.SequenceNode):
-            return loader.construct_sequence(node, deep=True)
-        return loader.construct_scalar(node)  # type: ignore[arg-type]
-
-    _Loader.add_multi_constructor("", _any_tag)  # python tags become plain data, never objects
     try:
-        yield from _strings(yaml.load(text, Loader=_Loader))  # a SafeLoader subclass
+        yield from _strings(load_yaml_data(text))  # python tags become plain data, never objects
     except yaml.YAMLError as exc:
         yield f"<unreadable YAML: {exc}>"
 
