@@ -23,7 +23,7 @@ import planar3p_gym  # noqa: E402
 
 project = "planar3p-gym"
 author = "the planar3p-gym authors"
-copyright = "the planar3p-gym authors"  # noqa: A001
+copyright = "the planar3p-gym authors"
 version = release = planar3p_gym.__version__
 
 extensions = [
@@ -88,15 +88,18 @@ _EXTERNAL = (
 nitpick_ignore_regex = [
     ("py:.*", _EXTERNAL + r"(\..*)?"),
     # standard-library and typing names written without their module in annotations
-    ("py:.*", r"(Any|Callable|Iterable|Iterator|Sequence|Mapping|MutableMapping|Generator|"
-              r"Hashable|Path|PathLike|ArrayLike|NDArray|Literal|Self|ClassVar|TypeVar|"
-              r"Protocol|Counter|OrderedDict|ModuleType|Namespace|ArgumentParser|Future|"
-              r"Executor|Enum|IntEnum|Pool|Process|Queue|Event|Lock|TextIO|BinaryIO|"
-              r"SimpleNamespace|deque|defaultdict|partial|cached_property|Fraction|"
-              r"Generic|Final|TypeAlias|Annotated|Union|Optional|NamedTuple|Space|Env|"
-              r"Wrapper|VectorEnv|Box|Dict|Discrete|MultiDiscrete|VecEnv|VecNormalize|"
-              r"BaseAlgorithm|BaseCallback|ActorCriticPolicy|BaseFeaturesExtractor|"
-              r"Distribution|Tensor|Module|Figure|Axes|Space\[.*\])"),
+    (
+        "py:.*",
+        r"(Any|Callable|Iterable|Iterator|Sequence|Mapping|MutableMapping|Generator|"
+        r"Hashable|Path|PathLike|ArrayLike|NDArray|Literal|Self|ClassVar|TypeVar|"
+        r"Protocol|Counter|OrderedDict|ModuleType|Namespace|ArgumentParser|Future|"
+        r"Executor|Enum|IntEnum|Pool|Process|Queue|Event|Lock|TextIO|BinaryIO|"
+        r"SimpleNamespace|deque|defaultdict|partial|cached_property|Fraction|"
+        r"Generic|Final|TypeAlias|Annotated|Union|Optional|NamedTuple|Space|Env|"
+        r"Wrapper|VectorEnv|Box|Dict|Discrete|MultiDiscrete|VecEnv|VecNormalize|"
+        r"BaseAlgorithm|BaseCallback|ActorCriticPolicy|BaseFeaturesExtractor|"
+        r"Distribution|Tensor|Module|Figure|Axes|Space\[.*\])",
+    ),
 ]
 
 # HTML

@@ -79,21 +79,36 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         description=__doc__.split("\n\n")[0], formatter_class=argparse.RawTextHelpFormatter
     )
-    p.add_argument("--out", type=Path, default=ROOT / "docs" / "_static" / "envs",
-                   help="output directory (created if missing; must not be a file)")
-    p.add_argument("--ids", nargs="+", default=None,
-                   help="ids to render (default: every registered Planar3P id)")
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=ROOT / "docs" / "_static" / "envs",
+        help="output directory (created if missing; must not be a file)",
+    )
+    p.add_argument(
+        "--ids",
+        nargs="+",
+        default=None,
+        help="ids to render (default: every registered Planar3P id)",
+    )
     p.add_argument("--seed", type=_seed, default=0, help="reset seed of the recorded episode")
     p.add_argument("--size", type=_size, default=(320, 240), help="GIF size, WIDTHxHEIGHT")
     p.add_argument("--frame-size", type=_size, default=(480, 360), help="PNG size")
     p.add_argument("--frame-every", type=_positive, default=3, help="render every n-th step")
-    p.add_argument("--max-steps", type=_positive, default=150,
-                   help="steps recorded at most (the episode is cut there)")
-    p.add_argument("--max-kb", type=_positive, default=400,
-                   help="fail when a GIF is larger (kB)")
-    p.add_argument("--controller", nargs="*", default=[], metavar="ID=NAME",
-                   help="controller of an id (analytic-simultaneous, analytic-feedforward, "
-                        "planner, crossing)")
+    p.add_argument(
+        "--max-steps",
+        type=_positive,
+        default=150,
+        help="steps recorded at most (the episode is cut there)",
+    )
+    p.add_argument("--max-kb", type=_positive, default=400, help="fail when a GIF is larger (kB)")
+    p.add_argument(
+        "--controller",
+        nargs="*",
+        default=[],
+        metavar="ID=NAME",
+        help="controller of an id (analytic-simultaneous, analytic-feedforward, planner, crossing)",
+    )
     return p
 
 
@@ -123,9 +138,12 @@ def check_args(parser: argparse.ArgumentParser, args: argparse.Namespace) -> dic
     for item in args.controller:
         env_id, sep, name = item.partition("=")
         if not sep or env_id not in known or name not in CONTROLLER_TEXT:
-            _fail(parser, "--controller",
-                  f"expected ID=NAME with a registered id and NAME in "
-                  f"{', '.join(CONTROLLER_TEXT)}, got {item!r}")
+            _fail(
+                parser,
+                "--controller",
+                f"expected ID=NAME with a registered id and NAME in "
+                f"{', '.join(CONTROLLER_TEXT)}, got {item!r}",
+            )
         overrides[env_id] = name
     return overrides
 

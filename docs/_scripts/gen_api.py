@@ -1,9 +1,9 @@
-"""The API reference: one page per module, listed from the package tree.
+"""The API reference: one page per package, listed from the package tree.
 
 Walks the documented packages (``planar3p_gym`` and the agents package, whatever its import
 name) and writes one page per package or subpackage, ``docs/api/<package>.md`` (an
-``automodule`` of each of its modules), plus ``docs/api/index.md`` with the tree.  Modules that move to new subpackages, or new
-modules, need no edit anywhere.
+``automodule`` of each of its modules), plus ``docs/api/index.md`` with the tree.  Modules
+that move to new subpackages, and new modules, need no edit anywhere.
 
 Also writes ``docs/_generated/kinematics_api.md``, the reference shown on the kinematics page:
 the module whose last name component is ``kinematics`` and the class ``Design``, wherever they

@@ -37,8 +37,13 @@ MEDIA = P.STATIC / "envs"
 #: reported as a build warning.
 EXTRA_FIELDS: dict[str, tuple[tuple[str, int, str], ...]] = {
     "reach": (),
-    "track": (("reference_velocity", 3, "velocity of the reference pose: x_dot, y_dot (m/s), "
-                                         "theta_dot (rad/s)"),),
+    "track": (
+        (
+            "reference_velocity",
+            3,
+            "velocity of the reference pose: x_dot, y_dot (m/s), theta_dot (rad/s)",
+        ),
+    ),
     "mode_change": (
         ("target_rho", 3, "slider travels of the target pose in the target working mode (m)"),
         ("target_working_mode", 3, "target working mode sigma_t, each entry +-1"),
@@ -46,8 +51,11 @@ EXTRA_FIELDS: dict[str, tuple[tuple[str, int, str], ...]] = {
     "assembly_change": (
         ("target_rho", 3, "slider travels of the target pose (m)"),
         ("target_assembly", 1, "target assembly mode, sign det A (+-1)"),
-        ("signed_parallel_margin", 1, "sign det A times the parallel margin, in [-1, 1]; "
-                                       "it passes 0 at the crossing"),
+        (
+            "signed_parallel_margin",
+            1,
+            "sign det A times the parallel margin, in [-1, 1]; it passes 0 at the crossing",
+        ),
     ),
 }
 
@@ -104,10 +112,14 @@ def _space_text(space: Any) -> str:
         inner = ", ".join(f"{k}: {_space_text(v)}" for k, v in space.spaces.items())
         return f"Dict({inner})"
     if isinstance(space, gym.spaces.Box):
-        if space.is_bounded() and space.low.size and (space.low == space.low.flat[0]).all() and (
-            space.high == space.high.flat[0]
-        ).all():
-            return f"Box({space.low.flat[0]:g}, {space.high.flat[0]:g}, {space.shape}, {space.dtype})"
+        if (
+            space.is_bounded()
+            and space.low.size
+            and (space.low == space.low.flat[0]).all()
+            and (space.high == space.high.flat[0]).all()
+        ):
+            low, high = space.low.flat[0], space.high.flat[0]
+            return f"Box({low:g}, {high:g}, {space.shape}, {space.dtype})"
         return f"Box({space.shape}, {space.dtype})"
     return str(space)
 
@@ -138,8 +150,10 @@ def observation_layout(env: Any) -> str:
             sizes = {n: (s, m) for n, s, m in base}
             rows, n = _blocks_table([(r, *sizes[r]) for r in robot])
             if n != space["observation"].shape[0]:
-                _warn(f"{env.spec.id}: the observation layout has {n} entries, the space "
-                      f"{space['observation'].shape[0]}")
+                _warn(
+                    f"{env.spec.id}: the observation layout has {n} entries, the space "
+                    f"{space['observation'].shape[0]}"
+                )
             out.append("`observation`:\n\n" + P.md_table(header, rows))
         rows, n = _blocks_table(GOAL_FIELDS)
         out.append("`achieved_goal` and `desired_goal`:\n\n" + P.md_table(header, rows))
@@ -209,15 +223,26 @@ def _baseline_section(env_id: str) -> tuple[str, str]:
     for r in rows:
         link = f"[{r['study']}](../results/{study_page_name(r['study'])}.md)"
         if tracking:
-            table.append([r["suite"], f"`{r['policy']}`",
-                          f"{r['tracking_rms_mm']:.2f} / {r['tracking_rms_worst_mm']:.2f}"])
+            table.append(
+                [
+                    r["suite"],
+                    f"`{r['policy']}`",
+                    f"{r['tracking_rms_mm']:.2f} / {r['tracking_rms_worst_mm']:.2f}",
+                ]
+            )
             key = r["tracking_rms_mm"]
             if r["suite"] not in best or key < best[r["suite"]][0]:
                 best[r["suite"]] = (key, f"{r['suite']}: {r['policy']} {key:.2f} mm RMS")
         else:
             t = r["time_to_success"]
-            table.append([r["suite"], f"`{r['policy']}`", format_success(r),
-                          "–" if t is None else f"{t:.2f}"])
+            table.append(
+                [
+                    r["suite"],
+                    f"`{r['policy']}`",
+                    format_success(r),
+                    "–" if t is None else f"{t:.2f}",
+                ]
+            )
             key = (r["success_rate"] or 0.0, -(t or math.inf))
             if r["suite"] not in best or key > best[r["suite"]][0]:
                 best[r["suite"]] = (key, f"{r['suite']}: {r['policy']} {format_success(r)} %")
@@ -283,8 +308,12 @@ def env_page(env_id: str) -> tuple[str, dict[str, str]]:
         ["Episode length (steps)", length],
         ["Success test", success],
         ["Registered arguments", kwargs],
-        ["Vector env", "native (`gymnasium.make_vec(id, num_envs=n)`)" if vec else
-         "`SyncVectorEnv` (no native vector env)"],
+        [
+            "Vector env",
+            "native (`gymnasium.make_vec(id, num_envs=n)`)"
+            if vec
+            else "`SyncVectorEnv` (no native vector env)",
+        ],
     ]
     lines += [P.md_table(["", ""], facts), body.strip(), ""]
     lines += ["## Observation layout", "", layout, ""]
@@ -317,10 +346,22 @@ def generate() -> list[Path]:
     for stale in OUT.glob("*.md"):
         if stale.stem not in ids:
             stale.unlink()
-    header = ["id", "task", "action", "observation", "episode steps", "success test",
-              "strongest built-in baseline (fixed suites, seed 0)"]
-    table = P.md_table(header, [[r[k] for k in ("id", "task", "action", "observation",
-                                                 "length", "success", "baseline")] for r in rows])
+    header = [
+        "id",
+        "task",
+        "action",
+        "observation",
+        "episode steps",
+        "success test",
+        "strongest built-in baseline (fixed suites, seed 0)",
+    ]
+    table = P.md_table(
+        header,
+        [
+            [r[k] for k in ("id", "task", "action", "observation", "length", "success", "baseline")]
+            for r in rows
+        ],
+    )
     # links in an included fragment are relative to the including page (docs/)
     table = re.sub(r"\]\((Planar3P[^)]*\.md)\)", r"](envs/\1)", table)
     if P.write_if_changed(P.GENERATED / "env_table.md", table):

@@ -71,14 +71,16 @@ def benchmark_rows(record: dict[str, Any]) -> list[tuple[dict[str, Any], list[di
     for study in studies():
         specs = study["summary"]["settings"].get("policies", {})
         labels = [
-            label for label, spec in specs.items()
+            label
+            for label, spec in specs.items()
             if spec == f"pretrained:{name}" or (run and f"{run}/{model}" in spec)
         ]
         if not labels:
             continue
         mine = [row_of(study, s) for s in study["summary"]["summaries"] if s["policy"] in labels]
         base = [
-            row_of(study, s) for s in study["summary"]["summaries"]
+            row_of(study, s)
+            for s in study["summary"]["summaries"]
             if is_builtin(specs.get(s["policy"], s["policy"]))
         ]
         found.append((study, mine, base))
@@ -95,8 +97,9 @@ def _score(r: dict[str, Any]) -> str:
 def _strongest(rows: list[dict[str, Any]], suite: str) -> list[dict[str, Any]]:
     """The built-in policies worth naming beside a learned figure on ``suite``: the best one
     and the plain analytic controller (when it is not the best)."""
-    cand = [r for r in rows if r["suite"] == suite and r["policy"] != "zero"
-            and r["policy"] != "random"]
+    cand = [
+        r for r in rows if r["suite"] == suite and r["policy"] != "zero" and r["policy"] != "random"
+    ]
     if not cand:
         return []
     if cand[0]["tracking_rms_mm"] is not None:
@@ -111,8 +114,11 @@ def _strongest(rows: list[dict[str, Any]], suite: str) -> list[dict[str, Any]]:
 def _learning_curves(study: str) -> list[str]:
     stems = sorted(p.stem for p in FIGURES.glob("learning_curves_*.png"))
     key = study.replace("-", "_")
-    return [s for s in stems if key == s[len("learning_curves_"):]
-            or key.startswith(s[len("learning_curves_"):] + "_")]
+    return [
+        s
+        for s in stems
+        if key == s[len("learning_curves_") :] or key.startswith(s[len("learning_curves_") :] + "_")
+    ]
 
 
 def model_card(record: dict[str, Any], sums: dict[str, str]) -> tuple[str, list[str]]:
@@ -126,38 +132,67 @@ def model_card(record: dict[str, Any], sums: dict[str, str]) -> tuple[str, list[
     lines = [f"# `pretrained:{name}`", ""]
     if record.get("note"):
         lines += [P.md_cell(record["note"]), ""]
-    env_link = f"[`{env_id}`](../envs/{env_id}.md)" if env_id in P.registered_ids() else f"`{env_id}`"
+    env_link = (
+        f"[`{env_id}`](../envs/{env_id}.md)"
+        if env_id in P.registered_ids()
+        else f"`{env_id}` (no longer registered)"
+    )
     facts = [
         ["Task", f"{env_link}" + (f" with `{json.dumps(env_kwargs)}`" if env_kwargs else "")],
-        ["Algorithm", f"{cfg.get('algo', '?').upper()}, policy `{cfg.get('policy', '?')}`, "
-                      f"{cfg.get('n_envs', '?')} envs"
-                      + (f"; kick-started from `{kick['teacher']}` ({kick['steps']:,} "
-                         "teacher-labelled steps)" if kick else "; learned from scratch")],
+        [
+            "Algorithm",
+            f"{cfg.get('algo', '?').upper()}, policy `{cfg.get('policy', '?')}`, "
+            f"{cfg.get('n_envs', '?')} envs"
+            + (
+                f"; kick-started from `{kick['teacher']}` ({kick['steps']:,} "
+                "teacher-labelled steps)"
+                if kick
+                else "; learned from scratch"
+            ),
+        ],
         ["Training seed", str(cfg.get("seed", "?"))],
-        ["Source", f"run `{record.get('source_run', '?')}`, file `{record.get('source_model', '?')}`"],
+        [
+            "Source",
+            f"run `{record.get('source_run', '?')}`, file `{record.get('source_model', '?')}`",
+        ],
     ]
     if metrics:
-        facts.append(["Run's own final evaluation",
-                      f"success {100 * metrics['success_rate']:.0f} % over {metrics['episodes']} "
-                      "env-sampled episodes (training distribution, not the fixed suites)"])
+        facts.append(
+            [
+                "Run's own final evaluation",
+                f"success {100 * metrics['success_rate']:.0f} % over {metrics['episodes']} "
+                "env-sampled episodes (training distribution, not the fixed suites)",
+            ]
+        )
     steps = (record.get("metrics") or {}).get("timesteps")
     if steps:
         facts.append(["Training steps", f"{steps:,}"])
     versions = record.get("versions") or {}
     if versions:
-        facts.append(["Trained with", ", ".join(
-            f"{k} {v}" for k, v in versions.items() if k in
-            ("Python", "Stable-Baselines3", "PyTorch", "Gymnasium", "pymunk", "rl_zoo3"))])
+        facts.append(
+            [
+                "Trained with",
+                ", ".join(
+                    f"{k} {v}"
+                    for k, v in versions.items()
+                    if k
+                    in ("Python", "Stable-Baselines3", "PyTorch", "Gymnasium", "pymunk", "rl_zoo3")
+                ),
+            ]
+        )
     lines += [P.md_table(["", ""], facts), ""]
 
-    kwargs = "".join(f", {k}={v!r}" for k, v in env_kwargs.items()
-                     if k in ("travel_goal",))
+    kwargs = "".join(f", {k}={v!r}" for k, v in env_kwargs.items() if k in ("travel_goal",))
+    registered = env_id in P.registered_ids()
     lines += [
-        "## Use it", "",
+        "## Use it",
+        "",
         "The loader checks the files' SHA-256 sums and loads the observation statistics "
         "(`VecNormalize`) with the model: a plain `PPO.load` of the `.zip` without them plays "
-        "badly and silently.", "",
+        "badly and silently.",
+        "",
         "```python",
+        *([] if registered else [f"# not run: {env_id} is not registered any more"]),
         "import gymnasium as gym",
         "import planar3p_gym",
         f"from {P.agents_package()}.policies import load_policy",
@@ -166,32 +201,47 @@ def model_card(record: dict[str, Any], sums: dict[str, str]) -> tuple[str, list[
         f'policy = load_policy("pretrained:{name}", env=env)',
         "obs, info = env.reset(seed=0)",
         "action, _ = policy.predict(obs, deterministic=True)",
-        "```", "",
+        "```",
+        "",
         f"From the command line: `python scripts/benchmark.py --policies pretrained:{name}` "
-        "(see [the benchmark](../benchmark.md)).", "",
+        "(see [the benchmark](../benchmark.md)).",
+        "",
     ]
     cmd = run.get("command")
     if cmd:
-        lines += ["## Training command", "",
-                  "As recorded in the provenance (`scripts/train.py` runs torch on one thread, "
-                  "`--threads 1`, by default); it trains for minutes to hours, so it is not run "
-                  "by the documentation's tests:", "",
-                  "```bash", "# not run: trains for minutes to hours",
-                  _wrap_command(_clean_command(cmd)), "```", ""]
+        lines += [
+            "## Training command",
+            "",
+            "As recorded in the provenance (`scripts/train.py` runs torch on one thread, "
+            "`--threads 1`, by default); it trains for minutes to hours, so it is not run "
+            "by the documentation's tests:",
+            "",
+            "```bash",
+            "# not run: trains for minutes to hours",
+            _wrap_command(_clean_command(cmd)),
+            "```",
+            "",
+        ]
     algo_kwargs = cfg.get("algo_kwargs") or {}
     if algo_kwargs:
-        hp = [[f"`{k}`", f"`{json.dumps(v) if not isinstance(v, str) else v}`"]
-              for k, v in algo_kwargs.items()]
+        hp = [
+            [f"`{k}`", f"`{json.dumps(v) if not isinstance(v, str) else v}`"]
+            for k, v in algo_kwargs.items()
+        ]
         lines += ["## Hyperparameters", "", P.md_table(["name", "value"], hp), ""]
 
     results = benchmark_rows(record)
     figures: list[str] = []
     summary = ""
     if results:
-        lines += ["## On the benchmark's fixed suites", "",
-                  "Every figure with the strongest built-in policies of the same run (same "
-                  "episodes); success % with the 95 % Wilson interval, median time to "
-                  "success.", ""]
+        lines += [
+            "## On the benchmark's fixed suites",
+            "",
+            "Every figure with the strongest built-in policies of the same run (same "
+            "episodes); success % with the 95 % Wilson interval, median time to "
+            "success.",
+            "",
+        ]
         for study, mine, base in results:
             rows = []
             for r in mine:
@@ -199,8 +249,12 @@ def model_card(record: dict[str, Any], sums: dict[str, str]) -> tuple[str, list[
                 for b in _strongest(base, r["suite"]):
                     rows.append([r["suite"], f"`{b['policy']}`", _score(b)])
             page = study_page_name(study["name"])
-            lines += [f"Study [{study['name']}](../results/{page}.md):", "",
-                      P.md_table(["suite", "policy", "score"], rows), ""]
+            lines += [
+                f"Study [{study['name']}](../results/{page}.md):",
+                "",
+                P.md_table(["suite", "policy", "score"], rows),
+                "",
+            ]
             if not summary and mine:
                 summary = "; ".join(f"{r['suite']} {_score(r)}" for r in mine)
             folder = study["folder"]
@@ -214,19 +268,30 @@ def model_card(record: dict[str, Any], sums: dict[str, str]) -> tuple[str, list[
         for fig in dict.fromkeys(figures):
             lines += [f"![{Path(fig).stem}]({fig})", ""]
 
-    files = sorted(k for k in sums if Path(k).name.startswith(name + ".")
-                   or Path(k).name.startswith(name + "_"))
+    files = sorted(
+        k
+        for k in sums
+        if Path(k).name.startswith(name + ".") or Path(k).name.startswith(name + "_")
+    )
     digests = {sums[f] for f in files}
     zoo = sorted(k for k in sums if "/" in k and sums[k] in digests)
     rows = [[f"`{f}`", f"`{sums[f]}`"] for f in files + zoo]
-    lines += ["## Files and checksums", "",
-              "From `SHA256SUMS` in the shipped folder (`sha256sum -c SHA256SUMS` checks them); "
-              "the rl-zoo3 layout holds the same bytes. Model and statistics files are "
-              "unpickled when loaded: load only files you trust.", "",
-              P.md_table(["file", "SHA-256"], rows)]
-    row = [f"[`pretrained:{name}`](models/{name}.md)", env_id,
-           "kick-start + PPO" if kick else cfg.get("algo", "?").upper(),
-           str(cfg.get("seed", "?")), summary or "–"]
+    lines += [
+        "## Files and checksums",
+        "",
+        "From `SHA256SUMS` in the shipped folder (`sha256sum -c SHA256SUMS` checks them); "
+        "the rl-zoo3 layout holds the same bytes. Model and statistics files are "
+        "unpickled when loaded: load only files you trust.",
+        "",
+        P.md_table(["file", "SHA-256"], rows),
+    ]
+    row = [
+        f"[`pretrained:{name}`](models/{name}.md)",
+        env_id,
+        "kick-start + PPO" if kick else cfg.get("algo", "?").upper(),
+        str(cfg.get("seed", "?")),
+        summary or "–",
+    ]
     return "\n".join(lines).rstrip() + "\n", row
 
 

@@ -38,34 +38,89 @@ NOTES = P.NOTES / "results"
 FIGURES = P.DOCS / "figures"
 
 #: Lines of the headline table: (task, study, seed-table file, pooled policy, suite, metric,
-#: what was learned).  metric: "success" (IQM success %), "time" (IQM median time to success,
-#: s), "tracking" (IQM median tracking RMS error, mm).
+#: what was learned, a short verdict written by hand).  metric: "success" (IQM success %),
+#: "time" (IQM median time to success, s), "tracking" (IQM median tracking RMS error, mm).
 HEADLINE: list[dict[str, str]] = [
-    {"task": "reach from scratch", "study": "travel-goal-margin", "seeds": "seeds.md",
-     "policy": "ppo-v1-JM25/model", "suite": "standard", "metric": "success",
-     "learned": "PPO from scratch, joint-space goal (`Planar3P-v1`)"},
-    {"task": "reach, faster", "study": "residual-reach", "seeds": "seeds_time.md",
-     "policy": "R-hard/rl_model_1000000_steps", "suite": "standard", "metric": "time",
-     "learned": "residual PPO on the analytic controller"},
-    {"task": "reach near singularities", "study": "residual-reach", "seeds": "seeds.md",
-     "policy": "R-hard/rl_model_1000000_steps", "suite": "hard", "metric": "success",
-     "learned": "residual PPO on the analytic controller"},
-    {"task": "working-mode change", "study": "mode-change", "seeds": "seeds.md",
-     "policy": "ppo-mc/model", "suite": "mode-change", "metric": "success",
-     "learned": "PPO from scratch + travel shaping"},
-    {"task": "assembly-mode change", "study": "assembly-change", "seeds": "seeds.md",
-     "policy": "ppo-ac-shaped/model", "suite": "assembly-change", "metric": "success",
-     "learned": "PPO from scratch + travel shaping"},
-    {"task": "tracking, segments", "study": "track-learned", "seeds": "seeds_tracking_rms.md",
-     "policy": "T-track/model", "suite": "track-segments", "metric": "tracking",
-     "learned": "residual PPO on the feed-forward controller"},
-    {"task": "tracking, figure-eight", "study": "track-learned",
-     "seeds": "seeds_tracking_rms.md", "policy": "T-track/model",
-     "suite": "track-figure-eight", "metric": "tracking",
-     "learned": "residual PPO on the feed-forward controller"},
-    {"task": "goal-conditioned reach", "study": "goal-learned", "seeds": "seeds.md",
-     "policy": "ppo-goaldense/model", "suite": "goal", "metric": "success",
-     "learned": "PPO + goal-error features"},
+    {
+        "task": "reach from scratch",
+        "study": "travel-goal-margin",
+        "seeds": "seeds.md",
+        "policy": "ppo-v1-JM25/model",
+        "suite": "standard",
+        "metric": "success",
+        "learned": "PPO from scratch, joint-space goal",
+        "note": "target met narrowly (a seed at 90 %), recipe chosen on this suite; `hard`: 0 %",
+    },
+    {
+        "task": "reach, faster",
+        "study": "residual-reach",
+        "seeds": "seeds_time.md",
+        "policy": "R-hard/rl_model_1000000_steps",
+        "suite": "standard",
+        "metric": "time",
+        "learned": "residual PPO on the analytic controller",
+        "note": "faster than the shipped gain, slower than a retuned one",
+    },
+    {
+        "task": "reach near singularities",
+        "study": "residual-reach",
+        "seeds": "seeds.md",
+        "policy": "R-hard/rl_model_1000000_steps",
+        "suite": "hard",
+        "metric": "success",
+        "learned": "residual PPO on the analytic controller",
+        "note": "as reliable as the controller; not learned from scratch",
+    },
+    {
+        "task": "working-mode change",
+        "study": "mode-change",
+        "seeds": "seeds.md",
+        "policy": "ppo-mc/model",
+        "suite": "mode-change",
+        "metric": "success",
+        "learned": "PPO from scratch + travel shaping",
+        "note": "beats the simple motions, not the certified planner; 2-5 % crossings",
+    },
+    {
+        "task": "assembly-mode change",
+        "study": "assembly-change",
+        "seeds": "seeds.md",
+        "policy": "ppo-ac-shaped/model",
+        "suite": "assembly-change",
+        "metric": "success",
+        "learned": "PPO from scratch + travel shaping",
+        "note": "does not beat the simple motions (they cross too without gravity)",
+    },
+    {
+        "task": "tracking, segments",
+        "study": "track-learned",
+        "seeds": "seeds_tracking_rms.md",
+        "policy": "T-track/model",
+        "suite": "track-segments",
+        "metric": "tracking",
+        "learned": "residual PPO on the feed-forward controller",
+        "note": "better median, far worse worst episode; gain 25 1/s beats it",
+    },
+    {
+        "task": "tracking, figure-eight",
+        "study": "track-learned",
+        "seeds": "seeds_tracking_rms.md",
+        "policy": "T-track/model",
+        "suite": "track-figure-eight",
+        "metric": "tracking",
+        "learned": "residual PPO on the feed-forward controller",
+        "note": "better median; gain 25 1/s beats it",
+    },
+    {
+        "task": "goal-conditioned reach",
+        "study": "goal-learned",
+        "seeds": "seeds.md",
+        "policy": "ppo-goaldense/model",
+        "suite": "goal",
+        "metric": "success",
+        "learned": "PPO + goal-error features",
+        "note": "does not beat the analytic controller; SAC + HER: 0 %",
+    },
 ]
 
 UNITS = {"success": "%", "time": "s", "tracking": "mm"}
@@ -85,7 +140,8 @@ def parse_seed_table(path: Path) -> list[dict[str, str]]:
         cells = [c.strip() for c in line.strip().strip("|").split("|")]
         if len(cells) != 5 or cells[0].startswith("policy") or set(cells[0]) <= {"-"}:
             continue
-        rows.append(dict(zip(("policy", "suite", "seeds", "per_seed", "iqm"), cells)))
+        keys = ("policy", "suite", "seeds", "per_seed", "iqm")
+        rows.append(dict(zip(keys, cells, strict=True)))
     return rows
 
 
@@ -103,8 +159,10 @@ def strongest_builtin(study: dict[str, Any], suite: str, metric: str) -> list[di
     study on ``suite`` (floor references left out)."""
     specs = study["summary"]["settings"].get("policies", {})
     rows = [
-        row_of(study, s) for s in study["summary"]["summaries"]
-        if s["suite"] == suite and is_builtin(specs.get(s["policy"], s["policy"]))
+        row_of(study, s)
+        for s in study["summary"]["summaries"]
+        if s["suite"] == suite
+        and is_builtin(specs.get(s["policy"], s["policy"]))
         and s["policy"] not in ("zero", "random")
     ]
     if not rows:
@@ -137,13 +195,27 @@ def headline_rows() -> list[list[str]]:
             for b in strongest_builtin(study, h["suite"], h["metric"])
         )
         env = suite_env(study, h["suite"])
-        out.append([f"{h['task']} (`{h['suite']}`, {env})", h["learned"], learned, base,
-                    h["study"]])
+        out.append(
+            [
+                f"{h['task']} (`{h['suite']}`, `{env}`)",
+                h["learned"],
+                learned,
+                base,
+                h.get("note", ""),
+                h["study"],
+            ]
+        )
     return out
 
 
-HEADLINE_HEADER = ["task (suite, id)", "learned policy", "learned: IQM [95% CI] across seeds",
-                   "built-in baselines, same episodes", "study"]
+HEADLINE_HEADER = [
+    "task (suite, id)",
+    "learned policy",
+    "learned: IQM [95% CI] across seeds",
+    "built-in baselines, same episodes",
+    "verdict",
+    "study",
+]
 
 
 def headline_table(readme: bool = False) -> str:
@@ -173,18 +245,46 @@ def _summary_table(study: dict[str, Any], suite: str) -> str:
     for r in rows:
         kind = "built-in" if is_builtin(specs.get(r["policy"], r["policy"])) else "learned"
         if tracking:
-            out.append([f"`{r['policy']}`", kind, f"{r['tracking_rms_mm']:.2f}",
-                        f"{r['tracking_rms_worst_mm']:.2f}", r["crossings"]])
+            out.append(
+                [
+                    f"`{r['policy']}`",
+                    kind,
+                    f"{r['tracking_rms_mm']:.2f}",
+                    f"{r['tracking_rms_worst_mm']:.2f}",
+                    r["crossings"],
+                ]
+            )
         else:
             t = r["time_to_success"]
-            out.append([f"`{r['policy']}`", kind, r["episodes"], format_success(r),
-                        "–" if t is None else f"{t:.2f}", r["crossings"], r["timeouts"]])
+            out.append(
+                [
+                    f"`{r['policy']}`",
+                    kind,
+                    r["episodes"],
+                    format_success(r),
+                    "–" if t is None else f"{t:.2f}",
+                    r["crossings"],
+                    r["timeouts"],
+                ]
+            )
     if tracking:
-        header = ["policy", "kind", "tracking RMS error mm (median)", "worst episode mm",
-                  "sing. crossings"]
+        header = [
+            "policy",
+            "kind",
+            "tracking RMS error mm (median)",
+            "worst episode mm",
+            "sing. crossings",
+        ]
     else:
-        header = ["policy", "kind", "n", "success % [95% CI]", "median time to success s",
-                  "sing. crossings", "timeouts"]
+        header = [
+            "policy",
+            "kind",
+            "n",
+            "success % [95% CI]",
+            "median time to success s",
+            "sing. crossings",
+            "timeouts",
+        ]
     return P.md_table(header, out)
 
 
@@ -205,37 +305,68 @@ def study_page(study: dict[str, Any]) -> str:
             lines += [f"# Study: {name}", ""]
         lines += [text, ""]
     else:
-        lines += [f"# Study: {name}", "",
-                  f"Benchmark data in `docs/benchmark/{'' if name == 'baselines' else name}`.",
-                  ""]
+        lines += [
+            f"# Study: {name}",
+            "",
+            f"Benchmark data in `docs/benchmark/{'' if name == 'baselines' else name}`.",
+            "",
+        ]
     suites = list(settings.get("suites", []))
     envs = sorted({suite_env(study, s) for s in suites})
     rel = folder.relative_to(P.DOCS).as_posix()
+    repo_rel = folder.relative_to(P.ROOT).as_posix()
     lines += [
-        "## How it was measured", "",
+        "## How it was measured",
+        "",
         f"Seed {settings.get('seed')}, {settings.get('episodes')} episodes per suite "
         f"({', '.join(f'`{s}`' for s in suites)}), played in {', '.join(f'`{e}`' for e in envs)}; "
         f"{settings.get('bootstrap')} bootstrap resamples; "
         f"{settings.get('elapsed_s', 0):.0f} s. Every policy played the same episodes "
-        f"(saved in `{rel}/suites.json`). The learned models' `runs/` are not in the "
-        "repository (the shipped ones are, see [pretrained policies](../pretrained.md)).", "",
-        "```bash", "# not run: the command that wrote this study (minutes)",
-        _wrap_command(settings.get("command", "")), "```", "",
-        "## Results", "",
-        "From `summary.json`. Success % with its 95 % Wilson interval; \"built-in\" policies "
-        "are the analytic controllers and floor references.", "",
+        f"(saved in `{repo_rel}/suites.json`). The learned models' `runs/` are not in the "
+        "repository (the shipped ones are, see [pretrained policies](../pretrained.md)).",
+        "",
+        "```bash",
+        "# not run: the command that wrote this study (minutes)",
+        _wrap_command(settings.get("command", "")),
+        "```",
+        "",
+        "## Results",
+        "",
+        'From `summary.json`. Success % with its 95 % Wilson interval; "built-in" policies '
+        "are the analytic controllers and floor references.",
+        "",
     ]
     for suite in suites:
         lines += [f"### `{suite}`", "", _summary_table(study, suite), ""]
     seeds = seed_tables(folder)
     if seeds:
-        lines += ["## Across training seeds", "",
-                  "IQM across training seeds with 95 % stratified-bootstrap intervals "
-                  "(`scripts/seed_report.py`).", ""]
+        lines += [
+            "## Across training seeds",
+            "",
+            "IQM across training seeds with 95 % stratified-bootstrap intervals "
+            "(`scripts/seed_report.py`).",
+            "",
+        ]
         for path in seeds:
             lines += [f"`{path.name}`:", "", path.read_text().strip(), ""]
-    figures = [f for f in ("success_rate.png", "errors.png", "trajectories.png")
-               if (folder / f).exists()]
+    others = [p for p in sorted(folder.glob("*.md")) if p.name != "report.md" and p not in seeds]
+    for path in others:
+        text = path.read_text().strip()
+        title = path.stem.replace("_", " ")
+        if text.startswith("# "):
+            title, _, text = text.partition("\n")
+            title = title[2:].strip()
+        lines += [
+            f"## {title}",
+            "",
+            f"From `{repo_rel}/{path.name}`.",
+            "",
+            _shift_headings(text.strip(), 2),
+            "",
+        ]
+    figures = [
+        f for f in ("success_rate.png", "errors.png", "trajectories.png") if (folder / f).exists()
+    ]
     curves = _curves(name)
     if figures or curves:
         lines += ["## Figures", ""]
@@ -245,8 +376,12 @@ def study_page(study: dict[str, Any]) -> str:
             lines += [f"![{c}](../figures/{c}.png)", ""]
     sections = [(h, b) for h, b in report_sections(folder) if h not in ("Plots",)]
     if sections:
-        lines += ["## The full report", "",
-                  f"The sections of `{rel}/report.md`, as `scripts/benchmark.py` wrote them.", ""]
+        lines += [
+            "## The full report",
+            "",
+            f"The sections of `{repo_rel}/report.md`, as `scripts/benchmark.py` wrote them.",
+            "",
+        ]
         for heading, body in sections:
             body = re.sub(r"!\[[^\]]*\]\([^)]*\)\n?", "", body)
             lines += [f"### {heading}", "", _shift_headings(body, 2), ""]
@@ -261,7 +396,7 @@ def _curves(study: str) -> list[str]:
     out = []
     key = study.replace("-", "_")
     for p in sorted(FIGURES.glob("learning_curves*.png")):
-        tail = p.stem[len("learning_curves_"):]
+        tail = p.stem[len("learning_curves_") :]
         if p.stem in named:
             continue  # the note shows it where it belongs
         if tail and (key == tail or key.startswith(tail + "_")):
@@ -289,12 +424,19 @@ def generate() -> list[Path]:
     for study in studies():
         settings = study["summary"]["settings"]
         title = _note_title(study["name"])
-        rows.append([f"[{study['name']}](results/{study_page_name(study['name'])}.md)", title,
-                     ", ".join(f"`{s}`" for s in settings.get("suites", [])),
-                     len(settings.get("policies", {}))])
+        rows.append(
+            [
+                f"[{study['name']}](results/{study_page_name(study['name'])}.md)",
+                title,
+                ", ".join(f"`{s}`" for s in settings.get("suites", [])),
+                len(settings.get("policies", {})),
+            ]
+        )
     index = P.md_table(["study", "what it asks", "suites", "policies"], rows)
-    for path, text in ((P.GENERATED / "studies_table.md", index),
-                       (P.GENERATED / "headline_table.md", headline_table())):
+    for path, text in (
+        (P.GENERATED / "studies_table.md", index),
+        (P.GENERATED / "headline_table.md", headline_table()),
+    ):
         if P.write_if_changed(path, text):
             written.append(path)
     return written
@@ -311,8 +453,11 @@ def _note_title(name: str) -> str:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--readme-table", action="store_true",
-                    help="print the headline table with links for the README")
+    ap.add_argument(
+        "--readme-table",
+        action="store_true",
+        help="print the headline table with links for the README",
+    )
     args = ap.parse_args()
     if args.readme_table:
         print(headline_table(readme=True), end="")

@@ -19,7 +19,7 @@ import inspect
 import pkgutil
 import re
 import sys
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -44,7 +44,7 @@ if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
 
-@lru_cache(maxsize=None)
+@cache
 def agents_package() -> str:
     """Import name of the agents package: ``planar3p_agents`` when importable, else
     ``agents`` (the name before the package was renamed)."""
@@ -62,7 +62,7 @@ def documented_packages() -> list[str]:
     return [ENV_PACKAGE, agents_package()]
 
 
-@lru_cache(maxsize=None)
+@cache
 def _documented_tuple() -> tuple[str, ...]:
     return tuple(documented_packages())
 
@@ -124,7 +124,7 @@ def _import_dotted(name: str) -> tuple[Any, ModuleType | None] | None:
             mod = importlib.import_module(".".join(parts[:i]))
         except ImportError:
             continue
-        except Exception:  # noqa: BLE001 -- a broken import is reported by autodoc itself
+        except Exception:
             return None
         obj: Any = mod
         for attr in parts[i:]:

@@ -12,7 +12,7 @@ import json
 import math
 import re
 import shlex
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -30,7 +30,7 @@ def study_page_name(name: str) -> str:
     return name
 
 
-@lru_cache(maxsize=None)
+@cache
 def studies() -> tuple[dict[str, Any], ...]:
     """Every study, the top folder first, then the subfolders in alphabetical order."""
     folders = [P.BENCHMARK] + sorted(p.parent for p in P.BENCHMARK.glob("*/summary.json"))

@@ -24,9 +24,8 @@ import time
 import warnings
 from typing import Any
 
-from sphinx.util import logging
-
 import p3docs as P
+from sphinx.util import logging
 
 logger = logging.getLogger(__name__)
 
@@ -107,9 +106,7 @@ def _missing_reference(app: Any, env: Any, node: Any, contnode: Any) -> Any:
             break
     for cand in dict.fromkeys(candidates):
         if cand in domain.objects or cand in domain.modules:
-            ref = domain.resolve_xref(
-                env, node["refdoc"], app.builder, typ, cand, node, contnode
-            )
+            ref = domain.resolve_xref(env, node["refdoc"], app.builder, typ, cand, node, contnode)
             if ref is None:  # the role does not fit the object's type: resolve as "obj"
                 ref = domain.resolve_xref(
                     env, node["refdoc"], app.builder, "obj", cand, node, contnode
@@ -137,7 +134,12 @@ def _unlink_variable_names(app: Any, doctree: Any) -> None:
 
 
 def _signature_defaults(
-    app: Any, what: str, name: str, obj: Any, options: Any, signature: str | None,
+    app: Any,
+    what: str,
+    name: str,
+    obj: Any,
+    options: Any,
+    signature: str | None,
     return_annotation: str | None,
 ) -> tuple[str | None, str | None] | None:
     """Dataclass fields with a ``default_factory`` show ``<factory>``, which is not Python
@@ -147,6 +149,76 @@ def _signature_defaults(
     return None
 
 
+_BORDER = re.compile(r"^(\s*)=+( +=+)+\s*$")
+
+
+def _simple_table_ok(block: list[str]) -> bool:
+    from docutils.parsers.rst.tableparser import SimpleTableParser, TableMarkupError
+    from docutils.statemachine import StringList
+
+    try:
+        SimpleTableParser().parse(StringList(block))
+    except TableMarkupError:
+        return False
+    return True
+
+
+def _relayout(block: list[str]) -> list[str]:
+    """A simple table whose text runs into a column margin, laid out again: each row's cells
+    (separated by two or more spaces) go to the column they start in, and every column is as
+    wide as its widest cell."""
+    indent = len(block[0]) - len(block[0].lstrip())
+    border = block[0]
+    starts = [m.start() for m in re.finditer(r"=+", border)]
+    rows: list[list[str] | None] = []
+    for line in block:
+        if _BORDER.match(line):
+            rows.append(None)
+            continue
+        cells = [""] * len(starts)
+        col, prev_end = 0, -10
+        for m in re.finditer(r"\S+", line):
+            by_position = max((i for i, st in enumerate(starts) if st <= m.start()), default=0)
+            if m.start() - prev_end >= 2 or m.start() in starts:
+                col = by_position  # a new cell (or a word at a column's start)
+            cells[col] = f"{cells[col]} {m.group(0)}".strip()
+            prev_end = m.end()
+        rows.append(cells)
+    widths = [max([len(r[i]) for r in rows if r is not None] + [1]) for i in range(len(starts))]
+    out = []
+    for r in rows:
+        if r is None:
+            out.append(" " * indent + "  ".join("=" * w for w in widths))
+        else:
+            out.append(
+                (
+                    " " * indent + "  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True))
+                ).rstrip()
+            )
+    return out
+
+
+def _repair_simple_tables(lines: list[str]) -> None:
+    """Simple tables that docutils rejects ("Malformed table": text in a column margin) are
+    laid out again; valid tables are left alone."""
+    i = 0
+    while i < len(lines):
+        if not _BORDER.match(lines[i]):
+            i += 1
+            continue
+        end, borders = i + 1, 1
+        while end < len(lines) and lines[end].strip():
+            if _BORDER.match(lines[end]):
+                borders += 1
+            end += 1
+        block = lines[i:end]
+        if borders >= 2 and not _simple_table_ok(block):
+            fixed = _relayout(block)
+            if _simple_table_ok(fixed):
+                lines[i:end] = fixed
+        i = end
+
+
 _HEADING = re.compile(r"^(\s*)#{2,4}\s+(\S.*)$")
 _ITEM = re.compile(r"^(\s*)[-*]\s+\S")
 
@@ -154,7 +226,9 @@ _ITEM = re.compile(r"^(\s*)[-*]\s+\S")
 def _markdown_sections(
     app: Any, what: str, name: str, obj: Any, options: Any, lines: list[str]
 ) -> None:
-    """Gymnasium-style docstrings (Markdown headings and lists) made valid RST."""
+    """Gymnasium-style docstrings (Markdown headings and lists) made valid RST, and simple
+    tables with text in a column margin laid out again."""
+    _repair_simple_tables(lines)
     out: list[str] = []
     literal_open = False  # inside a ``double-backtick`` literal that spans lines
     for line in lines:
