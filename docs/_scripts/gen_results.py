@@ -4,7 +4,7 @@ Each page is built from the study's own files: the settings and summaries of ``s
 (a table per suite with every policy, and the strongest built-in policies named), the seed
 tables (``seeds*.md`` of ``scripts/seed_report.py``), the figures, and the sections of
 ``report.md`` (suites, why episodes end, definitions).  A hand-written note
-(``docs/_notes/results/<study>.md``: what was trained, why, the caveats) is included at the
+(``docs/_notes/studies/<study>.md``: what was trained, why, the caveats) is included at the
 top when there is one; a study without a note gets a page all the same.
 
 The headline table (learned against the strongest baselines, with intervals across training
@@ -34,7 +34,7 @@ from results_data import (
 )
 
 OUT = P.DOCS / "results"
-NOTES = P.NOTES / "results"
+NOTES = P.NOTES / "studies"
 FIGURES = P.DOCS / "figures"
 
 #: Lines of the headline table: (task, study, seed-table file, pooled policy, suite, metric,
