@@ -206,7 +206,7 @@ def record(env_id: str, controller: str | None, args: argparse.Namespace) -> dic
     seconds = steps / env.metadata["render_fps"]
     caption = (
         f"{CONTROLLER_TEXT[name]} (`{name}`), reset seed {args.seed}: {outcome} "
-        f"({seconds:g} s, shown at {fps:g} frames/s)."
+        f"({seconds:g} s, shown at {fps:.3g} frames/s)."
     )
     return {
         "id": env_id,

@@ -366,6 +366,9 @@ def generate() -> list[Path]:
     table = re.sub(r"\]\((Planar3P[^)]*\.md)\)", r"](envs/\1)", table)
     if P.write_if_changed(P.GENERATED / "env_table.md", table):
         written.append(P.GENERATED / "env_table.md")
+    toctree = "```{toctree}\n:maxdepth: 1\n\n" + "".join(f"envs/{i}\n" for i in ids) + "```\n"
+    if P.write_if_changed(P.GENERATED / "env_toctree.md", toctree):
+        written.append(P.GENERATED / "env_toctree.md")
     return written
 
 

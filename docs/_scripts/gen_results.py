@@ -125,6 +125,38 @@ HEADLINE: list[dict[str, str]] = [
 
 UNITS = {"success": "%", "time": "s", "tracking": "mm"}
 
+#: The order of the studies in the navigation (the story: baselines, learning from scratch and
+#: its probes, residual policies, the other tasks, the stress test); studies not named here
+#: follow in alphabetical order.
+STUDY_ORDER = [
+    "baselines",
+    "tasks",
+    "learned",
+    "scratch",
+    "clear-path-probe",
+    "tolerance",
+    "tolerance-half",
+    "curriculum",
+    "efficiency-sweep",
+    "travel-goal",
+    "travel-goal-1mm",
+    "travel-goal-curriculum",
+    "travel-goal-margin",
+    "travel-goal-margin-seed1",
+    "residual-reach",
+    "mode-change",
+    "assembly-change",
+    "track-learned",
+    "goal-learned",
+    "crossing",
+]
+
+
+def ordered_studies() -> list[dict[str, Any]]:
+    """The studies in :data:`STUDY_ORDER`, then the others alphabetically."""
+    rank = {name: i for i, name in enumerate(STUDY_ORDER)}
+    return sorted(studies(), key=lambda s: (rank.get(s["name"], len(rank)), s["name"]))
+
 
 def _study(name: str) -> dict[str, Any]:
     for s in studies():
@@ -421,7 +453,7 @@ def generate() -> list[Path]:
 
             warnings.warn(f"note {note.name} has no study folder in {P.BENCHMARK}", stacklevel=1)
     rows = []
-    for study in studies():
+    for study in ordered_studies():
         settings = study["summary"]["settings"]
         title = _note_title(study["name"])
         rows.append(
@@ -433,7 +465,13 @@ def generate() -> list[Path]:
             ]
         )
     index = P.md_table(["study", "what it asks", "suites", "policies"], rows)
+    toctree = (
+        "```{toctree}\n:maxdepth: 1\n\n"
+        + "".join(f"results/{study_page_name(s['name'])}\n" for s in ordered_studies())
+        + "```\n"
+    )
     for path, text in (
+        (P.GENERATED / "studies_toctree.md", toctree),
         (P.GENERATED / "studies_table.md", index),
         (P.GENERATED / "headline_table.md", headline_table()),
     ):
