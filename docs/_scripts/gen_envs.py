@@ -30,6 +30,9 @@ from results_data import baseline_summaries, format_success, study_page_name
 OUT = P.DOCS / "envs"
 #: Media written by ``scripts/docs_media.py``.
 MEDIA = P.STATIC / "envs"
+#: Hand-written details of a task, by task name (``reach``, ``goal``, ...), shown on the page of
+#: every id of that task after its docstring.
+TASK_NOTES = P.NOTES / "tasks"
 
 #: Entries a task appends to the 31 entries of the flat observation, by task name, until the
 #: tasks declare them (a task attribute ``observation_fields`` of ``(name, size, meaning)``
@@ -109,7 +112,7 @@ def _space_text(space: Any) -> str:
     import gymnasium as gym
 
     if isinstance(space, gym.spaces.Dict):
-        inner = ", ".join(f"{k}: {_space_text(v)}" for k, v in space.spaces.items())
+        inner = ", ".join(f"{k} {getattr(v, 'shape', v)}" for k, v in space.spaces.items())
         return f"Dict({inner})"
     if isinstance(space, gym.spaces.Box):
         if (
@@ -316,6 +319,9 @@ def env_page(env_id: str) -> tuple[str, dict[str, str]]:
         ],
     ]
     lines += [P.md_table(["", ""], facts), body.strip(), ""]
+    note = TASK_NOTES / f"{task}.md"
+    if note.exists():
+        lines += ["## More about this task", "", note.read_text().strip(), ""]
     lines += ["## Observation layout", "", layout, ""]
     section, best = _baseline_section(env_id)
     if section:
