@@ -339,3 +339,19 @@ def test_docs_media_writes_a_frame_a_gif_and_a_caption(tmp_path):
         "Planar3P-v0.gif",
         "Planar3P-v0.json",
     }
+
+
+def test_repository_paths_named_in_the_pages_exist():
+    """Paths written in inline code (`agents/hyperparams/ppo.yml`) must exist, so that a moved
+    file shows up here rather than as a dead reference on the site."""
+    problems = []
+    for path in shell_pages():
+        text = path.read_text(encoding="utf-8")
+        for m in re.finditer(r"`([^`\s]+)`", text):
+            token = m.group(1).rstrip(".,;:)")
+            if not REPO_PATH.match(token) or any(c in token for c in "<>*?{}") or "..." in token:
+                continue
+            if not (ROOT / token).exists():
+                line = text.count("\n", 0, m.start()) + 1
+                problems.append(f"{_rel(path)}:{line}: {token} does not exist")
+    assert not problems, "\n".join(problems)
