@@ -224,7 +224,6 @@ def _baseline_section(env_id: str) -> tuple[str, str]:
         header = ["suite", "policy", "tracking RMS error mm (median / worst)"]
     table, best = [], {}
     for r in rows:
-        link = f"[{r['study']}](../results/{study_page_name(r['study'])}.md)"
         if tracking:
             table.append(
                 [
@@ -249,7 +248,6 @@ def _baseline_section(env_id: str) -> tuple[str, str]:
             key = (r["success_rate"] or 0.0, -(t or math.inf))
             if r["suite"] not in best or key > best[r["suite"]][0]:
                 best[r["suite"]] = (key, f"{r['suite']}: {r['policy']} {format_success(r)} %")
-        del link
     studies = sorted({r["study"] for r in rows})
     links = ", ".join(f"[{s}](../results/{study_page_name(s)}.md)" for s in studies)
     section = (

@@ -118,9 +118,14 @@ def format_success(r: dict[str, Any]) -> str:
 
 def baseline_summaries(env_id: str) -> list[dict[str, Any]]:
     """The built-in policies' summaries measured in ``env_id`` on seed-0 suites: for each
-    (suite, policy) the first study that has it."""
+    (suite, policy) the first study that has it, studies of built-in policies only first."""
     seen: dict[tuple[str, str], dict[str, Any]] = {}
-    for study in studies():
+
+    def learned(study: dict[str, Any]) -> bool:
+        specs = study["summary"]["settings"].get("policies", {})
+        return not all(is_builtin(spec) for spec in specs.values())
+
+    for study in sorted(studies(), key=learned):
         settings = study["summary"]["settings"]
         if settings.get("seed") != 0:
             continue
