@@ -6,21 +6,30 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test lint bench clean
+.PHONY: setup demo test lint bench clean docs
 
 setup: $(STAMP)
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --upgrade pip
-	$(PY) -m pip install -c constraints.txt -e ".[train,dev,bench,sweep,video]"
+	$(PY) -m pip install -c constraints.txt -e ".[train,dev,bench,sweep,video,docs]"
 	touch $(STAMP)
 
 demo: $(STAMP)
 	$(PY) scripts/demo.py
 
+# The documentation site (docs/, Sphinx + MyST): warnings are errors (-W, every one reported:
+# --keep-going), every Python reference must resolve (-n).  Output: docs/_build/html.
+SPHINX := SDL_VIDEODRIVER=dummy MPLBACKEND=Agg $(PY) -m sphinx -W --keep-going -n -q -b html \
+          -d docs/_build/doctrees docs docs/_build/html
+
+docs: $(STAMP)
+	$(SPHINX)
+
 test: $(STAMP)
 	$(VENV)/bin/ruff check .
+	$(SPHINX)
 	SDL_VIDEODRIVER=dummy MPLBACKEND=Agg $(PY) -m pytest -q -n 2
 
 lint: $(STAMP)

@@ -141,7 +141,7 @@ class ShippedModel:
         return [p for p in every if p.is_file()]
 
     def relative(self, path: Path) -> str:
-        """``path`` as the manifest names it (POSIX, relative to :attr:`root`)."""
+        """``path`` as the manifest names it (POSIX, relative to ``root``)."""
         return path.relative_to(self.root).as_posix()
 
 

@@ -1,0 +1,510 @@
+"""The results pages: one per study folder of ``docs/benchmark``, and the headline table.
+
+Each page is built from the study's own files: the settings and summaries of ``summary.json``
+(a table per suite with every policy, and the strongest built-in policies named), the seed
+tables (``seeds*.md`` of ``scripts/seed_report.py``), the figures, and the sections of
+``report.md`` (suites, why episodes end, definitions).  A hand-written note
+(``docs/_notes/studies/<study>.md``: what was trained, why, the caveats) is included at the
+top when there is one; a study without a note gets a page all the same.
+
+The headline table (learned against the strongest baselines, with intervals across training
+seeds) is generated from the same files: :data:`HEADLINE` names, for each line, the study, the
+pooled policy of its seed table and the suite; the numbers are read, never written here.  The
+README carries the same table (``python docs/_scripts/gen_results.py --readme-table`` prints
+it; ``tests/test_docs.py`` checks that the README's copy matches the data).
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+from pathlib import Path
+from typing import Any
+
+import p3docs as P
+from results_data import (
+    format_success,
+    is_builtin,
+    report_sections,
+    row_of,
+    seed_tables,
+    studies,
+    study_page_name,
+    suite_env,
+)
+
+OUT = P.DOCS / "results"
+NOTES = P.NOTES / "studies"
+FIGURES = P.DOCS / "figures"
+
+#: Lines of the headline table: (task, study, seed-table file, pooled policy, suite, metric,
+#: what was learned, a short verdict written by hand).  metric: "success" (IQM success %),
+#: "time" (IQM median time to success, s), "tracking" (IQM median tracking RMS error, mm).
+HEADLINE: list[dict[str, str]] = [
+    {
+        "task": "reach from scratch",
+        "study": "travel-goal-margin",
+        "seeds": "seeds.md",
+        "policy": "ppo-v1-JM25/model",
+        "suite": "standard",
+        "metric": "success",
+        "learned": "PPO from scratch, joint-space goal",
+        "note": "target met narrowly (a seed at 90 %), recipe chosen on this suite; `hard`: 0 %",
+    },
+    {
+        "task": "reach, faster",
+        "study": "residual-reach",
+        "seeds": "seeds_time.md",
+        "policy": "R-hard/rl_model_1000000_steps",
+        "suite": "standard",
+        "metric": "time",
+        "learned": "residual PPO on the analytic controller",
+        "note": "faster than the shipped gain, slower than a retuned one",
+    },
+    {
+        "task": "reach near singularities",
+        "study": "residual-reach",
+        "seeds": "seeds.md",
+        "policy": "R-hard/rl_model_1000000_steps",
+        "suite": "hard",
+        "metric": "success",
+        "learned": "residual PPO on the analytic controller",
+        "note": "as reliable as the controller; not learned from scratch",
+    },
+    {
+        "task": "working-mode change",
+        "study": "mode-change",
+        "seeds": "seeds.md",
+        "policy": "ppo-mc/model",
+        "suite": "mode-change",
+        "metric": "success",
+        "learned": "PPO from scratch + travel shaping",
+        "note": "beats the simple motions, not the certified planner; 2-5 % crossings",
+    },
+    {
+        "task": "assembly-mode change",
+        "study": "assembly-change",
+        "seeds": "seeds.md",
+        "policy": "ppo-ac-shaped/model",
+        "suite": "assembly-change",
+        "metric": "success",
+        "learned": "PPO from scratch + travel shaping",
+        "note": "does not beat the simple motions (they cross too without gravity); measured "
+        "before the end stops held: the shipped seed 4 scores 69 % after (73 % before), "
+        "[re-run](docs/benchmark/assembly-change-exact/report.md)",
+    },
+    {
+        "task": "tracking, segments",
+        "study": "track-learned",
+        "seeds": "seeds_tracking_rms.md",
+        "policy": "T-track/model",
+        "suite": "track-segments",
+        "metric": "tracking",
+        "learned": "residual PPO on the feed-forward controller",
+        "note": "better median, far worse worst episode; gain 25 1/s beats it",
+    },
+    {
+        "task": "tracking, figure-eight",
+        "study": "track-learned",
+        "seeds": "seeds_tracking_rms.md",
+        "policy": "T-track/model",
+        "suite": "track-figure-eight",
+        "metric": "tracking",
+        "learned": "residual PPO on the feed-forward controller",
+        "note": "better median; gain 25 1/s beats it",
+    },
+    {
+        "task": "goal-conditioned reach",
+        "study": "goal-learned",
+        "seeds": "seeds.md",
+        "policy": "ppo-goaldense/model",
+        "suite": "goal",
+        "metric": "success",
+        "learned": "PPO + goal-error features",
+        "note": "does not beat the analytic controller; SAC + HER: 0 %",
+    },
+]
+
+UNITS = {"success": "%", "time": "s", "tracking": "mm"}
+
+#: The order of the studies in the navigation (the story: baselines, learning from scratch and
+#: its probes, residual policies, the other tasks, the stress test); studies not named here
+#: follow in alphabetical order.
+STUDY_ORDER = [
+    "baselines",
+    "tasks",
+    "learned",
+    "scratch",
+    "clear-path-probe",
+    "tolerance",
+    "tolerance-half",
+    "curriculum",
+    "efficiency-sweep",
+    "travel-goal",
+    "travel-goal-1mm",
+    "travel-goal-curriculum",
+    "travel-goal-margin",
+    "travel-goal-margin-seed1",
+    "residual-reach",
+    "mode-change",
+    "assembly-change",
+    "track-learned",
+    "goal-learned",
+    "crossing",
+]
+
+
+def ordered_studies() -> list[dict[str, Any]]:
+    """The studies in :data:`STUDY_ORDER`, then the others alphabetically."""
+    rank = {name: i for i, name in enumerate(STUDY_ORDER)}
+    return sorted(studies(), key=lambda s: (rank.get(s["name"], len(rank)), s["name"]))
+
+
+def _study(name: str) -> dict[str, Any]:
+    for s in studies():
+        if s["name"] == name:
+            return s
+    raise LookupError(f"no study {name!r} in {P.BENCHMARK}")
+
+
+def parse_seed_table(path: Path) -> list[dict[str, str]]:
+    """Rows of a ``seed_report.py`` table as dicts (policy, suite, seeds, per_seed, iqm)."""
+    rows = []
+    for line in path.read_text().splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) != 5 or cells[0].startswith("policy") or set(cells[0]) <= {"-"}:
+            continue
+        keys = ("policy", "suite", "seeds", "per_seed", "iqm")
+        rows.append(dict(zip(keys, cells, strict=True)))
+    return rows
+
+
+def _baseline_value(r: dict[str, Any], metric: str) -> str:
+    if metric == "tracking":
+        return f"{r['tracking_rms_mm']:.3f} mm"
+    if metric == "time":
+        t = r["time_to_success"]
+        return f"{format_success(r)} %, {t:.2f} s" if t is not None else format_success(r)
+    return f"{format_success(r)} %"
+
+
+def strongest_builtin(study: dict[str, Any], suite: str, metric: str) -> list[dict[str, Any]]:
+    """The plain analytic controller and, if different, the strongest built-in policy of a
+    study on ``suite`` (floor references left out)."""
+    specs = study["summary"]["settings"].get("policies", {})
+    rows = [
+        row_of(study, s)
+        for s in study["summary"]["summaries"]
+        if s["suite"] == suite
+        and is_builtin(specs.get(s["policy"], s["policy"]))
+        and s["policy"] not in ("zero", "random")
+    ]
+    if not rows:
+        return []
+    if metric == "tracking":
+        best = min(rows, key=lambda r: r["tracking_rms_mm"])
+        plain = [r for r in rows if r["policy"] == "analytic-feedforward"]
+    else:
+        best = max(rows, key=lambda r: (r["success_rate"] or 0, -(r["time_to_success"] or 1e9)))
+        plain = [r for r in rows if r["policy"] == "analytic-simultaneous"]
+    out = plain[:1]
+    if best not in out:
+        out.append(best)
+    return out
+
+
+def headline_rows() -> list[list[str]]:
+    """The headline table's rows, read from the studies' files."""
+    out = []
+    for h in HEADLINE:
+        study = _study(h["study"])
+        table = parse_seed_table(study["folder"] / h["seeds"])
+        hit = [r for r in table if r["policy"] == h["policy"] and r["suite"] == h["suite"]]
+        if len(hit) != 1:
+            raise LookupError(f"{h['study']}/{h['seeds']}: no row {h['policy']} on {h['suite']}")
+        r = hit[0]
+        learned = f"{r['iqm']} {UNITS[h['metric']]} (seeds: {r['per_seed']})"
+        base = "; ".join(
+            f"`{b['policy']}` {_baseline_value(b, h['metric'])}"
+            for b in strongest_builtin(study, h["suite"], h["metric"])
+        )
+        env = suite_env(study, h["suite"])
+        out.append(
+            [
+                f"{h['task']} (`{h['suite']}`, `{env}`)",
+                h["learned"],
+                learned,
+                base,
+                h.get("note", ""),
+                h["study"],
+            ]
+        )
+    return out
+
+
+HEADLINE_HEADER = [
+    "task (suite, id)",
+    "learned policy",
+    "learned: IQM [95% CI] across seeds",
+    "built-in baselines, same episodes",
+    "verdict",
+    "study",
+]
+
+
+def headline_table(readme: bool = False) -> str:
+    """The headline table as Markdown.  The study column links to the study's page (site) or,
+    for the README (read on the forge, where the generated pages do not exist), to the study's
+    ``report.md``."""
+    rows = headline_rows()
+    for row in rows:
+        name = row[-1]
+        if readme:
+            folder = "" if name == "baselines" else f"{name}/"
+            row[-1] = f"[{name}](docs/benchmark/{folder}report.md)"
+        else:
+            row[-1] = f"[{name}](results/{study_page_name(name)}.md)"
+    return P.md_table(HEADLINE_HEADER, rows)
+
+
+def _shift_headings(text: str, by: int) -> str:
+    return re.sub(r"(?m)^(#{1,5}) ", lambda m: "#" * (len(m.group(1)) + by) + " ", text)
+
+
+def _summary_table(study: dict[str, Any], suite: str) -> str:
+    specs = study["summary"]["settings"].get("policies", {})
+    rows = [row_of(study, s) for s in study["summary"]["summaries"] if s["suite"] == suite]
+    tracking = any(r["tracking_rms_mm"] is not None for r in rows)
+    out = []
+    for r in rows:
+        kind = "built-in" if is_builtin(specs.get(r["policy"], r["policy"])) else "learned"
+        if tracking:
+            out.append(
+                [
+                    f"`{r['policy']}`",
+                    kind,
+                    f"{r['tracking_rms_mm']:.2f}",
+                    f"{r['tracking_rms_worst_mm']:.2f}",
+                    r["crossings"],
+                ]
+            )
+        else:
+            t = r["time_to_success"]
+            out.append(
+                [
+                    f"`{r['policy']}`",
+                    kind,
+                    r["episodes"],
+                    format_success(r),
+                    "–" if t is None else f"{t:.2f}",
+                    r["crossings"],
+                    r["timeouts"],
+                ]
+            )
+    if tracking:
+        header = [
+            "policy",
+            "kind",
+            "tracking RMS error mm (median)",
+            "worst episode mm",
+            "sing. crossings",
+        ]
+    else:
+        header = [
+            "policy",
+            "kind",
+            "n",
+            "success % [95% CI]",
+            "median time to success s",
+            "sing. crossings",
+            "timeouts",
+        ]
+    return P.md_table(header, out)
+
+
+def _wrap_command(command: str) -> str:
+    parts = re.split(r" (?=--)", command)
+    return " \\\n    ".join(parts)
+
+
+def study_page(study: dict[str, Any]) -> str:
+    name = study["name"]
+    folder: Path = study["folder"]
+    settings = study["summary"]["settings"]
+    note = NOTES / f"{name}.md"
+    lines: list[str] = []
+    if note.exists():
+        text = note.read_text().strip()
+        if not text.startswith("# "):
+            lines += [f"# Study: {name}", ""]
+        lines += [text, ""]
+    else:
+        lines += [
+            f"# Study: {name}",
+            "",
+            f"Benchmark data in `docs/benchmark/{'' if name == 'baselines' else name}`.",
+            "",
+        ]
+    suites = list(settings.get("suites", []))
+    envs = sorted({suite_env(study, s) for s in suites})
+    rel = folder.relative_to(P.DOCS).as_posix()
+    repo_rel = folder.relative_to(P.ROOT).as_posix()
+    lines += [
+        "## How it was measured",
+        "",
+        f"Seed {settings.get('seed')}, {settings.get('episodes')} episodes per suite "
+        f"({', '.join(f'`{s}`' for s in suites)}), played in {', '.join(f'`{e}`' for e in envs)}; "
+        f"{settings.get('bootstrap')} bootstrap resamples; "
+        f"{settings.get('elapsed_s', 0):.0f} s. Every policy played the same episodes "
+        f"(saved in `{repo_rel}/suites.json`). The learned models' `runs/` are not in the "
+        "repository (the shipped ones are, see [pretrained policies](../pretrained.md)).",
+        "",
+        "```bash",
+        "# not run: the command that wrote this study (minutes)",
+        _wrap_command(settings.get("command", "")),
+        "```",
+        "",
+        "## Results",
+        "",
+        'From `summary.json`. Success % with its 95 % Wilson interval; "built-in" policies '
+        "are the analytic controllers and floor references.",
+        "",
+    ]
+    for suite in suites:
+        lines += [f"### `{suite}`", "", _summary_table(study, suite), ""]
+    seeds = seed_tables(folder)
+    if seeds:
+        lines += [
+            "## Across training seeds",
+            "",
+            "IQM across training seeds with 95 % stratified-bootstrap intervals "
+            "(`scripts/seed_report.py`).",
+            "",
+        ]
+        for path in seeds:
+            lines += [f"`{path.name}`:", "", path.read_text().strip(), ""]
+    others = [p for p in sorted(folder.glob("*.md")) if p.name != "report.md" and p not in seeds]
+    for path in others:
+        text = path.read_text().strip()
+        title = path.stem.replace("_", " ")
+        if text.startswith("# "):
+            title, _, text = text.partition("\n")
+            title = title[2:].strip()
+        lines += [
+            f"## {title}",
+            "",
+            f"From `{repo_rel}/{path.name}`.",
+            "",
+            _shift_headings(text.strip(), 2),
+            "",
+        ]
+    figures = [
+        f for f in ("success_rate.png", "errors.png", "trajectories.png") if (folder / f).exists()
+    ]
+    curves = _curves(name)
+    if figures or curves:
+        lines += ["## Figures", ""]
+        for f in figures:
+            lines += [f"![{f[:-4]}](../{rel}/{f})", ""]
+        for c in curves:
+            lines += [f"![{c}](../figures/{c}.png)", ""]
+    sections = [(h, b) for h, b in report_sections(folder) if h not in ("Plots",)]
+    if sections:
+        lines += [
+            "## The full report",
+            "",
+            f"The sections of `{repo_rel}/report.md`, as `scripts/benchmark.py` wrote them.",
+            "",
+        ]
+        for heading, body in sections:
+            body = re.sub(r"!\[[^\]]*\]\([^)]*\)\n?", "", body)
+            lines += [f"### {heading}", "", _shift_headings(body, 2), ""]
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def _curves(study: str) -> list[str]:
+    """Learning-curve figures named after the study (``learning_curves_<study>.png``, or a
+    prefix of the study's name) or named in its note."""
+    note = NOTES / f"{study}.md"
+    named = set(re.findall(r"learning_curves\w*", note.read_text())) if note.exists() else set()
+    out = []
+    key = study.replace("-", "_")
+    for p in sorted(FIGURES.glob("learning_curves*.png")):
+        tail = p.stem[len("learning_curves_") :]
+        if p.stem in named:
+            continue  # the note shows it where it belongs
+        if tail and (key == tail or key.startswith(tail + "_")):
+            out.append(p.stem)
+    return out
+
+
+def generate() -> list[Path]:
+    written = []
+    names = []
+    for study in studies():
+        name = study_page_name(study["name"])
+        names.append(name)
+        if P.write_if_changed(OUT / f"{name}.md", study_page(study)):
+            written.append(OUT / f"{name}.md")
+    for stale in OUT.glob("*.md"):
+        if stale.stem not in names:
+            stale.unlink()
+    for note in NOTES.glob("*.md"):
+        if note.stem not in names:
+            import warnings
+
+            warnings.warn(f"note {note.name} has no study folder in {P.BENCHMARK}", stacklevel=1)
+    rows = []
+    for study in ordered_studies():
+        settings = study["summary"]["settings"]
+        title = _note_title(study["name"])
+        rows.append(
+            [
+                f"[{study['name']}](results/{study_page_name(study['name'])}.md)",
+                title,
+                ", ".join(f"`{s}`" for s in settings.get("suites", [])),
+                len(settings.get("policies", {})),
+            ]
+        )
+    index = P.md_table(["study", "what it asks", "suites", "policies"], rows)
+    toctree = (
+        "```{toctree}\n:maxdepth: 1\n\n"
+        + "".join(f"results/{study_page_name(s['name'])}\n" for s in ordered_studies())
+        + "```\n"
+    )
+    for path, text in (
+        (P.GENERATED / "studies_toctree.md", toctree),
+        (P.GENERATED / "studies_table.md", index),
+        (P.GENERATED / "headline_table.md", headline_table()),
+    ):
+        if P.write_if_changed(path, text):
+            written.append(path)
+    return written
+
+
+def _note_title(name: str) -> str:
+    note = NOTES / f"{name}.md"
+    if note.exists():
+        first = note.read_text().splitlines()[0]
+        if first.startswith("# "):
+            return first[2:].strip()
+    return "–"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument(
+        "--readme-table",
+        action="store_true",
+        help="print the headline table with links for the README",
+    )
+    args = ap.parse_args()
+    if args.readme_table:
+        print(headline_table(readme=True), end="")
+        return
+    for p in generate():
+        print(p)
+
+
+if __name__ == "__main__":
+    main()
