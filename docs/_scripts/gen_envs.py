@@ -35,34 +35,6 @@ MEDIA = P.STATIC / "envs"
 #: every id of that task after its docstring.
 TASK_NOTES = P.NOTES / "tasks"
 
-#: Entries a task appends to the 31 entries of the flat observation, by task name, until the
-#: tasks declare them (a task attribute ``observation_fields`` of ``(name, size, meaning)``
-#: is read first).  Checked against the made environment's observation size: a mismatch is
-#: reported as a build warning.
-EXTRA_FIELDS: dict[str, tuple[tuple[str, int, str], ...]] = {
-    "reach": (),
-    "track": (
-        (
-            "reference_velocity",
-            3,
-            "velocity of the reference pose: x_dot, y_dot (m/s), theta_dot (rad/s)",
-        ),
-    ),
-    "mode_change": (
-        ("target_rho", 3, "slider travels of the target pose in the target working mode (m)"),
-        ("target_working_mode", 3, "target working mode sigma_t, each entry +-1"),
-    ),
-    "assembly_change": (
-        ("target_rho", 3, "slider travels of the target pose (m)"),
-        ("target_assembly", 1, "target assembly mode, sign det A (+-1)"),
-        (
-            "signed_parallel_margin",
-            1,
-            "sign det A times the parallel margin, in [-1, 1]; it passes 0 at the crossing",
-        ),
-    ),
-}
-
 #: The goal entries of the goal-conditioned ids (``achieved_goal`` and ``desired_goal``).
 GOAL_FIELDS = (
     ("x, y", 2, "gripper point G (m)"),
@@ -162,12 +134,7 @@ def observation_layout(env: Any) -> str:
         rows, n = _blocks_table(GOAL_FIELDS)
         out.append("`achieved_goal` and `desired_goal`:\n\n" + P.md_table(header, rows))
         return "\n".join(out)
-    extra = getattr(task, "observation_fields", None)
-    if extra is None:
-        extra = EXTRA_FIELDS.get(getattr(task, "name", ""))
-    if extra is None:
-        _warn(f"{env.spec.id}: no observation layout known for task {task!r}")
-        extra = ()
+    extra = task.observation_fields  # (their one definition: the task's)
     rows, n = _blocks_table(base)
     more, n = _blocks_table(extra, n)
     if n != space.shape[0]:
