@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml constraints.txt
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(VENV)/bin/planar3p demo
+	$(PY) scripts/demo.py
 
 # The documentation site (docs/, Sphinx + MyST): warnings are errors (-W, every one reported:
 # --keep-going), every Python reference must resolve (-n).  Output: docs/_build/html.
@@ -37,8 +37,8 @@ lint: $(STAMP)
 	$(VENV)/bin/ruff format --check .
 
 bench: $(STAMP)
-	$(VENV)/bin/planar3p bench-kinematics
-	$(VENV)/bin/planar3p bench-env
+	$(PY) scripts/bench_kinematics.py
+	$(PY) scripts/bench_env.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache

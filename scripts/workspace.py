@@ -1,11 +1,186 @@
-"""``planar3p workspace``: the paper's workspace-versus-stroke study, tables and figures.
+"""Workspace and singularity study of the 3-PRR manipulator (docs/mechanism.md, the workspace study).
 
-The same as :mod:`planar3p_agents.commands.workspace`'s ``planar3p`` command; see its ``--help``.
+Runs the paper's relative-workspace study ``S(L)`` on the ``fig8`` preset (21 strokes from
+0.10 to 0.30 m, 201 x 201 grid, 360 orientations, 8 working modes) on one core and prints its
+time, writes the ``S(L)`` / usable ``S(L)`` table (markdown and CSV), recommends a stroke (the
+shortest one without dead zones), and draws the figures:
+
+* ``workspace_fig7.png``: the workspace map of the ``fig7`` preset (the paper's Figure 7);
+* ``workspace_stroke.png``: ``S`` and usable ``S`` versus the stroke (the paper's Figure 8);
+* ``workspace_dead_zones.png``: the whole-plane workspace of ``fig8`` at a few strokes;
+* ``workspace_singularities_ytheta.png``: ``det A = 0`` and ``det B = 0`` over ``(y, theta)``
+  with the workspace boundary, per working mode;
+* ``workspace_singularities_plane.png``: the same loci in the plane at a fixed orientation.
+
+The work is done by :mod:`planar3p_gym.analysis.workspace_report` (study, recommendation, tables) and
+:mod:`planar3p_gym.analysis.workspace_figures`; every file is written atomically, after all arguments
+have been checked (bad input: exit 2 with one line).
+
+Usage::
+
+    .venv/bin/python scripts/workspace.py            # full study, figures, tables -> docs/
+    .venv/bin/python scripts/workspace.py --quick    # coarse settings, for a smoke test
 """
 
-import sys
+from __future__ import annotations
 
-from planar3p_agents.cli import main
+import os
+
+# One core, one thread: set before numpy is imported.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS", "NUMEXPR_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import math  # noqa: E402
+import statistics  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import matplotlib  # noqa: E402
+
+matplotlib.use("Agg")
+import numpy as np  # noqa: E402
+
+from planar3p_gym.analysis import workspace_figures as figures  # noqa: E402
+from planar3p_gym.analysis.workspace_report import (  # noqa: E402
+    StudySettings,
+    recommendation_text,
+    run_study,
+    time_study,
+    verify,
+    write_tables,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def rel(path: Path) -> str:
+    """``path`` relative to the repository if inside it."""
+    try:
+        return str(path.resolve().relative_to(ROOT))
+    except ValueError:
+        return str(path)
+
+
+def pin_one_core() -> str:
+    """Pin this process to one CPU (Linux); returns a description."""
+    if hasattr(os, "sched_setaffinity"):
+        cpus = sorted(os.sched_getaffinity(0))
+        os.sched_setaffinity(0, {cpus[-1]})
+        return f"pinned to CPU {cpus[-1]} (of {len(cpus)})"
+    return "not pinned (no sched_setaffinity)"
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", type=Path, default=ROOT / "docs", help="output directory (docs/)")
+    p.add_argument("--quick", action="store_true", help="coarse settings (smoke test)")
+    p.add_argument("--repeats", type=int, default=None, help="benchmark repeats (median)")
+    p.add_argument("--no-figures", action="store_true", help="skip the figures")
+    p.add_argument(
+        "--bench-only", action="store_true", help="only time the S(L) study (no tables, no figures)"
+    )
+    p.add_argument("--no-pin", action="store_true", help="do not pin the process to one CPU")
+    p.add_argument(
+        "--theta-plane",
+        type=float,
+        default=195.0,
+        help="orientation (deg) of the fixed-orientation singularity figure",
+    )
+    return p.parse_args(argv)
+
+
+def check(args: argparse.Namespace) -> StudySettings:
+    """The study's settings; ``ValueError`` on bad arguments (nothing written yet)."""
+    if args.repeats is not None and args.repeats < 1:
+        raise ValueError(f"--repeats must be at least 1, got {args.repeats}")
+    if not (math.isfinite(args.theta_plane) and abs(args.theta_plane) <= 360):
+        raise ValueError(f"--theta-plane must be an angle from -360 to 360 deg: {args.theta_plane}")
+    out: Path = args.out
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out {out} is not a directory")
+    if (out / "figures").exists() and not (out / "figures").is_dir():
+        raise ValueError(f"--out: {out / 'figures'} is not a directory")
+    parent = next((p for p in (out, *out.parents) if p.exists()), Path("."))
+    if not args.bench_only and not os.access(parent, os.W_OK):
+        raise ValueError(f"--out {out}: cannot write into {parent}")
+    return StudySettings.preset(args.quick, args.repeats)
+
+
+def _times(label: str, times: list[float]) -> str:
+    runs = ", ".join(f"{t:.3f}" for t in times)
+    return f"  {label:32s}: median {statistics.median(times):.3f} s (runs: {runs})"
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    try:
+        settings = check(args)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    n, nt = settings.grid, settings.orientations
+    print(
+        f"numpy {np.__version__}, python {sys.version.split()[0]}; "
+        f"{'not pinned' if args.no_pin else pin_one_core()}; "
+        f"load average {tuple(round(v, 2) for v in os.getloadavg())}"
+    )
+    print(
+        f"S(L) study: fig8, 21 strokes 0.10..0.30 m, {n} x {n} grid, {nt} orientations, "
+        "8 working modes"
+    )
+    if args.bench_only:
+        res = time_study(settings)
+        print(_times("reachable S(L) only", res["t_core"]))
+        print(_times("S(L) + usable S(L) + dead zones", res["t_full"]))
+        print(f"load average after: {os.getloadavg()}")
+        return 0
+    res = run_study(settings)
+    print(_times("reachable S(L) only", res["t_core"]))
+    print(_times("S(L) + usable S(L) + dead zones", res["t_full"]))
+    print(f"  ({res['evals']:.3g} pose/mode tests, equivalent to brute-force IK on every one)")
+    ver = verify(settings.quick)
+    print(
+        f"verification: {ver['tested']} grid points ({ver['n']} x {ver['n']}, {ver['nt']} "
+        f"orientations, 3 strokes) -- fast grid vs brute-force kinematics.inverse: "
+        f"{ver['mismatches']} mismatches; brute force {ver['rate']:.3g} pose/mode tests per s"
+    )
+    est = res["evals"] / ver["rate"]
+    print(f"brute-force IK for the same study (extrapolated from that rate): ~{est:.0f} s")
+    out: Path = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    md, csv_path = write_tables(out, res)[::-1]
+    print(recommendation_text(res["rec"]).replace("**", ""))
+    print("\nS(L) table:")
+    print(f"{'L (m)':>7} {'S':>7} {'usable':>7} {'holes':>5} {'area cm2':>9}")
+    for st in (res["study"], res["ext"]):
+        for i, L in enumerate(st.strokes):
+            print(
+                f"{L:7.2f} {st.S[i]:7.4f} {st.S_usable[i]:7.4f} {st.dead_zones[i]:5d} "
+                f"{st.dead_zone_area[i] * 1e4:9.1f}"
+            )
+    print(f"recommendation details: {res['rec']}")
+    print(f"tables -> {rel(md)}, {rel(csv_path)}")
+    if not args.no_figures:
+        f7 = figures.fig_fig7(out, settings)
+        print(
+            f"fig7: S = {f7['S']:.4f}, usable S = {f7['S_usable']:.4f}, dead zones = "
+            f"{f7['dead_zones']} ({f7['dz_area']:.3f} m^2) -> {rel(f7['path'])}"
+        )
+        for path in (
+            figures.fig_stroke(out, res),
+            figures.fig_dead_zones(out, settings),
+            figures.fig_sing_ytheta(out, settings),
+            figures.fig_sing_plane(out, settings, args.theta_plane),
+        ):
+            print(f"-> {rel(path)}")
+    print(
+        f"\nBENCHMARK: S(L) study (21 strokes, {n}x{n}, {nt} orientations, 8 modes, with usable "
+        f"S and dead zones) median {statistics.median(res['t_full']):.2f} s on one core; "
+        f"reachable S(L) alone {statistics.median(res['t_core']):.2f} s"
+    )
+    return 0
+
 
 if __name__ == "__main__":
-    raise SystemExit(main(["workspace", *sys.argv[1:]]))
+    raise SystemExit(main())

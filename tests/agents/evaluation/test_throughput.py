@@ -3,18 +3,23 @@ results are written atomically; :mod:`planar3p_agents.evaluation.throughput` mea
 
 from __future__ import annotations
 
+import importlib.util
 import json
+from pathlib import Path
 
 import gymnasium as gym
 import pytest
 
 from planar3p_agents.evaluation import throughput
 
+SCRIPT = Path(__file__).resolve().parents[3] / "scripts" / "bench_env.py"
+
 
 def load_script():
-    from planar3p_agents.commands import bench_env
-
-    return bench_env
+    spec = importlib.util.spec_from_file_location("bench_env_script", SCRIPT)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
 
 
 @pytest.mark.parametrize(
