@@ -17,7 +17,7 @@ $(STAMP): pyproject.toml constraints.txt
 	touch $(STAMP)
 
 demo: $(STAMP)
-	$(PY) scripts/demo.py
+	$(VENV)/bin/planar3p demo
 
 # The documentation site (docs/, Sphinx + MyST): warnings are errors (-W, every one reported:
 # --keep-going), every Python reference must resolve (-n).  Output: docs/_build/html.

@@ -47,6 +47,7 @@ from planar3p_agents.policies.factory import (
 )
 from planar3p_agents.policies.play_envs import PlayEnvs, observation_kwargs
 from planar3p_agents.zoo.layout import shipped_model_of
+from planar3p_gym import atomic_files
 from planar3p_gym.machine.design import Design
 
 #: What ``baselines`` stands for on the reach suites.
@@ -86,11 +87,11 @@ OUTPUT_FILES: tuple[str, ...] = (
 
 
 def check_output_dir(out: str | Path, force: bool = False) -> Path:
-    """``out`` as a path, or ``ValueError`` if it is not a directory or (unless ``force``)
-    already holds files of a run (:data:`OUTPUT_FILES`).  Creates nothing."""
-    p = Path(out)
-    if p.exists() and not p.is_dir():
-        raise ValueError(f"output path {p} exists and is not a directory")
+    """``out`` as a path, or ``ValueError`` if no directory can be written there
+    (:func:`planar3p_gym.atomic_files.check_output_dir`: a file, under a file, not writable)
+    or (unless ``force``) it already holds files of a run (:data:`OUTPUT_FILES`).  Creates
+    nothing."""
+    p = atomic_files.check_output_dir(out)
     if not force and p.is_dir():
         found = [name for name in OUTPUT_FILES if (p / name).exists()]
         if found:

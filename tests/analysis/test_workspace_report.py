@@ -52,11 +52,11 @@ def test_quick_run_writes_tables_and_figures(tmp_path: Path, capsys) -> None:
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--repeats", "-1"], "--repeats must be at least 1"),
-        (["--repeats", "0"], "--repeats must be at least 1"),
-        (["--theta-plane", "nan"], "--theta-plane must be an angle"),
-        (["--theta-plane", "inf"], "--theta-plane must be an angle"),
-        (["--theta-plane", "1e9"], "--theta-plane must be an angle"),
+        (["--repeats", "-1"], "--repeats must be >= 1"),
+        (["--repeats", "0"], "--repeats must be >= 1"),
+        (["--theta-plane", "nan"], "--theta-plane must be between -360 and 360 deg"),
+        (["--theta-plane", "inf"], "--theta-plane must be between -360 and 360 deg"),
+        (["--theta-plane", "1e9"], "--theta-plane must be between -360 and 360 deg"),
     ],
 )
 def test_bad_arguments_exit_2_and_write_nothing(argv, message, tmp_path: Path, capsys) -> None:

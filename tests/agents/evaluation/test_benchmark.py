@@ -199,7 +199,7 @@ def test_script_plays_reach_suites_on_the_exact_machine(tmp_path, bench):
         (["--policies", "zero,{missing}"], "model file not found"),
         (["--policies", "zero,{corrupt}"], "corrupt model file"),
         (["--policies", "analytic-magic"], "unknown policy"),
-        (["--suites", "standard,easy"], "unknown suite"),
+        (["--suites", "standard,easy"], "--suites: unknown"),
         (["--policies", "pretrained:nothing_here"], "unknown pretrained model"),
         (["--working-mode", "1,2,1"], "--working-mode"),
     ],
@@ -311,9 +311,7 @@ def test_script_refuses_an_rl_zoo_model_without_its_statistics(tmp_path, bench, 
 
 
 def test_help_says_model_files_are_code(bench, capsys):
-    with pytest.raises(SystemExit) as stop:
-        bench.main(["--help"])
-    assert stop.value.code == 0
+    assert bench.main(["--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
     assert " ".join(TRUSTED_FILES_NOTE.split()) in text and ":stats=" in text
 

@@ -151,6 +151,8 @@ def test_script_exits_2_on_bad_input_and_keeps_existing_output(tmp_path: Path, c
 
 def test_script_passes_the_vector_env_choice_to_every_trial() -> None:
     base = ["--algo", "ppo", "--env", "Planar3P-v0", "--seeds", "0", "--out", "o"]
-    args = sweep_script.parse_args([*base, "--vec-env", "native"])
+    from planar3p_agents.cli import parse
+
+    _, args = parse(["sweep", *base, "--vec-env", "native"])
     assert sweep_script.spec_from(args).options.vec_env == "native"
-    assert sweep_script.spec_from(sweep_script.parse_args(base)).options.vec_env == "auto"
+    assert sweep_script.spec_from(parse(["sweep", *base])[1]).options.vec_env == "auto"

@@ -139,7 +139,7 @@ def test_ship_refuses_a_file_that_would_carry_a_machine_path(
         (["--name", "x", "--model", "model"], "does not exist"),
         (["--name", "x", "--model", "checkpoint:-5"], "checkpoint:<steps>"),
         (["--name", "x", "--model", "last"], "checkpoint:<steps>"),
-        ([], "give --name"),
+        ([], "--name: give the name"),
     ],
 )
 def test_bad_input_writes_nothing(argv, message, tmp_path: Path, capsys) -> None:

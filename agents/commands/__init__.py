@@ -1,0 +1,54 @@
+"""The subcommands of the ``planar3p`` command line (:mod:`planar3p_agents.cli`), one module
+each, and their table :data:`COMMANDS`.
+
+Every command module has a docstring (its first line is the command's summary in
+``planar3p --help``, the whole is its ``--help`` description) and three functions:
+
+* ``add_arguments(parser)``: the options, on a
+  :class:`~planar3p_agents.commands.parser.CliParser`;
+* ``check(args)``: every argument and output location checked, before any work
+  (:mod:`planar3p_agents.commands.checks`; a bad one raises
+  :class:`~planar3p_agents.commands.parser.UsageError`: exit status 2, one line);
+* ``run(args) -> int``: the work, through library calls; the exit status.
+
+Command modules import the library inside these functions, so that ``planar3p --help`` and
+each ``--help`` stay quick and no command pays for another's imports.
+"""
+
+from __future__ import annotations
+
+import importlib
+from types import ModuleType
+
+__all__ = ["COMMANDS", "load", "summary"]
+
+#: Command name -> module of this package, in the order ``planar3p --help`` lists them.
+COMMANDS: dict[str, str] = {
+    "train": "train",
+    "sweep": "sweep",
+    "benchmark": "benchmark",
+    "demo": "demo",
+    "seed-report": "seed_report",
+    "plot-learning": "plot_learning",
+    "ship": "ship",
+    "workspace": "workspace",
+    "fidelity": "fidelity",
+    "task-baselines": "task_baselines",
+    "goal-track-baselines": "goal_track_baselines",
+    "track-gains": "track_gains",
+    "track-curves": "track_curves",
+    "bench-env": "bench_env",
+    "bench-kinematics": "bench_kinematics",
+    "soak-end-stops": "soak_end_stops",
+    "docs-media": "docs_media",
+}
+
+
+def load(name: str) -> ModuleType:
+    """The module of command ``name`` (``KeyError`` for an unknown name)."""
+    return importlib.import_module(f"{__name__}.{COMMANDS[name]}")
+
+
+def summary(module: ModuleType) -> str:
+    """The first line of a command module's docstring."""
+    return (module.__doc__ or "").strip().splitlines()[0]

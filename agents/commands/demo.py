@@ -1,0 +1,189 @@
+"""The main job: shipped learned policies against the analytic controller, on quick suites.
+
+1. Reach, on Planar3P-v0: the quick benchmark (reach suites standard, hard, far; 20 episodes
+   each) of the shipped residual reach policy (pretrained:ppo_reach_residual: PPO's learned
+   correction to the analytic controller, faster to the target) and the paper's simultaneous
+   simple-motion controller.
+2. Working-mode change, where the simple motions fail by construction (they never pass the
+   serial singularity a leg must cross): the shipped ppo_mode_change policy against the simple
+   motions and the certified travel-space planner, on the quick mode-change suite.
+
+Each part records one episode of the learned and of the analytic policy as animated GIFs (the
+same start and target for both) and prints where everything is.  Both parts are checked (the
+policies loaded, the suites generated) before either runs.  Trains nothing; a minute or two on
+a laptop-class CPU.  Writes <out>/reach/ and <out>/mode-change/ (a rerun replaces them).
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import planar3p_gym
+from planar3p_agents.commands import checks
+from planar3p_agents.commands.parser import CliParser, UsageError
+
+ANALYTIC = "analytic-simultaneous"
+MODE_CHANGE = "mode-change"
+MODE_CHANGE_POLICY = "pretrained:ppo_mode_change"
+#: The shipped reach policy the demo plays by default, and the id it was trained on.
+REACH_POLICY = "pretrained:ppo_reach_residual"
+REACH_ENV = planar3p_gym.ENV_ID
+
+
+def add_arguments(p: CliParser) -> None:
+    from planar3p_agents.policies.factory import TRUSTED_FILES_NOTE
+
+    p.note(TRUSTED_FILES_NOTE)
+    p.add_argument("--out", default="results/demo", help="output directory")
+    p.add_argument("--policy", default=REACH_POLICY, help=f"learned reach policy ({REACH_ENV})")
+    p.add_argument(
+        "--mode-change-policy",
+        default=MODE_CHANGE_POLICY,
+        help="learned working-mode change policy (Planar3PModeChange-v0)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the suites and of the policies")
+
+
+def check(args: argparse.Namespace) -> None:
+    checks.at_least("--seed", args.seed, 0)
+    checks.output_dir("--out", args.out)
+
+
+@dataclass
+class Part:
+    """One part of the demo: its policies (the first two get a GIF), suites, the episode the
+    GIFs play, and its output directory."""
+
+    title: str
+    suites: list[str]
+    policies: list[str]
+    env_id: str
+    episode: Any
+    task_suite: str | None
+    out: Path
+
+
+def parts(out: Path, learned: str, mode_change_policy: str, seed: int) -> list[Part]:
+    """The demo's two parts."""
+    from planar3p_agents.evaluation import reach_suites as su
+    from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_suite
+
+    return [
+        Part(
+            "Reach",
+            list(su.SUITE_NAMES),
+            [learned, ANALYTIC],
+            REACH_ENV,
+            su.make_suite("standard", 1, seed).episodes[0],
+            None,
+            out / "reach",
+        ),
+        Part(
+            "Working-mode change",
+            [MODE_CHANGE],
+            [mode_change_policy, ANALYTIC, "planner"],
+            TASK_SUITES[MODE_CHANGE].env_id,
+            make_task_suite(MODE_CHANGE, 1, seed).episodes[0],
+            MODE_CHANGE,
+            out / "mode-change",
+        ),
+    ]
+
+
+def _check_policies(learned: str, mode_change_policy: str) -> None:
+    """Load the learned policies once on their ids (cheap; before any suite is generated)."""
+    import gymnasium as gym
+
+    from planar3p_agents.evaluation.task_suites import TASK_SUITES
+    from planar3p_agents.policies.factory import PolicyError, load_policy
+
+    for spec, env_id in (
+        (learned, REACH_ENV),
+        (mode_change_policy, TASK_SUITES[MODE_CHANGE].env_id),
+    ):
+        env = gym.make(env_id)
+        try:
+            load_policy(spec, env=env)
+        except PolicyError as exc:
+            raise UsageError(str(exc)) from exc
+        finally:
+            env.close()
+
+
+def _maker(spec: str, suite: str | None, seed: int):
+    """``env -> policy`` for a GIF (:func:`load_policy` for the GIF's environment)."""
+    from planar3p_agents.policies.factory import load_policy
+
+    return lambda env: load_policy(spec, env=env, seed=seed)
+
+
+def record(part: Part, seed: int) -> dict[str, tuple[Path, dict[str, Any]]]:
+    """GIFs of the part's episode played by its first two policies: spec -> (path, outcome)."""
+    from planar3p_agents.evaluation.episode_gif import record_gif
+    from planar3p_agents.policies.factory import policy_label
+
+    gifs = {}
+    for spec in part.policies[:2]:
+        path = part.out / f"{policy_label(spec).replace(':', '_').replace('/', '_')}.gif"
+        maker = _maker(spec, part.task_suite, seed)
+        gifs[spec] = (
+            path,
+            record_gif(part.env_id, maker, part.episode.reset_options(), path, seed),
+        )
+    return gifs
+
+
+def _print(out: Path, gifs: dict[str, tuple[Path, dict[str, Any]]]) -> None:
+    print(f"  report:        {out / 'benchmark' / 'report.md'}")
+    print(f"  per episode:   {out / 'benchmark' / 'episodes.csv'}")
+    print(f"  plots:         {out / 'benchmark'}/*.png")
+    for spec, (path, outcome) in gifs.items():
+        print(
+            f"  animation:     {path}  ({spec}: {outcome['reason']} after "
+            f"{outcome['steps']} steps, final error {outcome['position_error_mm']:.1f} mm)"
+        )
+
+
+def run(args: argparse.Namespace) -> int:
+    from planar3p_agents.commands import benchmark
+
+    _check_policies(args.policy, args.mode_change_policy)
+    plan = parts(Path(args.out), args.policy, args.mode_change_policy, args.seed)
+    jobs: list[benchmark.Job] = []
+    try:
+        for part in plan:  # every part checked before any runs
+            jobs.append(
+                benchmark.prepare(
+                    part.policies,
+                    part.suites,
+                    episodes=benchmark.QUICK_EPISODES,
+                    bootstrap=benchmark.QUICK_BOOTSTRAP,
+                    seed=args.seed,
+                    out=part.out / "benchmark",
+                    force=True,  # the demo's own directory: a rerun replaces its results
+                    command=args.command_line,
+                )
+            )
+        done = []
+        for part, job in zip(plan, jobs, strict=True):
+            print(f"{part.title}: benchmarking {', '.join(part.policies)} ...", flush=True)
+            result = benchmark.execute(job)
+            print(result.table)
+            if result.status != 0:
+                print(f"{part.title}: {result.error}")
+                return result.status
+            done.append((part, record(part, args.seed)))
+    finally:
+        for job in jobs:
+            job.close()
+    print("\nDone.")
+    for part, gifs in done:
+        extra = (
+            " (the simple motions cannot pass the serial singularity)" if part.task_suite else ""
+        )
+        print(f"{part.title}{extra}:")
+        _print(part.out, gifs)
+    return 0
