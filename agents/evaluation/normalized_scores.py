@@ -359,7 +359,10 @@ def _figures(
     # 3. probability of improvement over the best baseline (by IQM time score)
     base = [g for g in groups if g in BEST_BASELINES and g in runs["time"]]
     if base:
-        ref = max(base, key=lambda g: stratified_bootstrap_iqm(runs["time"][g], 10, seed)[0])
+        ref = max(
+            base,
+            key=lambda g: stratified_bootstrap_iqm(runs["time"][g], n_resamples=10, seed=seed)[0],
+        )
         others = [g for g in groups if g != ref and g in runs["time"]]
         fig, ax = plt.subplots(figsize=(6, 0.45 * len(others) + 1.5))
         for i, g in enumerate(others):

@@ -175,6 +175,17 @@ def tuned_gain(baseline: str, suite: str | None = None, path: str | Path | None 
     return float(gains.get(suite or "default", gains["default"]))
 
 
+def _json_safe(x: Any) -> Any:
+    """``x`` with non-finite floats as ``None`` (strict JSON)."""
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    if isinstance(x, dict):
+        return {k: _json_safe(v) for k, v in x.items()}
+    if isinstance(x, list):
+        return [_json_safe(v) for v in x]
+    return x
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Tune the analytic baselines' gains per suite.")
     parser.add_argument("--out", default=str(TUNED_GAINS_FILE), help="the JSON file written")
@@ -187,7 +198,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         "command": "python -m planar3p_agents.evaluation.tuning " + shlex.join(given),
         **tune_all(args.seed, args.episodes, args.track_episodes),
     }
-    Path(args.out).write_text(json.dumps(data, indent=1) + "\n")
+    Path(args.out).write_text(json.dumps(_json_safe(data), indent=1) + "\n")
     print(json.dumps(data["gains"], indent=1))
     return 0
 
