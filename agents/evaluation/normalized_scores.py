@@ -372,7 +372,7 @@ def _figures(
             ax.plot([lo, hi], [i, i], lw=6, alpha=0.5, color=f"C{i % 10}")
             ax.plot([p], [i], "|", ms=14, color="k")
         ax.axvline(0.5, ls="--", color="grey")
-        ax.set_xlim(0, 1)
+        ax.set_xlim(-0.03, 1.03)
         ax.set_yticks(range(len(others)), others)
         ax.set_xlabel(f"P(policy > {ref}) on the normalized time score")
         fig.tight_layout()
