@@ -13,6 +13,11 @@ name                    policy                                                  
 analytic-simultaneous   the simple motions superposed (resolved-rate control)   all
 analytic-sequential     the simple motions one at a time                        all
 analytic-feedforward    simultaneous simple motions + reference velocity        tracking
+slider-line             straight line in slider space, synchronised, saturating reach, goal
+analytic-tuned          simultaneous simple motions, gain tuned per suite       reach, goal
+analytic-feedforward-   the feed-forward controller, gain tuned per suite       tracking
+tuned
+certified               slider line / simple motions / detour, as certified     reach, goal
 planner                 certified travel-space path, then simple motions        mode change
 crossing                dynamic crossing demonstration, then simple motions     assembly change
 random                  uniformly random actions (seeded)                       all
@@ -23,7 +28,12 @@ The analytic controllers read the 31 entries every observation starts with (and 
 controller the reference velocity the tracking task appends), so they play every id; the
 planner and the crossing demonstration need the target's travels and modes only their tasks
 observe.  A name followed by ``:gain=K`` (:data:`ANALYTIC_POLICIES`) sets the position and
-orientation gains to ``K`` (1/s).
+orientation gains to ``K`` (1/s) (``slider-line:gain=K``: its travel gain).
+
+The ``*-tuned`` baselines read their gain for the suite they play
+(:attr:`BaselineContext.suite`) from :data:`planar3p_agents.evaluation.tuning.TUNED_GAINS_FILE`,
+tuned on a separate draw of each suite (:mod:`planar3p_agents.evaluation.tuning`); without a
+suite they take the gain of the id's first suite.
 
 Adding a baseline: a builder ``(BaselineContext) -> policy on the id's flat observation`` and
 a row of :data:`BASELINES`; nothing else (the name is then known to the policy
@@ -37,17 +47,28 @@ from dataclasses import dataclass
 from typing import Any
 
 from planar3p_agents.controllers.layout import REGISTERED_IDS, ObservationLayout
-from planar3p_gym.envs.registry import ASSEMBLY_CHANGE_ENV_ID, MODE_CHANGE_ENV_ID, TRACK_ENV_ID
+from planar3p_gym.envs.registry import (
+    ASSEMBLY_CHANGE_ENV_ID,
+    ENV_ID,
+    GOAL_DENSE_ENV_ID,
+    GOAL_ENV_ID,
+    MODE_CHANGE_ENV_ID,
+    TRACK_ENV_ID,
+)
 from planar3p_gym.machine.design import Design
 
 __all__ = [
     "ANALYTIC_POLICIES",
     "BASELINES",
     "BUILTIN_POLICIES",
+    "REACH_IDS",
     "Baseline",
     "BaselineContext",
     "baselines_for",
 ]
+
+#: The ids whose task is reaching a target pose in the start's working mode.
+REACH_IDS: tuple[str, ...] = (ENV_ID, GOAL_ENV_ID, GOAL_DENSE_ENV_ID)
 
 
 @dataclass(frozen=True)
@@ -61,6 +82,8 @@ class BaselineContext:
         action_space: the environment's action space (``None`` without an environment).
         seed: seed of a random policy.
         gain: the ``:gain=K`` of the specification (1/s), or ``None``.
+        suite: the benchmark suite the policy is built for (a tuned baseline reads its gain
+            for it), or ``None``.
     """
 
     env: Any
@@ -69,6 +92,7 @@ class BaselineContext:
     action_space: Any = None
     seed: int | None = None
     gain: float | None = None
+    suite: str | None = None
 
     def gains(self) -> dict[str, float]:
         """The analytic controllers' gain arguments (none for the default gains)."""
@@ -88,6 +112,7 @@ class Baseline:
         build: ``(BaselineContext) -> policy`` (SB3-style ``predict`` on the flat
             observation of ``context.layout``).
         takes_gain: whether ``:gain=K`` applies.
+        per_suite: whether it depends on the suite it plays (built once per suite).
     """
 
     name: str
@@ -95,6 +120,7 @@ class Baseline:
     ids: tuple[str, ...]
     build: Callable[[BaselineContext], Any]
     takes_gain: bool = False
+    per_suite: bool = False
 
 
 def _analytic(mode: str) -> Callable[[BaselineContext], Any]:
@@ -110,6 +136,43 @@ def _feedforward(ctx: BaselineContext) -> Any:
     from planar3p_agents.controllers.tracking import TrackingController
 
     return TrackingController(ctx.design, feedforward=1.0, **ctx.gains())
+
+
+def _slider_line(ctx: BaselineContext) -> Any:
+    from planar3p_agents.controllers.slider_line import DEFAULT_TRAVEL_GAIN, SliderLineController
+
+    gain = ctx.gain if ctx.gain is not None else DEFAULT_TRAVEL_GAIN
+    return SliderLineController(ctx.design, gain=gain, observation_size=ctx.layout.size)
+
+
+def _analytic_tuned(ctx: BaselineContext) -> Any:
+    from planar3p_agents.controllers.analytic import AnalyticController
+    from planar3p_agents.evaluation.tuning import tuned_gain
+
+    k = tuned_gain("analytic-tuned", ctx.suite)
+    return AnalyticController(
+        ctx.design, position_gain=k, orientation_gain=k, observation_size=ctx.layout.size
+    )
+
+
+def _feedforward_tuned(ctx: BaselineContext) -> Any:
+    from planar3p_agents.controllers.tracking import TrackingController
+    from planar3p_agents.evaluation.tuning import tuned_gain
+
+    k = tuned_gain("analytic-feedforward-tuned", ctx.suite)
+    return TrackingController(ctx.design, feedforward=1.0, position_gain=k, orientation_gain=k)
+
+
+def _certified(ctx: BaselineContext) -> Any:
+    from planar3p_agents.controllers.certified import CertifiedPlanner
+
+    base = getattr(ctx.env, "unwrapped", None)
+    return CertifiedPlanner(
+        ctx.design,
+        dt=float(getattr(base, "dt", 0.02)),
+        task_config=getattr(base, "task_config", None),
+        observation_size=ctx.layout.size,
+    )
 
 
 def _planner(ctx: BaselineContext) -> Any:
@@ -163,6 +226,33 @@ BASELINES: dict[str, Baseline] = {
             (TRACK_ENV_ID,),
             _feedforward,
             takes_gain=True,
+        ),
+        Baseline(
+            "slider-line",
+            "straight line in slider space to the target's travels, synchronised, saturating",
+            REACH_IDS,
+            _slider_line,
+            takes_gain=True,
+        ),
+        Baseline(
+            "analytic-tuned",
+            "simple motions superposed, gain tuned per suite on a separate draw",
+            REACH_IDS,
+            _analytic_tuned,
+            per_suite=True,
+        ),
+        Baseline(
+            "analytic-feedforward-tuned",
+            "feed-forward tracking controller, gain tuned per suite on a separate draw",
+            (TRACK_ENV_ID,),
+            _feedforward_tuned,
+            per_suite=True,
+        ),
+        Baseline(
+            "certified",
+            "slider line where certified, else simple motions on a clear path, else a detour",
+            REACH_IDS,
+            _certified,
         ),
         Baseline(
             "planner",

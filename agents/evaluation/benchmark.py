@@ -27,6 +27,7 @@ from planar3p_agents.controllers.layout import env_id_of
 from planar3p_agents.controllers.registry import BASELINES
 from planar3p_agents.evaluation.episodes import EpisodeResult, evaluate
 from planar3p_agents.evaluation.intervals import summarize
+from planar3p_agents.evaluation.normalized_scores import write_scores
 from planar3p_agents.evaluation.reach_suites import (
     SUITE_NAMES,
     EpisodeSpec,
@@ -54,6 +55,9 @@ from planar3p_gym.machine.design import Design
 REACH_BASELINES: tuple[str, ...] = (
     "analytic-simultaneous",
     "analytic-sequential",
+    "analytic-tuned",
+    "slider-line",
+    "certified",
     "random",
     "zero",
 )
@@ -83,6 +87,7 @@ OUTPUT_FILES: tuple[str, ...] = (
     "success_rate.png",
     "errors.png",
     "trajectories.png",
+    "scores.csv",
 )
 
 
@@ -206,8 +211,8 @@ def _load_suite_policies(
                         f"{', '.join(BASELINES[ps.name].ids)})"
                     )
                     continue
-            if task:
-                pols[label] = load_policy(ps, env=envs[name], seed=seed, device=device)
+            if task or (ps.kind == "builtin" and BASELINES[ps.name].per_suite):
+                pols[label] = load_policy(ps, env=envs[name], seed=seed, device=device, suite=name)
             else:
                 if label not in shared:
                     trained = run_env_kwargs(ps.path) if ps.path is not None else None
@@ -396,6 +401,7 @@ def run_benchmark(
             traj = plot_trajectories(out, design, {s: suites[s] for s in mapped}, results)
             if traj:
                 written.append(traj)
+    scores = _scores_section(out, results, training_seeds, n_resamples, seed, plots)
     table = write_report(
         out,
         settings["command"],
@@ -405,8 +411,33 @@ def run_benchmark(
         results,
         written,
         complete=status == 0,
+        extra=scores,
     )
     return BenchmarkRun(status, summaries, results, settings, table, written, error)
+
+
+def _scores_section(
+    out: Path,
+    results: dict[tuple[str, str], list[EpisodeResult]],
+    training_seeds: dict[str, int | None] | None,
+    n_resamples: int,
+    seed: int,
+    plots: bool,
+) -> str:
+    """The normalized scores of the suites that have reference values
+    (:func:`planar3p_agents.evaluation.normalized_scores.write_scores`: ``scores.csv`` and
+    rliable's figures); empty if none has (or there is no random policy to compare with)."""
+    seeds = training_seeds or {}
+    rows = []
+    for res in results.values():
+        for r in res:
+            seed_of = seeds.get(r.policy)
+            rows.append({**r.row(), "training_seed": "" if seed_of is None else seed_of})
+    try:
+        return write_scores(out, rows, n_resamples=n_resamples, seed=seed, plots=plots)
+    except ValueError as exc:
+        _warn(f"no normalized scores: {exc}")
+        return ""
 
 
 class _NoBar:

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from planar3p_agents.evaluation.reach_suites import EpisodeSpec, Suite, suite_id
+from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.observation import SLICES
@@ -30,6 +31,7 @@ __all__ = [
     "evaluate",
     "reset_episode",
     "run_episode",
+    "speed_bound",
 ]
 
 #: How an episode ended (``EpisodeResult.cause``): success, the two failures the environment
@@ -56,7 +58,9 @@ class EpisodeResult:
     ``(steps + 1, 3)``) is kept only when asked for and is not part of :meth:`row`.
     ``task_metrics`` holds the metrics a task reports at the end of an episode (e.g. tracking
     errors, m or rad as named); empty for the reach task.  ``success_defined`` is false for a
-    task without a success test (tracking).
+    task without a success test (tracking).  ``speed_bound`` (s) is :func:`speed_bound` of the
+    episode (NaN for a task whose target is not in the start's working mode, or without one)
+    and ``time_over_bound`` the time to success divided by it (NaN unless successful).
     """
 
     policy: str
@@ -85,6 +89,8 @@ class EpisodeResult:
     trajectory: np.ndarray | None = None
     task_metrics: dict[str, float] = field(default_factory=dict)
     success_defined: bool = True
+    speed_bound: float = math.nan
+    time_over_bound: float = math.nan
 
     def row(self) -> dict[str, Any]:
         """Plain values for CSV/JSON: the fields without the trajectory (and
@@ -109,6 +115,28 @@ def episode_seed(seed: int, suite: str, index: int) -> np.random.SeedSequence:
     """Seed of a policy's randomness in episode ``index`` of ``suite`` (run order does not
     matter)."""
     return np.random.SeedSequence([int(seed), 0xE915, suite_id(suite), int(index)])
+
+
+def speed_bound(design: Design, start: Any, target: Any, mode: Any) -> float:
+    """The physical limit of a reach episode (s): ``max_i |rho_i(target) - rho_i(start)| /
+    max_speed``, the travels by inverse kinematics in working mode ``mode`` (no slider can move
+    faster than ``max_speed``, so no policy reaches the target sooner).  NaN if an end does not
+    close in ``mode``."""
+    m = np.asarray(mode, dtype=np.float64)
+    r0 = kinematics.inverse(design, np.asarray(start, dtype=np.float64), m).rho
+    r1 = kinematics.inverse(design, np.asarray(target, dtype=np.float64), m).rho
+    bound = float(np.max(np.abs(r1 - r0)) / design.max_speed)
+    return bound if math.isfinite(bound) else math.nan
+
+
+def _episode_bound(design: Design, spec: EpisodeSpec) -> float:
+    """:func:`speed_bound` of ``spec`` if its target is in its start's working mode (a reach
+    suite, or the goal task), else NaN."""
+    if spec.target is None:
+        return math.nan
+    if spec.options is not None and spec.options.get("task") != "goal":
+        return math.nan
+    return speed_bound(design, spec.start, spec.target, spec.working_mode)
 
 
 def reset_episode(env: Any, spec: EpisodeSpec, seed: int) -> tuple[Any, dict[str, Any]]:
@@ -208,6 +236,7 @@ def run_episode(
         cause = _diagnose(info, design, base.task_config) if can_succeed else "completed"
     else:
         cause = reason
+    bound = _episode_bound(design, spec)
     return EpisodeResult(
         policy=policy_name,
         suite=spec.suite,
@@ -235,6 +264,8 @@ def run_episode(
         trajectory=np.array(poses) if poses is not None else None,
         success_defined=can_succeed,
         task_metrics=_metrics(info, getattr(getattr(base, "task", None), "metric_keys", ())),
+        speed_bound=bound,
+        time_over_bound=steps * dt / bound if success and bound > 0 else math.nan,
     )
 
 

@@ -109,7 +109,8 @@ def summarize(
     return with a percentile-bootstrap interval; median final errors (mm, deg), time to success
     (s, successful episodes only) and mechanical energy (J); the worst and median smallest
     parallel margin; counts of each ending (:data:`~planar3p_agents.evaluation.episodes.FAILURE_CAUSES`); the share
-    of steps with a saturated actuator; and, for tasks that report them, the median, mean,
+    of steps with a saturated actuator; the median speed bound (s) and the median and 90th
+    percentile of time to success over the speed bound (successful episodes); and, for tasks that report them, the median, mean,
     smallest and largest value of each task metric (``task_metrics`` of the results, e.g.
     tracking errors, or 0/1 flags whose mean is the share of episodes).
     """
@@ -147,6 +148,9 @@ def summarize(
             sum(r.saturation_fraction * r.steps for r in results) / total_steps
         ),
         "median_energy": _median([r.energy for r in results]),
+        "median_speed_bound": _median([r.speed_bound for r in results]),
+        "median_time_over_bound": _median([r.time_over_bound for r in results]),
+        "p90_time_over_bound": _quantile([r.time_over_bound for r in results], 0.9),
         "causes": causes,
         "path_crossing_episodes": int(sum(r.path_crosses for r in results)),
         "working_mode_changes": int(sum(r.working_mode_changed for r in results)),
@@ -157,6 +161,13 @@ def summarize(
             k: _describe([r.task_metrics.get(k, math.nan) for r in results]) for k in keys
         }
     return out
+
+
+def _quantile(values: Sequence[float], q: float) -> float:
+    """Quantile ``q`` of the finite values (NaN if none)."""
+    x = np.asarray(values, dtype=np.float64)
+    x = x[np.isfinite(x)]
+    return float(np.quantile(x, q)) if x.size else math.nan
 
 
 def _describe(values: Sequence[float]) -> dict[str, float]:

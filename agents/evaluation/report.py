@@ -46,14 +46,15 @@ def _ci(v: float, ci: Sequence[float], digits: int, scale: float = 1.0) -> str:
 
 TABLE_HEADER = (
     "| policy | suite | n | success % [95% CI] | IQM return [95% CI] | pos. err. mm | "
-    "orient. err. deg | time to success s | min parallel margin (worst / median) | "
+    "orient. err. deg | time to success s | time / speed bound (median / p90) | "
+    "min parallel margin (worst / median) | "
     "sing. crossings | breakdowns | timeouts | saturated % | energy J |"
 )
 
 
 def results_table(summaries: Sequence[dict[str, Any]]) -> str:
     """The markdown results table (medians unless stated)."""
-    lines = [TABLE_HEADER, "|" + "---|" * 14]
+    lines = [TABLE_HEADER, "|" + "---|" * 15]
     for s in summaries:
         lines.append(
             "| "
@@ -67,6 +68,8 @@ def results_table(summaries: Sequence[dict[str, Any]]) -> str:
                     _fmt(s["median_position_error_mm"], 1),
                     _fmt(s["median_orientation_error_deg"], 2),
                     _fmt(s["median_time_to_success"], 2),
+                    f"{_fmt(s.get('median_time_over_bound', math.nan), 2)} / "
+                    f"{_fmt(s.get('p90_time_over_bound', math.nan), 2)}",
                     f"{_fmt(s['worst_min_parallel_margin'], 4)} / "
                     f"{_fmt(s['median_min_parallel_margin'], 4)}",
                     str(s["singularity_crossings"]),
@@ -300,6 +303,11 @@ DEFINITIONS = """\
   50%, as rliable), with its 95% bootstrap interval.
 - **pos. err. / orient. err.**: median over episodes of the final errors.
 - **time to success**: median over successful episodes (s).
+- **time / speed bound**: time to success divided by the episode's speed bound
+  `max_i |rho_i(target) - rho_i(start)| / max_speed` (travels by inverse kinematics in the
+  episode's working mode; no slider moves faster than `max_speed`, so no policy can reach the
+  target sooner): median and 90th percentile over the successful episodes (reach and goal
+  suites; `speed_bound` and `time_over_bound` columns of `episodes.csv`).
 - **min parallel margin**: the smallest parallel margin (inverse condition number of
   `A_bar`) met in an episode: worst episode / median episode.
 - **sing. crossings / breakdowns**: episodes ended by a change of `sign det A` / by the physics
@@ -347,9 +355,11 @@ def write_report(
     results: dict[tuple[str, str], list[EpisodeResult]],
     plots: list[str],
     complete: bool,
+    extra: str = "",
 ) -> str:
     """Write ``report.md`` into ``out`` (``plots``: file names of figures already written
-    there; ``complete=False`` marks an interrupted run) and return the results table."""
+    there; ``complete=False`` marks an interrupted run; ``extra``: a markdown section put
+    before the definitions, e.g. the normalized scores) and return the results table."""
     table = results_table(summaries)
     reach = {k: v for k, v in suites.items() if not _is_task(v)}
     tasks = {k: v for k, v in suites.items() if _is_task(v)}
@@ -399,6 +409,8 @@ def write_report(
         parts += ["## Plots", ""]
         parts += [f"![{Path(p).stem}]({p})" for p in plots]
         parts += [""]
+    if extra:
+        parts += [extra]
     parts += ["## Definitions", "", DEFINITIONS]
     if tasks:
         parts += [TASK_DEFINITIONS]

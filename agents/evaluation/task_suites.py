@@ -78,14 +78,14 @@ TASK_SUITES: dict[str, TaskSuiteDef] = {
     "track-segments": TaskSuiteDef(
         "Planar3PTrack-v0",
         {"reference": "segments"},
-        ("analytic-simultaneous", "analytic-feedforward", "zero"),
+        ("analytic-simultaneous", "analytic-feedforward", "analytic-feedforward-tuned", "zero"),
         "tracking a reference of smooth random minimum-jerk segments",
         2,
     ),
     "track-figure-eight": TaskSuiteDef(
         "Planar3PTrack-v0",
         {"reference": "figure_eight"},
-        ("analytic-simultaneous", "analytic-feedforward", "zero"),
+        ("analytic-simultaneous", "analytic-feedforward", "analytic-feedforward-tuned", "zero"),
         "tracking a figure-eight reference",
         3,
     ),

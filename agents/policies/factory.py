@@ -104,6 +104,7 @@ def load_policy(
     seed: int | None = None,
     device: str = "cpu",
     vecnormalize: str | Path | None = None,
+    suite: str | None = None,
 ) -> Any:
     """The policy named by ``spec`` (see the module docstring), ready to ``predict`` on the
     observations of ``env``.
@@ -115,7 +116,8 @@ def load_policy(
     environment's design for the analytic controllers.  ``seed`` seeds the random policy.
     ``vecnormalize``: statistics file of a model path (or :data:`NO_STATS`), like the spec's
     ``:stats=`` suffix (giving both is an error).  Model and statistics files are code: see
-    :data:`TRUSTED_FILES_NOTE`.
+    :data:`TRUSTED_FILES_NOTE`.  ``suite``: the benchmark suite a baseline is built for (a
+    tuned baseline reads its gain for it).
     """
     ps = spec if isinstance(spec, PolicySpec) else parse_policy_spec(spec)
     stats = ps.stats
@@ -126,7 +128,7 @@ def load_policy(
             raise PolicyError(f"statistics named twice for {ps.text!r} (spec and argument)")
         stats = _stats_value(str(vecnormalize))
     if ps.kind == "builtin":
-        return _baseline(ps, env, design, seed)
+        return _baseline(ps, env, design, seed, suite)
     assert ps.path is not None
     if ps.text.startswith(PRETRAINED_PREFIX):
         shipped = shipped_model_of(ps.path)  # <root>/<name>/<algo>/<env id>_1/<env id>.zip
@@ -138,7 +140,9 @@ def load_policy(
     )
 
 
-def _baseline(ps: PolicySpec, env: Any, design: Design | None, seed: int | None) -> Any:
+def _baseline(
+    ps: PolicySpec, env: Any, design: Design | None, seed: int | None, suite: str | None = None
+) -> Any:
     """The built-in baseline ``ps`` for ``env`` (:data:`BASELINES`)."""
     entry = BASELINES[ps.name]
     try:
@@ -160,6 +164,7 @@ def _baseline(ps: PolicySpec, env: Any, design: Design | None, seed: int | None)
         action_space=env.action_space if env is not None else None,
         seed=seed,
         gain=ps.gain,
+        suite=suite,
     )
     policy = entry.build(context)
     return GoalAdapter(policy, design.characteristic_length) if layout.goal else policy

@@ -1,0 +1,459 @@
+"""Normalized scores, D4RL-style: per suite, 0 = the random policy, 100 = the best baseline.
+
+Three per-suite values of a policy (from a benchmark's ``episodes.csv`` or its results):
+
+* ``success``: the success rate (0 to 1);
+* ``time``: the mean over the suite's episodes of ``speed_bound / time_to_success`` (0 for a
+  failed episode; 1 would be every episode at the physical limit,
+  :func:`planar3p_agents.evaluation.episodes.speed_bound`), so a policy scores for being fast
+  only where it succeeds;
+* ``return``: the mean episode return (a short training run improves it long before it
+  succeeds).
+
+:func:`get_normalized_score` maps a value to ``100 * (value - random) / (best - random)`` with
+the reference values of :data:`REFERENCE_FILE` (``reference_scores.json`` beside this module):
+per suite and metric, the random policy's value and the best value among
+:data:`BEST_BASELINES` (the strongest baselines: ``slider-line``, ``analytic-tuned``,
+``certified``), measured by the benchmark on its suites of seed 0.  Regenerate it from a
+benchmark that played them::
+
+    python -m planar3p_agents.evaluation.normalized_scores references \\
+        docs/benchmark/strongest-baselines/episodes.csv
+
+:func:`score_matrix` gives the raw per-training-seed x per-suite matrix (policies without a
+recorded training seed count as one run), :func:`write_scores` writes it (``scores.csv``) and
+rliable's figures drawn from it (``rliable`` itself does not import with the project's pins, so
+the statistics are :mod:`planar3p_agents.evaluation.seed_statistics`' numpy code):
+interquartile mean with 95 % stratified-bootstrap intervals (``scores_iqm.png``), performance
+profiles (``scores_profiles.png``) and the probability of improvement of every policy over the
+best baseline (``scores_improvement.png``)::
+
+    python -m planar3p_agents.evaluation.normalized_scores matrix RUN/episodes.csv --out RUN
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import shlex
+import sys
+from collections.abc import Iterable, Mapping, Sequence
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from planar3p_agents.evaluation.seed_statistics import group_label, stratified_bootstrap_iqm
+
+__all__ = [
+    "BEST_BASELINES",
+    "RANDOM_POLICY",
+    "REFERENCE_FILE",
+    "SCORE_FILES",
+    "SCORE_METRICS",
+    "get_normalized_score",
+    "make_references",
+    "probability_of_improvement",
+    "read_rows",
+    "score_matrix",
+    "scores_markdown",
+    "suite_values",
+    "write_scores",
+]
+
+#: The per-suite values that can be normalized.
+SCORE_METRICS: tuple[str, ...] = ("success", "time", "return")
+#: The policy that scores 0.
+RANDOM_POLICY = "random"
+#: The baselines whose best value scores 100 (item 1 of issue 25: the strongest baselines).
+BEST_BASELINES: tuple[str, ...] = ("slider-line", "analytic-tuned", "certified")
+#: The reference values.
+REFERENCE_FILE = Path(__file__).with_name("reference_scores.json")
+#: Files :func:`write_scores` writes.
+SCORE_FILES = ("scores.csv", "scores_iqm.png", "scores_profiles.png", "scores_improvement.png")
+
+
+def _float(v: Any) -> float:
+    try:
+        return float(v)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def _truth(v: Any) -> bool:
+    return v is True or str(v).strip().lower() in ("true", "1", "1.0")
+
+
+def episode_values(row: Mapping[str, Any]) -> dict[str, float]:
+    """``success`` (0/1), ``time`` (``speed_bound / time_to_success``, 0 if failed, NaN
+    without a speed bound) and ``return`` of one episode row (``episodes.csv`` or
+    :meth:`~planar3p_agents.evaluation.episodes.EpisodeResult.row`)."""
+    ok = _truth(row.get("success"))
+    bound, t = _float(row.get("speed_bound")), _float(row.get("time_to_success"))
+    time = (bound / t if ok and t > 0 else 0.0) if math.isfinite(bound) else math.nan
+    return {"success": float(ok), "time": time, "return": _float(row.get("episode_return"))}
+
+
+def read_rows(path: str | Path) -> list[dict[str, str]]:
+    """The rows of a benchmark's ``episodes.csv`` (``ValueError`` if missing)."""
+    p = Path(path)
+    if not p.is_file():
+        raise ValueError(f"no such file: {p}")
+    with p.open(newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+Run = tuple[str, str, str]  # (policy, training seed or "", suite)
+
+
+def suite_values(rows: Iterable[Mapping[str, Any]]) -> dict[Run, dict[str, float]]:
+    """Per (policy, training seed, suite): the mean of each of :data:`SCORE_METRICS` over the
+    suite's episodes (NaN where an episode has no value)."""
+    acc: dict[Run, list[dict[str, float]]] = {}
+    for row in rows:
+        seed = row.get("training_seed", "")
+        key = (str(row["policy"]), "" if seed is None else str(seed), str(row["suite"]))
+        acc.setdefault(key, []).append(episode_values(row))
+    return {
+        k: {m: float(np.mean([v[m] for v in vals])) for m in SCORE_METRICS}
+        for k, vals in acc.items()
+    }
+
+
+def make_references(
+    rows: Iterable[Mapping[str, Any]],
+    best_of: Sequence[str] = BEST_BASELINES,
+    random: str = RANDOM_POLICY,
+) -> dict[str, dict[str, dict[str, Any]]]:
+    """``{suite: {metric: {"random", "best", "best_policy"}}}`` from benchmark rows that hold
+    the random policy and some of ``best_of`` on each suite (``ValueError`` otherwise)."""
+    values = suite_values(rows)
+    suites = list(dict.fromkeys(s for _, _, s in values))
+    out: dict[str, dict[str, dict[str, Any]]] = {}
+    for suite in suites:
+        rnd = [v for (p, _, s), v in values.items() if s == suite and p == random]
+        best = {p: v for (p, _, s), v in values.items() if s == suite and p in best_of}
+        if not rnd or not best:
+            continue
+        out[suite] = {}
+        for m in SCORE_METRICS:
+            name = max(best, key=lambda p, m=m: (best[p][m], -best_of.index(p)))
+            out[suite][m] = {
+                "random": round(rnd[0][m], 6),
+                "best": round(best[name][m], 6),
+                "best_policy": name,
+            }
+    if not out:
+        raise ValueError(f"no suite holds both {random!r} and one of {', '.join(best_of)}")
+    return out
+
+
+@cache
+def _reference_file(path: str) -> dict[str, Any]:
+    return json.loads(Path(path).read_text())
+
+
+def _references(references: Mapping[str, Any] | str | Path | None) -> Mapping[str, Any]:
+    if isinstance(references, Mapping):
+        return references.get("suites", references)
+    p = Path(references) if references is not None else REFERENCE_FILE
+    try:
+        return _reference_file(str(p))["suites"]
+    except (OSError, ValueError, KeyError) as exc:
+        raise ValueError(f"cannot read the reference scores {p.name}: {exc}") from exc
+
+
+def get_normalized_score(
+    suite: str,
+    value: float,
+    metric: str = "success",
+    references: Mapping[str, Any] | str | Path | None = None,
+) -> float:
+    """``value`` of ``metric`` (:data:`SCORE_METRICS`: a success rate in [0, 1], a mean
+    ``speed_bound / time_to_success``, or a mean return) on ``suite`` as a normalized score:
+    0 = the random policy, 100 = the best of :data:`BEST_BASELINES` (D4RL's
+    ``get_normalized_score``).  ``references``: the reference values (a mapping as
+    :func:`make_references` returns, a file, or ``None``: :data:`REFERENCE_FILE`).
+    ``ValueError`` for an unknown metric or a suite without references."""
+    if metric not in SCORE_METRICS:
+        raise ValueError(f"unknown metric {metric!r}; known: {', '.join(SCORE_METRICS)}")
+    refs = _references(references)
+    if suite not in refs:
+        raise ValueError(f"no reference scores for suite {suite!r}; known: {', '.join(refs)}")
+    lo, hi = float(refs[suite][metric]["random"]), float(refs[suite][metric]["best"])
+    if not hi > lo:
+        raise ValueError(f"degenerate references for {suite!r}/{metric}: {lo} >= {hi}")
+    return 100.0 * (float(value) - lo) / (hi - lo)
+
+
+def score_matrix(
+    rows: Iterable[Mapping[str, Any]], references: Mapping[str, Any] | str | Path | None = None
+) -> list[dict[str, Any]]:
+    """The raw per-training-seed x per-suite matrix, one row per (policy, training seed,
+    suite) on the suites with references: the raw values and their normalized scores
+    (``score_<metric>``).  ``group`` pools policies that differ only by training seed
+    (:func:`planar3p_agents.evaluation.seed_statistics.group_label`)."""
+    refs = _references(references)
+    out = []
+    for (policy, seed, suite), v in suite_values(rows).items():
+        if suite not in refs:
+            continue
+        row: dict[str, Any] = {
+            "group": group_label(policy),
+            "policy": policy,
+            "training_seed": seed,
+            "suite": suite,
+        }
+        for m in SCORE_METRICS:
+            row[m] = round(v[m], 6)
+        for m in SCORE_METRICS:
+            s = get_normalized_score(suite, v[m], m, refs) if math.isfinite(v[m]) else math.nan
+            row[f"score_{m}"] = round(s, 3)
+        out.append(row)
+    return out
+
+
+def _runs(matrix: Sequence[Mapping[str, Any]], metric: str) -> dict[str, np.ndarray]:
+    """Per group: the ``(runs, suites)`` array of ``score_<metric>`` (runs: training seeds,
+    suites in order of appearance; runs missing a suite are dropped)."""
+    suites = list(dict.fromkeys(r["suite"] for r in matrix))
+    out = {}
+    for group in dict.fromkeys(r["group"] for r in matrix):
+        cells: dict[str, dict[str, float]] = {}
+        for r in matrix:
+            if r["group"] == group:
+                cells.setdefault(r["policy"] + "|" + str(r["training_seed"]), {})[r["suite"]] = r[
+                    f"score_{metric}"
+                ]
+        runs = [[c[s] for s in suites] for c in cells.values() if all(s in c for s in suites)]
+        x = np.asarray(runs, dtype=np.float64)
+        if x.size and np.isfinite(x).all():
+            out[group] = x
+    return out
+
+
+def probability_of_improvement(
+    x: np.ndarray, y: np.ndarray, n_resamples: int = 2000, seed: int = 0
+) -> tuple[float, float, float]:
+    """rliable's probability of improvement ``P(X > Y)`` of scores ``x`` ``(n, tasks)`` over
+    ``y`` ``(m, tasks)``: per task the Mann-Whitney statistic ``P(x > y) + P(x = y) / 2`` over
+    all run pairs, averaged over tasks; with its 95 % stratified-bootstrap interval (runs of
+    each policy resampled within each task)."""
+
+    def stat(a: np.ndarray, b: np.ndarray) -> float:
+        gt = (a[:, None, :] > b[None, :, :]).mean(axis=(0, 1))
+        eq = (a[:, None, :] == b[None, :, :]).mean(axis=(0, 1))
+        return float(np.mean(gt + 0.5 * eq))
+
+    point = stat(x, y)
+    if len(x) == 1 and len(y) == 1:
+        return point, point, point
+    rng = np.random.default_rng(seed)
+    tasks = x.shape[1]
+    stats = []
+    for _ in range(n_resamples):
+        ix = rng.integers(len(x), size=(len(x), tasks))
+        iy = rng.integers(len(y), size=(len(y), tasks))
+        stats.append(stat(np.take_along_axis(x, ix, 0), np.take_along_axis(y, iy, 0)))
+    lo, hi = np.quantile(stats, [0.025, 0.975])
+    return point, float(lo), float(hi)
+
+
+def scores_markdown(
+    matrix: Sequence[Mapping[str, Any]], n_resamples: int = 2000, seed: int = 0
+) -> str:
+    """The normalized-score table: per policy group and suite the score of each metric (runs
+    pooled: the IQM over training seeds where there are several), and the IQM over all
+    runs and suites with its 95 % stratified-bootstrap interval."""
+    suites = list(dict.fromkeys(r["suite"] for r in matrix))
+    head = " | ".join(f"{s} success / time / return" for s in suites)
+    lines = [
+        f"| policy | runs | {head} | IQM success score [95% CI] | IQM time score [95% CI] |",
+        "|" + "---|" * (len(suites) + 4),
+    ]
+    per_metric = {m: _runs(matrix, m) for m in ("success", "time")}
+    for group in dict.fromkeys(r["group"] for r in matrix):
+        cells = []
+        for s in suites:
+            sel = [r for r in matrix if r["group"] == group and r["suite"] == s]
+            if not sel:
+                cells.append("–")
+                continue
+            cells.append(
+                " / ".join(
+                    _fmt(float(np.median([r[f"score_{m}"] for r in sel]))) for m in SCORE_METRICS
+                )
+            )
+        agg = []
+        for m in ("success", "time"):
+            x = per_metric[m].get(group)
+            if x is None:
+                agg.append("–")
+                continue
+            p, lo, hi = stratified_bootstrap_iqm(x, n_resamples=n_resamples, seed=seed)
+            agg.append(f"{p:.1f} [{lo:.1f}, {hi:.1f}]")
+        runs = len({(r["policy"], r["training_seed"]) for r in matrix if r["group"] == group})
+        lines.append(f"| {group} | {runs} | " + " | ".join(cells + agg) + " |")
+    return "\n".join(lines)
+
+
+def _fmt(x: float) -> str:
+    return "–" if not math.isfinite(x) else f"{x:.0f}"
+
+
+def _figures(
+    out: Path, matrix: Sequence[Mapping[str, Any]], n_resamples: int, seed: int
+) -> list[str]:
+    """The three rliable figures (file names written into ``out``)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    written = []
+    metrics = ("success", "time")
+    runs = {m: _runs(matrix, m) for m in metrics}
+    groups = [g for g in dict.fromkeys(r["group"] for r in matrix) if g in runs["success"]]
+    if not groups:
+        return written
+    # 1. IQM with stratified-bootstrap intervals
+    fig, axes = plt.subplots(1, 2, figsize=(10, 0.45 * len(groups) + 1.5), sharey=True)
+    for ax, m in zip(axes, metrics, strict=True):
+        for i, g in enumerate(groups):
+            x = runs[m].get(g)
+            if x is None:
+                continue
+            p, lo, hi = stratified_bootstrap_iqm(x, n_resamples=n_resamples, seed=seed)
+            ax.plot([lo, hi], [i, i], lw=6, alpha=0.5, color=f"C{i % 10}")
+            ax.plot([p], [i], "|", ms=14, color="k")
+        ax.set_yticks(range(len(groups)), groups)
+        ax.set_xlabel(f"IQM normalized {m} score (0 random, 100 best baseline)")
+        ax.grid(axis="x", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(out / "scores_iqm.png", dpi=120)
+    plt.close(fig)
+    written.append("scores_iqm.png")
+    # 2. performance profiles: fraction of run-suite scores above tau
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
+    for ax, m in zip(axes, metrics, strict=True):
+        every = np.concatenate([v.ravel() for v in runs[m].values()])
+        taus = np.linspace(min(0.0, every.min()), max(110.0, every.max()), 200)
+        for i, g in enumerate(groups):
+            x = runs[m].get(g)
+            if x is None:
+                continue
+            ax.plot(
+                taus, (x.ravel()[None, :] > taus[:, None]).mean(axis=1), label=g, color=f"C{i % 10}"
+            )
+        ax.set_xlabel(f"normalized {m} score tau")
+        ax.set_ylabel("fraction of runs x suites with score > tau")
+        ax.grid(alpha=0.3)
+    axes[-1].legend(fontsize=7, loc="lower left")
+    fig.tight_layout()
+    fig.savefig(out / "scores_profiles.png", dpi=120)
+    plt.close(fig)
+    written.append("scores_profiles.png")
+    # 3. probability of improvement over the best baseline (by IQM time score)
+    base = [g for g in groups if g in BEST_BASELINES and g in runs["time"]]
+    if base:
+        ref = max(
+            base,
+            key=lambda g: stratified_bootstrap_iqm(runs["time"][g], n_resamples=10, seed=seed)[0],
+        )
+        others = [g for g in groups if g != ref and g in runs["time"]]
+        fig, ax = plt.subplots(figsize=(6, 0.45 * len(others) + 1.5))
+        for i, g in enumerate(others):
+            p, lo, hi = probability_of_improvement(
+                runs["time"][g], runs["time"][ref], n_resamples, seed
+            )
+            ax.plot([lo, hi], [i, i], lw=6, alpha=0.5, color=f"C{i % 10}")
+            ax.plot([p], [i], "|", ms=14, color="k")
+        ax.axvline(0.5, ls="--", color="grey")
+        ax.set_xlim(-0.03, 1.03)
+        ax.set_yticks(range(len(others)), others)
+        ax.set_xlabel(f"P(policy > {ref}) on the normalized time score")
+        fig.tight_layout()
+        fig.savefig(out / "scores_improvement.png", dpi=120)
+        plt.close(fig)
+        written.append("scores_improvement.png")
+    return written
+
+
+def write_scores(
+    out: str | Path,
+    rows: Iterable[Mapping[str, Any]],
+    *,
+    references: Mapping[str, Any] | str | Path | None = None,
+    n_resamples: int = 2000,
+    seed: int = 0,
+    plots: bool = True,
+) -> str:
+    """Write ``scores.csv`` (:func:`score_matrix`) and the figures into ``out`` and return the
+    markdown section of the report (empty if no suite has references)."""
+    out = Path(out)
+    matrix = score_matrix(rows, references)
+    if not matrix:
+        return ""
+    out.mkdir(parents=True, exist_ok=True)
+    with (out / "scores.csv").open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(matrix[0]))
+        w.writeheader()
+        w.writerows(matrix)
+    figures = _figures(out, matrix, n_resamples, seed) if plots else []
+    parts = [
+        "## Normalized scores",
+        "",
+        "Per suite 0 = `random`, 100 = the best of "
+        + ", ".join(f"`{b}`" for b in BEST_BASELINES)
+        + " (`agents/evaluation/reference_scores.json`); `success`: success rate, "
+        "`time`: mean of speed bound / time to success (0 for a failure), `return`: mean "
+        "episode return.  Raw matrix (per training seed x suite): `scores.csv`.",
+        "",
+        scores_markdown(matrix, n_resamples, seed),
+        "",
+    ]
+    parts += [f"![{Path(f).stem}]({f})" for f in figures]
+    return "\n".join(parts) + "\n"
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="Normalized scores of a benchmark run.")
+    sub = parser.add_subparsers(dest="command", required=True)
+    ref = sub.add_parser("references", help="regenerate the reference scores file")
+    ref.add_argument("episodes_csv")
+    ref.add_argument("--out", default=str(REFERENCE_FILE))
+    mat = sub.add_parser("matrix", help="write scores.csv, the figures and scores.md")
+    mat.add_argument("episodes_csv")
+    mat.add_argument("--out", required=True, help="output directory")
+    mat.add_argument("--resamples", type=int, default=2000)
+    args = parser.parse_args(argv)
+    given = list(argv) if argv is not None else sys.argv[1:]
+    try:
+        rows = read_rows(args.episodes_csv)
+        if args.command == "references":
+            data = {
+                "command": "python -m planar3p_agents.evaluation.normalized_scores "
+                + shlex.join(given),
+                "random": RANDOM_POLICY,
+                "best_of": list(BEST_BASELINES),
+                "suites": make_references(rows),
+            }
+            Path(args.out).write_text(json.dumps(data, indent=1) + "\n")
+            print(json.dumps(data["suites"], indent=1))
+        else:
+            text = write_scores(args.out, rows, n_resamples=args.resamples)
+            if not text:
+                raise ValueError("no suite of this run has reference scores")
+            (Path(args.out) / "scores.md").write_text(text)
+            print(text)
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
