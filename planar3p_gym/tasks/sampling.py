@@ -14,6 +14,7 @@ from __future__ import annotations
 import itertools
 import math
 import operator
+from collections import deque
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
@@ -272,47 +273,84 @@ class PoseSampler:
 
     Every random number comes from the generator passed to :meth:`draw`; :meth:`clear` drops
     the pool (the environment does so when it is re-seeded, so a seed fixes the episode).
+
+    The pool is kept per assembly mode, each pose with its place in the order drawn, so that
+    :meth:`draw` (the next pose of either assembly mode) and :meth:`draw_many` (the next poses
+    of one) take constant time however many poses of the other assembly mode have piled up.
     """
 
     def __init__(self, design: Design, mode: ArrayLike, cfg: TaskConfig) -> None:
         self.design = design
         self.mode = tuple(int(m) for m in np.asarray(mode).tolist())
         self.cfg = cfg
-        self._pool: list[tuple[np.ndarray, float]] = []
+        self._pools: dict[float, deque[tuple[int, np.ndarray]]] = {1.0: deque(), -1.0: deque()}
+        self._count = 0  # poses pooled so far: the order of the next one
 
     def clear(self) -> None:
         """Forget the pooled poses."""
-        self._pool.clear()
+        for pool in self._pools.values():
+            pool.clear()
+
+    def __len__(self) -> int:
+        """The number of pooled poses."""
+        return sum(len(pool) for pool in self._pools.values())
+
+    def pooled(self) -> list[tuple[np.ndarray, float]]:
+        """The pooled poses and their assembly modes, in the order they are handed out."""
+        items = [(k, pose, det) for det, pool in self._pools.items() for k, pose in pool]
+        return [(pose, det) for _, pose, det in sorted(items, key=lambda item: item[0])]
+
+    def push_front(self, pose: np.ndarray, det: float) -> None:
+        """Put an acceptable pose of assembly mode ``det`` first in line."""
+        first = min((pool[0][0] for pool in self._pools.values() if pool), default=self._count)
+        self._pools[float(det)].appendleft((first - 1, np.asarray(pose, dtype=np.float64)))
 
     def _refill(self, rng: np.random.Generator) -> None:
         try:
             poses, dets = sample_poses(self.design, self.mode, rng, self.cfg)
         except ValueError:
             # Rare in a mode whose acceptable poses are sparse: if the mode has poses at all
-            # (check_mode raises if not), keep drawing from the same stream until one is found.
+            # (check_mode raises if not), keep drawing from the same stream (a bounded number
+            # of batches: ValueError if even those find none).
             check_mode(self.design, self.mode, self.cfg)
-            poses, dets = sample_poses(self.design, self.mode, rng, self.cfg, max_batches=None)
-        self._pool.extend(zip(poses, dets.tolist(), strict=True))
+            poses, dets = sample_poses(
+                self.design, self.mode, rng, self.cfg, max_batches=REFILL_BATCHES
+            )
+        for pose, det in zip(poses, dets.tolist(), strict=True):
+            self._pools[det].append((self._count, pose))
+            self._count += 1
 
     def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, float]:
         """The next pose and its assembly mode."""
-        if not self._pool:
+        up, down = self._pools[1.0], self._pools[-1.0]
+        if not (up or down):
             self._refill(rng)
-        return self._pool.pop(0)
+        if up and (not down or up[0][0] < down[0][0]):
+            return up.popleft()[1], 1.0
+        return down.popleft()[1], -1.0
 
     def draw_many(self, rng: np.random.Generator, assembly: float, n: int) -> np.ndarray:
         """Up to ``n`` next poses of assembly mode ``assembly``, shape (m, 3); ``m == 0`` when
-        none turned up in 50 refills (the assembly mode is rare or empty in this working
-        mode: the caller draws another start)."""
-        for _ in range(50):
-            picked = [i for i, (_, det) in enumerate(self._pool) if det == assembly][:n]
-            if picked:
-                out = np.array([self._pool[i][0] for i in picked])
-                for i in reversed(picked):
-                    del self._pool[i]
-                return out
+        none turned up in :data:`DRAW_MANY_REFILLS` refills (the assembly mode is rare or empty
+        in this working mode: the caller draws another start)."""
+        pool = self._pools.get(assembly)
+        if pool is None:  # not an assembly mode (+-1): no pose has it
+            return np.empty((0, 3))
+        for _ in range(DRAW_MANY_REFILLS):
+            if pool:
+                return np.array([pool.popleft()[1] for _ in range(min(n, len(pool)))])
             self._refill(rng)
         return np.empty((0, 3))
+
+
+#: Refills :meth:`PoseSampler.draw_many` tries before it gives up (returns no pose).
+DRAW_MANY_REFILLS = 50
+#: Batches of 4096 poses a refill draws after the first 200 found none, in a working mode that
+#: :func:`check_mode` accepts, before it raises ``ValueError`` (a budget: about 8 million
+#: poses; the check found at least two acceptable poses among its 1.6 million, so some ten
+#: are expected here, and the budget runs out with a probability below 1e-4 of a refill that
+#: already came up empty, itself rare).
+REFILL_BATCHES = 2000
 
 
 def sample_pair(

@@ -1,0 +1,159 @@
+"""Reset times of every registered id: ``env.reset(seed=s)`` for ``s`` in a range of seeds.
+
+Prints, per id, the median, p99, p99.9 and maximum wall time of one seeded reset (ms) and the
+seeds of the slowest resets.  The target of issue 27 is a p99.9 below 100 ms over 10,000 seeds
+on a quiet machine; this script measures, it asserts nothing (timings depend on the machine, so
+no test times anything).
+
+Each id is made once with ``gym.make`` (the construction is not timed) and reset once unseeded
+before the timed resets (first-use costs such as lazily built tables are not counted).
+
+Usage::
+
+    .venv/bin/python scripts/bench_resets.py                        # every id, 10,000 seeds
+    .venv/bin/python scripts/bench_resets.py --seeds 500 --ids Planar3PModeChange-v0
+    .venv/bin/python scripts/bench_resets.py --ids Planar3PModeChange-v0 \\
+        --kwargs '{"working_mode": "random"}'
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+from typing import Any
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+
+import gymnasium as gym
+import numpy as np
+
+import planar3p_gym
+from planar3p_gym.envs.registry import ENV_SPECS
+
+ALL_IDS = tuple(row.id for row in ENV_SPECS)
+#: How many of the slowest seeds are listed per id.
+SLOWEST = 5
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # one line, status 2
+        print(f"bench_resets.py: error: {message}", file=sys.stderr)
+        raise SystemExit(2)
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    """Parse and validate the arguments; a bad value exits with status 2 and one line naming
+    the flag, before any environment is made."""
+    ap = _Parser(
+        description="Median, p99, p99.9 and maximum reset time of every registered id.",
+        formatter_class=argparse.ArgumentDefaultsHelpFormatter,
+    )
+    ap.add_argument("--seeds", type=int, default=10_000, help="number of seeded resets per id")
+    ap.add_argument("--first-seed", type=int, default=0, help="the first seed of the range")
+    ap.add_argument(
+        "--ids",
+        nargs="+",
+        default=list(ALL_IDS),
+        metavar="ID",
+        help=f"environment ids to measure (default: all, {', '.join(ALL_IDS)})",
+    )
+    ap.add_argument(
+        "--kwargs",
+        default="{}",
+        metavar="JSON",
+        help='keyword arguments of gym.make for every id, a JSON object, e.g. '
+        '\'{"working_mode": "random"}\'',
+    )
+    ap.add_argument("--json", metavar="PATH", help="also write the figures as JSON to PATH")
+    args = ap.parse_args(argv)
+    if args.seeds < 1:
+        ap.error(f"argument --seeds: must be >= 1, got {args.seeds}")
+    if args.first_seed < 0:
+        ap.error(f"argument --first-seed: must be >= 0, got {args.first_seed}")
+    unknown = [i for i in args.ids if i not in ALL_IDS]
+    if unknown:
+        ap.error(f"argument --ids: unknown id(s) {', '.join(unknown)}; known: {', '.join(ALL_IDS)}")
+    try:
+        kwargs = json.loads(args.kwargs)
+    except json.JSONDecodeError as exc:
+        ap.error(f"argument --kwargs: not JSON ({exc})")
+    if not isinstance(kwargs, dict):
+        ap.error(f"argument --kwargs: must be a JSON object, got {args.kwargs}")
+    args.kwargs = kwargs
+    if args.json is not None:
+        path = os.path.abspath(args.json)
+        parent = os.path.dirname(path)
+        if os.path.isdir(path):
+            ap.error(f"argument --json: {args.json} is a directory")
+        if not os.path.isdir(parent):
+            ap.error(f"argument --json: directory {parent} does not exist")
+        if not os.access(parent, os.W_OK):
+            ap.error(f"argument --json: directory {parent} is not writable")
+    return args
+
+
+def reset_times(env_id: str, seeds: range, kwargs: dict[str, Any]) -> np.ndarray:
+    """Wall times (s) of ``reset(seed=s)`` for each seed, in order."""
+    env = gym.make(env_id, **kwargs)
+    try:
+        env.reset()  # first-use costs
+        out = np.empty(len(seeds))
+        clock = time.perf_counter
+        for k, seed in enumerate(seeds):
+            t0 = clock()
+            env.reset(seed=seed)
+            out[k] = clock() - t0
+        return out
+    finally:
+        env.close()
+
+
+def summary(times: np.ndarray, seeds: range) -> dict[str, Any]:
+    """Median, p99, p99.9, max (ms) and the slowest seeds."""
+    ms = 1e3 * times
+    slow = np.argsort(ms)[::-1][:SLOWEST]
+    return {
+        "resets": int(ms.size),
+        "median_ms": float(np.median(ms)),
+        "p99_ms": float(np.percentile(ms, 99)),
+        "p99.9_ms": float(np.percentile(ms, 99.9)),
+        "max_ms": float(ms.max()),
+        "slowest": [[int(seeds[i]), round(float(ms[i]), 2)] for i in slow],
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    print(
+        f"python {platform.python_version()}, gymnasium {gym.__version__}, "
+        f"planar3p_gym {planar3p_gym.__version__}, {os.cpu_count()} CPUs, "
+        f"load average {os.getloadavg()[0]:.2f}; seeds {seeds.start}..{seeds.stop - 1}"
+        + (f", kwargs {args.kwargs}" if args.kwargs else "")
+    )
+    header = f"{'id':<28} {'resets':>7} {'median':>8} {'p99':>8} {'p99.9':>8} {'max':>8}  slowest seeds (ms)"
+    print(header)
+    results = {}
+    for env_id in args.ids:
+        fig = summary(reset_times(env_id, seeds, args.kwargs), seeds)
+        results[env_id] = fig
+        slow = ", ".join(f"{s}: {t:g}" for s, t in fig["slowest"])
+        print(
+            f"{env_id:<28} {fig['resets']:>7} {fig['median_ms']:>8.2f} {fig['p99_ms']:>8.2f} "
+            f"{fig['p99.9_ms']:>8.2f} {fig['max_ms']:>8.2f}  {slow}",
+            flush=True,
+        )
+    print(f"(times in ms; load average {os.getloadavg()[0]:.2f} at the end)")
+    if args.json is not None:
+        with open(args.json, "w", encoding="utf-8") as fh:
+            json.dump({"seeds": [seeds.start, seeds.stop], "kwargs": args.kwargs, **results}, fh, indent=2)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
