@@ -66,7 +66,7 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         "--kwargs",
         default="{}",
         metavar="JSON",
-        help='keyword arguments of gym.make for every id, a JSON object, e.g. '
+        help="keyword arguments of gym.make for every id, a JSON object, e.g. "
         '\'{"working_mode": "random"}\'',
     )
     ap.add_argument("--json", metavar="PATH", help="also write the figures as JSON to PATH")
@@ -151,7 +151,9 @@ def main(argv: list[str] | None = None) -> int:
     print(f"(times in ms; load average {os.getloadavg()[0]:.2f} at the end)")
     if args.json is not None:
         with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump({"seeds": [seeds.start, seeds.stop], "kwargs": args.kwargs, **results}, fh, indent=2)
+            json.dump(
+                {"seeds": [seeds.start, seeds.stop], "kwargs": args.kwargs, **results}, fh, indent=2
+            )
     return 0
 
 

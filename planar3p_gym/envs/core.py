@@ -12,13 +12,12 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from planar3p_gym.envs.arguments import (
+from planar3p_gym import checks
+from planar3p_gym.checks import (
     RESET_OPTIONS,
     check_reset_options,
     config_from,
     design_from,
-    is_int,
-    is_number,
     mode_from,
     parse_action,
 )
@@ -206,37 +205,38 @@ class Planar3PEnv(gym.Env):
                 )
             self._fixed_mode = None
         else:
-            self._fixed_mode = mode_from(working_mode)
-        if not (is_number(control_frequency) and 1.0 <= control_frequency <= 10_000.0):
-            raise ValueError(
-                f"control_frequency must be a number in [1, 10000] (Hz), got {control_frequency!r}"
-            )
-        if not isinstance(projection, (bool, np.bool_)):
-            raise ValueError(f"projection must be True or False, got {projection!r}")
+            self._fixed_mode = mode_from(working_mode, "working_mode")
+        control_frequency = checks.number(
+            control_frequency, "control_frequency", low=1.0, high=10_000.0, unit="Hz"
+        )
+        projection = checks.flag(projection, "projection")
         if substeps is None:
             substeps = PROJECTED_SUBSTEPS if projection else DEFAULT_SUBSTEPS
         if solver_iterations is None:
             solver_iterations = PROJECTED_ITERATIONS if projection else DEFAULT_ITERATIONS
-        for name, value in (("substeps", substeps), ("solver_iterations", solver_iterations)):
-            if not (is_int(value) and 1 <= value <= 1000):
-                raise ValueError(f"{name} must be an integer in [1, 1000], got {value!r}")
-        if not (is_number(breakdown_threshold) and 0 < breakdown_threshold < 1):
-            raise ValueError(f"breakdown_threshold must be in (0, 1), got {breakdown_threshold!r}")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be one of {self.metadata['render_modes']} or None, "
-                f"got {render_mode!r}"
-            )
+        substeps = checks.integer(substeps, "substeps", low=1, high=1000)
+        solver_iterations = checks.integer(solver_iterations, "solver_iterations", low=1, high=1000)
+        breakdown_threshold = checks.number(
+            breakdown_threshold,
+            "breakdown_threshold",
+            low=0.0,
+            high=1.0,
+            low_open=True,
+            high_open=True,
+        )
+        if render_mode is not None:
+            checks.choice(render_mode, "render_mode", tuple(self.metadata["render_modes"]))
         self.reward_weights = config_from(reward_weights, RewardWeights, "reward_weights")
         self.task_config = config_from(task_config, TaskConfig, "task_config")
-        if not (
-            isinstance(render_size, (tuple, list))
-            and len(render_size) == 2
-            and all(is_int(v) and 16 <= v <= 8192 for v in render_size)
-        ):
+        if not (isinstance(render_size, (tuple, list)) and len(render_size) == 2):
             raise ValueError(
                 f"render_size must be (width, height) in pixels, 16..8192, got {render_size!r}"
             )
+        render_size = tuple(
+            checks.integer(v, f"render_size[{i}]", low=16, high=8192)
+            for i, v in enumerate(render_size)
+        )
+        travel_goal = checks.flag(travel_goal, "travel_goal")
         self.control_frequency = float(control_frequency)
         self.dt = 1.0 / self.control_frequency
         self.substeps = int(substeps)
@@ -264,8 +264,6 @@ class Planar3PEnv(gym.Env):
             np.concatenate([self._obs_high, self._extra_high]),
             dtype=np.float32,
         )
-        if not isinstance(travel_goal, (bool, np.bool_)):
-            raise ValueError(f"travel_goal must be True or False, got {travel_goal!r}")
         if travel_goal and type(self.task) is not ReachTask:
             raise ValueError(
                 f"travel_goal applies to the reach task (a fixed target per episode), not to "

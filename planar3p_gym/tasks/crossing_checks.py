@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.scalar_kinematics import ScalarKinematics
@@ -49,25 +50,32 @@ class CrossingLimits:
     verify_tolerance: float = 0.01
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.points, int) and self.points >= 2):
-            raise ValueError(f"CrossingLimits.points must be an int >= 2, got {self.points!r}")
-        if not isinstance(self.verify, bool):
-            raise ValueError(f"CrossingLimits.verify must be a bool, got {self.verify!r}")
-        for name, lo, hi in (
-            ("min_serial_margin", 0.0, 1.0),
-            ("travel_margin", 0.0, 0.5),
-        ):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and lo <= v < hi):
-                raise ValueError(f"CrossingLimits.{name} must be in [{lo}, {hi}), got {v!r}")
-        for name in ("travel_gain", "verify_tolerance"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"CrossingLimits.{name} must be finite and > 0, got {v!r}")
-        if not (isinstance(self.speed_fraction, (int, float)) and 0 < self.speed_fraction <= 1):
-            raise ValueError(
-                f"CrossingLimits.speed_fraction must be in (0, 1], got {self.speed_fraction!r}"
+        set_ = object.__setattr__
+        set_(
+            self, "points", checks.integer(self.points, "CrossingLimits.points", low=2, high=10_000)
+        )
+        set_(self, "verify", checks.flag(self.verify, "CrossingLimits.verify"))
+        for name, lo, hi in (("min_serial_margin", 0.0, 1.0), ("travel_margin", 0.0, 0.5)):
+            value = checks.number(
+                getattr(self, name), f"CrossingLimits.{name}", low=lo, high=hi, high_open=True
             )
+            set_(self, name, value)
+        for name in ("travel_gain", "verify_tolerance"):
+            value = checks.number(
+                getattr(self, name), f"CrossingLimits.{name}", low=0.0, low_open=True
+            )
+            set_(self, name, value)
+        set_(
+            self,
+            "speed_fraction",
+            checks.number(
+                self.speed_fraction,
+                "CrossingLimits.speed_fraction",
+                low=0.0,
+                high=1.0,
+                low_open=True,
+            ),
+        )
 
 
 def crossing_path(

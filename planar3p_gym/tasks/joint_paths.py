@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.statics import holding_forces_at
@@ -64,21 +65,37 @@ class PathLimits:
     travel_margin: float = 0.03
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.points, int) and self.points >= 2):
-            raise ValueError(f"PathLimits.points must be an int >= 2, got {self.points!r}")
-        if not 0.0 <= self.min_parallel_margin < 1.0:
-            raise ValueError(
-                "PathLimits.min_parallel_margin must be in [0, 1), got "
-                f"{self.min_parallel_margin!r}"
-            )
-        if not 0.0 < self.max_holding_force <= 1.0:
-            raise ValueError(
-                f"PathLimits.max_holding_force must be in (0, 1], got {self.max_holding_force!r}"
-            )
-        if not 0.0 <= self.travel_margin < 0.5:
-            raise ValueError(
-                f"PathLimits.travel_margin must be in [0, 0.5), got {self.travel_margin!r}"
-            )
+        set_ = object.__setattr__
+        set_(self, "points", checks.integer(self.points, "PathLimits.points", low=2, high=10_000))
+        set_(
+            self,
+            "min_parallel_margin",
+            checks.number(
+                self.min_parallel_margin,
+                "PathLimits.min_parallel_margin",
+                low=0.0,
+                high=1.0,
+                high_open=True,
+            ),
+        )
+        set_(
+            self,
+            "max_holding_force",
+            checks.number(
+                self.max_holding_force,
+                "PathLimits.max_holding_force",
+                low=0.0,
+                high=1.0,
+                low_open=True,
+            ),
+        )
+        set_(
+            self,
+            "travel_margin",
+            checks.number(
+                self.travel_margin, "PathLimits.travel_margin", low=0.0, high=0.5, high_open=True
+            ),
+        )
 
 
 @dataclass(frozen=True)

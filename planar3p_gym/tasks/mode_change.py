@@ -63,6 +63,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.sim.physics import SimState
@@ -127,14 +128,10 @@ class ModeChangeTask(TravelShaping, Task):
         pair_tries: int = 8,
         travel_shaping: float = 0.0,
     ) -> None:
-        if not (isinstance(flips, int) and not isinstance(flips, bool) and 1 <= flips <= 3):
-            raise ValueError(f"flips must be 1, 2 or 3 (legs to flip), got {flips!r}")
-        if limits is not None and not isinstance(limits, PathLimits):
-            raise ValueError(f"limits must be a PathLimits, got {limits!r}")
+        self.flips = checks.integer(flips, "flips", low=1, high=3)
+        self.limits = checks.config_from(limits, PathLimits, "path_limits")
         self.pair_tries = count_option(pair_tries, "pair_tries")
         self.travel_shaping = check_travel_shaping(travel_shaping)
-        self.flips = flips
-        self.limits = limits or PathLimits()
 
     # ------------------------------------------------------------------ set-up
     def arguments(self) -> dict[str, Any]:
@@ -182,6 +179,24 @@ class ModeChangeTask(TravelShaping, Task):
                 f"target_working_mode {mt} equals working_mode {ms}: a mode change needs at "
                 "least one leg in another working mode"
             )
+        both_poses = options.get("start") is not None and options.get("target") is not None
+        if (ms is not None or mt is not None) and not both_poses:
+            # bounded, cached, fixed internal seed: modes without a certified pair fail here
+            if ms is not None and mt is not None:
+                if not self._requested_pair_viable(ms, mt):
+                    raise ValueError(self._no_pair_message(ms, mt))
+            elif ms is not None and not self._target_choices(ms):
+                raise ValueError(
+                    f"working_mode {ms} has no certified mode change to a mode with "
+                    f"{self.flips} leg(s) flipped (fixed internal seed); this environment "
+                    f"samples {self.pairs}"
+                )
+            elif mt is not None and not self._start_choices(mt):
+                raise ValueError(
+                    f"target_working_mode {mt} has no certified mode change from any of the "
+                    f"working modes {self.env.modes} (fixed internal seed); this environment "
+                    f"samples {self.pairs}"
+                )
         if ms is None and len(self.pairs) == 1:
             ms = next(iter(self.pairs))
         design = self.env.design
@@ -191,21 +206,41 @@ class ModeChangeTask(TravelShaping, Task):
             options["target"] = task.check_pose(design, options["target"], mt, "target")
         return options
 
+    def _target_choices(self, ms: ModeTriple) -> list[ModeTriple]:
+        """The target modes drawn for start mode ``ms``: the construction-time list, or for a
+        requested start mode not in it, the modes ``flips`` legs away with a certified pair."""
+        if ms in self.pairs:
+            return self.pairs[ms]
+        return [m for m in single_flip_modes(ms, self.flips) if self._requested_pair_viable(ms, m)]
+
+    def _start_choices(self, mt: ModeTriple) -> list[ModeTriple]:
+        """The start modes drawn for a requested target mode ``mt`` (as :meth:`_target_choices`)."""
+        listed = [m for m in self.pairs if mt in self.pairs[m]]
+        if listed:
+            return listed
+        return [m for m in self.env.modes if m != mt and self._requested_pair_viable(m, mt)]
+
+    def _no_pair_message(self, ms: ModeTriple, mt: ModeTriple) -> str:
+        return (
+            f"no certified mode change from working mode {ms} to {mt} found among "
+            f"{VIABILITY_TRIES} candidate pairs (fixed internal seed); request another pair of "
+            f"working modes (this environment samples {self.pairs})"
+        )
+
     def episode_spec(self, rng: np.random.Generator, options: dict[str, Any]) -> dict[str, Any]:
         design = self.env.design
         ms = options.get("working_mode")
         mt = options.get("target_working_mode")
         start, target = options.get("start"), options.get("target")
         if ms is None:
-            if mt is not None:
-                choices = [m for m in self.pairs if mt in self.pairs[m]] or [
-                    m for m in self.env.modes if m != mt
-                ]
-            else:
-                choices = list(self.pairs)
+            choices = list(self.pairs) if mt is None else self._start_choices(mt)
+            if not choices:
+                raise ValueError(f"no start mode has a certified mode change to {mt}")
             ms = choices[int(rng.integers(len(choices)))] if len(choices) > 1 else choices[0]
         if mt is None:
-            choices = self.pairs.get(ms) or single_flip_modes(ms, self.flips)
+            choices = self._target_choices(ms)
+            if not choices:
+                raise ValueError(f"working_mode {ms} has no certified mode change")
             mt = choices[int(rng.integers(len(choices)))] if len(choices) > 1 else choices[0]
         if ms == mt:
             raise ValueError(f"target_working_mode {mt} equals working_mode {ms}")
@@ -216,12 +251,8 @@ class ModeChangeTask(TravelShaping, Task):
         if start is not None and target is not None:
             self._require_path(start, ms, target, mt)
         else:
-            if mt not in self.pairs.get(ms, []) and not self._requested_pair_viable(ms, mt):
-                raise ValueError(
-                    f"no certified mode change from working mode {ms} to {mt} found among 16 "
-                    "candidate pairs (fixed internal seed); request another pair of working "
-                    f"modes (this environment samples {self.pairs})"
-                )
+            if not self._requested_pair_viable(ms, mt):
+                raise ValueError(self._no_pair_message(ms, mt))
             start, target = self._draw(rng, ms, mt, start, target)
         return {
             "task": self.name,
@@ -278,7 +309,7 @@ class ModeChangeTask(TravelShaping, Task):
                     kinematics.assembly_mode(design, s, kinematics.inverse(design, s, ms).rho)
                 )
             if target is None:
-                if asm not in target_assemblies(design, mt, cfg):
+                if asm not in task.assembly_modes(design, mt, cfg):
                     if start is not None:
                         break  # the requested start's assembly mode has no target in mt
                     continue  # (no target to draw for this start: draw another)
@@ -349,34 +380,9 @@ DRAW_ROUNDS = 200
 #: ... when the start or the target is requested (a budget: a requested pose with no certified
 #: partner is rejected after this many candidate partners, ``pair_tries`` per round).
 GIVEN_ROUNDS = 25
-#: Batches of 4096 uniform poses (fixed seed) in which :func:`target_assemblies` looks for the
-#: assembly modes of a working mode's acceptable poses.
-ASSEMBLY_BATCHES = 32
 #: Candidate pairs the viability check of a pair of working modes certifies (two targets per
 #: start, fixed internal seed).
 VIABILITY_TRIES = 16
-
-
-@lru_cache(maxsize=256)
-def target_assemblies(design: Design, mode: ModeTriple, cfg: task.TaskConfig) -> frozenset[float]:
-    """The assembly modes (``sign det A``, +-1.0) among the acceptable poses of working
-    ``mode`` found in :data:`ASSEMBLY_BATCHES` batches of uniform poses (fixed internal seed,
-    cached).  A start whose assembly mode is not among them has no target in ``mode`` (the
-    rare exception would take hundreds of batches to find): the sampler draws another start
-    rather than search the target mode's pool for it.  (On the default design, working mode
-    ``(+1, +1, -1)`` has no pose of assembly mode -1 in these batches: a start of that
-    assembly mode in ``(+1, +1, +1)`` has no partner there.)"""
-    rng = np.random.default_rng(0)
-    found: set[float] = set()
-    for _ in range(ASSEMBLY_BATCHES):
-        try:
-            _, asm = task.sample_poses(design, mode, rng, cfg, max_batches=1)
-        except ValueError:
-            continue
-        found |= set(asm.tolist())
-        if len(found) == 2:
-            break
-    return frozenset(found)
 
 
 @lru_cache(maxsize=64)

@@ -11,7 +11,6 @@ task the environment samples can be solved without crossing a singularity.
 
 from __future__ import annotations
 
-import itertools
 import math
 import operator
 from collections import deque
@@ -23,6 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from planar3p_gym import checks
 from planar3p_gym.checks import as_finite_float, as_int
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
@@ -34,6 +34,7 @@ __all__ = [
     "SCHEDULABLE_FIELDS",
     "PoseSampler",
     "TaskConfig",
+    "assembly_modes",
     "check_mode",
     "check_pose",
     "has_pairs",
@@ -203,17 +204,16 @@ def sample_poses(
     rng: np.random.Generator,
     cfg: TaskConfig,
     batch: int = 4096,
-    max_batches: int | None = 200,
+    max_batches: int = 200,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Acceptable poses drawn by rejection: ``(poses (M, 3), assembly (M,))``, ``M >= 1``.
 
     Raises ``ValueError`` if the working mode has no acceptable pose after ``max_batches``
-    batches; ``max_batches=None`` draws until one is found (only for a mode known to have
-    acceptable poses, see :func:`check_mode`).
+    batches (a budget: every sampler loop of the package is bounded).
     """
     x0, x1, _, h = design.search_rectangle
     mode = np.asarray(mode, dtype=np.float64)
-    for _ in range(max_batches) if max_batches is not None else itertools.count():
+    for _ in range(max_batches):
         u = rng.random((batch, 3))
         poses = np.column_stack(
             [x0 + (x1 - x0) * u[:, 0], h * u[:, 1], math.pi * (2.0 * u[:, 2] - 1.0)]
@@ -291,7 +291,7 @@ class PoseSampler:
         for pool in self._pools.values():
             pool.clear()
 
-    def __len__(self) -> int:
+    def size(self) -> int:
         """The number of pooled poses."""
         return sum(len(pool) for pool in self._pools.values())
 
@@ -369,12 +369,13 @@ def sample_pair(
     ``clear_path``, is joined to the start by a straight path clear of singularities.
 
     With neither given, draws until a pair is found (after ``max_tries`` failed starts it
-    checks, once, that the working mode has pairs at all: :func:`check_mode`); a given start
-    or target that cannot be paired in ``max_tries`` tries raises ``ValueError``.
+    checks, once, that the working mode has pairs at all: :func:`check_mode`), at most
+    ``PAIR_TRIES_FACTOR * max_tries`` starts (a budget; then ``ValueError``); a given start or
+    target that cannot be paired in ``max_tries`` tries raises ``ValueError``.
     """
     if start is not None and target is not None:
         return start, target
-    sampler = sampler or PoseSampler(design, mode, cfg)
+    sampler = sampler if sampler is not None else PoseSampler(design, mode, cfg)
     free = start is None and target is None
     if free and cfg.near_singular_fraction > 0 and rng.random() < cfg.near_singular_fraction:
         pair = _near_singular_pair(design, mode, rng, cfg, sampler)
@@ -384,10 +385,8 @@ def sample_pair(
         pair = _detour_pair(design, mode, rng, cfg, sampler)
         if pair is not None:
             return pair
-    for attempt in itertools.count():
+    for attempt in range(max_tries * PAIR_TRIES_FACTOR if free else max_tries):
         if attempt == max_tries:
-            if not free:
-                break
             check_mode(design, tuple(int(m) for m in np.asarray(mode).tolist()), cfg)
         if start is None:
             s, det = sampler.draw(rng)
@@ -411,6 +410,11 @@ def sample_pair(
         "could not pair a start with a target under the task's constraints "
         "(same assembly mode, minimum distance, clear path); relax TaskConfig or give both"
     )
+
+
+#: Starts :func:`sample_pair` draws for a free pair, in units of ``max_tries``, before it gives
+#: up (a budget: a working mode that passes :func:`check_mode` has pairs far more often).
+PAIR_TRIES_FACTOR = 20
 
 
 #: Candidate targets screened per start by :func:`_near_singular_pair`, and starts tried.
@@ -572,15 +576,42 @@ def _mode_problem(design: Design, mode: tuple[int, int, int], cfg: TaskConfig) -
     )
 
 
+#: Batches of 4096 uniform poses (fixed seed) in which :func:`assembly_modes` looks for the
+#: assembly modes of a working mode's acceptable poses.
+ASSEMBLY_BATCHES = 32
+
+
+def assembly_modes(design: Design, mode: ArrayLike, cfg: TaskConfig) -> frozenset[float]:
+    """The assembly modes (``sign det A``, +-1.0) among the acceptable poses of working
+    ``mode`` found in :data:`ASSEMBLY_BATCHES` batches of uniform poses (fixed internal seed,
+    cached).  A pose of another assembly mode has no partner there in practice (one would take
+    hundreds of batches to turn up): samplers draw another pose rather than search for one.
+    (On the default design, working mode ``(+1, +1, -1)`` has no pose of assembly mode -1 in
+    these batches.)"""
+    return _assembly_modes(design, tuple(int(m) for m in np.asarray(mode).tolist()), cfg)
+
+
+@lru_cache(maxsize=256)
+def _assembly_modes(
+    design: Design, mode: tuple[int, int, int], cfg: TaskConfig
+) -> frozenset[float]:
+    rng = np.random.default_rng(0)
+    found: set[float] = set()
+    for _ in range(ASSEMBLY_BATCHES):
+        try:
+            _, asm = sample_poses(design, mode, rng, cfg, max_batches=1)
+        except ValueError:
+            continue
+        found |= set(asm.tolist())
+        if len(found) == 2:
+            break
+    return frozenset(found)
+
+
 def check_pose(design: Design, pose: ArrayLike, mode: ArrayLike, name: str) -> np.ndarray:
     """Validate a user-given pose: 3 finite numbers, reachable in ``mode`` within the stroke and
     not at a parallel singularity.  Returns it as a float array, or raises ``ValueError``."""
-    try:
-        p = np.asarray(pose, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be 3 numbers (x, y, theta), got {pose!r}") from exc
-    if p.shape != (3,) or not np.isfinite(p).all():
-        raise ValueError(f"{name} must be 3 finite numbers (x, y, theta), got {pose!r}")
+    p = checks.numbers(pose, 3, name, " (x, y, theta)")
     rho, reachable = kinematics.inverse(design, p, mode)
     if not bool(reachable):
         raise ValueError(
