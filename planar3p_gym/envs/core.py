@@ -21,6 +21,7 @@ from planar3p_gym.checks import (
     mode_from,
     parse_action,
 )
+from planar3p_gym.envs.end_reason import END_REASONS, TERMINATION_REASONS, TIME_LIMIT
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures, ScalarKinematics
@@ -47,9 +48,11 @@ from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
     "DEFAULT_WORKING_MODE",
+    "END_REASONS",
     "OBSERVATION_ARGUMENTS",
     "RESET_OPTIONS",
     "TERMINATION_REASONS",
+    "TIME_LIMIT",
     "Planar3PEnv",
     "check_reset_options",
     "parse_action",
@@ -61,8 +64,6 @@ DEFAULT_WORKING_MODE: tuple[int, int, int] = (1, 1, -1)
 #: Arguments of :class:`Planar3PEnv` that change what a policy observes (the shape of the
 #: observation): a model trained with them must be played with them.
 OBSERVATION_ARGUMENTS: tuple[str, ...] = ("travel_goal",)
-#: Values of ``info["termination_reason"]`` (``None`` while the episode runs).
-TERMINATION_REASONS = ("success", "singularity_crossing", "physics_breakdown")
 
 
 #: Keys of :meth:`Planar3PEnv.get_keys_to_action`: (+x, -x) for sliders 1, 2, 3.
@@ -129,7 +130,11 @@ class Planar3PEnv(gym.Env):
     (``"physics_breakdown"``); ``info["termination_reason"]`` says which.  A leg swinging past
     the perpendicular to its rail (a serial singularity) changes the working mode without ending
     the episode; ``info["working_mode_changed"]`` reports it.  ``truncated`` only
-    by the registered time limit (``max_episode_steps=250``, 5 s at 50 Hz).
+    by the registered time limit (``max_episode_steps=250``, 5 s at 50 Hz; Gymnasium's
+    ``TimeLimit`` wrapper): ``info["termination_reason"]`` stays ``None`` then, and the end is
+    named ``"time_limit"`` (:func:`planar3p_gym.envs.end_reason.end_reason` names any end from
+    the step's flags and ``info``, with the names of the training metrics and the benchmark,
+    :data:`END_REASONS`; ``EndReason(gym.make(...))`` puts the name in ``info`` as well).
 
     ## Arguments
     - ``design``: a :class:`Design`, a dict of its fields, or a preset name (``"fig8"``,
@@ -601,7 +606,10 @@ class Planar3PEnv(gym.Env):
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Restore a :meth:`get_state` snapshot (``ValueError`` if it is not one, or was taken
-        from an environment with other settings; nothing is changed then)."""
+        from an environment with other settings; nothing is changed then).  This restores the
+        environment; for one made with ``gym.make``, whose ``TimeLimit`` wrapper counts the
+        episode's steps on its own, use :func:`planar3p_gym.envs.end_reason.restore_state`
+        ``(env, state)``, which sets that counter too."""
         keys = {"config", "sim", "np_random", "np_random_seed", "task", "episode"}
         if not isinstance(state, dict) or set(state) != keys:
             raise ValueError("state must be a snapshot from Planar3PEnv.get_state()")
