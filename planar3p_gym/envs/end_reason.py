@@ -31,7 +31,7 @@ from typing import Any
 
 import gymnasium as gym
 from gymnasium.utils import RecordConstructorArgs
-from gymnasium.wrappers import OrderEnforcing, TimeLimit
+from gymnasium.wrappers import TimeLimit
 
 __all__ = [
     "END_REASONS",
@@ -66,18 +66,16 @@ def end_reason(terminated: Any, truncated: Any, info: dict[str, Any]) -> str | N
 def restore_state(env: gym.Env, state: dict[str, Any]) -> None:
     """Restore a :meth:`Planar3PEnv.get_state` snapshot into ``env``, a made environment (or
     the environment itself): the unwrapped environment's ``set_state``, then the step counter
-    of every ``TimeLimit`` in the wrapper chain set to the snapshot's step and
-    ``OrderEnforcing``'s reset flag to whether the snapshot is of a running episode, so ``env``
+    of every ``TimeLimit`` in the wrapper chain set to the snapshot's step, so ``env``
     continues exactly as the environment the snapshot was taken from (``ValueError``, and
-    nothing changed, if ``state`` is not a snapshot for this environment)."""
+    nothing changed, if ``state`` is not a snapshot for this environment).  As for stepping,
+    Gymnasium's wrappers want a made environment reset once before (``OrderEnforcing``)."""
     env.unwrapped.set_state(state)  # type: ignore[attr-defined]
     steps = int(state["episode"]["_steps"])
     layer = env
     while isinstance(layer, gym.Wrapper):
         if isinstance(layer, TimeLimit):
             layer._elapsed_steps = steps  # gymnasium's counter (no public setter)
-        elif isinstance(layer, OrderEnforcing):
-            layer._has_reset = state["sim"] is not None
         layer = layer.env
 
 
