@@ -102,7 +102,7 @@ def test_non_numbers_raise_value_errors_naming_the_argument(value):
             check(value)
         except ZeroDivisionError:
             continue  # (a bool is a flag, a big int an integer)
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             assert type(exc) is ValueError and "the_arg" in str(exc), (value, exc)
         else:
             raise AssertionError(f"accepted {value!r}")
@@ -188,7 +188,7 @@ def test_bad_scalar_arguments_raise_value_errors_naming_them(target, value):
     flag = name in ("projection", "travel_goal")
     if flag and isinstance(value, (bool, np.bool_)):
         return
-    with pytest.raises(Exception) as exc:  # noqa: PT011  (the type is asserted below)
+    with pytest.raises(Exception) as exc:  # (the type is asserted below)
         gym.make(env_id, **{name: value})
     _named(exc, name)
 
@@ -219,7 +219,7 @@ def test_bad_scalar_arguments_raise_value_errors_naming_them(target, value):
 def test_structured_arguments_raise_value_errors_naming_the_field(env_id, kwargs, name):
     """Item 6: ``path_limits={"bogus": 1}`` and ``crossing_limits={...}`` raised TypeError and
     ``working_mode=(1, 1, inf)`` OverflowError."""
-    with pytest.raises(Exception) as exc:  # noqa: PT011
+    with pytest.raises(Exception) as exc:
         gym.make(env_id, **kwargs)
     _named(exc, name)
 
@@ -236,7 +236,7 @@ def test_render_arguments_are_checked():
         if name is None:
             assert Planar3PEnv(**kwargs).render_size == (640, 480)
             continue
-        with pytest.raises(Exception) as exc:  # noqa: PT011
+        with pytest.raises(Exception) as exc:
             Planar3PEnv(**kwargs)
         _named(exc, name)
 
@@ -444,7 +444,7 @@ def test_a_rejected_vector_reset_changes_no_environment():
 def _run(venv, actions):
     out = []
     for a in actions:
-        obs, rew, term, trunc, info = venv.step(a)
+        obs, rew, term, trunc, _ = venv.step(a)
         out.append((obs.tobytes(), rew.tobytes(), term.tobytes(), trunc.tobytes()))
     return out
 
