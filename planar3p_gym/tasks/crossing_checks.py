@@ -15,6 +15,7 @@ from numpy.typing import ArrayLike
 from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
+from planar3p_gym.machine.motions import minimum_jerk
 from planar3p_gym.machine.scalar_kinematics import ScalarKinematics
 from planar3p_gym.sim.physics import Planar3PSim
 from planar3p_gym.tasks.base import ModeTriple
@@ -99,6 +100,33 @@ def crossing_path(
     return True, "ok"
 
 
+def _commands(
+    curve: TravelCurve, dt: float, gain: float, vmax: float
+) -> Callable[[int, tuple[float, float, float]], tuple[float, float, float]]:
+    """:meth:`TravelCurve.command` at step ``k`` (time ``(k + 1) dt``) for measured travels,
+    in plain floats: the same operations in the same order on the same numbers, so the same
+    commands to the bit, at a tenth of the cost of the array version (the demonstration runs a
+    few hundred steps per sampled pair)."""
+    travels, slopes = curve.travels.tolist(), curve.slopes.tolist()
+    last, duration = len(travels) - 2, curve.duration
+
+    def command(k: int, rho: tuple[float, float, float]) -> tuple[float, float, float]:
+        s, s_dot = minimum_jerk((k + 1) * dt, duration)
+        x = s * (last + 1)
+        j = min(int(x), last)
+        w = x - j
+        u = 1.0 - w
+        a, b, sa, sb = travels[j], travels[j + 1], slopes[j], slopes[j + 1]
+        out = []
+        for i in range(3):
+            ref = u * a[i] + w * b[i]
+            v = s_dot * (u * sa[i] + w * sb[i]) + gain * (ref - rho[i])
+            out.append(-vmax if v < -vmax else (vmax if v > vmax else v))
+        return out[0], out[1], out[2]
+
+    return command
+
+
 def verify_crossing(
     design: Design,
     start: ArrayLike,
@@ -126,10 +154,9 @@ def verify_crossing(
     )
     steps = int(math.ceil(curve.duration / sim.dt)) + 1
     worst = 0.0
+    command = _commands(curve, sim.dt, limits.travel_gain, design.max_speed)
     for k in range(steps):
-        v0, v1, v2 = curve.command(
-            (k + 1) * sim.dt, state.rho, limits.travel_gain, design.max_speed
-        ).tolist()
+        v0, v1, v2 = command(k, state.rho)
         state = sim.step_unchecked(v0, v1, v2)
         if not state.finite or state.closure_error > breakdown_distance:
             return False, {
