@@ -33,6 +33,7 @@ import gymnasium as gym
 import numpy as np
 
 import planar3p_gym
+from planar3p_gym.atomic_files import write_atomic
 from planar3p_gym.envs.registry import ENV_SPECS
 
 ALL_IDS = tuple(row.id for row in ENV_SPECS)
@@ -97,20 +98,35 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     return args
 
 
-def reset_times(env_id: str, seeds: range, kwargs: dict[str, Any]) -> np.ndarray:
-    """Wall times (s) of ``reset(seed=s)`` for each seed, in order."""
-    env = gym.make(env_id, **kwargs)
-    try:
-        env.reset()  # first-use costs
-        out = np.empty(len(seeds))
-        clock = time.perf_counter
-        for k, seed in enumerate(seeds):
-            t0 = clock()
-            env.reset(seed=seed)
-            out[k] = clock() - t0
-        return out
-    finally:
-        env.close()
+def make_envs(ids: list[str], kwargs: dict[str, Any]) -> dict[str, gym.Env]:
+    """Every id made with ``kwargs`` (before anything is measured); a rejected ``--kwargs``
+    exits with status 2 and one line."""
+    envs = {}
+    for env_id in ids:
+        try:
+            envs[env_id] = gym.make(env_id, **kwargs)
+        except (ValueError, TypeError) as exc:
+            for env in envs.values():
+                env.close()
+            message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            print(
+                f"bench_resets.py: error: argument --kwargs: {env_id}: {message}", file=sys.stderr
+            )
+            raise SystemExit(2) from None
+    return envs
+
+
+def reset_times(env: gym.Env, seeds: range) -> np.ndarray:
+    """Wall times (s) of ``env.reset(seed=s)`` for each seed, in order (after one unseeded
+    reset, so that first-use costs are not counted)."""
+    env.reset()
+    out = np.empty(len(seeds))
+    clock = time.perf_counter
+    for k, seed in enumerate(seeds):
+        t0 = clock()
+        env.reset(seed=seed)
+        out[k] = clock() - t0
+    return out
 
 
 def summary(times: np.ndarray, seeds: range) -> dict[str, Any]:
@@ -130,17 +146,21 @@ def summary(times: np.ndarray, seeds: range) -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     seeds = range(args.first_seed, args.first_seed + args.seeds)
+    envs = make_envs(args.ids, args.kwargs)
     print(
         f"python {platform.python_version()}, gymnasium {gym.__version__}, "
         f"planar3p_gym {planar3p_gym.__version__}, {os.cpu_count()} CPUs, "
         f"load average {os.getloadavg()[0]:.2f}; seeds {seeds.start}..{seeds.stop - 1}"
         + (f", kwargs {args.kwargs}" if args.kwargs else "")
     )
-    header = f"{'id':<28} {'resets':>7} {'median':>8} {'p99':>8} {'p99.9':>8} {'max':>8}  slowest seeds (ms)"
-    print(header)
+    print(
+        f"{'id':<28} {'resets':>7} {'median':>8} {'p99':>8} {'p99.9':>8} {'max':>8}  "
+        "slowest seeds (ms)"
+    )
     results = {}
-    for env_id in args.ids:
-        fig = summary(reset_times(env_id, seeds, args.kwargs), seeds)
+    for env_id, env in envs.items():
+        fig = summary(reset_times(env, seeds), seeds)
+        env.close()
         results[env_id] = fig
         slow = ", ".join(f"{s}: {t:g}" for s, t in fig["slowest"])
         print(
@@ -150,10 +170,8 @@ def main(argv: list[str] | None = None) -> int:
         )
     print(f"(times in ms; load average {os.getloadavg()[0]:.2f} at the end)")
     if args.json is not None:
-        with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump(
-                {"seeds": [seeds.start, seeds.stop], "kwargs": args.kwargs, **results}, fh, indent=2
-            )
+        record = {"seeds": [seeds.start, seeds.stop], "kwargs": args.kwargs, **results}
+        write_atomic(args.json, json.dumps(record, indent=2) + "\n")
     return 0
 
 
