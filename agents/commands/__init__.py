@@ -39,6 +39,7 @@ COMMANDS: dict[str, str] = {
     "track-curves": "track_curves",
     "bench-env": "bench_env",
     "bench-kinematics": "bench_kinematics",
+    "bench-resets": "bench_resets",
     "soak-end-stops": "soak_end_stops",
     "docs-media": "docs_media",
 }

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from planar3p_agents.evaluation.reach_suites import EpisodeSpec, Suite, suite_id
+from planar3p_gym.envs.end_reason import TIME_LIMIT
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks import sampling as task
@@ -232,7 +233,7 @@ def run_episode(
     task_obj = getattr(base, "task", None)
     can_succeed = "success" in getattr(task_obj, "termination_reasons", ("success",))
     if reason is None:
-        reason = "timeout"
+        reason = TIME_LIMIT
         cause = _diagnose(info, design, base.task_config) if can_succeed else "completed"
     else:
         cause = reason

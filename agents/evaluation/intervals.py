@@ -143,7 +143,7 @@ def summarize(
         "median_min_parallel_margin": _median([r.min_parallel_margin for r in results]),
         "singularity_crossings": causes["singularity_crossing"],
         "physics_breakdowns": causes["physics_breakdown"],
-        "timeouts": sum(r.termination_reason == "timeout" for r in results),
+        "time_limits": sum(r.termination_reason == "time_limit" for r in results),
         "saturation_fraction": float(
             sum(r.saturation_fraction * r.steps for r in results) / total_steps
         ),

@@ -48,7 +48,7 @@ TABLE_HEADER = (
     "| policy | suite | n | success % [95% CI] | IQM return [95% CI] | pos. err. mm | "
     "orient. err. deg | time to success s | time / speed bound (median / p90) | "
     "min parallel margin (worst / median) | "
-    "sing. crossings | breakdowns | timeouts | saturated % | energy J |"
+    "sing. crossings | breakdowns | time limits | saturated % | energy J |"
 )
 
 
@@ -74,7 +74,7 @@ def results_table(summaries: Sequence[dict[str, Any]]) -> str:
                     f"{_fmt(s['median_min_parallel_margin'], 4)}",
                     str(s["singularity_crossings"]),
                     str(s["physics_breakdowns"]),
-                    str(s["timeouts"]),
+                    str(s["time_limits"]),
                     _fmt(100.0 * s["saturation_fraction"], 1),
                     _fmt(s["median_energy"], 3),
                 ]
@@ -311,7 +311,8 @@ DEFINITIONS = """\
 - **min parallel margin**: the smallest parallel margin (inverse condition number of
   `A_bar`) met in an episode: worst episode / median episode.
 - **sing. crossings / breakdowns**: episodes ended by a change of `sign det A` / by the physics
-  breaking down; **timeouts**: episodes cut by the 250-step (5 s) limit.
+  breaking down; **time limits**: episodes cut by the 250-step (5 s) limit (end reason
+  `time_limit`).
 - **saturated %**: share of control steps in which some actuator hit its force limit.
 - **energy**: median over episodes of `sum_t sum_i |F_i rho_dot_i| dt` (J).
 - **Why** (failure causes): a timeout is diagnosed from the final state, in this order:

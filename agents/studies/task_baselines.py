@@ -94,7 +94,7 @@ def run_baselines(
                 obs, _, terminated, truncated, info = env.step(action)
                 if terminated or truncated:
                     break
-            reason = info["termination_reason"] or "timeout"
+            reason = info["termination_reason"] or "time_limit"
             res.reasons[reason] += 1
             if info["is_success"]:
                 res.successes += 1

@@ -52,7 +52,7 @@ def gain_sweep(
                     "suite": name,
                     "gain": float(k),
                     "episodes": len(res),
-                    "failures": sum(r.termination_reason != "timeout" for r in res),
+                    "failures": sum(r.termination_reason != "time_limit" for r in res),
                     "rms_median": float(np.median(rms)),
                     "rms_worst": float(rms.max()),
                 }

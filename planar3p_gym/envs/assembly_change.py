@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from planar3p_gym.checks import config_from
 from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.assembly_change import AssemblyChangeTask, CrossingLimits
@@ -104,6 +105,7 @@ class Planar3PAssemblyChangeEnv(Planar3PEnv):
     ) -> None:
         if "task" in kwargs:
             raise ValueError("Planar3PAssemblyChangeEnv makes its own task; do not pass task=")
+        crossing_limits = config_from(crossing_limits, CrossingLimits, "crossing_limits")
         super().__init__(
             assembly_change_design() if design is None else design,
             working_mode=working_mode,

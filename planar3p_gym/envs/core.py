@@ -13,16 +13,16 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from planar3p_gym.envs.arguments import (
+from planar3p_gym import checks
+from planar3p_gym.checks import (
     RESET_OPTIONS,
     check_reset_options,
     config_from,
     design_from,
-    is_int,
-    is_number,
     mode_from,
     parse_action,
 )
+from planar3p_gym.envs.end_reason import END_REASONS, TERMINATION_REASONS, TIME_LIMIT
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures, ScalarKinematics
@@ -49,9 +49,11 @@ from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
     "DEFAULT_WORKING_MODE",
+    "END_REASONS",
     "OBSERVATION_ARGUMENTS",
     "RESET_OPTIONS",
     "TERMINATION_REASONS",
+    "TIME_LIMIT",
     "Planar3PEnv",
     "check_reset_options",
     "make_task",
@@ -64,8 +66,6 @@ DEFAULT_WORKING_MODE: tuple[int, int, int] = (1, 1, -1)
 #: Arguments of :class:`Planar3PEnv` that change what a policy observes (the shape of the
 #: observation): a model trained with them must be played with them.
 OBSERVATION_ARGUMENTS: tuple[str, ...] = ("travel_goal",)
-#: Values of ``info["termination_reason"]`` (``None`` while the episode runs).
-TERMINATION_REASONS = ("success", "singularity_crossing", "physics_breakdown")
 
 
 #: Keys of :meth:`Planar3PEnv.get_keys_to_action`: (+x, -x) for sliders 1, 2, 3.
@@ -161,7 +161,11 @@ class Planar3PEnv(gym.Env):
     (``"physics_breakdown"``); ``info["termination_reason"]`` says which.  A leg swinging past
     the perpendicular to its rail (a serial singularity) changes the working mode without ending
     the episode; ``info["working_mode_changed"]`` reports it.  ``truncated`` only
-    by the registered time limit (``max_episode_steps=250``, 5 s at 50 Hz).
+    by the registered time limit (``max_episode_steps=250``, 5 s at 50 Hz; Gymnasium's
+    ``TimeLimit`` wrapper): ``info["termination_reason"]`` stays ``None`` then, and the end is
+    named ``"time_limit"`` (:func:`planar3p_gym.envs.end_reason.end_reason` names any end from
+    the step's flags and ``info``, with the names of the training metrics and the benchmark,
+    :data:`END_REASONS`; ``EndReason(gym.make(...))`` puts the name in ``info`` as well).
 
     ## Arguments
     - ``design``: a :class:`Design`, a dict of its fields, or a preset name (``"fig8"``,
@@ -237,37 +241,38 @@ class Planar3PEnv(gym.Env):
                 )
             self._fixed_mode = None
         else:
-            self._fixed_mode = mode_from(working_mode)
-        if not (is_number(control_frequency) and 1.0 <= control_frequency <= 10_000.0):
-            raise ValueError(
-                f"control_frequency must be a number in [1, 10000] (Hz), got {control_frequency!r}"
-            )
-        if not isinstance(projection, (bool, np.bool_)):
-            raise ValueError(f"projection must be True or False, got {projection!r}")
+            self._fixed_mode = mode_from(working_mode, "working_mode")
+        control_frequency = checks.number(
+            control_frequency, "control_frequency", low=1.0, high=10_000.0, unit="Hz"
+        )
+        projection = checks.flag(projection, "projection")
         if substeps is None:
             substeps = PROJECTED_SUBSTEPS if projection else DEFAULT_SUBSTEPS
         if solver_iterations is None:
             solver_iterations = PROJECTED_ITERATIONS if projection else DEFAULT_ITERATIONS
-        for name, value in (("substeps", substeps), ("solver_iterations", solver_iterations)):
-            if not (is_int(value) and 1 <= value <= 1000):
-                raise ValueError(f"{name} must be an integer in [1, 1000], got {value!r}")
-        if not (is_number(breakdown_threshold) and 0 < breakdown_threshold < 1):
-            raise ValueError(f"breakdown_threshold must be in (0, 1), got {breakdown_threshold!r}")
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be one of {self.metadata['render_modes']} or None, "
-                f"got {render_mode!r}"
-            )
+        substeps = checks.integer(substeps, "substeps", low=1, high=1000)
+        solver_iterations = checks.integer(solver_iterations, "solver_iterations", low=1, high=1000)
+        breakdown_threshold = checks.number(
+            breakdown_threshold,
+            "breakdown_threshold",
+            low=0.0,
+            high=1.0,
+            low_open=True,
+            high_open=True,
+        )
+        if render_mode is not None:
+            checks.choice(render_mode, "render_mode", tuple(self.metadata["render_modes"]))
         self.reward_weights = config_from(reward_weights, RewardWeights, "reward_weights")
         self.task_config = config_from(task_config, TaskConfig, "task_config")
-        if not (
-            isinstance(render_size, (tuple, list))
-            and len(render_size) == 2
-            and all(is_int(v) and 16 <= v <= 8192 for v in render_size)
-        ):
+        if not (isinstance(render_size, (tuple, list)) and len(render_size) == 2):
             raise ValueError(
                 f"render_size must be (width, height) in pixels, 16..8192, got {render_size!r}"
             )
+        render_size = tuple(
+            checks.integer(v, f"render_size[{i}]", low=16, high=8192)
+            for i, v in enumerate(render_size)
+        )
+        travel_goal = checks.flag(travel_goal, "travel_goal")
         self.control_frequency = float(control_frequency)
         self.dt = 1.0 / self.control_frequency
         self.substeps = int(substeps)
@@ -295,8 +300,6 @@ class Planar3PEnv(gym.Env):
             np.concatenate([self._obs_high, self._extra_high]),
             dtype=np.float32,
         )
-        if not isinstance(travel_goal, (bool, np.bool_)):
-            raise ValueError(f"travel_goal must be True or False, got {travel_goal!r}")
         if travel_goal and type(self.task) is not ReachTask:
             raise ValueError(
                 f"travel_goal applies to the reach task (a fixed target per episode), not to "
@@ -642,7 +645,10 @@ class Planar3PEnv(gym.Env):
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Restore a :meth:`get_state` snapshot (``ValueError`` if it is not one, or was taken
-        from an environment with other settings; nothing is changed then)."""
+        from an environment with other settings; nothing is changed then).  This restores the
+        environment; for one made with ``gym.make``, whose ``TimeLimit`` wrapper counts the
+        episode's steps on its own, use :func:`planar3p_gym.envs.end_reason.restore_state`
+        ``(env, state)``, which sets that counter too."""
         keys = {"config", "sim", "np_random", "np_random_seed", "task", "episode"}
         if not isinstance(state, dict) or set(state) != keys:
             raise ValueError("state must be a snapshot from Planar3PEnv.get_state()")

@@ -16,19 +16,22 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
+from planar3p_gym import checks
 from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.goal import (
     GOAL_SIZE,
     GoalTask,
+    _goals,
     _info_field,
     achieved_goal,
+    goal_bounds,
     goal_free_reward,
     goal_reward,
     goal_success,
     pose_of_goal,
 )
-from planar3p_gym.tasks.observation import FINE_ERROR_SCALE, OBS_SIZE, SLICES, SPEED_BOUND_FACTOR
+from planar3p_gym.tasks.observation import FINE_ERROR_SCALE, OBS_SIZE, SLICES
 
 __all__ = ["ROBOT_FIELDS", "ROBOT_INDEX", "Planar3PGoalEnv", "flat_observation"]
 
@@ -82,6 +85,12 @@ def flat_observation(obs: dict[str, ArrayLike], length: float) -> NDArray[np.flo
     )
     out = flat.astype(np.float32)
     return out[0] if single else out
+
+
+def _is_single(goal: ArrayLike) -> bool:
+    """Whether a (validated) goal argument is one goal ``(5,)`` rather than a batch."""
+    arr = checks.real_array(goal)
+    return arr is not None and arr.ndim == 1
 
 
 class Planar3PGoalEnv(Planar3PEnv):
@@ -154,10 +163,7 @@ class Planar3PGoalEnv(Planar3PEnv):
         self.reward_type = reward_type
         flat = self.observation_space
         assert isinstance(flat, spaces.Box)
-        pos = SLICES["position"]
-        vmax = SPEED_BOUND_FACTOR * self.design.max_speed
-        g_low = np.concatenate([flat.low[pos], [-1.0, -1.0, 0.0]]).astype(np.float32)
-        g_high = np.concatenate([flat.high[pos], [1.0, 1.0, vmax]]).astype(np.float32)
+        g_low, g_high = goal_bounds(self.design)
         self._goal_low, self._goal_high = g_low, g_high
         self.observation_space = spaces.Dict(
             {
@@ -171,8 +177,9 @@ class Planar3PGoalEnv(Planar3PEnv):
 
     # ------------------------------------------------------------------ GoalEnv API
     def compute_reward(self, achieved_goal: ArrayLike, desired_goal: ArrayLike, info: Any) -> Any:
-        """Reward per goal pair: a float for single goals ``(4,)``, an array ``(n,)`` for
-        batches ``(n, 4)``; ``info`` is the step's info dict or one per pair."""
+        """Reward per goal pair: a float for single goals ``(5,)``, an array ``(n,)`` for
+        batches ``(n, 5)``; ``info`` is the step's info dict or one per pair (``ValueError``
+        for goals that are not real, finite and of those shapes, or a bad ``info``)."""
         out = goal_reward(
             achieved_goal,
             desired_goal,
@@ -182,22 +189,25 @@ class Planar3PGoalEnv(Planar3PEnv):
             self.design.characteristic_length,
             self.reward_type,
         )
-        return float(out[0]) if np.ndim(achieved_goal) == 1 else out
+        return float(out[0]) if _is_single(achieved_goal) else out
 
     def compute_terminated(
         self, achieved_goal: ArrayLike, desired_goal: ArrayLike, info: Any
     ) -> Any:
         """Whether the episode ends: success or failure (bool, or a bool array for batches)."""
-        success = goal_success(achieved_goal, desired_goal, info, self.task_config)
+        a, d, single = _goals(achieved_goal, desired_goal)
+        success = goal_success(a, d, info, self.task_config)
         out = success | (_info_field(info, "failure", success.shape[0]) > 0.5)
-        return bool(out[0]) if np.ndim(achieved_goal) == 1 else out
+        return bool(out[0]) if single else out
 
     def compute_truncated(
         self, achieved_goal: ArrayLike, desired_goal: ArrayLike, info: Any
     ) -> Any:
-        """Always False: truncation is the registered time limit's."""
-        n = np.atleast_2d(np.asarray(achieved_goal)).shape[0]
-        return False if np.ndim(achieved_goal) == 1 else np.zeros(n, dtype=bool)
+        """Always False: truncation is the registered time limit's.  The arguments are
+        checked as :meth:`compute_reward` checks them (``ValueError``)."""
+        a, _, single = _goals(achieved_goal, desired_goal)
+        _info_field(info, "failure", a.shape[0])
+        return False if single else np.zeros(a.shape[0], dtype=bool)
 
     # ------------------------------------------------------------------ Gymnasium API
     def reset(

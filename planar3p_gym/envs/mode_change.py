@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from planar3p_gym.checks import config_from
 from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.joint_paths import PathLimits
@@ -89,8 +90,7 @@ class Planar3PModeChangeEnv(Planar3PEnv):
     ) -> None:
         if "task" in kwargs:
             raise ValueError("Planar3PModeChangeEnv makes its own task; do not pass task=")
-        if isinstance(path_limits, dict):
-            path_limits = PathLimits(**path_limits)
+        path_limits = config_from(path_limits, PathLimits, "path_limits")
         super().__init__(
             design,
             task=ModeChangeTask(flips=flips, limits=path_limits, travel_shaping=travel_shaping),

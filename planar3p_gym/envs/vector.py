@@ -44,6 +44,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
+from planar3p_gym import checks
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
 from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
@@ -131,18 +132,12 @@ class Planar3PVectorEnv(VectorEnv):
         batch: str = "auto",
         **kwargs: Any,
     ) -> None:
-        if batch not in ("auto", "scalar", "numpy"):
-            raise ValueError(f"batch must be 'auto', 'scalar' or 'numpy', got {batch!r}")
-        if not (isinstance(num_envs, (int, np.integer)) and not isinstance(num_envs, bool)):
-            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        if num_envs < 1:
-            raise ValueError(f"num_envs must be an integer >= 1, got {num_envs!r}")
-        if max_episode_steps is not None and max_episode_steps != -1:
-            if not (isinstance(max_episode_steps, (int, np.integer)) and max_episode_steps >= 1):
-                raise ValueError(
-                    f"max_episode_steps must be an integer >= 1, -1 or None, "
-                    f"got {max_episode_steps!r}"
-                )
+        batch = checks.choice(batch, "batch", ("auto", "scalar", "numpy"))
+        num_envs = checks.count(num_envs, "num_envs")
+        if max_episode_steps is not None and not (
+            checks.is_int(max_episode_steps) and max_episode_steps == -1
+        ):
+            max_episode_steps = checks.count(max_episode_steps, "max_episode_steps")
         try:
             mode = AutoresetMode(autoreset_mode)
         except ValueError:
@@ -157,7 +152,7 @@ class Planar3PVectorEnv(VectorEnv):
         self.num_envs = int(num_envs)
         self._envs = [self.env_class(**kwargs) for _ in range(self.num_envs)]
         self.max_episode_steps = (
-            None if max_episode_steps in (None, -1) else int(max_episode_steps)  # type: ignore[arg-type]
+            None if max_episode_steps is None or max_episode_steps == -1 else int(max_episode_steps)
         )
         first = self._envs[0]
         self.single_observation_space = first.observation_space
@@ -171,7 +166,11 @@ class Planar3PVectorEnv(VectorEnv):
         if batch == "auto":
             batch = "numpy" if self.num_envs >= NUMPY_BATCH_MIN else "scalar"
         numpy_batch = physics._FAST and physics.Planar3PSim.use_fast_path and batch == "numpy"
-        self._core = _BatchCore(self, numpy_batch) if first._reach_step is not None else None
+        #: How the batch is stepped: None (environment by environment), or the batched step's
+        #: mode (``True``: numpy over the batch); the batched step's C handles are rebuilt
+        #: from it when the vector env is unpickled.
+        self._numpy_batch: bool | None = numpy_batch if first._reach_step is not None else None
+        self._core = None if self._numpy_batch is None else _BatchCore(self, self._numpy_batch)
 
     @property
     def envs(self) -> list[Planar3PEnv]:
@@ -187,20 +186,38 @@ class Planar3PVectorEnv(VectorEnv):
         options: dict[str, Any] | None = None,
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Reset every environment: ``seed`` an int (env ``i`` gets ``seed + i``, as
-        ``SyncVectorEnv`` does), a list of seeds, or None; ``options`` go to every env."""
-        if seed is None or isinstance(seed, (int, np.integer)):
+        ``SyncVectorEnv`` does), a list of seeds, or None; ``options`` go to every env.
+
+        Atomic: the options are checked as the single environment checks them, and if any
+        environment rejects its reset (``ValueError``, e.g. a start that is not reachable in
+        the working mode an environment drew) every environment is put back as it was, and
+        so is the vector env."""
+        if seed is None or checks.is_int(seed):
+            if seed is not None:
+                checks.integer(seed, "seed", low=0)
             seeds = [None if seed is None else int(seed) + i for i in range(self.num_envs)]
         else:
-            seeds = list(seed)
+            if isinstance(seed, (str, bytes)) or not hasattr(seed, "__len__"):
+                raise ValueError(f"seed must be an int, a list of seeds or None, got {seed!r}")
+            seeds = [None if s is None else checks.integer(s, "seed", low=0) for s in seed]
             if len(seeds) != self.num_envs:
                 raise ValueError(f"expected {self.num_envs} seeds, got {len(seeds)}")
+        envs = self.envs  # (up to date: their snapshots are complete)
+        undo = [env.get_state() for env in envs]
+        results = []
+        try:
+            for env, s in zip(envs, seeds, strict=True):
+                results.append(env.reset(seed=s, options=options))
+        except ValueError:
+            for i in range(len(results)):  # the env that raised changed nothing itself
+                envs[i].set_state(undo[i])
+                if self._core is not None and envs[i]._sim is not None:
+                    self._core.load(i)
+            raise
         if seed is not None:
-            self._np_random, self._np_random_seed = gym.utils.seeding.np_random(
-                seeds[0] if isinstance(seed, list) else int(seed)
-            )
+            self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seeds[0])
         infos = []
-        for i, (env, s) in enumerate(zip(self._envs, seeds, strict=True)):
-            obs, info = env.reset(seed=s, options=options)
+        for i, (obs, info) in enumerate(results):
             self._obs[i] = obs
             infos.append(info)
             if self._core is not None:
@@ -210,12 +227,10 @@ class Planar3PVectorEnv(VectorEnv):
         return self._obs.copy(), self._batch_infos(infos)
 
     def _check_actions(self, actions: Any) -> np.ndarray:
-        a = np.asarray(actions, dtype=np.float64)
-        if a.shape != self.action_space.shape:
-            raise ValueError(f"actions must have shape {self.action_space.shape}, got {a.shape}")
-        if not np.isfinite(a).all():
-            raise ValueError("actions must be finite")
-        return a
+        """The batch of actions as float64 ``(num_envs, 3)``, checked as the single environment
+        checks one (:func:`planar3p_gym.checks.parse_actions`: strings, bools, complex numbers,
+        NaN/inf and wrong shapes raise ``ValueError``, and no environment steps)."""
+        return checks.parse_actions(actions, self.num_envs)
 
     def step(
         self, actions: Any
@@ -315,16 +330,33 @@ class Planar3PVectorEnv(VectorEnv):
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        """Restore a :meth:`get_state` snapshot."""
-        if not isinstance(state, dict) or len(state.get("envs", ())) != self.num_envs:
+        """Restore a :meth:`get_state` snapshot (with the step counters of the time limit)."""
+        keys = {"envs", "obs", "elapsed", "autoreset"}
+        if not isinstance(state, dict) or set(state) != keys or len(state["envs"]) != self.num_envs:
             raise ValueError("state must be a snapshot from Planar3PVectorEnv.get_state()")
         for i, (env, s) in enumerate(zip(self._envs, state["envs"], strict=True)):
             env.set_state(s)
-            if self._core is not None:
+            if self._core is not None and env._sim is not None:
                 self._core.load(i)
         self._obs[:] = state["obs"]
         self._elapsed[:] = state["elapsed"]
         self._autoreset[:] = state["autoreset"]
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Picklable state (``copy.deepcopy`` and ``pickle``): the environments, up to date,
+        and the bookkeeping; the batched step's C handles are left out and rebuilt."""
+        self.envs  # noqa: B018  (brings every environment up to date)
+        out = dict(self.__dict__)
+        out["_core"] = None
+        return out
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        if self._numpy_batch is not None:
+            self._core = _BatchCore(self, self._numpy_batch)
+            for i, env in enumerate(self._envs):
+                if env._sim is not None:
+                    self._core.load(i)
 
 
 class _BatchCore:

@@ -72,6 +72,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures, ScalarKinematics
 from planar3p_gym.sim.physics import Planar3PSim, SimState
@@ -106,6 +107,16 @@ BIND_SEEDS = 5
 #: Smallest fraction of feasible candidates for a working mode to be used (below it sampling
 #: would be slow and could fail).
 MIN_FEASIBLE_RATE = 0.5
+#: Starts the sampler draws before it gives up (``ValueError``; in a working mode that passed
+#: :meth:`AssemblyChangeTask.mode_problem`, at least half the candidate pairs are feasible, so
+#: this is never reached in practice) ...
+DRAW_ROUNDS = 200
+#: ... and when the start or the target is requested (``pair_tries`` candidates a round).
+GIVEN_ROUNDS = 25
+#: Verdicts of :meth:`AssemblyChangeTask.mode_problem`, per design, settings and working mode.
+_MODE_PROBLEMS: dict[tuple[Any, ...], str | None] = {}
+#: The verdict on a working mode without acceptable poses of both assembly modes.
+_ONE_ASSEMBLY = "it has acceptable poses of one assembly mode only"
 
 
 class AssemblyChangeTask(TravelShaping, Task):
@@ -141,13 +152,9 @@ class AssemblyChangeTask(TravelShaping, Task):
         pair_tries: int = 8,
         travel_shaping: float = 0.0,
     ) -> None:
-        if isinstance(limits, dict):
-            limits = CrossingLimits(**limits)
-        if limits is not None and not isinstance(limits, CrossingLimits):
-            raise ValueError(f"limits must be a CrossingLimits or a dict, got {limits!r}")
+        self.limits = checks.config_from(limits, CrossingLimits, "crossing_limits")
         self.pair_tries = count_option(pair_tries, "pair_tries")
         self.travel_shaping = check_travel_shaping(travel_shaping)
-        self.limits = limits or CrossingLimits()
 
     # ------------------------------------------------------------------ set-up
     def arguments(self) -> dict[str, Any]:
@@ -165,14 +172,14 @@ class AssemblyChangeTask(TravelShaping, Task):
         self._last_sign = 1
         self._crossings = 0
         self._kin = ScalarKinematics(env.design)
-        self.modes = self._modes_with_both()
+        verdicts = {m: self.mode_problem(m) for m in env.modes}
+        self.modes = [m for m, problem in verdicts.items() if problem is None]
         if not self.modes:
-            raise ValueError(
-                f"no working mode among {env.modes} has acceptable poses in both assembly "
-                "modes on this design: no assembly change can be sampled"
-            )
-        self.modes = [m for m in self.modes if self._feasible_rate(m) >= MIN_FEASIBLE_RATE]
-        if not self.modes:
+            if all(problem == _ONE_ASSEMBLY for problem in verdicts.values()):
+                raise ValueError(
+                    f"no working mode among {env.modes} has acceptable poses in both assembly "
+                    "modes on this design: no assembly change can be sampled"
+                )
             raise ValueError(
                 "too few feasible assembly changes on this design (fewer than "
                 f"{MIN_FEASIBLE_RATE:.0%} of {BIND_TRIES} candidate pairs per working mode, fixed "
@@ -183,27 +190,45 @@ class AssemblyChangeTask(TravelShaping, Task):
                 "crossing_limits={'verify': False}"
             )
 
-    def _modes_with_both(self) -> list[ModeTriple]:
-        """The environment's working modes with acceptable poses of both assembly modes (fixed
-        internal seed: never consumes the episode's random stream)."""
-        rng = np.random.default_rng(0)
-        out = []
-        for m in self.env.modes:
-            try:
-                _, asm = task.sample_poses(
-                    self.env.design, m, rng, self.env.task_config, max_batches=20
-                )
-            except ValueError:
-                continue
-            found = set(asm.tolist())
-            for _ in range(20):
-                if {1.0, -1.0} <= found:
-                    break
-                _, more = task.sample_poses(self.env.design, m, rng, self.env.task_config)
-                found |= set(more.tolist())
-            if {1.0, -1.0} <= found:
-                out.append(tuple(m))
-        return out  # type: ignore[return-value]
+    def _settings(self) -> tuple[Any, ...]:
+        """What decides whether a working mode has assembly changes (the key of the cache of
+        :meth:`mode_problem`): the design, the task's margins and limits, and the simulation
+        the demonstration crossing runs in."""
+        env = self.env
+        return (
+            env.design,
+            env.task_config,
+            self.limits,
+            env.dt,
+            env.substeps,
+            env.solver_iterations,
+            bool(getattr(env, "projection", False)),
+            env.breakdown_distance,
+        )
+
+    def mode_problem(self, mode: ModeTriple) -> str | None:
+        """Why working ``mode`` has no assembly changes to sample, or ``None``: it must have
+        acceptable poses of both assembly modes (:func:`~planar3p_gym.tasks.sampling.
+        assembly_modes`) and at least :data:`MIN_FEASIBLE_RATE` of :data:`BIND_TRIES` candidate
+        pairs (fixed internal seeds) must pass :meth:`feasible`.  Bounded work (at most
+        :data:`BIND_TRIES` simulated crossings), cached per design and settings, and the
+        episode's random stream is not touched: the constructor's check of its working
+        modes, and the check of a requested ``working_mode`` at reset."""
+        key = (*self._settings(), mode)
+        if key not in _MODE_PROBLEMS:
+            _MODE_PROBLEMS[key] = self._find_mode_problem(mode)
+        return _MODE_PROBLEMS[key]
+
+    def _find_mode_problem(self, mode: ModeTriple) -> str | None:
+        design, cfg = self.env.design, self.env.task_config
+        if task.assembly_modes(design, mode, cfg) != {1.0, -1.0}:
+            return _ONE_ASSEMBLY
+        if self._feasible_rate(mode) < MIN_FEASIBLE_RATE:
+            return (
+                f"fewer than {MIN_FEASIBLE_RATE:.0%} of {BIND_TRIES} candidate assembly changes "
+                f"in working mode {mode} pass the feasibility checks (fixed internal seed)"
+            )
+        return None
 
     def _feasible_rate(self, mode: ModeTriple) -> float:
         """Fraction of :data:`BIND_TRIES` candidate pairs (fixed internal seed: the episode's
@@ -214,8 +239,8 @@ class AssemblyChangeTask(TravelShaping, Task):
             sampler = task.PoseSampler(self.env.design, mode, self.env.task_config)
             for _ in range(BIND_TRIES // BIND_SEEDS):
                 s, asm = sampler.draw(rng)
-                t = sampler.draw_many(rng, -asm, 1)[0]
-                hits += bool(self.feasible(s, t, mode)[0])
+                t = sampler.draw_many(rng, -asm, 1)
+                hits += bool(len(t)) and bool(self.feasible(s, t[0], mode)[0])
         return hits / (BIND_SEEDS * (BIND_TRIES // BIND_SEEDS))
 
     def make_sim(self, pose: np.ndarray, mode: tuple[int, int, int]) -> Planar3PSim:
@@ -234,6 +259,13 @@ class AssemblyChangeTask(TravelShaping, Task):
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         if options.get("working_mode") is not None:
             options["working_mode"] = mode_option(options["working_mode"], "working_mode")
+            mode = options["working_mode"]
+            problem = None if mode in self.modes else self.mode_problem(mode)
+            if problem is not None:
+                raise ValueError(
+                    f"working_mode {mode} has no assembly change to draw: {problem} (this "
+                    f"environment samples {self.modes})"
+                )
         mode = options.get("working_mode")
         if mode is None and len(self.modes) == 1:
             mode = self.modes[0]
@@ -310,12 +342,18 @@ class AssemblyChangeTask(TravelShaping, Task):
         target: np.ndarray | None,
     ) -> tuple[np.ndarray, np.ndarray]:
         sampler = self.pose_sampler(mode)
-        for _ in range(1000):
+        design, cfg = self.env.design, self.env.task_config
+        free = start is None and target is None
+        for _ in range(DRAW_ROUNDS if free else GIVEN_ROUNDS):
             if start is None:
                 s, asm = sampler.draw(rng)
             else:
                 s, asm = start, float(self._assembly(start, mode))
             if target is None:
+                if -asm not in task.assembly_modes(design, mode, cfg):
+                    if start is not None:
+                        break  # no target of the other assembly mode in this working mode
+                    continue
                 cands = sampler.draw_many(rng, -asm, self.pair_tries)
             else:
                 cands = target[None, :]
@@ -324,14 +362,16 @@ class AssemblyChangeTask(TravelShaping, Task):
                     return s, t
             if start is not None and target is not None:
                 break
-        if start is None and target is None:
+        if free:
             raise ValueError(
-                f"no feasible assembly change found in working mode {mode} after many draws"
+                f"no feasible assembly change found in working mode {mode} after {DRAW_ROUNDS} "
+                "drawn starts"
             )
         fixed = "start" if start is not None else "target"
         raise ValueError(
             f"no feasible assembly change found for the requested {fixed} in working mode "
-            f"{mode}; give another {fixed} or leave it to the sampler"
+            f"{mode} in {GIVEN_ROUNDS} draws of the other end; give another {fixed} or leave "
+            "it to the sampler"
         )
 
     def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:

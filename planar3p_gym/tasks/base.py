@@ -60,6 +60,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
 
+from planar3p_gym import checks
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
@@ -95,35 +96,20 @@ def pose_list(pose: Any) -> list[float]:
 
 def finite_numbers(value: Any, size: int, name: str, meaning: str = "") -> np.ndarray:
     """``value`` as a float64 array of ``size`` finite numbers, or ``ValueError`` naming
-    ``name`` (``meaning``, e.g. ``" (x, y, theta)"``, follows "numbers" in the message)."""
-    try:
-        p = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be {size} numbers{meaning}, got {value!r}") from exc
-    if p.shape != (size,) or not np.isfinite(p).all():
-        raise ValueError(f"{name} must be {size} finite numbers{meaning}, got {value!r}")
-    return p
+    ``name`` (:func:`planar3p_gym.checks.numbers`)."""
+    return checks.numbers(value, size, name, meaning)
 
 
 def count_option(value: Any, name: str) -> int:
-    """``value`` if it is an int >= 1 (not a bool), else ``ValueError`` naming ``name``."""
-    if not (isinstance(value, int) and not isinstance(value, bool) and value >= 1):
-        raise ValueError(f"{name} must be an int >= 1, got {value!r}")
-    return value
+    """``value`` if it is an integer >= 1 (Python or NumPy, not a bool), else ``ValueError``
+    naming ``name`` (:func:`planar3p_gym.checks.count`)."""
+    return checks.count(value, name)
 
 
 def mode_option(arg: Any, name: str) -> ModeTriple:
     """A working mode option (three entries of +-1, ints or integral floats, no bools) as
-    ints, or ``ValueError`` naming ``name``."""
-    try:
-        vals = list(arg)
-        m = tuple(int(v) for v in vals)
-        ok = len(m) == 3 and all(v in (1, -1) for v in m) and all(float(v) == int(v) for v in vals)
-    except (TypeError, ValueError):
-        ok = False
-    if not ok or any(isinstance(v, (bool, np.bool_)) for v in vals):
-        raise ValueError(f"{name} must be three entries of +1 or -1, got {arg!r}")
-    return m  # type: ignore[return-value]
+    ints, or ``ValueError`` naming ``name`` (:func:`planar3p_gym.checks.mode_from`)."""
+    return checks.mode_from(arg, name)
 
 
 class TaskEnv(Protocol):

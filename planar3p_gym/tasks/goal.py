@@ -40,7 +40,10 @@ from typing import Any, ClassVar
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from planar3p_gym.tasks.base import Pose, finite_numbers
+from planar3p_gym import checks
+from planar3p_gym.machine.design import Design
+from planar3p_gym.tasks.base import Pose
+from planar3p_gym.tasks.observation import SLICES, SPEED_BOUND_FACTOR, bounds
 from planar3p_gym.tasks.reach import ReachTask
 from planar3p_gym.tasks.rewards import RewardWeights, weighted_terms_batch
 from planar3p_gym.tasks.sampling import TaskConfig
@@ -51,6 +54,7 @@ __all__ = [
     "GoalTask",
     "achieved_goal",
     "goal_errors",
+    "goal_bounds",
     "goal_free_reward",
     "goal_of_pose",
     "goal_reward",
@@ -80,21 +84,39 @@ def pose_of_goal(goal: ArrayLike) -> Pose:
     return float(g[0]), float(g[1]), math.atan2(float(g[3]), float(g[2]))
 
 
+def goal_bounds(design: Design) -> tuple[NDArray[np.float32], NDArray[np.float32]]:
+    """``(low, high)`` float32 bounds of a goal vector for ``design``: the observation's
+    bounds of the gripper position (m), ``[-1, 1]`` for ``cos`` and ``sin``, and
+    ``[0, SPEED_BOUND_FACTOR * max_speed]`` for the speed (m/s); the ``Box`` of the goal env's
+    ``achieved_goal`` and ``desired_goal``."""
+    low, high = bounds(design)
+    pos = SLICES["position"]
+    vmax = SPEED_BOUND_FACTOR * design.max_speed
+    g_low = np.concatenate([low[pos], [-1.0, -1.0, 0.0]]).astype(np.float32)
+    g_high = np.concatenate([high[pos], [1.0, 1.0, vmax]]).astype(np.float32)
+    return g_low, g_high
+
+
 def _goals(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndarray, bool]:
-    """Both goal arrays as float64 ``(n, 4)`` and whether they were single goals; ``ValueError``
-    for wrong shapes, mismatched batches or non-finite values."""
-    try:
-        a = np.asarray(achieved, dtype=np.float64)
-        d = np.asarray(desired, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"goals must be arrays of shape (4,) or (n, 4): {exc}") from exc
-    for name, g in (("achieved_goal", a), ("desired_goal", d)):
-        if g.ndim not in (1, 2) or g.shape[-1] != GOAL_SIZE:
+    """Both goal arrays as float64 ``(n, 5)`` and whether they were single goals; ``ValueError``
+    for non-real entries (complex, bool, strings), wrong shapes, mismatched batches or
+    non-finite values."""
+    arrays = []
+    for name, g in (("achieved_goal", achieved), ("desired_goal", desired)):
+        arr = checks.real_array(g)
+        if arr is None:
             raise ValueError(
-                f"{name} must have shape ({GOAL_SIZE},) or (n, {GOAL_SIZE}), got {g.shape}"
+                f"{name} must be real numbers of shape ({GOAL_SIZE},) or (n, {GOAL_SIZE}), "
+                f"got {checks.short(g)}"
             )
-        if not np.isfinite(g).all():
+        if arr.ndim not in (1, 2) or arr.shape[-1] != GOAL_SIZE:
+            raise ValueError(
+                f"{name} must have shape ({GOAL_SIZE},) or (n, {GOAL_SIZE}), got {arr.shape}"
+            )
+        if not np.isfinite(arr).all():
             raise ValueError(f"{name} must be finite")
+        arrays.append(arr)
+    a, d = arrays
     if a.shape != d.shape:
         raise ValueError(
             f"achieved_goal and desired_goal must have the same shape, got {a.shape} and {d.shape}"
@@ -229,9 +251,7 @@ class GoalTask(ReachTask):
     option_keys: ClassVar[tuple[str, ...]] = ("start", "target", "working_mode", "desired_goal")
 
     def __init__(self, reward_type: str = "sparse") -> None:
-        if reward_type not in REWARD_TYPES:
-            raise ValueError(f"reward_type must be one of {REWARD_TYPES}, got {reward_type!r}")
-        self.reward_type = reward_type
+        self.reward_type = checks.choice(reward_type, "reward_type", REWARD_TYPES)
         self.desired = np.zeros(GOAL_SIZE, dtype=np.float32)
 
     def arguments(self) -> dict[str, Any]:
@@ -240,14 +260,7 @@ class GoalTask(ReachTask):
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         goal = options.pop("desired_goal", None)
         if goal is not None:
-            g = finite_numbers(goal, GOAL_SIZE, "desired_goal").astype(np.float32)
-            if not 0.5 <= float(np.hypot(g[2], g[3])) <= 2.0:
-                raise ValueError(
-                    "desired_goal must be (x, y, cos theta, sin theta, v) with (cos, sin) near "
-                    f"the unit circle, got {goal!r}"
-                )
-            if g[4] < 0:
-                raise ValueError(f"desired_goal's speed (m/s) must be >= 0, got {goal!r}")
+            g = self.check_goal(goal)
             pose = pose_of_goal(g)
             if options.get("target") is not None:
                 t = self.finite_pose(options["target"], "target")
@@ -263,6 +276,37 @@ class GoalTask(ReachTask):
         if goal_vec is not None:
             options["_goal"] = goal_vec
         return options
+
+    def check_goal(self, goal: Any) -> NDArray[np.float32]:
+        """A requested ``desired_goal`` as the float32 goal vector, or ``ValueError``: five
+        finite numbers inside the goal space (:func:`goal_bounds`: the observation stays in
+        ``observation_space``), ``(cos, sin)`` within ``[0.5, 2]`` of the unit circle's
+        radius and the speed >= 0.  The pose must also be reachable (checked with the
+        target)."""
+        g64 = checks.numbers(goal, GOAL_SIZE, "desired_goal", " (x, y, cos theta, sin theta, v)")
+        with np.errstate(over="ignore"):
+            g = g64.astype(np.float32)
+        if not 0.5 <= float(np.hypot(g[2], g[3])) <= 2.0:
+            raise ValueError(
+                "desired_goal must be (x, y, cos theta, sin theta, v) with (cos, sin) near "
+                f"the unit circle, got {checks.short(goal)}"
+            )
+        if g[4] < 0:
+            raise ValueError(f"desired_goal's speed (m/s) must be >= 0, got {checks.short(goal)}")
+        low, high = goal_bounds(self.env.design)
+        for i, name in ((2, "cos theta"), (3, "sin theta"), (4, "speed v (m/s)")):
+            if not low[i] <= g[i] <= high[i]:
+                raise ValueError(
+                    f"desired_goal's {name} must be in [{low[i]:g}, {high[i]:g}] (the goal "
+                    f"space), got {float(g64[i])!r}"
+                )
+        if not ((low[:2] <= g[:2]) & (g[:2] <= high[:2])).all():
+            raise ValueError(
+                f"desired_goal's position {tuple(g64[:2].tolist())} is not reachable: it lies "
+                f"outside the workspace's bounds x in [{low[0]:g}, {high[0]:g}], y in "
+                f"[{low[1]:g}, {high[1]:g}] m"
+            )
+        return g
 
     def episode_spec(self, rng: np.random.Generator, options: dict[str, Any]) -> dict[str, Any]:
         goal = options.pop("_goal", None)

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.statics import holding_forces_at
@@ -31,6 +32,7 @@ __all__ = [
     "certify_joint_path",
     "closing_travels",
     "find_joint_path",
+    "first_straight_path",
     "track_segment",
     "upright_waypoints",
 ]
@@ -63,21 +65,37 @@ class PathLimits:
     travel_margin: float = 0.03
 
     def __post_init__(self) -> None:
-        if not (isinstance(self.points, int) and self.points >= 2):
-            raise ValueError(f"PathLimits.points must be an int >= 2, got {self.points!r}")
-        if not 0.0 <= self.min_parallel_margin < 1.0:
-            raise ValueError(
-                "PathLimits.min_parallel_margin must be in [0, 1), got "
-                f"{self.min_parallel_margin!r}"
-            )
-        if not 0.0 < self.max_holding_force <= 1.0:
-            raise ValueError(
-                f"PathLimits.max_holding_force must be in (0, 1], got {self.max_holding_force!r}"
-            )
-        if not 0.0 <= self.travel_margin < 0.5:
-            raise ValueError(
-                f"PathLimits.travel_margin must be in [0, 0.5), got {self.travel_margin!r}"
-            )
+        set_ = object.__setattr__
+        set_(self, "points", checks.integer(self.points, "PathLimits.points", low=2, high=10_000))
+        set_(
+            self,
+            "min_parallel_margin",
+            checks.number(
+                self.min_parallel_margin,
+                "PathLimits.min_parallel_margin",
+                low=0.0,
+                high=1.0,
+                high_open=True,
+            ),
+        )
+        set_(
+            self,
+            "max_holding_force",
+            checks.number(
+                self.max_holding_force,
+                "PathLimits.max_holding_force",
+                low=0.0,
+                high=1.0,
+                low_open=True,
+            ),
+        )
+        set_(
+            self,
+            "travel_margin",
+            checks.number(
+                self.travel_margin, "PathLimits.travel_margin", low=0.0, high=0.5, high_open=True
+            ),
+        )
 
 
 @dataclass(frozen=True)
@@ -104,6 +122,61 @@ def _pose_gap(design: Design, a: FloatArray, b: FloatArray) -> FloatArray:
     return np.linalg.norm(d, axis=-1)
 
 
+@dataclass(frozen=True)
+class _Tracked:
+    """Direct-kinematics branches followed along ``S`` straight travel segments at once.
+
+    Attributes:
+        rho: ``(S, P, 3)`` travels at the checked points (m).
+        poses: ``(S, P, 3)`` followed poses (m, m, rad; meaningless where ``alive`` is False).
+        alive: ``(S,)`` the branch stayed unambiguous over the whole segment.
+    """
+
+    rho: FloatArray
+    poses: FloatArray
+    alive: NDArray[np.bool_]
+
+
+def _track(
+    design: Design, rho_a: FloatArray, rho_b: FloatArray, pose_a: FloatArray, points: int
+) -> _Tracked:
+    """Follow the branch through ``pose_a[s]`` along the straight travel path from ``rho_a[s]``
+    to ``rho_b[s]`` (all ``(S, 3)``), for every ``s`` at once: one direct-kinematics solve of
+    the ``S * points`` travels, the gaps from every solution at a point to every solution at
+    the next in one array, then a walk over the points through the nearest-solution table.
+    The same decisions as following each segment point by point (the nearest solution to the
+    previous followed pose, unambiguous when the second-nearest is at least
+    :data:`_AMBIGUITY_RATIO` times farther), to the bit."""
+    u = np.linspace(0.0, 1.0, points)[:, None]
+    rho = rho_a[:, None, :] + u * (rho_b - rho_a)[:, None, :]  # (S, P, 3)
+    sol = kinematics.forward_batch(design, rho)
+    cand, valid = sol.poses, sol.valid  # (S, P, 4, 3), (S, P, 4)
+    n = rho.shape[0]
+    # first point: from the given pose; then from each solution k at point j to each l at j+1
+    first = np.where(valid[:, 0], _pose_gap(design, pose_a[:, None, :], cand[:, 0]), np.inf)
+    with np.errstate(invalid="ignore"):
+        gaps = _pose_gap(design, cand[:, :-1, :, None, :], cand[:, 1:, None, :, :])
+    gaps = np.where(valid[:, 1:, None, :], gaps, np.inf)  # (S, P-1, 4, 4)
+    order0 = np.argsort(first, axis=-1)
+    order = np.argsort(gaps, axis=-1)
+    near0 = np.take_along_axis(first, order0[..., :2], axis=-1)
+    near = np.take_along_axis(gaps, order[..., :2], axis=-1)
+    ok0 = np.isfinite(near0[..., 0]) & ~(near0[..., 1] < _AMBIGUITY_RATIO * near0[..., 0])
+    ok = np.isfinite(near[..., 0]) & ~(near[..., 1] < _AMBIGUITY_RATIO * near[..., 0])
+    nxt = order[..., 0]  # (S, P-1, 4): the nearest solution at j+1 to solution k at j
+    rows = np.arange(n)
+    k = order0[:, 0]
+    alive = ok0.copy()
+    index = np.empty((n, points), dtype=np.intp)
+    index[:, 0] = k
+    for j in range(points - 1):
+        alive &= ok[rows, j, k]
+        k = nxt[rows, j, k]
+        index[:, j + 1] = k
+    poses = np.take_along_axis(cand, index[:, :, None, None], axis=2)[:, :, 0, :]
+    return _Tracked(rho, poses, alive)
+
+
 def track_segment(
     design: Design, rho_a: ArrayLike, rho_b: ArrayLike, pose_a: ArrayLike, points: int
 ) -> tuple[FloatArray, FloatArray] | None:
@@ -111,21 +184,45 @@ def track_segment(
     from ``rho_a`` to ``rho_b`` (m): ``(travels (points, 3), poses (points, 3))``, or ``None``
     when the branch is lost (no solution, or two solutions too close to tell apart: the path
     comes near a parallel singularity)."""
-    ra, rb = np.asarray(rho_a, dtype=np.float64), np.asarray(rho_b, dtype=np.float64)
-    u = np.linspace(0.0, 1.0, points)[:, None]
-    rho = ra + u * (rb - ra)
-    sol = kinematics.forward_batch(design, rho)
-    poses = np.empty((points, 3))
-    prev = np.asarray(pose_a, dtype=np.float64)
-    for j in range(points):
-        dist = np.where(sol.valid[j], _pose_gap(design, prev, sol.poses[j]), np.inf)
-        order = np.argsort(dist)
-        near, second = dist[order[0]], dist[order[1]]
-        if not math.isfinite(near) or second < _AMBIGUITY_RATIO * near:
-            return None
-        prev = sol.poses[j, order[0]]
-        poses[j] = prev
-    return rho, poses
+    tracked = _track(
+        design,
+        np.asarray(rho_a, dtype=np.float64).reshape(1, 3),
+        np.asarray(rho_b, dtype=np.float64).reshape(1, 3),
+        np.asarray(pose_a, dtype=np.float64).reshape(1, 3),
+        points,
+    )
+    if not tracked.alive[0]:
+        return None
+    return tracked.rho[0], tracked.poses[0]
+
+
+def _segment_figures(
+    design: Design, tracked: _Tracked, rows: NDArray[np.intp]
+) -> tuple[FloatArray, FloatArray]:
+    """Smallest parallel margin and largest holding force (N) along each of the followed
+    segments ``rows`` (every point of a segment; margins and forces per pose are independent
+    of the batch they are computed in)."""
+    poses, rho = tracked.poses[rows], tracked.rho[rows]
+    margin = kinematics.parallel_margin(design, poses, rho).min(axis=-1)
+    try:
+        force = np.abs(holding_forces_at(design, poses, rho)).max(axis=(-2, -1))
+    except np.linalg.LinAlgError:  # a pose exactly at a parallel singularity: per segment
+        force = np.array([_holding_force(design, p, r) for p, r in zip(poses, rho, strict=True)])
+    return margin, force
+
+
+def _holding_force(design: Design, poses: FloatArray, rho: FloatArray) -> float:
+    """Largest holding force along one segment (inf if a pose cannot be held at all)."""
+    try:
+        return float(np.abs(holding_forces_at(design, poses, rho)).max())
+    except np.linalg.LinAlgError:
+        return math.inf
+
+
+def _in_stroke(design: Design, travels: FloatArray, limits: PathLimits) -> NDArray[np.bool_]:
+    """Whether travels ``(..., 3)`` keep ``limits.travel_margin`` of the stroke free (per row)."""
+    lo, hi = limits.travel_margin * design.stroke, (1.0 - limits.travel_margin) * design.stroke
+    return ((travels >= lo - 1e-12) & (travels <= hi + 1e-12)).all(axis=-1)
 
 
 def certify_joint_path(
@@ -139,29 +236,57 @@ def certify_joint_path(
     ``"branch"``, ``"parallel_margin"``, ``"holding_force"``, ``"end_pose"``.
     """
     w = np.asarray(travels, dtype=np.float64)
-    lo, hi = limits.travel_margin * design.stroke, (1.0 - limits.travel_margin) * design.stroke
-    if not ((w >= lo - 1e-12) & (w <= hi + 1e-12)).all():
+    if not _in_stroke(design, w, limits).all():
         return None, "stroke"
     pose = np.asarray(start, dtype=np.float64)
     waypoint_poses = [pose]
     min_margin, max_force = 1.0, 0.0
     for a, b in itertools.pairwise(w):
-        tracked = track_segment(design, a, b, pose, limits.points)
-        if tracked is None:
+        tracked = _track(design, a[None, :], b[None, :], pose[None, :], limits.points)
+        if not tracked.alive[0]:
             return None, "branch"
-        rho, poses = tracked
-        margin = float(kinematics.parallel_margin(design, poses, rho).min())
-        force = float(np.abs(holding_forces_at(design, poses, rho)).max())
+        margins, forces = _segment_figures(design, tracked, np.zeros(1, dtype=np.intp))
+        margin, force = float(margins[0]), float(forces[0])
         min_margin, max_force = min(min_margin, margin), max(max_force, force)
         if margin < limits.min_parallel_margin:
             return None, "parallel_margin"
         if not force <= limits.max_holding_force * design.max_force:
             return None, "holding_force"
-        pose = poses[-1]
+        pose = tracked.poses[0, -1]
         waypoint_poses.append(pose)
     if _pose_gap(design, pose, np.asarray(end, dtype=np.float64)) > _END_TOLERANCE:
         return None, "end_pose"
     return JointPath(w, np.array(waypoint_poses), min_margin, max_force), "ok"
+
+
+def _certify_segments(
+    design: Design,
+    rho_a: FloatArray,
+    rho_b: FloatArray,
+    pose_a: FloatArray,
+    pose_b: FloatArray,
+    limits: PathLimits,
+) -> tuple[NDArray[np.bool_], FloatArray, FloatArray, FloatArray]:
+    """:func:`certify_joint_path` of ``S`` one-segment paths at once (rows of ``(S, 3)``
+    arrays, travels already checked against the stroke): ``(ok, margins, forces, ends)`` per
+    row (``ends``: the followed poses at ``rho_b``), the figures meaningful where ``ok``.  The
+    cheap tests (branch, end pose) come first, so the margins and forces are computed only for
+    the segments that pass them."""
+    n = rho_a.shape[0]
+    ok = np.zeros(n, dtype=np.bool_)
+    margins, forces = np.ones(n), np.zeros(n)
+    if not n:
+        return ok, margins, forces, np.zeros((0, 3))
+    tracked = _track(design, rho_a, rho_b, pose_a, limits.points)
+    end_gap = _pose_gap(design, tracked.poses[:, -1], pose_b)
+    rows = np.flatnonzero(tracked.alive & (end_gap <= _END_TOLERANCE))
+    if rows.size:
+        m, f = _segment_figures(design, tracked, rows)
+        margins[rows], forces[rows] = np.minimum(1.0, m), np.maximum(0.0, f)
+        ok[rows] = ~(m < limits.min_parallel_margin) & (
+            f <= limits.max_holding_force * design.max_force
+        )
+    return ok, margins, forces, tracked.poses[:, -1]
 
 
 def closing_travels(design: Design, poses: ArrayLike, mode: ArrayLike) -> FloatArray:
@@ -256,7 +381,11 @@ def find_joint_path(
     ``target_mode``): the straight travel line if it passes :func:`certify_joint_path`, else
     the first of :func:`upright_waypoints` (in their fixed order) through which both straight
     segments pass.  Deterministic.  Returns ``(path, "ok")`` or ``(None, reason of the straight
-    line's failure)``."""
+    line's failure)``.
+
+    The waypoints are checked together (:func:`_certify_segments`: one direct-kinematics solve
+    for all first segments, one for the second segments of those that passed), with the result
+    of checking them one after the other."""
     s, t = np.asarray(start, dtype=np.float64), np.asarray(target, dtype=np.float64)
     ms = np.asarray(start_mode, dtype=np.float64)
     mt = np.asarray(target_mode, dtype=np.float64)
@@ -267,23 +396,104 @@ def find_joint_path(
     path, reason = certify_joint_path(design, np.stack([rs, rt]), s, t, limits)
     if path is not None or waypoints <= 0:
         return path, reason
-    for w in upright_waypoints(design, s, t, ms, mt, waypoints):
-        rw = closing_travels(design, w, ms)
-        if not np.isfinite(rw).all():
-            continue
-        first, _ = certify_joint_path(design, np.stack([rs, rw]), s, w, limits)
-        if first is None:
-            continue
-        second, _ = certify_joint_path(design, np.stack([rw, rt]), w, t, limits)
-        if second is None:
-            continue
-        return (
-            JointPath(
-                np.stack([rs, rw, rt]),
-                np.stack([s, w, t]),
-                min(first.min_parallel_margin, second.min_parallel_margin),
-                max(first.max_holding_force, second.max_holding_force),
-            ),
-            "ok",
-        )
-    return None, reason
+    path = _waypoint_path(design, s, rs, ms, t, rt, mt, limits, waypoints)
+    return (path, "ok") if path is not None else (None, reason)
+
+
+def first_straight_path(
+    design: Design,
+    start: ArrayLike,
+    start_mode: ArrayLike,
+    targets: ArrayLike,
+    target_mode: ArrayLike,
+    limits: PathLimits,
+) -> tuple[int, JointPath] | None:
+    """The first of ``targets`` ``(N, 3)`` (poses in ``target_mode``) joined to ``start`` (a pose
+    in ``start_mode``) by a straight travel line that passes :func:`certify_joint_path`, as
+    ``(index, path)``, or ``None``: the straight line of :func:`find_joint_path` for every
+    target at once (one direct-kinematics solve), without its waypoint search.  What the
+    mode-change sampler certifies its pairs with."""
+    s = np.asarray(start, dtype=np.float64)
+    t = np.asarray(targets, dtype=np.float64).reshape(-1, 3)
+    rs = kinematics.inverse(design, s, np.asarray(start_mode, dtype=np.float64)).rho
+    rt = kinematics.inverse(design, t, np.asarray(target_mode, dtype=np.float64)).rho
+    if not (np.isfinite(rs).all() and _in_stroke(design, rs, limits)):
+        return None
+    cand = np.flatnonzero(np.isfinite(rt).all(axis=1) & _in_stroke(design, rt, limits))
+    if not cand.size:
+        return None
+    k = cand.size
+    ok, margins, forces, ends = _certify_segments(
+        design,
+        np.broadcast_to(rs, (k, 3)).copy(),
+        rt[cand],
+        np.broadcast_to(s, (k, 3)).copy(),
+        t[cand],
+        limits,
+    )
+    passed = np.flatnonzero(ok)
+    if not passed.size:
+        return None
+    i = int(passed[0])
+    j = int(cand[i])
+    path = JointPath(
+        np.stack([rs, rt[j]]), np.stack([s, ends[i]]), float(margins[i]), float(forces[i])
+    )
+    return j, path
+
+
+def _waypoint_path(
+    design: Design,
+    s: FloatArray,
+    rs: FloatArray,
+    ms: FloatArray,
+    t: FloatArray,
+    rt: FloatArray,
+    mt: FloatArray,
+    limits: PathLimits,
+    waypoints: int,
+) -> JointPath | None:
+    """The path through the first upright waypoint (in the order of
+    :func:`upright_waypoints`) whose two straight segments both pass, or ``None``."""
+    if not (_in_stroke(design, rs, limits) and _in_stroke(design, rt, limits)):
+        return None  # every segment would start or end outside the stroke
+    way = upright_waypoints(design, s, t, ms, mt, waypoints)
+    if not len(way):
+        return None
+    rw = closing_travels(design, way, ms)
+    cand = np.flatnonzero(np.isfinite(rw).all(axis=1) & _in_stroke(design, rw, limits))
+    if not cand.size:
+        return None
+    k = cand.size
+    ok1, m1, f1, _ = _certify_segments(
+        design,
+        np.broadcast_to(rs, (k, 3)).copy(),
+        rw[cand],
+        np.broadcast_to(s, (k, 3)).copy(),
+        way[cand],
+        limits,
+    )
+    cand = cand[ok1]
+    m1, f1 = m1[ok1], f1[ok1]
+    if not cand.size:
+        return None
+    k = cand.size
+    ok2, m2, f2, _ = _certify_segments(
+        design,
+        rw[cand],
+        np.broadcast_to(rt, (k, 3)).copy(),
+        way[cand],
+        np.broadcast_to(t, (k, 3)).copy(),
+        limits,
+    )
+    passed = np.flatnonzero(ok2)
+    if not passed.size:
+        return None
+    i = int(passed[0])
+    w = way[cand[i]]
+    return JointPath(
+        np.stack([rs, rw[cand[i]], rt]),
+        np.stack([s, w, t]),
+        min(float(m1[i]), float(m2[i])),
+        max(float(f1[i]), float(f2[i])),
+    )

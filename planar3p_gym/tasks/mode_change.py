@@ -57,16 +57,24 @@ reward as documented above.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
+from functools import lru_cache
 from typing import Any, ClassVar
 
 import numpy as np
 
+from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.design import Design
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.base import ModeTriple, Pose, Task, count_option, mode_option, pose_list
-from planar3p_gym.tasks.joint_paths import JointPath, PathLimits, find_joint_path
+from planar3p_gym.tasks.joint_paths import (
+    JointPath,
+    PathLimits,
+    find_joint_path,
+    first_straight_path,
+)
 from planar3p_gym.tasks.travel_shaping import TravelShaping, check_travel_shaping
 
 __all__ = ["ModeChangeTask", "leg_modes", "single_flip_modes"]
@@ -84,13 +92,6 @@ def single_flip_modes(mode: ModeTriple, flips: int = 1) -> list[ModeTriple]:
         if sum(a != b for a, b in zip(m, mode, strict=True)) == flips:
             out.append(tuple(int(v) for v in m))
     return out  # type: ignore[return-value]
-
-
-@dataclass
-class _Pair:
-    start: np.ndarray
-    target: np.ndarray
-    path: JointPath
 
 
 class ModeChangeTask(TravelShaping, Task):
@@ -131,14 +132,10 @@ class ModeChangeTask(TravelShaping, Task):
         pair_tries: int = 8,
         travel_shaping: float = 0.0,
     ) -> None:
-        if not (isinstance(flips, int) and not isinstance(flips, bool) and 1 <= flips <= 3):
-            raise ValueError(f"flips must be 1, 2 or 3 (legs to flip), got {flips!r}")
-        if limits is not None and not isinstance(limits, PathLimits):
-            raise ValueError(f"limits must be a PathLimits, got {limits!r}")
+        self.flips = checks.integer(flips, "flips", low=1, high=3)
+        self.limits = checks.config_from(limits, PathLimits, "path_limits")
         self.pair_tries = count_option(pair_tries, "pair_tries")
         self.travel_shaping = check_travel_shaping(travel_shaping)
-        self.flips = flips
-        self.limits = limits or PathLimits()
 
     # ------------------------------------------------------------------ set-up
     def arguments(self) -> dict[str, Any]:
@@ -154,81 +151,26 @@ class ModeChangeTask(TravelShaping, Task):
         self._target: Pose = (0.0, 0.0, 0.0)
         self._target_mode: ModeTriple = (1, 1, 1)
         self._target_rho: tuple[float, float, float] = (0.0, 0.0, 0.0)
-        self._checked: dict[tuple[ModeTriple, ModeTriple], bool] = {}
-        self.pairs = self._viable_pairs()
+        self.pairs = {
+            ms: list(mts)
+            for ms, mts in _viable_pairs(
+                env.design, tuple(env.modes), self.flips, self.limits, env.task_config
+            )
+        }
         if not self.pairs:
             raise ValueError(
                 f"no working-mode pair of this design (start modes {env.modes}, {self.flips} "
                 "leg(s) flipped) has a certified start/target pair under the task's margins"
             )
 
-    def _viable_pairs(self) -> dict[ModeTriple, list[ModeTriple]]:
-        """Start mode -> target modes with at least one certified pair among a few drawn with a
-        fixed internal seed (so the list never depends on the episode's random stream)."""
-        design, cfg = self.env.design, self.env.task_config
-        rng = np.random.default_rng(0)
-        out: dict[ModeTriple, list[ModeTriple]] = {}
-        pools: dict[ModeTriple, tuple[np.ndarray, np.ndarray] | None] = {}
-
-        def pool(mode: ModeTriple) -> tuple[np.ndarray, np.ndarray] | None:
-            if mode not in pools:
-                try:
-                    pools[mode] = task.sample_poses(design, mode, rng, cfg, max_batches=20)
-                except ValueError:
-                    pools[mode] = None
-            return pools[mode]
-
-        for ms in self.env.modes:
-            starts = pool(ms)
-            if starts is None:
-                continue
-            for mt in single_flip_modes(ms, self.flips):
-                targets = pool(mt)
-                if targets is None:
-                    continue
-                if self._first_certified(starts, targets, ms, mt, tries=16) is not None:
-                    out.setdefault(ms, []).append(mt)
-        return out
-
     def _requested_pair_viable(self, ms: ModeTriple, mt: ModeTriple) -> bool:
         """For a requested pair of working modes the construction-time check did not list:
         whether a certified pair turns up among a few drawn with a fixed internal seed
-        (cached), so an infeasible request fails fast instead of after many draws."""
-        key = (ms, mt)
-        if key not in self._checked:
-            design, cfg = self.env.design, self.env.task_config
-            rng = np.random.default_rng(0)
-            try:
-                starts = task.sample_poses(design, ms, rng, cfg, max_batches=20)
-                targets = task.sample_poses(design, mt, rng, cfg, max_batches=20)
-            except ValueError:
-                self._checked[key] = False
-            else:
-                found = self._first_certified(starts, targets, ms, mt, tries=16)
-                self._checked[key] = found is not None
-        return self._checked[key]
-
-    def _first_certified(
-        self,
-        starts: tuple[np.ndarray, np.ndarray],
-        targets: tuple[np.ndarray, np.ndarray],
-        ms: ModeTriple,
-        mt: ModeTriple,
-        tries: int,
-    ) -> _Pair | None:
-        sp, sa = starts
-        tp, ta = targets
-        n = 0
-        for i in range(len(sp)):
-            same = np.flatnonzero(ta == sa[i])
-            for j in same[:2]:
-                path, _ = find_joint_path(self.env.design, sp[i], ms, tp[j], mt, self.limits)
-                if path is not None:
-                    return _Pair(sp[i], tp[j], path)
-                n += 1
-                if n >= tries:
-                    return None
-        return None
+        (:func:`_pair_viable`, cached), so an infeasible request fails fast instead of after
+        many draws."""
+        if mt in self.pairs.get(ms, []):
+            return True
+        return _pair_viable(self.env.design, ms, mt, self.limits, self.env.task_config)
 
     # ------------------------------------------------------------------ options and sampling
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
@@ -241,6 +183,24 @@ class ModeChangeTask(TravelShaping, Task):
                 f"target_working_mode {mt} equals working_mode {ms}: a mode change needs at "
                 "least one leg in another working mode"
             )
+        both_poses = options.get("start") is not None and options.get("target") is not None
+        if (ms is not None or mt is not None) and not both_poses:
+            # bounded, cached, fixed internal seed: modes without a certified pair fail here
+            if ms is not None and mt is not None:
+                if not self._requested_pair_viable(ms, mt):
+                    raise ValueError(self._no_pair_message(ms, mt))
+            elif ms is not None and not self._target_choices(ms):
+                raise ValueError(
+                    f"working_mode {ms} has no certified mode change to a mode with "
+                    f"{self.flips} leg(s) flipped (fixed internal seed); this environment "
+                    f"samples {self.pairs}"
+                )
+            elif mt is not None and not self._start_choices(mt):
+                raise ValueError(
+                    f"target_working_mode {mt} has no certified mode change from any of the "
+                    f"working modes {self.env.modes} (fixed internal seed); this environment "
+                    f"samples {self.pairs}"
+                )
         if ms is None and len(self.pairs) == 1:
             ms = next(iter(self.pairs))
         design = self.env.design
@@ -250,21 +210,41 @@ class ModeChangeTask(TravelShaping, Task):
             options["target"] = task.check_pose(design, options["target"], mt, "target")
         return options
 
+    def _target_choices(self, ms: ModeTriple) -> list[ModeTriple]:
+        """The target modes drawn for start mode ``ms``: the construction-time list, or for a
+        requested start mode not in it, the modes ``flips`` legs away with a certified pair."""
+        if ms in self.pairs:
+            return self.pairs[ms]
+        return [m for m in single_flip_modes(ms, self.flips) if self._requested_pair_viable(ms, m)]
+
+    def _start_choices(self, mt: ModeTriple) -> list[ModeTriple]:
+        """The start modes drawn for a requested target mode ``mt`` (as :meth:`_target_choices`)."""
+        listed = [m for m in self.pairs if mt in self.pairs[m]]
+        if listed:
+            return listed
+        return [m for m in self.env.modes if m != mt and self._requested_pair_viable(m, mt)]
+
+    def _no_pair_message(self, ms: ModeTriple, mt: ModeTriple) -> str:
+        return (
+            f"no certified mode change from working mode {ms} to {mt} found among "
+            f"{VIABILITY_TRIES} candidate pairs (fixed internal seed); request another pair of "
+            f"working modes (this environment samples {self.pairs})"
+        )
+
     def episode_spec(self, rng: np.random.Generator, options: dict[str, Any]) -> dict[str, Any]:
         design = self.env.design
         ms = options.get("working_mode")
         mt = options.get("target_working_mode")
         start, target = options.get("start"), options.get("target")
         if ms is None:
-            if mt is not None:
-                choices = [m for m in self.pairs if mt in self.pairs[m]] or [
-                    m for m in self.env.modes if m != mt
-                ]
-            else:
-                choices = list(self.pairs)
+            choices = list(self.pairs) if mt is None else self._start_choices(mt)
+            if not choices:
+                raise ValueError(f"no start mode has a certified mode change to {mt}")
             ms = choices[int(rng.integers(len(choices)))] if len(choices) > 1 else choices[0]
         if mt is None:
-            choices = self.pairs.get(ms) or single_flip_modes(ms, self.flips)
+            choices = self._target_choices(ms)
+            if not choices:
+                raise ValueError(f"working_mode {ms} has no certified mode change")
             mt = choices[int(rng.integers(len(choices)))] if len(choices) > 1 else choices[0]
         if ms == mt:
             raise ValueError(f"target_working_mode {mt} equals working_mode {ms}")
@@ -275,12 +255,8 @@ class ModeChangeTask(TravelShaping, Task):
         if start is not None and target is not None:
             self._require_path(start, ms, target, mt)
         else:
-            if mt not in self.pairs.get(ms, []) and not self._requested_pair_viable(ms, mt):
-                raise ValueError(
-                    f"no certified mode change from working mode {ms} to {mt} found among 16 "
-                    "candidate pairs (fixed internal seed); request another pair of working "
-                    f"modes (this environment samples {self.pairs})"
-                )
+            if not self._requested_pair_viable(ms, mt):
+                raise ValueError(self._no_pair_message(ms, mt))
             start, target = self._draw(rng, ms, mt, start, target)
         return {
             "task": self.name,
@@ -320,9 +296,15 @@ class ModeChangeTask(TravelShaping, Task):
         start: np.ndarray | None,
         target: np.ndarray | None,
     ) -> tuple[np.ndarray, np.ndarray]:
+        """A certified pair: starts drawn in ``ms`` (or the given ``start``), for each up to
+        ``pair_tries`` targets of its assembly mode drawn in ``mt`` (or the given ``target``),
+        the first whose straight travel line is certified (all of a start's candidates in one
+        batch, :func:`first_straight_path`).  At most :data:`DRAW_ROUNDS` starts, or
+        :data:`GIVEN_ROUNDS` when the start or the target is given, then ``ValueError``."""
         design, cfg = self.env.design, self.env.task_config
         length = design.characteristic_length
-        for _ in range(200):
+        free = start is None and target is None
+        for _ in range(DRAW_ROUNDS if free else GIVEN_ROUNDS):
             if start is None:
                 s, asm = self.pose_sampler(ms).draw(rng)
             else:
@@ -331,28 +313,32 @@ class ModeChangeTask(TravelShaping, Task):
                     kinematics.assembly_mode(design, s, kinematics.inverse(design, s, ms).rho)
                 )
             if target is None:
-                try:
-                    cands = self.pose_sampler(mt).draw_many(rng, asm, self.pair_tries)
-                except ValueError:
-                    cands = np.zeros((0, 3))
+                if asm not in task.assembly_modes(design, mt, cfg):
+                    if start is not None:
+                        break  # the requested start's assembly mode has no target in mt
+                    continue  # (no target to draw for this start: draw another)
+                cands = self.pose_sampler(mt).draw_many(rng, asm, self.pair_tries)
             else:
                 t_rho = kinematics.inverse(design, target, mt).rho
                 t_asm = float(kinematics.assembly_mode(design, target, t_rho))
                 cands = target[None, :] if t_asm == asm else np.zeros((0, 3))
-            far = task.pose_distance(s[None, :], cands, length) >= cfg.min_distance
-            for t in cands[far]:
-                path, _ = find_joint_path(design, s, ms, t, mt, self.limits)
-                if path is not None:
-                    return s, t
-        if start is None and target is None:
+            cands = cands[task.pose_distance(s[None, :], cands, length) >= cfg.min_distance]
+            if len(cands):
+                found = first_straight_path(design, s, ms, cands, mt, self.limits)
+                if found is not None:
+                    return s, cands[found[0]]
+            if start is not None and target is not None:
+                break
+        if free:
             raise ValueError(
-                f"no certified mode change from working mode {ms} to {mt} found after many "
-                "draws; request another pair of working modes"
+                f"no certified mode change from working mode {ms} to {mt} found after "
+                f"{DRAW_ROUNDS} drawn starts; request another pair of working modes"
             )
         fixed = "start" if start is not None else "target"
         raise ValueError(
             f"no certified mode change from working mode {ms} to {mt} found for the requested "
-            f"{fixed}; give another {fixed} or leave it to the sampler"
+            f"{fixed} in {GIVEN_ROUNDS} draws of the other end; give another {fixed} or leave "
+            "it to the sampler"
         )
 
     def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
@@ -389,3 +375,87 @@ class ModeChangeTask(TravelShaping, Task):
             "in_target_mode": to_flip == 0,
             "legs_to_flip": to_flip,
         }
+
+
+#: Starts the sampler draws for a pair of working modes before it gives up (``ValueError``);
+#: the modes it draws have certified pairs among a few tries, so this is never reached in
+#: practice.
+DRAW_ROUNDS = 200
+#: ... when the start or the target is requested (a budget: a requested pose with no certified
+#: partner is rejected after this many candidate partners, ``pair_tries`` per round).
+GIVEN_ROUNDS = 25
+#: Candidate pairs the viability check of a pair of working modes certifies (two targets per
+#: start, fixed internal seed).
+VIABILITY_TRIES = 16
+
+
+@lru_cache(maxsize=64)
+def _viable_pairs(
+    design: Design,
+    modes: tuple[ModeTriple, ...],
+    flips: int,
+    limits: PathLimits,
+    cfg: task.TaskConfig,
+) -> tuple[tuple[ModeTriple, tuple[ModeTriple, ...]], ...]:
+    """Start mode -> target modes (as pairs of tuples, cached per design and settings) with at
+    least one certified pair among :data:`VIABILITY_TRIES` drawn with a fixed internal seed (so
+    the list never depends on the episode's random stream)."""
+    rng = np.random.default_rng(0)
+    out: dict[ModeTriple, list[ModeTriple]] = {}
+    pools: dict[ModeTriple, tuple[np.ndarray, np.ndarray] | None] = {}
+
+    def pool(mode: ModeTriple) -> tuple[np.ndarray, np.ndarray] | None:
+        if mode not in pools:
+            try:
+                pools[mode] = task.sample_poses(design, mode, rng, cfg, max_batches=20)
+            except ValueError:
+                pools[mode] = None
+        return pools[mode]
+
+    for ms in modes:
+        starts = pool(ms)
+        if starts is None:
+            continue
+        for mt in single_flip_modes(ms, flips):
+            targets = pool(mt)
+            if targets is not None and _first_certified(design, starts, targets, ms, mt, limits):
+                out.setdefault(ms, []).append(mt)
+    return tuple((ms, tuple(mts)) for ms, mts in out.items())
+
+
+@lru_cache(maxsize=256)
+def _pair_viable(
+    design: Design, ms: ModeTriple, mt: ModeTriple, limits: PathLimits, cfg: task.TaskConfig
+) -> bool:
+    """Whether a certified pair from ``ms`` to ``mt`` turns up among
+    :data:`VIABILITY_TRIES` drawn with a fixed internal seed (cached)."""
+    rng = np.random.default_rng(0)
+    try:
+        starts = task.sample_poses(design, ms, rng, cfg, max_batches=20)
+        targets = task.sample_poses(design, mt, rng, cfg, max_batches=20)
+    except ValueError:
+        return False
+    return _first_certified(design, starts, targets, ms, mt, limits)
+
+
+def _first_certified(
+    design: Design,
+    starts: tuple[np.ndarray, np.ndarray],
+    targets: tuple[np.ndarray, np.ndarray],
+    ms: ModeTriple,
+    mt: ModeTriple,
+    limits: PathLimits,
+) -> bool:
+    """Whether one of the first :data:`VIABILITY_TRIES` candidate pairs (each start with the
+    first two targets of its assembly mode) has a certified straight travel line."""
+    sp, sa = starts
+    tp, ta = targets
+    n = 0
+    for i in range(len(sp)):
+        same = np.flatnonzero(ta == sa[i])[:2][: VIABILITY_TRIES - n]
+        if same.size and first_straight_path(design, sp[i], ms, tp[same], mt, limits):
+            return True
+        n += same.size
+        if n >= VIABILITY_TRIES:
+            return False
+    return False

@@ -1,8 +1,8 @@
 """The reach task of ``Planar3P-v0``: bring the gripper to a fixed target pose and stop there.
 
-Start and target are drawn by :func:`planar3p_gym.tasks.sampling.sample_pair` (reachable in the episode's
-working mode with margins, holdable, same assembly mode, straight path clear of singularities by
-default).  Success: within the task's tolerances of the target with every slider nearly at rest.
+Start and target are drawn by :func:`planar3p_gym.tasks.sampling.sample_pair` (reachable in
+the episode's working mode with margins, holdable, same assembly mode, straight path clear of
+singularities by default).  Success: within the task's tolerances of the target with every slider nearly at rest.
 
 Episode spec: ``{"task": "reach", "working_mode": [s1, s2, s3], "start": [x, y, theta],
 "target": [x, y, theta]}`` (m, m, rad).  Reset options: ``start``, ``target``,
@@ -34,6 +34,10 @@ class ReachTask(Task):
         self._target: Pose = (0.0, 0.0, 0.0)
 
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
+        requested = options.get("working_mode")
+        if requested is not None and requested not in self.env.modes:
+            # bounded and cached (fixed internal seed): a mode without pairs fails here, fast
+            task.check_mode(self.env.design, requested, self.env.task_config)
         mode = self.known_mode(options)
         if mode is not None:  # checked before seeding: a rejected reset changes nothing
             for name in ("start", "target"):

@@ -11,9 +11,9 @@ task the environment samples can be solved without crossing a singularity.
 
 from __future__ import annotations
 
-import itertools
 import math
 import operator
+from collections import deque
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from planar3p_gym import checks
 from planar3p_gym.checks import as_finite_float, as_int
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
@@ -33,6 +34,7 @@ __all__ = [
     "SCHEDULABLE_FIELDS",
     "PoseSampler",
     "TaskConfig",
+    "assembly_modes",
     "check_mode",
     "check_pose",
     "has_pairs",
@@ -202,17 +204,16 @@ def sample_poses(
     rng: np.random.Generator,
     cfg: TaskConfig,
     batch: int = 4096,
-    max_batches: int | None = 200,
+    max_batches: int = 200,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Acceptable poses drawn by rejection: ``(poses (M, 3), assembly (M,))``, ``M >= 1``.
 
     Raises ``ValueError`` if the working mode has no acceptable pose after ``max_batches``
-    batches; ``max_batches=None`` draws until one is found (only for a mode known to have
-    acceptable poses, see :func:`check_mode`).
+    batches (a budget: every sampler loop of the package is bounded).
     """
     x0, x1, _, h = design.search_rectangle
     mode = np.asarray(mode, dtype=np.float64)
-    for _ in range(max_batches) if max_batches is not None else itertools.count():
+    for _ in range(max_batches):
         u = rng.random((batch, 3))
         poses = np.column_stack(
             [x0 + (x1 - x0) * u[:, 0], h * u[:, 1], math.pi * (2.0 * u[:, 2] - 1.0)]
@@ -272,47 +273,84 @@ class PoseSampler:
 
     Every random number comes from the generator passed to :meth:`draw`; :meth:`clear` drops
     the pool (the environment does so when it is re-seeded, so a seed fixes the episode).
+
+    The pool is kept per assembly mode, each pose with its place in the order drawn, so that
+    :meth:`draw` (the next pose of either assembly mode) and :meth:`draw_many` (the next poses
+    of one) take constant time however many poses of the other assembly mode have piled up.
     """
 
     def __init__(self, design: Design, mode: ArrayLike, cfg: TaskConfig) -> None:
         self.design = design
         self.mode = tuple(int(m) for m in np.asarray(mode).tolist())
         self.cfg = cfg
-        self._pool: list[tuple[np.ndarray, float]] = []
+        self._pools: dict[float, deque[tuple[int, np.ndarray]]] = {1.0: deque(), -1.0: deque()}
+        self._count = 0  # poses pooled so far: the order of the next one
 
     def clear(self) -> None:
         """Forget the pooled poses."""
-        self._pool.clear()
+        for pool in self._pools.values():
+            pool.clear()
+
+    def size(self) -> int:
+        """The number of pooled poses."""
+        return sum(len(pool) for pool in self._pools.values())
+
+    def pooled(self) -> list[tuple[np.ndarray, float]]:
+        """The pooled poses and their assembly modes, in the order they are handed out."""
+        items = [(k, pose, det) for det, pool in self._pools.items() for k, pose in pool]
+        return [(pose, det) for _, pose, det in sorted(items, key=lambda item: item[0])]
+
+    def push_front(self, pose: np.ndarray, det: float) -> None:
+        """Put an acceptable pose of assembly mode ``det`` first in line."""
+        first = min((pool[0][0] for pool in self._pools.values() if pool), default=self._count)
+        self._pools[float(det)].appendleft((first - 1, np.asarray(pose, dtype=np.float64)))
 
     def _refill(self, rng: np.random.Generator) -> None:
         try:
             poses, dets = sample_poses(self.design, self.mode, rng, self.cfg)
         except ValueError:
             # Rare in a mode whose acceptable poses are sparse: if the mode has poses at all
-            # (check_mode raises if not), keep drawing from the same stream until one is found.
+            # (check_mode raises if not), keep drawing from the same stream (a bounded number
+            # of batches: ValueError if even those find none).
             check_mode(self.design, self.mode, self.cfg)
-            poses, dets = sample_poses(self.design, self.mode, rng, self.cfg, max_batches=None)
-        self._pool.extend(zip(poses, dets.tolist(), strict=True))
+            poses, dets = sample_poses(
+                self.design, self.mode, rng, self.cfg, max_batches=REFILL_BATCHES
+            )
+        for pose, det in zip(poses, dets.tolist(), strict=True):
+            self._pools[det].append((self._count, pose))
+            self._count += 1
 
     def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, float]:
         """The next pose and its assembly mode."""
-        if not self._pool:
+        up, down = self._pools[1.0], self._pools[-1.0]
+        if not (up or down):
             self._refill(rng)
-        return self._pool.pop(0)
+        if up and (not down or up[0][0] < down[0][0]):
+            return up.popleft()[1], 1.0
+        return down.popleft()[1], -1.0
 
     def draw_many(self, rng: np.random.Generator, assembly: float, n: int) -> np.ndarray:
         """Up to ``n`` next poses of assembly mode ``assembly``, shape (m, 3); ``m == 0`` when
-        none turned up in 50 refills (the assembly mode is rare or empty in this working
-        mode: the caller draws another start)."""
-        for _ in range(50):
-            picked = [i for i, (_, det) in enumerate(self._pool) if det == assembly][:n]
-            if picked:
-                out = np.array([self._pool[i][0] for i in picked])
-                for i in reversed(picked):
-                    del self._pool[i]
-                return out
+        none turned up in :data:`DRAW_MANY_REFILLS` refills (the assembly mode is rare or empty
+        in this working mode: the caller draws another start)."""
+        pool = self._pools.get(assembly)
+        if pool is None:  # not an assembly mode (+-1): no pose has it
+            return np.empty((0, 3))
+        for _ in range(DRAW_MANY_REFILLS):
+            if pool:
+                return np.array([pool.popleft()[1] for _ in range(min(n, len(pool)))])
             self._refill(rng)
         return np.empty((0, 3))
+
+
+#: Refills :meth:`PoseSampler.draw_many` tries before it gives up (returns no pose).
+DRAW_MANY_REFILLS = 50
+#: Batches of 4096 poses a refill draws after the first 200 found none, in a working mode that
+#: :func:`check_mode` accepts, before it raises ``ValueError`` (a budget: about 8 million
+#: poses; the check found at least two acceptable poses among its 1.6 million, so some ten
+#: are expected here, and the budget runs out with a probability below 1e-4 of a refill that
+#: already came up empty, itself rare).
+REFILL_BATCHES = 2000
 
 
 def sample_pair(
@@ -331,12 +369,13 @@ def sample_pair(
     ``clear_path``, is joined to the start by a straight path clear of singularities.
 
     With neither given, draws until a pair is found (after ``max_tries`` failed starts it
-    checks, once, that the working mode has pairs at all: :func:`check_mode`); a given start
-    or target that cannot be paired in ``max_tries`` tries raises ``ValueError``.
+    checks, once, that the working mode has pairs at all: :func:`check_mode`), at most
+    ``PAIR_TRIES_FACTOR * max_tries`` starts (a budget; then ``ValueError``); a given start or
+    target that cannot be paired in ``max_tries`` tries raises ``ValueError``.
     """
     if start is not None and target is not None:
         return start, target
-    sampler = sampler or PoseSampler(design, mode, cfg)
+    sampler = sampler if sampler is not None else PoseSampler(design, mode, cfg)
     free = start is None and target is None
     if free and cfg.near_singular_fraction > 0 and rng.random() < cfg.near_singular_fraction:
         pair = _near_singular_pair(design, mode, rng, cfg, sampler)
@@ -346,10 +385,8 @@ def sample_pair(
         pair = _detour_pair(design, mode, rng, cfg, sampler)
         if pair is not None:
             return pair
-    for attempt in itertools.count():
+    for attempt in range(max_tries * PAIR_TRIES_FACTOR if free else max_tries):
         if attempt == max_tries:
-            if not free:
-                break
             check_mode(design, tuple(int(m) for m in np.asarray(mode).tolist()), cfg)
         if start is None:
             s, det = sampler.draw(rng)
@@ -373,6 +410,11 @@ def sample_pair(
         "could not pair a start with a target under the task's constraints "
         "(same assembly mode, minimum distance, clear path); relax TaskConfig or give both"
     )
+
+
+#: Starts :func:`sample_pair` draws for a free pair, in units of ``max_tries``, before it gives
+#: up (a budget: a working mode that passes :func:`check_mode` has pairs far more often).
+PAIR_TRIES_FACTOR = 20
 
 
 #: Candidate targets screened per start by :func:`_near_singular_pair`, and starts tried.
@@ -534,15 +576,42 @@ def _mode_problem(design: Design, mode: tuple[int, int, int], cfg: TaskConfig) -
     )
 
 
+#: Batches of 4096 uniform poses (fixed seed) in which :func:`assembly_modes` looks for the
+#: assembly modes of a working mode's acceptable poses.
+ASSEMBLY_BATCHES = 32
+
+
+def assembly_modes(design: Design, mode: ArrayLike, cfg: TaskConfig) -> frozenset[float]:
+    """The assembly modes (``sign det A``, +-1.0) among the acceptable poses of working
+    ``mode`` found in :data:`ASSEMBLY_BATCHES` batches of uniform poses (fixed internal seed,
+    cached).  A pose of another assembly mode has no partner there in practice (one would take
+    hundreds of batches to turn up): samplers draw another pose rather than search for one.
+    (On the default design, working mode ``(+1, +1, -1)`` has no pose of assembly mode -1 in
+    these batches.)"""
+    return _assembly_modes(design, tuple(int(m) for m in np.asarray(mode).tolist()), cfg)
+
+
+@lru_cache(maxsize=256)
+def _assembly_modes(
+    design: Design, mode: tuple[int, int, int], cfg: TaskConfig
+) -> frozenset[float]:
+    rng = np.random.default_rng(0)
+    found: set[float] = set()
+    for _ in range(ASSEMBLY_BATCHES):
+        try:
+            _, asm = sample_poses(design, mode, rng, cfg, max_batches=1)
+        except ValueError:
+            continue
+        found |= set(asm.tolist())
+        if len(found) == 2:
+            break
+    return frozenset(found)
+
+
 def check_pose(design: Design, pose: ArrayLike, mode: ArrayLike, name: str) -> np.ndarray:
     """Validate a user-given pose: 3 finite numbers, reachable in ``mode`` within the stroke and
     not at a parallel singularity.  Returns it as a float array, or raises ``ValueError``."""
-    try:
-        p = np.asarray(pose, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be 3 numbers (x, y, theta), got {pose!r}") from exc
-    if p.shape != (3,) or not np.isfinite(p).all():
-        raise ValueError(f"{name} must be 3 finite numbers (x, y, theta), got {pose!r}")
+    p = checks.numbers(pose, 3, name, " (x, y, theta)")
     rho, reachable = kinematics.inverse(design, p, mode)
     if not bool(reachable):
         raise ValueError(

@@ -58,6 +58,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
@@ -96,6 +97,12 @@ EIGHT_SCALES = (1.0, 0.7, 0.5, 0.35, 0.25)
 #: :data:`EIGHT_MODE_TRIALS` drawn eights fit in it.
 EIGHT_MODE_ACCEPTS = 3
 EIGHT_MODE_TRIALS = 16
+#: Draws of a reference before the sampler gives up (``ValueError``; never reached in a working
+#: mode the environment draws from) ...
+DRAW_ROUNDS = 1000
+#: ... and when the start is requested (a budget: a start that cannot begin a reference is
+#: rejected after this many tries).
+GIVEN_ROUNDS = 20
 #: Figure-eight ramp-up time from rest (s).
 EIGHT_RAMP = 1.0
 #: ``info`` keys of the tracking metrics.
@@ -131,15 +138,11 @@ class TrackTask(Task):
     def __init__(
         self, reference: str = "segments", speed_fraction: float = 0.5, duration: float = 10.0
     ) -> None:
-        if reference not in DRAW_KINDS:
-            raise ValueError(f"reference must be one of {DRAW_KINDS}, got {reference!r}")
-        if not (isinstance(speed_fraction, (int, float)) and 0 < speed_fraction <= 1):
-            raise ValueError(f"speed_fraction must be in (0, 1], got {speed_fraction!r}")
-        if not (isinstance(duration, (int, float)) and MIN_DURATION <= duration <= 3600):
-            raise ValueError(f"duration must be in [{MIN_DURATION}, 3600] s, got {duration!r}")
-        self.kind = reference
-        self.speed_fraction = float(speed_fraction)
-        self.duration = float(duration)
+        self.kind = checks.choice(reference, "reference", DRAW_KINDS)
+        self.speed_fraction = checks.number(
+            speed_fraction, "speed_fraction", low=0.0, high=1.0, low_open=True
+        )
+        self.duration = checks.number(duration, "duration", low=MIN_DURATION, high=3600.0, unit="s")
 
     # ------------------------------------------------------------------ set-up
     def arguments(self) -> dict[str, Any]:
@@ -158,6 +161,7 @@ class TrackTask(Task):
         self._count = 0
         kinds = REFERENCE_KINDS if self.kind == MIXED else (self.kind,)
         self._draw_modes = {kind: self._reference_modes(kind) for kind in kinds}
+        self._mode_problems: dict[tuple[str, tuple[int, int, int]], str | None] = {}
 
     def _reference_modes(self, kind: str) -> list[tuple[int, int, int]]:
         """The env's working modes in which references of ``kind`` are drawn: all of them for
@@ -186,8 +190,48 @@ class TrackTask(Task):
             )
         return usable
 
+    def _mode_problem(self, kind: str, mode: tuple[int, int, int]) -> str | None:
+        """Why references of ``kind`` cannot be drawn in a requested working ``mode`` that is
+        not among the env's drawn ones, or ``None`` (bounded: :func:`~planar3p_gym.tasks.
+        sampling.check_mode`, and for the figure-eight :data:`EIGHT_MODE_TRIALS` drawn eights
+        with a fixed internal seed, from a sampler of their own; cached)."""
+        key = (kind, mode)
+        if key not in self._mode_problems:
+            env = self.env
+            problem = None
+            if not task.has_pairs(env.design, mode, env.task_config):
+                problem = "it has no start/target pair meeting the task's margins"
+            elif kind == "figure_eight":
+                rng = np.random.default_rng(0)
+                sampler = task.PoseSampler(env.design, mode, env.task_config)
+                fits = sum(
+                    self._draw_eight(rng, mode, None, sampler) is not None
+                    for _ in range(EIGHT_MODE_TRIALS)
+                )
+                if fits < EIGHT_MODE_ACCEPTS:
+                    problem = (
+                        f"fewer than {EIGHT_MODE_ACCEPTS} of {EIGHT_MODE_TRIALS} drawn "
+                        "figure-eights fit in it"
+                    )
+            self._mode_problems[key] = problem
+        return self._mode_problems[key]
+
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         ref = options.get("reference")
+        requested = options.get("working_mode")
+        if requested is not None:
+            if ref is not None and isinstance(ref, dict) and ref.get("kind") in REFERENCE_KINDS:
+                kinds: tuple[str, ...] = ()  # a given reference is checked in full below
+            else:
+                kinds = tuple(self._draw_modes)
+            for kind in kinds:
+                if requested in self._draw_modes[kind]:
+                    continue
+                problem = self._mode_problem(kind, requested)
+                if problem is not None:
+                    raise ValueError(
+                        f"working_mode {requested} cannot have {kind} references: {problem}"
+                    )
         if ref is not None:
             options["reference"] = parse_reference(ref)
             start = self._reference_at(options["reference"], 0)[0]
@@ -226,7 +270,7 @@ class TrackTask(Task):
             draw = self._draw_segments if kind == "segments" else self._draw_eight
             start = options.get("start")
             ref = None
-            for _ in range(1000):
+            for _ in range(DRAW_ROUNDS if start is None else GIVEN_ROUNDS):
                 ref = draw(rng, mode, start)
                 if ref is not None:
                     break
@@ -309,10 +353,16 @@ class TrackTask(Task):
         return None
 
     # ------------------------------------------------------------------ sampling
-    def _draw_start(self, rng: np.random.Generator, mode: Any, start: Any) -> np.ndarray:
+    def _draw_start(
+        self,
+        rng: np.random.Generator,
+        mode: Any,
+        start: Any,
+        sampler: task.PoseSampler | None = None,
+    ) -> np.ndarray:
         if start is not None:
             return np.asarray(start, dtype=np.float64)
-        return self.pose_sampler(mode).draw(rng)[0]
+        return (self.pose_sampler(mode) if sampler is None else sampler).draw(rng)[0]
 
     def _draw_segments(
         self, rng: np.random.Generator, mode: Any, start: Any
@@ -347,11 +397,17 @@ class TrackTask(Task):
             "durations": durations,
         }
 
-    def _draw_eight(self, rng: np.random.Generator, mode: Any, start: Any) -> dict[str, Any] | None:
-        """A feasible figure-eight around a drawn (or the given) centre (None if the drawn
-        amplitudes do not fit; the caller draws again)."""
+    def _draw_eight(
+        self,
+        rng: np.random.Generator,
+        mode: Any,
+        start: Any,
+        sampler: task.PoseSampler | None = None,
+    ) -> dict[str, Any] | None:
+        """A feasible figure-eight around a drawn (from ``sampler``, by default the task's) or
+        the given centre (None if the drawn amplitudes do not fit; the caller draws again)."""
         design = self.env.design
-        centre = self._draw_start(rng, mode, start)
+        centre = self._draw_start(rng, mode, start, sampler)
         (x0, x1), (y0, y1), (_, t1) = EIGHT_AMPLITUDES
         amp = np.array(
             [rng.uniform(x0, x1), rng.uniform(y0, y1), rng.uniform(-t1, t1)], dtype=np.float64

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from planar3p_gym import checks
 from planar3p_gym.tasks.base import Task, pose_list
 from planar3p_gym.tasks.motions import minimum_jerk
 
@@ -33,6 +34,8 @@ REFERENCE_KINDS = ("segments", "figure_eight")
 CHECK_POINTS = 65
 #: Shortest segment or period (s).
 MIN_DURATION = 0.5
+#: Most waypoints a requested segments reference may have (a budget on its checks).
+MAX_WAYPOINTS = 10_000
 
 
 def wrap_angle(a: np.ndarray) -> np.ndarray:
@@ -61,11 +64,18 @@ def parse_reference(ref: Any) -> dict[str, Any]:
     if ref["kind"] == "segments":
         if set(ref) != {"kind", "waypoints", "durations"}:
             raise ValueError("a segments reference has keys kind, waypoints, durations")
-        wps = [Task.finite_pose(w, "reference waypoint") for w in ref["waypoints"]]
+        if isinstance(ref["waypoints"], (str, bytes, dict)) or isinstance(
+            ref["durations"], (str, bytes, dict)
+        ):
+            raise ValueError("reference waypoints and durations must be lists")
         try:
-            dur = [float(d) for d in ref["durations"]]
-        except (TypeError, ValueError) as exc:
-            raise ValueError("reference durations must be numbers (s)") from exc
+            waypoints, durations = list(ref["waypoints"]), list(ref["durations"])
+        except TypeError as exc:
+            raise ValueError("reference waypoints and durations must be lists") from exc
+        if len(waypoints) > MAX_WAYPOINTS:
+            raise ValueError(f"a segments reference has at most {MAX_WAYPOINTS} waypoints")
+        wps = [Task.finite_pose(w, "reference waypoint") for w in waypoints]
+        dur = [checks.number(d, "reference duration", unit="s") for d in durations]
         if len(wps) < 2 or len(dur) != len(wps) - 1:
             raise ValueError(
                 "a segments reference needs >= 2 waypoints and one duration per segment"
@@ -81,14 +91,8 @@ def parse_reference(ref: Any) -> dict[str, Any]:
         raise ValueError("a figure_eight reference has keys kind, centre, amplitude, period, ramp")
     centre = Task.finite_pose(ref["centre"], "reference centre")
     amp = Task.finite_pose(ref["amplitude"], "reference amplitude")
-    try:
-        period, ramp = float(ref["period"]), float(ref["ramp"])
-    except (TypeError, ValueError) as exc:
-        raise ValueError("reference period and ramp must be numbers (s)") from exc
-    if not (math.isfinite(period) and period >= MIN_DURATION):
-        raise ValueError(f"reference period must be >= {MIN_DURATION} s, got {period!r}")
-    if not (math.isfinite(ramp) and 0 < ramp <= 60):
-        raise ValueError(f"reference ramp must be in (0, 60] s, got {ramp!r}")
+    period = checks.number(ref["period"], "reference period", low=MIN_DURATION, unit="s")
+    ramp = checks.number(ref["ramp"], "reference ramp", low=0.0, high=60.0, low_open=True, unit="s")
     return {
         "kind": "figure_eight",
         "centre": pose_list(centre),

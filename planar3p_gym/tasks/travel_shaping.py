@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from planar3p_gym.checks import as_finite_float
+from planar3p_gym import checks
 from planar3p_gym.tasks.rewards import MAX_WEIGHT
 
 __all__ = ["TravelShaping", "check_travel_shaping"]
@@ -22,12 +22,7 @@ __all__ = ["TravelShaping", "check_travel_shaping"]
 def check_travel_shaping(value: Any) -> float:
     """``value`` as a weight in ``[0, MAX_WEIGHT]`` (dimensionless, per step), else
     ``ValueError``."""
-    weight = as_finite_float(value)
-    if weight is None or not 0.0 <= weight <= MAX_WEIGHT:
-        raise ValueError(
-            f"travel_shaping must be a finite number in [0, {MAX_WEIGHT:g}], got {value!r}"
-        )
-    return weight
+    return checks.number(value, "travel_shaping", low=0.0, high=MAX_WEIGHT)
 
 
 class TravelShaping:

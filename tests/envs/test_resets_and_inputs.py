@@ -46,9 +46,9 @@ def test_a_start_in_a_rare_assembly_mode_is_redrawn():
     sampler = task.PoseSampler(design, mode, CFG)
     rng = np.random.default_rng(0)
     sampler._refill(rng)
-    assert all(d == 1.0 for _, d in sampler._pool)  # no partner for it in the pool
+    assert all(d == 1.0 for _, d in sampler.pooled())  # no partner for it in the pool
     assert len(sampler.draw_many(np.random.default_rng(1), -1.0, 8)) == 0  # formerly raised
-    sampler._pool.insert(0, (rare, -1.0))
+    sampler.push_front(rare, -1.0)
     start, target = task.sample_pair(design, mode, rng, CFG, sampler=sampler)
     assert not np.array_equal(start, rare)
     _check_pair(design, start, target, mode)

@@ -38,7 +38,7 @@ DESIGN = Design.fig8()
 def test_run_episode_zero_and_analytic(env, suites):
     spec = suites["standard"].episodes[0]
     zero = ep.run_episode(env, ZeroPolicy(), spec, policy_name="zero", record=True)
-    assert not zero.success and zero.termination_reason == "timeout"
+    assert not zero.success and zero.termination_reason == "time_limit"
     assert zero.steps == planar3p_gym.MAX_EPISODE_STEPS
     assert zero.energy == pytest.approx(0.0, abs=1e-3)
     assert zero.trajectory.shape == (zero.steps + 1, 3)

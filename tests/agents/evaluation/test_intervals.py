@@ -38,7 +38,7 @@ def _result(success, ret, cause="success", steps=50, **kw):
         suite="standard",
         index=0,
         success=success,
-        termination_reason=cause if cause in ("success", "singularity_crossing") else "timeout",
+        termination_reason=cause if cause in ("success", "singularity_crossing") else "time_limit",
         cause=cause,
         steps=steps,
         duration=steps * 0.02,
@@ -75,7 +75,7 @@ def test_summarize_hand_checked():
     assert s["median_position_error_mm"] == pytest.approx(2.0)
     assert s["median_time_to_success"] == pytest.approx(1.5)  # 1.0 s and 2.0 s
     assert s["worst_min_parallel_margin"] == pytest.approx(0.001)
-    assert s["singularity_crossings"] == 1 and s["timeouts"] == 1
+    assert s["singularity_crossings"] == 1 and s["time_limits"] == 1
     assert s["saturation_fraction"] == pytest.approx(25 / 410)
     assert s["causes"]["not_converged"] == 1
     assert 0.0 <= s["success_ci"][0] <= 0.5 <= s["success_ci"][1] <= 1.0

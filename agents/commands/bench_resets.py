@@ -1,0 +1,161 @@
+"""Reset times of every registered id: ``env.reset(seed=s)`` for ``s`` in a range of seeds.
+
+Prints, per id, the median, p99, p99.9 and maximum wall time of one seeded reset (ms) and the
+seeds of the slowest resets.  The target of issue 27 is a p99.9 below 100 ms over 10,000 seeds
+on a quiet machine; this script measures, it asserts nothing (timings depend on the machine, so
+no test times anything).
+
+Each id is made once with ``gym.make`` (the construction is not timed) and reset once unseeded
+before the timed resets (first-use costs such as lazily built tables are not counted).
+
+Usage::
+
+    .venv/bin/python scripts/bench_resets.py                        # every id, 10,000 seeds
+    .venv/bin/python scripts/bench_resets.py --seeds 500 --ids Planar3PModeChange-v0
+    .venv/bin/python scripts/bench_resets.py --ids Planar3PModeChange-v0 \\
+        --kwargs '{"working_mode": "random"}'
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import time
+from typing import Any
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+
+import gymnasium as gym
+import numpy as np
+
+import planar3p_gym
+from planar3p_agents.commands.parser import CliParser, UsageError
+from planar3p_gym.atomic_files import write_atomic
+from planar3p_gym.envs.registry import ENV_SPECS
+
+ALL_IDS = tuple(row.id for row in ENV_SPECS)
+#: How many of the slowest seeds are listed per id.
+SLOWEST = 5
+
+
+def add_arguments(ap: CliParser) -> None:
+    ap.add_argument("--seeds", type=int, default=10_000, help="number of seeded resets per id")
+    ap.add_argument("--first-seed", type=int, default=0, help="the first seed of the range")
+    ap.add_argument(
+        "--ids",
+        nargs="+",
+        default=list(ALL_IDS),
+        metavar="ID",
+        help=f"environment ids to measure (default: all, {', '.join(ALL_IDS)})",
+    )
+    ap.add_argument(
+        "--kwargs",
+        default="{}",
+        metavar="JSON",
+        help="keyword arguments of gym.make for every id, a JSON object, e.g. "
+        '\'{"working_mode": "random"}\'',
+    )
+    ap.add_argument("--json", metavar="PATH", help="also write the figures as JSON to PATH")
+
+
+def check(args: argparse.Namespace) -> None:
+    """Validate the arguments before any environment is made (one line naming the flag)."""
+    if args.seeds < 1:
+        raise UsageError(f"--seeds must be >= 1, got {args.seeds}")
+    if args.first_seed < 0:
+        raise UsageError(f"--first-seed must be >= 0, got {args.first_seed}")
+    unknown = [i for i in args.ids if i not in ALL_IDS]
+    if unknown:
+        raise UsageError(f"--ids: unknown id(s) {', '.join(unknown)}; known: {', '.join(ALL_IDS)}")
+    try:
+        kwargs = json.loads(args.kwargs)
+    except json.JSONDecodeError as exc:
+        raise UsageError(f"--kwargs: not JSON ({exc})") from None
+    if not isinstance(kwargs, dict):
+        raise UsageError(f"--kwargs must be a JSON object, got {args.kwargs}")
+    args.kwargs = kwargs
+    if args.json is not None:
+        path = os.path.abspath(args.json)
+        parent = os.path.dirname(path)
+        if os.path.isdir(path):
+            raise UsageError(f"--json: {args.json} is a directory")
+        if not os.path.isdir(parent):
+            raise UsageError(f"--json: directory {parent} does not exist")
+        if not os.access(parent, os.W_OK):
+            raise UsageError(f"--json: directory {parent} is not writable")
+
+
+def make_envs(ids: list[str], kwargs: dict[str, Any]) -> dict[str, gym.Env]:
+    """Every id made with ``kwargs`` (before anything is measured); a rejected ``--kwargs``
+    exits with status 2 and one line."""
+    envs = {}
+    for env_id in ids:
+        try:
+            envs[env_id] = gym.make(env_id, **kwargs)
+        except (ValueError, TypeError) as exc:
+            for env in envs.values():
+                env.close()
+            message = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise UsageError(f"--kwargs: {env_id}: {message}") from None
+    return envs
+
+
+def reset_times(env: gym.Env, seeds: range) -> np.ndarray:
+    """Wall times (s) of ``env.reset(seed=s)`` for each seed, in order (after one unseeded
+    reset, so that first-use costs are not counted)."""
+    env.reset()
+    out = np.empty(len(seeds))
+    clock = time.perf_counter
+    for k, seed in enumerate(seeds):
+        t0 = clock()
+        env.reset(seed=seed)
+        out[k] = clock() - t0
+    return out
+
+
+def summary(times: np.ndarray, seeds: range) -> dict[str, Any]:
+    """Median, p99, p99.9, max (ms) and the slowest seeds."""
+    ms = 1e3 * times
+    slow = np.argsort(ms)[::-1][:SLOWEST]
+    return {
+        "resets": int(ms.size),
+        "median_ms": float(np.median(ms)),
+        "p99_ms": float(np.percentile(ms, 99)),
+        "p99.9_ms": float(np.percentile(ms, 99.9)),
+        "max_ms": float(ms.max()),
+        "slowest": [[int(seeds[i]), round(float(ms[i]), 2)] for i in slow],
+    }
+
+
+def run(args: argparse.Namespace) -> int:
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    envs = make_envs(args.ids, args.kwargs)
+    print(
+        f"python {platform.python_version()}, gymnasium {gym.__version__}, "
+        f"planar3p_gym {planar3p_gym.__version__}, {os.cpu_count()} CPUs, "
+        f"load average {os.getloadavg()[0]:.2f}; seeds {seeds.start}..{seeds.stop - 1}"
+        + (f", kwargs {args.kwargs}" if args.kwargs else "")
+    )
+    print(
+        f"{'id':<28} {'resets':>7} {'median':>8} {'p99':>8} {'p99.9':>8} {'max':>8}  "
+        "slowest seeds (ms)"
+    )
+    results = {}
+    for env_id, env in envs.items():
+        fig = summary(reset_times(env, seeds), seeds)
+        env.close()
+        results[env_id] = fig
+        slow = ", ".join(f"{s}: {t:g}" for s, t in fig["slowest"])
+        print(
+            f"{env_id:<28} {fig['resets']:>7} {fig['median_ms']:>8.2f} {fig['p99_ms']:>8.2f} "
+            f"{fig['p99.9_ms']:>8.2f} {fig['max_ms']:>8.2f}  {slow}",
+            flush=True,
+        )
+    print(f"(times in ms; load average {os.getloadavg()[0]:.2f} at the end)")
+    if args.json is not None:
+        record = {"seeds": [seeds.start, seeds.stop], "kwargs": args.kwargs, **results}
+        write_atomic(args.json, json.dumps(record, indent=2) + "\n")
+    return 0
