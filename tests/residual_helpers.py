@@ -1,6 +1,6 @@
 """Helpers shared by the residual-policy tests (tests/agents/controllers/test_residual_track.py and
-tests/agents/controllers/test_residual_reach.py): a tiny PPO model of a residual policy and the checks every
-residual policy must pass whatever its base controller."""
+tests/agents/controllers/test_residual_reach.py): a tiny PPO model of a residual policy and the
+checks every residual policy must pass whatever its base controller."""
 
 from __future__ import annotations
 

@@ -342,8 +342,8 @@ def test_docs_media_writes_a_frame_a_gif_and_a_caption(tmp_path):
 
 
 def test_repository_paths_named_in_the_pages_exist():
-    """Paths written in inline code (`agents/training/hyperparams/ppo.yml`) must exist, so that a moved
-    file shows up here rather than as a dead reference on the site."""
+    """Paths written in inline code (`agents/training/hyperparams/ppo.yml`) must exist, so that a
+    moved file shows up here rather than as a dead reference on the site."""
     problems = []
     for path in shell_pages():
         text = path.read_text(encoding="utf-8")

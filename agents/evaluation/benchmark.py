@@ -1,10 +1,12 @@
 """The policy benchmark as a library: play policies on fixed suites and write the report.
 
-:func:`run_benchmark` plays every policy on every suite (:mod:`planar3p_agents.evaluation.reach_suites`) with the episode
-runner (:mod:`planar3p_agents.evaluation.episodes`), summarises (:mod:`planar3p_agents.evaluation.intervals`) and writes into ``out``
-``report.md``, ``episodes.csv``, ``summary.json``, ``suites.json`` and the figures
-(:mod:`planar3p_agents.evaluation.report`, :mod:`planar3p_agents.evaluation.report_plots`).  Results are written after each
-(policy, suite), so a failing policy or an interrupt keeps what is finished.
+:func:`run_benchmark` plays every policy on every suite
+(:mod:`planar3p_agents.evaluation.reach_suites`) with the episode runner
+(:mod:`planar3p_agents.evaluation.episodes`), summarises
+(:mod:`planar3p_agents.evaluation.intervals`) and writes into ``out`` ``report.md``,
+``episodes.csv``, ``summary.json``, ``suites.json`` and the figures
+(:mod:`planar3p_agents.evaluation.report`, :mod:`planar3p_agents.evaluation.report_plots`).  Results
+are written after each (policy, suite), so a failing policy or an interrupt keeps what is finished.
 ``scripts/benchmark.py`` is its command line.
 
 Also here: :func:`check_output_dir` (refuse to overwrite an earlier run's files) and
@@ -244,11 +246,12 @@ def build_suites(
     envs: dict[str, Any] | None = None,
     **suite_kwargs: Any,
 ) -> dict[str, Suite]:
-    """The suites ``names``: generated (:func:`planar3p_agents.evaluation.reach_suites.make_suite` with
-    ``suite_kwargs``, :func:`planar3p_agents.evaluation.task_suites.make_task_suite` in ``envs[name]``) or, with
-    ``suite_file``, read from a saved ``suites.json``, which must be for ``design`` (a task
-    suite: for its environment's design) and hold them all.  ``ValueError`` with a clear
-    message otherwise."""
+    """The suites ``names``: generated
+    (:func:`planar3p_agents.evaluation.reach_suites.make_suite` with ``suite_kwargs``,
+    :func:`planar3p_agents.evaluation.task_suites.make_task_suite` in ``envs[name]``) or, with
+    ``suite_file``, read from a saved ``suites.json``, which must be for ``design`` (a task suite:
+    for its environment's design) and hold them all.  ``ValueError`` with a clear message
+    otherwise."""
     known = (*SUITE_NAMES, *TASK_SUITES)
     if suite_file is None:
         unknown = [s for s in names if s not in known]

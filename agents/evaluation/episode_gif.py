@@ -1,7 +1,8 @@
 """Record one episode of a policy as an animated GIF (the demo's animations).
 
-The episode is fixed by its reset ``options`` (a suite's :meth:`~planar3p_agents.evaluation.reach_suites.EpisodeSpec.
-reset_options`), so several policies can be recorded on exactly the same start and target.
+The episode is fixed by its reset ``options`` (a suite's
+:meth:`~planar3p_agents.evaluation.reach_suites.EpisodeSpec. reset_options`), so several policies
+can be recorded on exactly the same start and target.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """Playing episodes: the runner of the benchmark and what it measures per episode.
 
-:func:`run_episode` plays one :class:`~planar3p_agents.evaluation.reach_suites.EpisodeSpec` with any object that has an
-SB3-style ``predict`` and returns an :class:`EpisodeResult` (outcome, errors, margins,
-saturation, mechanical energy, closure error, and why a timeout did not succeed);
+:func:`run_episode` plays one :class:`~planar3p_agents.evaluation.reach_suites.EpisodeSpec` with any
+object that has an SB3-style ``predict`` and returns an :class:`EpisodeResult` (outcome, errors,
+margins, saturation, mechanical energy, closure error, and why a timeout did not succeed);
 :func:`evaluate` plays a suite.  SB3's ``evaluate_policy`` returns only returns and lengths;
 this runner also replays fixed episodes through ``reset(options=...)``, seeds each policy per
 episode (so run order does not matter) and records the per-step quantities above.

@@ -108,10 +108,11 @@ def summarize(
     Success rate with its Wilson interval (NaN for a task without a success test); IQM of the
     return with a percentile-bootstrap interval; median final errors (mm, deg), time to success
     (s, successful episodes only) and mechanical energy (J); the worst and median smallest
-    parallel margin; counts of each ending (:data:`~planar3p_agents.evaluation.episodes.FAILURE_CAUSES`); the share
-    of steps with a saturated actuator; the median speed bound (s) and the median and 90th
-    percentile of time to success over the speed bound (successful episodes); and, for tasks that report them, the median, mean,
-    smallest and largest value of each task metric (``task_metrics`` of the results, e.g.
+    parallel margin; counts of each ending
+    (:data:`~planar3p_agents.evaluation.episodes.FAILURE_CAUSES`); the share of steps with a
+    saturated actuator; the median speed bound (s) and the median and 90th percentile of time to
+    success over the speed bound (successful episodes); and, for tasks that report them, the median,
+    mean, smallest and largest value of each task metric (``task_metrics`` of the results, e.g.
     tracking errors, or 0/1 flags whose mean is the share of episodes).
     """
     if not results:

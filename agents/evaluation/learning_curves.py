@@ -1,4 +1,5 @@
-"""Learning curves of training runs (``evaluations.npz`` written by :mod:`planar3p_agents.training.run`).
+"""Learning curves of training runs (``evaluations.npz`` written by
+:mod:`planar3p_agents.training.run`).
 
 Runs are grouped by name (the run directory without ``-s<seed>``); for each group the mean over
 seeds of the evaluation success rate and return is drawn against environment steps, with the
@@ -120,7 +121,8 @@ def _group_curves(
     runs: list[dict], key: str
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """IQM over the seeds that reached each evaluation step and its 95 % bootstrap interval
-    over seeds (:func:`planar3p_agents.evaluation.seed_statistics.stratified_bootstrap_iqm`, one task)."""
+    over seeds (:func:`planar3p_agents.evaluation.seed_statistics.stratified_bootstrap_iqm`, one
+    task)."""
     from planar3p_agents.evaluation.seed_statistics import stratified_bootstrap_iqm
 
     steps = np.unique(np.concatenate([r["timesteps"] for r in runs]))

@@ -16,11 +16,11 @@ stroke, same assembly mode (``sign det A``), not at a singularity.
   changes sign along it) or within a parallel margin of ``hard_margin`` of one, so a
   controller that does not look ahead meets it.  The two ends are in the same connected
   region of their assembly mode (with margins) on a grid of the configuration space
-  (:class:`planar3p_agents.evaluation.region_maps.RegionMap`), so a detour exists.  On the default design no such
-  path *crosses* ``det A = 0``: in every working mode the parallel singularities are wrapped in
-  a band of poor conditioning, so pairs whose straight path crosses one have ill-conditioned
-  ends (pass a lower ``end_parallel_margin`` and another ``working_mode``, e.g. ``(1, 1, 1)``,
-  for such a stress test).
+  (:class:`planar3p_agents.evaluation.region_maps.RegionMap`), so a detour exists.  On the default
+  design no such path *crosses* ``det A = 0``: in every working mode the parallel singularities are
+  wrapped in a band of poor conditioning, so pairs whose straight path crosses one have
+  ill-conditioned ends (pass a lower ``end_parallel_margin`` and another ``working_mode``, e.g.
+  ``(1, 1, 1)``, for such a stress test).
 * ``far``: pairs whose pose distance ``|dp| + L_ref |dtheta|`` is in the top decile of
   same-assembly pairs of acceptable poses (ends near opposite sides of the workspace of the
   working mode); the straight path need not be clear (it may leave the workspace), but both
@@ -103,9 +103,9 @@ class EpisodeSpec:
             without one (tracking).
         working_mode: ``(s1, s2, s3)`` at the start.
         path: diagnostics of the straight path in pose space from start to target (see
-            :func:`planar3p_agents.evaluation.path_diagnostics.path_profiles`): ``distance`` (m), ``reachable``,
-            ``min_parallel_margin``, ``min_serial_margin``, ``crosses`` (``det A`` changes
-            sign), ``clear`` (meets the environment's clear-path test); for the reach suites
+            :func:`planar3p_agents.evaluation.path_diagnostics.path_profiles`): ``distance`` (m),
+            ``reachable``, ``min_parallel_margin``, ``min_serial_margin``, ``crosses`` (``det A``
+            changes sign), ``clear`` (meets the environment's clear-path test); for the reach suites
             also the sequential path's (``sequential_<key>``) and ``slider_line_reaches``
             (:func:`planar3p_agents.evaluation.path_diagnostics.with_slider_line`).
         options: for a task suite (:mod:`planar3p_agents.evaluation.task_suites`), the environment's

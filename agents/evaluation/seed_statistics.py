@@ -10,9 +10,9 @@ resampled with replacement independently within each task, and the percentile in
 resampled IQMs is reported.
 
 ``rliable`` itself is not a dependency (it pins ``pandas<3`` and ``arch<7.2``); the computation
-is a few lines of numpy on top of :func:`planar3p_agents.evaluation.intervals.iqm` (SciPy's ``trim_mean``).
-SciPy's ``bootstrap`` resamples one sample or paired samples, not independently per stratum, so
-the resampling is written here.
+is a few lines of numpy on top of :func:`planar3p_agents.evaluation.intervals.iqm` (SciPy's
+``trim_mean``). SciPy's ``bootstrap`` resamples one sample or paired samples, not independently per
+stratum, so the resampling is written here.
 """
 
 from __future__ import annotations

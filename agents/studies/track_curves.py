@@ -6,8 +6,8 @@ and its interquartile mean across seeds with a stratified-bootstrap interval (th
 The training runs' own evaluations (``evaluations.npz``) record returns only, and a tracking
 return mixes the pose error with the action effort; this plays every checkpoint
 (``checkpoints/rl_model_<n>_steps.zip`` of ``scripts/train.py``) deterministically on the first
-``episodes`` episodes of each suite (:func:`planar3p_agents.evaluation.task_suites.make_task_suite`, the same
-episodes the benchmark plays), all episodes of a suite side by side so that the policy is
+``episodes`` episodes of each suite (:func:`planar3p_agents.evaluation.task_suites.make_task_suite`,
+the same episodes the benchmark plays), all episodes of a suite side by side so that the policy is
 called on one batch per step.  Step 0 is the untrained residual policy, i.e. the feed-forward
 controller (``Design.fig8()``, the tracking id's design).  Model files are code: only the
 runs named are loaded, each checkpoint with no statistics (the tracking recipe normalises

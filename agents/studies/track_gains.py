@@ -3,8 +3,9 @@ tracking suites (the logic of ``scripts/track_gains.py``).
 
 The benchmark's ``analytic-feedforward`` uses the analytic controller's gains (6 1/s).  Higher
 gains shrink the lag behind an accelerating reference; this measures by how much, on exactly
-the episodes the benchmark plays (:func:`planar3p_agents.evaluation.task_suites.make_task_suite`), so a learned
-tracking policy can be compared with a retuned controller as well as with the default one.
+the episodes the benchmark plays (:func:`planar3p_agents.evaluation.task_suites.make_task_suite`),
+so a learned tracking policy can be compared with a retuned controller as well as with the default
+one.
 """
 
 from __future__ import annotations

@@ -14,10 +14,10 @@ A ``lin_`` prefix on ``learning_rate`` or ``clip_range`` means a linear schedule
 Why this module does not hand the whole job to rl-zoo3's ``ExperimentManager``: the manager
 runs the YAML's ``policy_kwargs`` / ``normalize`` strings and a command line's ``key:value``
 pairs (``StoreDict``) through ``eval``, builds its own environments, callbacks and log folders, and
-has no place for kick-starting (:mod:`planar3p_agents.training.kickstart`).  Here the zoo's strings are read by a
-small literal parser that accepts ``dict(...)``, literals and ``nn.<activation>`` only, the
-command line takes ``key=YAML`` / ``key=JSON`` (no code), and the run directory below is the
-project's.  rl-zoo3's schedule and callbacks are used as they are.
+has no place for kick-starting (:mod:`planar3p_agents.training.kickstart`).  Here the zoo's strings
+are read by a small literal parser that accepts ``dict(...)``, literals and ``nn.<activation>``
+only, the command line takes ``key=YAML`` / ``key=JSON`` (no code), and the run directory below is
+the project's.  rl-zoo3's schedule and callbacks are used as they are.
 
 Each run writes one self-contained directory:
 
@@ -79,7 +79,8 @@ _ZOO_KEYS = {
     "normalize",
     "noise_type",
     "noise_std",
-    "task_schedule",  # this project's curriculum key (planar3p_agents.training.task_schedule), not an SB3 argument
+    # This project's curriculum key (planar3p_agents.training.task_schedule), not an SB3 argument.
+    "task_schedule",
 }
 #: Policy classes of this project a YAML entry's ``policy`` may name, besides SB3's aliases
 #: (``MlpPolicy``, ...): name -> (module, class), imported only when named.
@@ -116,7 +117,8 @@ class TrainConfig:
     noise_type: str | None = None
     noise_std: float = 0.1
     entry: dict[str, Any] = field(default_factory=dict)  # the YAML entry as written
-    #: ``{steps: {TaskConfig field: value}}`` (:mod:`planar3p_agents.training.task_schedule`), or None.
+    #: ``{steps: {TaskConfig field: value}}`` (:mod:`planar3p_agents.training.task_schedule`), or
+    # None.
     task_schedule: dict[int, dict[str, Any]] | None = None
 
     def to_json(self) -> dict[str, Any]:

@@ -3,15 +3,16 @@
 :func:`plan_run` checks everything a run needs (algorithm, environment id and kwargs,
 hyperparameters, the run's options, the run directory) and raises ``ValueError`` on bad input
 *before anything is written*; :func:`execute` then trains and fills the run directory described
-in :mod:`planar3p_agents.training.config`.  ``scripts/train.py`` and the sweeps (:mod:`planar3p_agents.training.sweep`) both go
-through these two functions, so a sweep trial is the same code path as a command-line run.
+in :mod:`planar3p_agents.training.config`.  ``scripts/train.py`` and the sweeps
+(:mod:`planar3p_agents.training.sweep`) both go through these two functions, so a sweep trial is the
+same code path as a command-line run.
 
 SB3 and rl-zoo3 do the standard parts: ``make_vec_env``, ``VecNormalize``, ``EvalCallback`` with
 rl-zoo3's ``SaveVecNormalizeCallback`` on each new best, ``CheckpointCallback``,
 ``evaluate_policy``.  What is specific to this project: kick-starting from a teacher
-(:mod:`planar3p_agents.training.kickstart`), the final evaluation's task metrics (success rate, final errors, how
-episodes ended, from the env's ``info``), and resuming a run from its last checkpoint with its
-learning curve.
+(:mod:`planar3p_agents.training.kickstart`), the final evaluation's task metrics (success rate,
+final errors, how episodes ended, from the env's ``info``), and resuming a run from its last
+checkpoint with its learning curve.
 """
 
 from __future__ import annotations
@@ -55,7 +56,8 @@ __all__ = [
 
 #: Vectorised-environment choices: ``auto`` = ``SubprocVecEnv`` when ``n_envs > 1``; ``native``
 #: = all environments in one process through the native vector env
-#: (:func:`planar3p_agents.training.vec_adapter.make_native_vec_env`; ``Planar3P-v0`` and ``-v1`` only).
+#: (:func:`planar3p_agents.training.vec_adapter.make_native_vec_env`; ids with a native vector
+#: env).
 VEC_ENVS = ("auto", "dummy", "subproc", "native")
 
 
@@ -110,7 +112,8 @@ class RunPlan:
     resume_from: tuple[Path, int] | None = None  # (checkpoint, its step count)
     command: str = ""
     extra: dict[str, Any] = field(default_factory=dict)  # recorded in config.json
-    #: ``cfg.task_schedule`` checked against the run's environment (:mod:`planar3p_agents.training.task_schedule`).
+    #: ``cfg.task_schedule`` checked against the run's environment
+    #: (:mod:`planar3p_agents.training.task_schedule`).
     task_schedule: list[tuple[int, dict[str, Any]]] | None = None
 
 
@@ -149,8 +152,8 @@ def _check_env(env_id: str, env_kwargs: dict[str, Any]) -> None:
 
 
 def _task_schedule(cfg: TrainConfig) -> list[tuple[int, dict[str, Any]]] | None:
-    """The run's validated ``task_schedule`` (:mod:`planar3p_agents.training.task_schedule`) against the task
-    configuration of its environment, or None without one."""
+    """The run's validated ``task_schedule`` (:mod:`planar3p_agents.training.task_schedule`)
+    against the task configuration of its environment, or None without one."""
     if cfg.task_schedule is None:
         return None
     import gymnasium as gym
@@ -417,7 +420,8 @@ def _restore_learning_curve(evaluator: Any, path: Path, up_to: int) -> None:
 
 
 def _kickstart(plan: RunPlan, model: Any, venv: Any, eval_env: Any) -> dict[str, Any]:
-    """Clone the teacher into ``model`` (:mod:`planar3p_agents.training.kickstart`), save and evaluate the clone."""
+    """Clone the teacher into ``model`` (:mod:`planar3p_agents.training.kickstart`), save and
+    evaluate the clone."""
     from stable_baselines3.common.vec_env import VecNormalize, sync_envs_normalization
 
     from planar3p_agents.policies.factory import load_policy

@@ -1,10 +1,10 @@
 """Training sweeps as Ray Tune trials: seeds x configurations, or an Optuna search space.
 
 Every trial is one training run through the same two functions as ``scripts/train.py``
-(:func:`planar3p_agents.training.run.plan_run`, :func:`planar3p_agents.training.run.execute`), with one torch thread
-and one CPU.  Ray does the scheduling (a local Ray by default, or a running cluster given its
-address) and Ray Tune the bookkeeping; Optuna's sampler (Ray Tune's ``OptunaSearch``) proposes
-configurations in search mode.
+(:func:`planar3p_agents.training.run.plan_run`, :func:`planar3p_agents.training.run.execute`), with
+one torch thread and one CPU.  Ray does the scheduling (a local Ray by default, or a running cluster
+given its address) and Ray Tune the bookkeeping; Optuna's sampler (Ray Tune's ``OptunaSearch``)
+proposes configurations in search mode.
 
 A sweep writes one directory::
 
@@ -15,8 +15,8 @@ A sweep writes one directory::
     <out>/results.md     the same table, and success rates per configuration across seeds
 
 The ``training_seed`` column is the seed the policy was trained with, and ``policy`` names the
-trained model with its statistics in :func:`planar3p_agents.policies.factory.load_policy`'s syntax, so that the
-benchmark can evaluate every row and aggregate across training seeds.
+trained model with its statistics in :func:`planar3p_agents.policies.factory.load_policy`'s syntax,
+so that the benchmark can evaluate every row and aggregate across training seeds.
 
 Configurations (``grid``) map a name to ``{"params": {...}, "env_kwargs": {...},
 "n_envs": int}`` (all optional); a search space maps hyperparameters to

@@ -1,4 +1,5 @@
-"""Workspace and singularity analysis of the 3-PRR manipulator (``docs/mechanism.md``, the workspace study).
+"""Workspace and singularity analysis of the 3-PRR manipulator (``docs/mechanism.md``, the workspace
+study).
 
 Everything here is vectorised numpy; no Python loop runs over grid points.
 
@@ -307,8 +308,9 @@ def row_margins(
     """Parallel and serial margins and the normalised ``det A``, ``det B`` of every row ``y``
     (m), orientation ``theta`` (rad) and working mode; shape ``(ny, nt, m)``.
 
-    They are the same at every ``x`` (and equal :func:`planar3p_gym.machine.kinematics.parallel_margin`
-    and :func:`~planar3p_gym.machine.kinematics.serial_margin` there).
+    They are the same at every ``x`` (and equal
+    :func:`planar3p_gym.machine.kinematics.parallel_margin` and
+    :func:`~planar3p_gym.machine.kinematics.serial_margin` there).
     """
     yy = np.atleast_1d(np.asarray(y, dtype=np.float64))
     th = np.atleast_1d(np.asarray(thetas, dtype=np.float64))

@@ -2,8 +2,9 @@
 
 Each function draws one figure into ``<out>/figures/`` (written atomically) and returns its
 path (:func:`fig_fig7` also the numbers it shows).  ``scripts/workspace.py`` calls them; the
-numbers come from :mod:`planar3p_gym.analysis.workspace` and :mod:`planar3p_gym.analysis.workspace_report`.
-Lengths in metres, orientations in degrees on the axes.
+numbers come from :mod:`planar3p_gym.analysis.workspace` and
+:mod:`planar3p_gym.analysis.workspace_report`. Lengths in metres, orientations in degrees on the
+axes.
 """
 
 from __future__ import annotations

@@ -2,8 +2,8 @@
 recommendation, the check of the fast grid against brute-force IK, and the tables.
 
 ``scripts/workspace.py`` is its command line; the figures are in
-:mod:`planar3p_gym.analysis.workspace_figures`.  Lengths in metres, areas in m^2 (cm^2 in the table),
-angles in radians, times in seconds.
+:mod:`planar3p_gym.analysis.workspace_figures`.  Lengths in metres, areas in m^2 (cm^2 in the
+table), angles in radians, times in seconds.
 """
 
 from __future__ import annotations

@@ -55,8 +55,8 @@ class Design:
     """Geometric and physical parameters of a 3-PRR manipulator with a collinear platform.
 
     The platform carries, in order, the joints ``C_1, C_2, C_3`` and the gripper point ``G``
-    (see ``docs/mechanism.md``).  Rails lie on ``y = 0``; slider ``i`` travels ``rho_i in [0, stroke]``
-    from its rail origin ``(a_i, 0)``.
+    (see ``docs/mechanism.md``).  Rails lie on ``y = 0``; slider ``i`` travels ``rho_i in [0,
+    stroke]`` from its rail origin ``(a_i, 0)``.
 
     Attributes:
         leg_lengths: ``(L_1, L_2, L_3)``, length of leg ``i`` from ``B_i`` to ``C_i`` (m).

@@ -1,7 +1,7 @@
 """Exact kinematics of the 3-PRR manipulator (pure numpy, vectorised over leading axes).
 
-Conventions (``docs/mechanism.md``): pose ``p = (x, y, theta)`` is the gripper point ``G`` (m) and the
-direction ``theta`` (rad) of ``e = (cos theta, sin theta)`` pointing from ``G`` to the joints,
+Conventions (``docs/mechanism.md``): pose ``p = (x, y, theta)`` is the gripper point ``G`` (m) and
+the direction ``theta`` (rad) of ``e = (cos theta, sin theta)`` pointing from ``G`` to the joints,
 ``C_i = G + L_iG e``; travels ``rho`` (m) put the slider joints at ``B_i = (a_i + rho_i, 0)``;
 leg vectors ``u_i = C_i - B_i`` have length ``L_i`` and angle ``alpha_i``.  The working mode is
 ``sigma_i = sign(cos alpha_i)``; the assembly mode is ``sign(det A)``.

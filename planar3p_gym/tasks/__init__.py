@@ -25,10 +25,11 @@ else (``tests/tasks/test_adding_a_task.py`` does exactly this with a toy task):
      (the defaults use the shared formulas of :mod:`planar3p_gym.tasks.rewards` and
      :mod:`planar3p_gym.tasks.observation` -- write no formula a second time).
 2. **One row** in :data:`planar3p_gym.envs.registry.ENV_SPECS`: the id, entry point
-   ``planar3p_gym.envs.core:Planar3PEnv`` with ``kwargs={"task": "planar3p_gym.tasks.<name>:<Class>"}``
-   (users pass the task's arguments as ``task_kwargs``), the time limit, a one-line summary,
-   the task name, and ``vector_entry_point="planar3p_gym.envs.vector:Planar3PVectorEnv"`` for
-   the native vector env (it steps such a task environment by environment).
+   ``planar3p_gym.envs.core:Planar3PEnv`` with ``kwargs={"task":
+   "planar3p_gym.tasks.<name>:<Class>"}`` (users pass the task's arguments as ``task_kwargs``), the
+   time limit, a one-line summary, the task name, and
+   ``vector_entry_point="planar3p_gym.envs.vector:Planar3PVectorEnv"`` for the native vector env (it
+   steps such a task environment by environment).
 3. **Its tests**: Gymnasium's ``check_env`` on the id, a seeded replay, the native vector env
    against single envs, and the task's own behaviour; then regenerate the episode hashes
    (``python tests/envs/test_episode_hashes.py``), which must list every id.

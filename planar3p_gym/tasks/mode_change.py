@@ -7,8 +7,8 @@ of ``sign det A``) and a physics breakdown still end the episode as failures.
 
 **Feasibility (how the sampler checks it).**  Start and target are drawn like the reach task's
 poses (reachable, in stroke away from the end stops, both margins above thresholds, holdable
-with at most 75 % of the actuator force; :mod:`planar3p_gym.tasks.sampling`), the target in ``sigma_t``
-with the start's assembly mode.  The pair is kept only with a certificate from
+with at most 75 % of the actuator force; :mod:`planar3p_gym.tasks.sampling`), the target in
+``sigma_t`` with the start's assembly mode.  The pair is kept only with a certificate from
 :func:`planar3p_gym.tasks.joint_paths.find_joint_path`: a piecewise-straight path of the
 slider travels (the straight line, or two lines through an intermediate pose with every
 flipping leg upright) along which the direct-kinematics branch that starts at the start pose
@@ -18,7 +18,8 @@ parallel margin of at least ``PathLimits.min_parallel_margin`` (0.02), needs at 
 point, stays in the stroke, and ends exactly (within 1e-6 m) at the target pose, i.e. in the
 target working mode.  A slow enough motion along that path is a sequence of holdable,
 well-conditioned equilibria through the leg's upright position: the episode is solvable within
-the actuator limits.  (``planar3p_agents.controllers.planner.JointPathPlanner`` follows the same certificate.)
+the actuator limits.  (``planar3p_agents.controllers.planner.JointPathPlanner`` follows the same
+certificate.)
 
 Working-mode pairs: the start mode is drawn from the environment's modes; the target mode from
 the modes that differ in ``flips`` legs (default: exactly one) and for which the task found a

@@ -4,8 +4,8 @@ its travels.
 
 Used to measure the physics model's fidelity (``tests/sim/test_physics.py``,
 ``scripts/fidelity.py``): the commands follow the paper's simple-motion rates
-(:func:`planar3p_gym.machine.kinematics.simple_motion_rates`) along the straight path in pose space with
-the minimum-jerk time law (:func:`minimum_jerk`), so speeds and accelerations are zero at both
+(:func:`planar3p_gym.machine.kinematics.simple_motion_rates`) along the straight path in pose space
+with the minimum-jerk time law (:func:`minimum_jerk`), so speeds and accelerations are zero at both
 ends and bounded between.  The same law times the task references and baselines
 (:mod:`planar3p_gym.tasks.travel_motion`, :mod:`planar3p_gym.tasks.track_references`,
 :class:`planar3p_agents.controllers.planner.JointPathPlanner`).

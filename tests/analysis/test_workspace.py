@@ -1,5 +1,5 @@
-"""Tests of planar3p_gym.analysis.workspace: exactness against brute-force IK and the exact swept-circle
-description, convergence, monotonicity, dead zones, symmetry and singularity loci."""
+"""Tests of planar3p_gym.analysis.workspace: exactness against brute-force IK and the exact
+swept-circle description, convergence, monotonicity, dead zones, symmetry and singularity loci."""
 
 from __future__ import annotations
 

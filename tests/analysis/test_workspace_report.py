@@ -1,5 +1,6 @@
-"""planar3p_gym.analysis.workspace_report / workspace_figures and scripts/workspace.py: the regenerated
-table equals docs/workspace_table.*, a quick run writes every file, bad arguments write nothing."""
+"""planar3p_gym.analysis.workspace_report / workspace_figures and scripts/workspace.py: the
+regenerated table equals docs/workspace_table.*, a quick run writes every file, bad arguments write
+nothing."""
 
 from __future__ import annotations
 

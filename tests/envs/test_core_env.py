@@ -706,7 +706,8 @@ def test_core_package_imports_without_torch_or_sb3():
 
     code = (
         "import sys\n"
-        "import gymnasium as gym, planar3p_gym, planar3p_gym.analysis.workspace, planar3p_gym.sim.render\n"
+        "import gymnasium as gym, planar3p_gym\n"
+        "import planar3p_gym.analysis.workspace, planar3p_gym.sim.render\n"
         "env = gym.make('Planar3P-v0'); env.reset(seed=0); env.step(env.action_space.sample())\n"
         "assert 'torch' not in sys.modules and 'stable_baselines3' not in sys.modules\n"
     )

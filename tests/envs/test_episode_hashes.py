@@ -24,7 +24,14 @@ SEED = 3
 INFO_KEYS = ("pose", "rho", "rho_dot", "actuator_forces", "closure_error", "parallel_margin")
 
 #: sha256 of each id's stream, recorded with ``python tests/envs/test_episode_hashes.py``.
-EXPECTED: dict[str, str] = {}
+EXPECTED: dict[str, str] = {
+    "Planar3P-v0": "2aa76a18c9deb65dd0f4138a9747d656b455e4b9cc01a04f1f0c117c4136a500",
+    "Planar3PGoal-v0": "482ff604fabbd055671962ac4b88bb6691935452937bb838da0b4ce7ded20f42",
+    "Planar3PGoalDense-v0": "a6dfe884b12a07870d09149008a660c0ca9d09404ee375aa825e875c08374af0",
+    "Planar3PTrack-v0": "875bf20df3926ab8228d4c23b1a2c75f09dfe01c5040572582fd6464786cb309",
+    "Planar3PModeChange-v0": "09a70f8bc3296ded248c200f0ff16359c75f485bb963fcea7c351a134814a000",
+    "Planar3PAssemblyChange-v0": "b5442c63a7b263943099dd55e58dd460a172a194a818a204443c489820a545b0",
+}
 
 
 def _update(h: hashlib._Hash, value: object) -> None:

@@ -147,8 +147,8 @@ def test_vector_snapshot_restores_the_batch(batch):
 
 
 def test_sb3_adapter_matches_dummy_vec_env():
-    """``planar3p_agents.training.vec_adapter.make_native_vec_env`` gives what SB3's ``DummyVecEnv`` of
-    ``gym.make`` envs gives (same seeds): observations, rewards, dones, terminal observations,
+    """``planar3p_agents.training.vec_adapter.make_native_vec_env`` gives what SB3's ``DummyVecEnv``
+    of ``gym.make`` envs gives (same seeds): observations, rewards, dones, terminal observations,
     time-limit flags and success flags; and PPO runs on it."""
     sb3 = pytest.importorskip("stable_baselines3")
     import torch

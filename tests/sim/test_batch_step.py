@@ -1,5 +1,5 @@
-"""The numpy batch (planar3p_gym.sim.batch_step) gives the scalar code's numbers bit for bit, and the
-fused reach step (planar3p_gym.tasks.reach_step) the general step's to float64 rounding."""
+"""The numpy batch (planar3p_gym.sim.batch_step) gives the scalar code's numbers bit for bit, and
+the fused reach step (planar3p_gym.tasks.reach_step) the general step's to float64 rounding."""
 
 from __future__ import annotations
 

@@ -112,8 +112,8 @@ def test_benchmark_plays_an_untrained_residual_model_like_the_controller(tmp_pat
 
 
 def test_train_script_trains_the_shipped_entry(tmp_path: Path):
-    """scripts/train.py with agents/training/hyperparams/ppo_residual.yml: a complete run whose model
-    is a residual reach policy with reward-only statistics."""
+    """scripts/train.py with agents/training/hyperparams/ppo_residual.yml: a complete run whose
+    model is a residual reach policy with reward-only statistics."""
     run = tmp_path / "reach"
     argv = [
         "--algo", "ppo", "--env", ID, "--hyperparams", str(HYPERPARAMS),

@@ -1,4 +1,5 @@
-"""Residual tracking policy (agents/controllers/residual.py), its training path and the mixed reference."""
+"""Residual tracking policy (agents/controllers/residual.py), its training path and the mixed
+reference."""
 
 from __future__ import annotations
 

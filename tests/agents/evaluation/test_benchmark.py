@@ -1,5 +1,5 @@
-"""Episode runner (agents/evaluation/episodes.py), policy loading and the benchmark (agents/evaluation/benchmark.py,
-scripts/benchmark.py)."""
+"""Episode runner (agents/evaluation/episodes.py), policy loading and the benchmark
+(agents/evaluation/benchmark.py, scripts/benchmark.py)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""Statistics of the benchmark (agents/evaluation/intervals.py): IQM, bootstrap and Wilson intervals,
-per-suite summaries.  Expected values are worked out by hand in the comments."""
+"""Statistics of the benchmark (agents/evaluation/intervals.py): IQM, bootstrap and Wilson
+intervals, per-suite summaries.  Expected values are worked out by hand in the comments."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""planar3p_agents.evaluation.learning_curves.time_to_success: the first evaluation at >= 90 % from TensorBoard logs."""
+"""planar3p_agents.evaluation.learning_curves.time_to_success: the first evaluation at >= 90 %
+from TensorBoard logs."""
 
 from __future__ import annotations
 

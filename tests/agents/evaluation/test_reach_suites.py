@@ -1,5 +1,6 @@
-"""Evaluation suites (agents/evaluation/reach_suites.py, agents/evaluation/path_diagnostics.py, agents/evaluation/region_maps.py): seeded,
-prefix-stable, valid reset options of the kind each suite promises, saved and loaded."""
+"""Evaluation suites (agents/evaluation/reach_suites.py, agents/evaluation/path_diagnostics.py,
+agents/evaluation/region_maps.py): seeded, prefix-stable, valid reset options of the kind each suite
+promises, saved and loaded."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""Tests of results across training seeds (planar3p_agents.evaluation.seed_statistics, scripts/seed_report.py)."""
+"""Tests of results across training seeds (planar3p_agents.evaluation.seed_statistics,
+scripts/seed_report.py)."""
 
 from __future__ import annotations
 

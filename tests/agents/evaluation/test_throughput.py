@@ -1,5 +1,6 @@
 """``scripts/bench_env.py``: bad arguments are rejected before any work (exit 2, one line);
-results are written atomically; :mod:`planar3p_agents.evaluation.throughput` measures what it says."""
+results are written atomically; :mod:`planar3p_agents.evaluation.throughput` measures what it
+says."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""planar3p_agents.training.sweep / scripts/sweep.py: a tiny sweep on a local Ray, its table, and bad input."""
+"""planar3p_agents.training.sweep / scripts/sweep.py: a tiny sweep on a local Ray, its table, and
+bad input."""
 
 from __future__ import annotations
 

@@ -1,5 +1,6 @@
 """Changing the task configuration of running environments (Planar3PEnv.set_task_config) and
-the training curriculum built on it (planar3p_agents.training.task_schedule, the ``task_schedule`` entry key)."""
+the training curriculum built on it (planar3p_agents.training.task_schedule, the
+``task_schedule`` entry key)."""
 
 from __future__ import annotations
 

@@ -372,8 +372,9 @@ def test_overrides_read_exponent_floats() -> None:
 
 
 def test_final_evaluation_matches_a_plain_rollout() -> None:
-    """planar3p_agents.training.run.evaluate (SB3's evaluate_policy + the env's info at each episode's end)
-    reports what a plain deterministic rollout of the same seeded episodes measures."""
+    """planar3p_agents.training.run.evaluate (SB3's evaluate_policy + the env's info at each
+    episode's end) reports what a plain deterministic rollout of the same seeded episodes
+    measures."""
     from stable_baselines3.common.env_util import make_vec_env
 
     from planar3p_agents.policies.factory import load_policy
