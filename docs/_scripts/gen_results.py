@@ -90,8 +90,8 @@ HEADLINE: list[dict[str, str]] = [
         "metric": "success",
         "learned": "PPO from scratch + travel shaping",
         "note": "does not beat the simple motions (they cross too without gravity); measured "
-        "before the end stops held: the shipped seed 4 scores 69 % after (73 % before), "
-        "[re-run](docs/benchmark/assembly-change-exact/report.md)",
+        "before the end stops held: the shipped seed 4 scores 69 % after (73 % before, "
+        "study `assembly-change-exact`)",
     },
     {
         "task": "tracking, segments",
