@@ -51,8 +51,8 @@ class Planar3PAssemblyChangeEnv(Planar3PEnv):
     (0.2 m/s), as in ``Planar3P-v0``.
 
     ## Observation Space
-    ``Box((36,), float32)``: the 31 entries of ``Planar3P-v0`` (:mod:`planar3p_gym.tasks.observation`;
-    errors against the target pose), then the target's slider travels (m, 3 entries), the
+    ``Box((36,), float32)``: the 31 entries of ``Planar3P-v0``
+    (:mod:`planar3p_gym.tasks.observation`; errors against the target pose), then the target's slider travels (m, 3 entries), the
     target's assembly mode (+-1) and the signed parallel margin (``sign det A`` times the
     parallel margin, in ``[-1, 1]``; it passes 0 at the crossing).
 

@@ -300,8 +300,9 @@ class Planar3PEnv(gym.Env):
 
     # ------------------------------------------------------------------ helpers
     def _usable_modes(self) -> list[tuple[int, int, int]]:
-        """Working modes with usable start/target pairs (:func:`planar3p_gym.tasks.sampling.check_mode`,
-        a fixed internal seed: the list never depends on, or consumes, the episode's stream)."""
+        """Working modes with usable start/target pairs
+        (:func:`planar3p_gym.tasks.sampling.check_mode`, a fixed internal seed: the list never
+        depends on, or consumes, the episode's stream)."""
         usable = [
             tuple(m)
             for m in kinematics.ALL_MODES.tolist()

@@ -37,8 +37,8 @@ class Planar3PModeChangeEnv(Planar3PEnv):
 
     ## Observation Space
     ``Box((37,), float32)``: the 31 entries of ``Planar3P-v0``
-    (:mod:`planar3p_gym.tasks.observation`; errors against the target pose), then the target's slider
-    travels (m, 3 entries) and its working mode ``sigma_t`` (3 entries of +-1).  The current
+    (:mod:`planar3p_gym.tasks.observation`; errors against the target pose), then the target's
+    slider travels (m, 3 entries) and its working mode ``sigma_t`` (3 entries of +-1).  The current
     working mode is the sign of the observed ``cos alpha_i``.
 
     ## Rewards

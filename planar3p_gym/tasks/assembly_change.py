@@ -9,8 +9,8 @@ physics breakdown still does (a failure).
 
 **Feasibility (how the sampler checks it).**  Start and target are drawn like the reach task's
 poses (reachable, in stroke away from the end stops, both margins above thresholds, holdable
-with at most 75 % of the actuator force; :mod:`planar3p_gym.tasks.sampling`) in the episode's working
-mode, the target in the other assembly mode.  The pair is kept when
+with at most 75 % of the actuator force; :mod:`planar3p_gym.tasks.sampling`) in the episode's
+working mode, the target in the other assembly mode.  The pair is kept when
 
 1. *kinematics*: the straight path in pose space between them stays reachable within the
    stroke (``CrossingLimits.travel_margin`` kept free), keeps every leg's serial margin above

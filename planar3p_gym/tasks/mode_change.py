@@ -7,18 +7,26 @@ of ``sign det A``) and a physics breakdown still end the episode as failures.
 
 **Feasibility (how the sampler checks it).**  Start and target are drawn like the reach task's
 poses (reachable, in stroke away from the end stops, both margins above thresholds, holdable
-with at most 75 % of the actuator force; :mod:`planar3p_gym.tasks.sampling`), the target in ``sigma_t``
-with the start's assembly mode.  The pair is kept only with a certificate from
-:func:`planar3p_gym.tasks.joint_paths.find_joint_path`: a piecewise-straight path of the
-slider travels (the straight line, or two lines through an intermediate pose with every
-flipping leg upright) along which the direct-kinematics branch that starts at the start pose
-(followed by continuity at ``PathLimits.points`` points per line) stays unambiguous, keeps a
-parallel margin of at least ``PathLimits.min_parallel_margin`` (0.02), needs at most
-``PathLimits.max_holding_force`` (90 %) of the actuator force to be held at rest at every
-point, stays in the stroke, and ends exactly (within 1e-6 m) at the target pose, i.e. in the
-target working mode.  A slow enough motion along that path is a sequence of holdable,
-well-conditioned equilibria through the leg's upright position: the episode is solvable within
-the actuator limits.  (``planar3p_agents.controllers.planner.JointPathPlanner`` follows the same certificate.)
+with at most 75 % of the actuator force; :mod:`planar3p_gym.tasks.sampling`), the target in
+``sigma_t`` with the start's assembly mode.  The pair is kept only with a certificate from
+:mod:`planar3p_gym.tasks.joint_paths`: a straight line of the slider travels along which the
+direct-kinematics branch that starts at the start pose (followed by continuity at
+``PathLimits.points`` points) stays unambiguous, keeps a parallel margin of at least
+``PathLimits.min_parallel_margin`` (0.02), needs at most ``PathLimits.max_holding_force``
+(90 %) of the actuator force to be held at rest at every point, stays in the stroke, and ends
+exactly (within 1e-6 m) at the target pose, i.e. in the target working mode.  A slow enough
+motion along that path is a sequence of holdable, well-conditioned equilibria through the leg's
+upright position: the episode is solvable within the actuator limits.  The sampler certifies
+the ``pair_tries`` candidate targets of a start together
+(:func:`~planar3p_gym.tasks.joint_paths.first_straight_path`) and skips a start whose
+assembly mode the target mode has no pose of (:func:`~planar3p_gym.tasks.sampling.
+assembly_modes`); a requested start and target (``reset`` options) are certified by
+:func:`~planar3p_gym.tasks.joint_paths.find_joint_path`, which also tries two straight lines
+through an intermediate pose with every flipping leg upright.  (Before 0.2.0 the sampler tried
+those waypoints for every candidate as well: each failing candidate then cost up to 49
+certified segments, resets of ``working_mode="random"`` took seconds, and about one candidate in
+a thousand was certified through a waypoint only; such pairs are no longer drawn.)
+(``planar3p_agents.controllers.planner.JointPathPlanner`` follows the same certificate.)
 
 Working-mode pairs: the start mode is drawn from the environment's modes; the target mode from
 the modes that differ in ``flips`` legs (default: exactly one) and for which the task found a

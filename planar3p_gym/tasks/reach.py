@@ -2,7 +2,8 @@
 
 Start and target are drawn by :func:`planar3p_gym.tasks.sampling.sample_pair` (reachable in
 the episode's working mode with margins, holdable, same assembly mode, straight path clear of
-singularities by default).  Success: within the task's tolerances of the target with every slider nearly at rest.
+singularities by default).  Success: within the task's tolerances of the target with every
+slider nearly at rest.
 
 Episode spec: ``{"task": "reach", "working_mode": [s1, s2, s3], "start": [x, y, theta],
 "target": [x, y, theta]}`` (m, m, rad).  Reset options: ``start``, ``target``,

@@ -2,8 +2,9 @@
 followed with a minimum-jerk time law (:mod:`planar3p_gym.tasks.assembly_change`).
 
 Used by the task's sampler (:func:`planar3p_gym.tasks.crossing_checks.verify_crossing`) and by
-the crossing baseline (:class:`planar3p_agents.controllers.crossing.CrossingController`).  The time law,
-:func:`planar3p_gym.machine.motions.minimum_jerk`, is re-exported here under its old name.
+the crossing baseline (:class:`planar3p_agents.controllers.crossing.CrossingController`).  The
+time law, :func:`planar3p_gym.machine.motions.minimum_jerk`, is re-exported here under its old
+name.
 """
 
 from __future__ import annotations
