@@ -52,9 +52,10 @@ class Planar3PAssemblyChangeEnv(Planar3PEnv):
 
     ## Observation Space
     ``Box((36,), float32)``: the 31 entries of ``Planar3P-v0``
-    (:mod:`planar3p_gym.tasks.observation`; errors against the target pose), then the target's slider travels (m, 3 entries), the
-    target's assembly mode (+-1) and the signed parallel margin (``sign det A`` times the
-    parallel margin, in ``[-1, 1]``; it passes 0 at the crossing).
+    (:mod:`planar3p_gym.tasks.observation`; errors against the target pose), then the target's
+    slider travels (m, 3 entries), the target's assembly mode (+-1) and the signed parallel
+    margin (``sign det A`` times the parallel margin, in ``[-1, 1]``; it passes 0 at the
+    crossing).
 
     ## Rewards
     The terms of ``Planar3P-v0`` without the parallel-margin barrier (the task is to pass the

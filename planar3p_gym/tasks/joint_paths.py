@@ -291,8 +291,9 @@ def _certify_segments(
 
 def closing_travels(design: Design, poses: ArrayLike, mode: ArrayLike) -> FloatArray:
     """:func:`planar3p_gym.machine.kinematics.inverse` travels (m) of poses ``(..., 3)`` in
-    ``mode``, with a leg that is upright up to rounding (``L_i^2 - C_iy^2`` within ``-1e-12 L_i^2`` of 0)
-    counted as exactly upright; NaN where a leg cannot close.  (No stroke test.)"""
+    ``mode``, with a leg that is upright up to rounding (``L_i^2 - C_iy^2`` within
+    ``-1e-12 L_i^2`` of 0) counted as exactly upright; NaN where a leg cannot close.  (No
+    stroke test.)"""
     p = np.asarray(poses, dtype=np.float64)
     k = np.asarray(design.joint_offsets)
     legs = np.asarray(design.leg_lengths)
