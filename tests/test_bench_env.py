@@ -1,25 +1,16 @@
-"""``scripts/bench_env.py``: bad arguments are rejected before any work (exit 2, one line);
-results are written atomically; :mod:`planar3p_agents.evaluation.throughput` measures what it says."""
+"""``planar3p bench-env``: bad arguments are rejected before any work (exit 2, one line);
+results are written atomically; :mod:`planar3p_agents.evaluation.throughput` measures what it
+says."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
 import gymnasium as gym
 import pytest
 
+from planar3p_agents.cli import main
 from planar3p_agents.evaluation import throughput
-
-SCRIPT = Path(__file__).resolve().parents[1] / "scripts" / "bench_env.py"
-
-
-def load_script():
-    spec = importlib.util.spec_from_file_location("bench_env_script", SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 
 
 @pytest.mark.parametrize(
@@ -40,24 +31,17 @@ def load_script():
     ],
 )
 def test_bad_arguments_exit_2_with_one_line_before_any_work(argv, capsys, monkeypatch):
-    mod = load_script()
-
     def no_work(*args, **kwargs):
         raise AssertionError("measured despite bad arguments")
 
     monkeypatch.setattr(throughput, "single_env_rates", no_work)
-    with pytest.raises(SystemExit) as exc:
-        mod.main(argv)
-    assert exc.value.code == 2
+    assert main(["bench-env", *argv]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and err.startswith("bench_env.py: error:")
+    assert len(err.splitlines()) == 1 and err.startswith("planar3p bench-env: error:")
 
 
 def test_json_directory_is_rejected(tmp_path, capsys):
-    mod = load_script()
-    with pytest.raises(SystemExit) as exc:
-        mod.main(["--json", str(tmp_path)])
-    assert exc.value.code == 2
+    assert main(["bench-env", "--json", str(tmp_path)]) == 2
 
 
 def test_write_json_atomic_replaces_whole_files_only(tmp_path):

@@ -458,16 +458,11 @@ def test_time_and_forces_bookkeeping(model):
 
 # ---------------------------------------------------------------------------- fidelity script
 def test_fidelity_script_reports_closure_and_dk_gap(tmp_path, capsys):
-    import importlib.util
-    from pathlib import Path
+    from planar3p_agents.cli import main
 
-    path = Path(__file__).resolve().parents[1] / "scripts" / "fidelity.py"
-    spec = importlib.util.spec_from_file_location("fidelity_script", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
     out = tmp_path / "fidelity.json"
     args = ["--pairs", "2", "--episodes", "1", "--suites", "standard", "--json", str(out)]
-    assert mod.main(args) == 0
+    assert main(["fidelity", *args]) == 0
     report = json.loads(out.read_text())["models"]
     assert report["v0"]["settings"] == {}
     assert report["v1"]["settings"]["projection"] is True
@@ -480,9 +475,7 @@ def test_fidelity_script_reports_closure_and_dk_gap(tmp_path, capsys):
         assert len(report[name]["episodes"]["standard"]["closure"]) == 1
     assert "closure" in capsys.readouterr().out
     for bad in (["--suites", "nonsense"], ["--pairs", "0"], ["--json", "/nonexistent/x.json"]):
-        with pytest.raises(SystemExit) as exc:
-            mod.main(bad)
-        assert exc.value.code == 2
+        assert main(["fidelity", *bad]) == 2
 
 
 def test_nearest_dk_finds_the_configuration_and_rejects_impossible_travels():

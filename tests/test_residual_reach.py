@@ -20,7 +20,7 @@ from residual_helpers import (
     observation_with_errors,
     residual_model,
 )
-from script_loader import load_script
+from script_loader import command
 from stable_baselines3 import PPO
 
 import planar3p_gym
@@ -35,7 +35,7 @@ from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
 ID = planar3p_gym.ENV_ID
 HYPERPARAMS = training.HYPERPARAMS_DIR / "ppo_residual.yml"
-train_script = load_script("train")
+train_script = command("train")
 
 
 def _model(scale: float = 0.5, **policy_kwargs) -> PPO:
@@ -112,8 +112,8 @@ def test_benchmark_plays_an_untrained_residual_model_like_the_controller(tmp_pat
 
 
 def test_train_script_trains_the_shipped_entry(tmp_path: Path):
-    """scripts/train.py with agents/training/hyperparams/ppo_residual.yml: a complete run whose model
-    is a residual reach policy with reward-only statistics."""
+    """planar3p train with agents/training/hyperparams/ppo_residual.yml: a complete run whose
+    model is a residual reach policy with reward-only statistics."""
     run = tmp_path / "reach"
     argv = [
         "--algo", "ppo", "--env", ID, "--hyperparams", str(HYPERPARAMS),

@@ -1,4 +1,5 @@
-"""Tests of results across training seeds (planar3p_agents.evaluation.seed_statistics, scripts/seed_report.py)."""
+"""Tests of results across training seeds (planar3p_agents.evaluation.seed_statistics,
+planar3p seed-report)."""
 
 from __future__ import annotations
 
@@ -7,11 +8,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from script_loader import load_script
+from script_loader import command
 
 from planar3p_agents.evaluation import seed_statistics as ss
 
-seed_report = load_script("seed_report")
+seed_report = command("seed-report")
 
 
 def test_iqm_point_is_the_mean_of_the_middle_half():
@@ -105,7 +106,7 @@ def test_script_writes_the_table_and_rejects_bad_input(tmp_path: Path, capsys):
         [str(path), "--out", str(tmp_path / "no" / "dir.md")],
     ):
         assert seed_report.main(argv) == 2
-        assert capsys.readouterr().err.startswith("error:")
+        assert capsys.readouterr().err.startswith("planar3p seed-report: error:")
     assert not (tmp_path / "no").exists()
 
 

@@ -1,5 +1,5 @@
-"""planar3p_agents.zoo.shipping / scripts/ship_policy.py: both layouts of a shipped policy, the manifest,
-and rl-zoo3's enjoy playing the shipped PPO policy; scripts/plot_learning.py on a tiny run."""
+"""planar3p_agents.zoo.shipping / planar3p ship: both layouts of a shipped policy, the manifest,
+and rl-zoo3's enjoy playing the shipped PPO policy; planar3p plot-learning on a tiny run."""
 
 from __future__ import annotations
 
@@ -16,13 +16,13 @@ import yaml
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("rl_zoo3")
 
-from script_loader import ROOT, load_script
+from script_loader import ROOT, command
 
 from planar3p_agents.policies.factory import PRETRAINED_DIR, file_sha256
 from planar3p_agents.zoo.shipping import ship, zoo_layout
 
-train_script = load_script("train")
-ship_script = load_script("ship_policy")
+train_script = command("train")
+ship_script = command("ship")
 
 
 @pytest.fixture(scope="module")
@@ -124,12 +124,13 @@ def test_rl_zoo3_enjoy_plays_the_shipped_policy() -> None:
 
 
 def test_learning_curves_of_a_run(tiny_run: Path, tmp_path: Path, capsys) -> None:
-    """scripts/plot_learning.py (planar3p_agents.evaluation.learning_curves) on the same tiny run."""
+    """planar3p plot-learning (planar3p_agents.evaluation.learning_curves) on the same tiny
+    run."""
     import numpy as np
 
     from planar3p_agents.evaluation.learning_curves import group_name, load_run
 
-    plot_script = load_script("plot_learning")
+    plot_script = command("plot-learning")
     run = load_run(tiny_run)
     assert group_name(run) == "ppo-tiny" and run["algo"] == "ppo" and run["seed"] == 0
     saved = np.load(tiny_run / "evaluations.npz")

@@ -1,4 +1,5 @@
-"""planar3p_agents.training.sweep / scripts/sweep.py: a tiny sweep on a local Ray, its table, and bad input."""
+"""planar3p_agents.training.sweep / planar3p sweep: a tiny sweep on a local Ray, its table, and
+bad input."""
 
 from __future__ import annotations
 
@@ -11,8 +12,10 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("ray.tune")
 
-from script_loader import load_script
+from script_loader import command
 
+from planar3p_agents import cli
+from planar3p_agents.commands import sweep as sweep_command
 from planar3p_agents.training.run import RunOptions
 from planar3p_agents.training.sweep import COLUMNS, SweepSpec, run_sweep, search_space, validate
 
@@ -22,7 +25,7 @@ OPTIONS = dict(
 )
 
 
-sweep_script = load_script("sweep")
+sweep_script = command("sweep")
 
 
 @pytest.fixture(scope="module")
@@ -149,8 +152,9 @@ def test_script_exits_2_on_bad_input_and_keeps_existing_output(tmp_path: Path, c
     assert "must hold a non-empty mapping" in capsys.readouterr().err
 
 
-def test_script_passes_the_vector_env_choice_to_every_trial() -> None:
-    base = ["--algo", "ppo", "--env", "Planar3P-v0", "--seeds", "0", "--out", "o"]
-    args = sweep_script.parse_args([*base, "--vec-env", "native"])
-    assert sweep_script.spec_from(args).options.vec_env == "native"
-    assert sweep_script.spec_from(sweep_script.parse_args(base)).options.vec_env == "auto"
+def test_script_passes_the_vector_env_choice_to_every_trial(tmp_path: Path) -> None:
+    base = ["sweep", "--algo", "ppo", "--env", "Planar3P-v0", "--seeds", "0"]
+    base += ["--out", str(tmp_path / "o")]
+    _, args = cli.parse([*base, "--vec-env", "native"])
+    assert sweep_command.spec_from(args).options.vec_env == "native"
+    assert sweep_command.spec_from(cli.parse(base)[1]).options.vec_env == "auto"

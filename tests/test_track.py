@@ -170,12 +170,9 @@ def test_tracking_controller_validates_input():
 
 
 def test_goal_track_baselines_script(tmp_path, capsys):
-    import importlib.util
+    from script_loader import command
 
-    path = "scripts/goal_track_baselines.py"
-    spec = importlib.util.spec_from_file_location("goal_track_baselines", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = command("goal-track-baselines")
     out = tmp_path / "b.json"
     assert module.main(["--episodes", "1", "--seed", "3", "--json", str(out)]) == 0
     data = json.loads(out.read_text())

@@ -10,11 +10,11 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from script_loader import load_script
+from script_loader import command
 
 from planar3p_agents.training import config as training
 
-train_script = load_script("train")
+train_script = command("train")
 
 SMOKE = {
     "ppo": ["n_steps=64", "batch_size=64", "n_epochs=1"],
@@ -145,7 +145,8 @@ def test_crash_paths_exit_2_with_one_line_and_write_nothing(
     run = tmp_path / "run"
     assert train_script.main([*argv, "--run-dir", str(run)]) == 2
     err = capsys.readouterr().err
-    assert message in err and err.startswith("error: ") and err.count("\n") == 1, err
+    assert message in err and err.count("\n") == 1, err
+    assert err.startswith("planar3p train: error: ")
     assert not run.exists()
 
 
@@ -372,8 +373,9 @@ def test_overrides_read_exponent_floats() -> None:
 
 
 def test_final_evaluation_matches_a_plain_rollout() -> None:
-    """planar3p_agents.training.run.evaluate (SB3's evaluate_policy + the env's info at each episode's end)
-    reports what a plain deterministic rollout of the same seeded episodes measures."""
+    """planar3p_agents.training.run.evaluate (SB3's evaluate_policy + the env's info at each
+    episode's end) reports what a plain deterministic rollout of the same seeded episodes
+    measures."""
     from stable_baselines3.common.env_util import make_vec_env
 
     from planar3p_agents.policies.factory import load_policy

@@ -1,12 +1,13 @@
-"""planar3p_gym.analysis.workspace_report / workspace_figures and scripts/workspace.py: the regenerated
-table equals docs/workspace_table.*, a quick run writes every file, bad arguments write nothing."""
+"""planar3p_gym.analysis.workspace_report / workspace_figures and planar3p workspace: the
+regenerated table equals docs/workspace_table.*, a quick run writes every file, bad arguments
+write nothing."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
 import pytest
-from script_loader import ROOT, load_script
+from script_loader import ROOT, command
 
 from planar3p_gym.analysis.workspace_figures import FIGURES
 from planar3p_gym.analysis.workspace_report import (
@@ -16,7 +17,7 @@ from planar3p_gym.analysis.workspace_report import (
     tables,
 )
 
-workspace_script = load_script("workspace")
+workspace_script = command("workspace")
 
 
 def _read(path: Path) -> str:
@@ -52,11 +53,11 @@ def test_quick_run_writes_tables_and_figures(tmp_path: Path, capsys) -> None:
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--repeats", "-1"], "--repeats must be at least 1"),
-        (["--repeats", "0"], "--repeats must be at least 1"),
-        (["--theta-plane", "nan"], "--theta-plane must be an angle"),
-        (["--theta-plane", "inf"], "--theta-plane must be an angle"),
-        (["--theta-plane", "1e9"], "--theta-plane must be an angle"),
+        (["--repeats", "-1"], "--repeats must be >= 1"),
+        (["--repeats", "0"], "--repeats must be >= 1"),
+        (["--theta-plane", "nan"], "--theta-plane must be between -360 and 360 deg"),
+        (["--theta-plane", "inf"], "--theta-plane must be between -360 and 360 deg"),
+        (["--theta-plane", "1e9"], "--theta-plane must be between -360 and 360 deg"),
     ],
 )
 def test_bad_arguments_exit_2_and_write_nothing(argv, message, tmp_path: Path, capsys) -> None:

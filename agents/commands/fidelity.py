@@ -43,7 +43,7 @@ def check(args: argparse.Namespace) -> None:
     checks.at_least("--episodes", args.episodes, 0)
     checks.at_least("--seed", args.seed, 0)
     args.suites = checks.split_list("--suites", args.suites)
-    checks.known("--suites", args.suites, reach_suites.SUITE_NAMES)
+    checks.known("--suites", args.suites, reach_suites.SUITE_NAMES, "suite")
     if args.json is not None:
         checks.output_file("--json", args.json)
 
