@@ -141,6 +141,7 @@ def test_every_subcommand_has_a_help_with_its_defaults(name: str, capsys) -> Non
     assert (load(name).__doc__ or "").strip().splitlines()[0] in out
     flat = " ".join(out.split())
     assert "(default: None)" not in flat and "(default: False)" not in flat
+    assert "(default: )" not in flat and "(default: [])" not in flat
     assert not re.search(r"\(default[^()]*\)\s*\(default", flat), flat
 
 

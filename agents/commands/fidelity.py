@@ -33,7 +33,7 @@ def add_arguments(p: CliParser) -> None:
     p.add_argument("--episodes", type=int, default=30, help="controller episodes per suite")
     p.add_argument("--suites", default="standard,hard,far", help="reach suites, comma-separated")
     p.add_argument("--seed", type=int, default=0, help="seed of the motions and the suites")
-    p.add_argument("--json", type=Path, help="also write the figures as JSON")
+    p.add_argument("--json", type=Path, metavar="PATH", help="also write the figures as JSON")
 
 
 def check(args: argparse.Namespace) -> None:
