@@ -62,7 +62,7 @@ def _check_writable(directory: Path) -> None:
     try:
         fd, probe = tempfile.mkstemp(prefix=".write-check-", dir=directory)
     except OSError as exc:
-        raise ValueError(f"cannot write into {directory} ({exc.strerror or exc})") from None
+        raise ValueError(f"cannot create a file in {directory} ({exc.strerror or exc})") from None
     os.close(fd)
     os.unlink(probe)
 

@@ -1,11 +1,11 @@
 """Helpers shared by the benchmark tests: reading ``episodes.csv`` and replaying a run's
-saved suites with ``scripts/benchmark.py``."""
+saved suites with ``planar3p benchmark``."""
 
 from __future__ import annotations
 
 import csv
 from pathlib import Path
-from types import ModuleType
+from typing import Any
 
 
 def read_csv(path: Path) -> list[dict[str, str]]:
@@ -14,11 +14,9 @@ def read_csv(path: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(f))
 
 
-def replay(
-    bench: ModuleType, run: Path, suite: str, policy: str, out: Path
-) -> list[dict[str, str]]:
+def replay(bench: Any, run: Path, suite: str, policy: str, out: Path) -> list[dict[str, str]]:
     """Play ``policy`` on ``suite`` of the suites a benchmark run saved in ``run/suites.json``
-    (``bench``: ``scripts/benchmark.py``), writing to ``out``; the episodes' CSV rows."""
+    (``bench``: ``planar3p benchmark``), writing to ``out``; the episodes' CSV rows."""
     args = ["--suite-file", str(run / "suites.json"), "--suites", suite, "--policies", policy]
     assert bench.main([*args, "--out", str(out), "--no-progress", "--no-plots"]) == 0
     return read_csv(out / "episodes.csv")

@@ -9,7 +9,7 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 import gymnasium as gym
 import pytest
 from hypothesis import HealthCheck, settings
-from script_loader import load_script
+from script_loader import command
 
 import planar3p_gym
 from planar3p_agents.evaluation import reach_suites as su
@@ -41,5 +41,5 @@ def suites():
 
 @pytest.fixture(scope="module")
 def bench():
-    """``scripts/benchmark.py`` as a module."""
-    return load_script("benchmark")
+    """``planar3p benchmark`` (``bench.main(argv)``)."""
+    return command("benchmark")

@@ -145,7 +145,7 @@ def check(args: argparse.Namespace) -> None:
         )
     args.suites = checks.split_list("--suites", args.suites)
     if args.suite_file is None:
-        checks.known("--suites", args.suites, (*su.SUITE_NAMES, *TASK_SUITES))
+        checks.known("--suites", args.suites, (*su.SUITE_NAMES, *TASK_SUITES), "suite")
     else:
         checks.input_file("--suite-file", args.suite_file)
     args.working_mode = parse_mode("--working-mode", args.working_mode)

@@ -79,13 +79,15 @@ def split_list(flag: str, text: str) -> list[str]:
     return items
 
 
-def known(flag: str, items: Iterable[str], choices: Iterable[str]) -> None:
-    """Every item must be one of ``choices``."""
+def known(flag: str, items: Iterable[str], choices: Iterable[str], what: str = "value") -> None:
+    """Every item must be one of ``choices`` (``what``: what an item is, for the message)."""
     choices = list(choices)
     unknown = [i for i in items if i not in choices]
     if unknown:
+        plural = "s" if len(unknown) > 1 else ""
         raise UsageError(
-            f"{flag}: unknown {', '.join(map(repr, unknown))}; choose from {', '.join(choices)}"
+            f"{flag}: unknown {what}{plural} {', '.join(map(repr, unknown))}; choose from "
+            f"{', '.join(choices)}"
         )
 
 

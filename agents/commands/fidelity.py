@@ -33,7 +33,7 @@ def add_arguments(p: CliParser) -> None:
     p.add_argument("--episodes", type=int, default=30, help="controller episodes per suite")
     p.add_argument("--suites", default="standard,hard,far", help="reach suites, comma-separated")
     p.add_argument("--seed", type=int, default=0, help="seed of the motions and the suites")
-    p.add_argument("--json", type=Path, help="also write the figures as JSON")
+    p.add_argument("--json", type=Path, metavar="PATH", help="also write the figures as JSON")
 
 
 def check(args: argparse.Namespace) -> None:
@@ -43,7 +43,7 @@ def check(args: argparse.Namespace) -> None:
     checks.at_least("--episodes", args.episodes, 0)
     checks.at_least("--seed", args.seed, 0)
     args.suites = checks.split_list("--suites", args.suites)
-    checks.known("--suites", args.suites, reach_suites.SUITE_NAMES)
+    checks.known("--suites", args.suites, reach_suites.SUITE_NAMES, "suite")
     if args.json is not None:
         checks.output_file("--json", args.json)
 

@@ -30,7 +30,9 @@ def add_arguments(p: CliParser) -> None:
     p.add_argument(
         "--only", choices=("goal", "track"), help="measure only one family (default: both)"
     )
-    p.add_argument("--json", type=Path, help="also write the summaries to this file")
+    p.add_argument(
+        "--json", type=Path, metavar="PATH", help="also write the summaries to this file"
+    )
 
 
 def check(args: argparse.Namespace) -> None:

@@ -5,8 +5,8 @@
   :class:`ParserExit` (``--help``: status 0), which :func:`planar3p_agents.cli.main` turns into
   its return value.
 * :class:`HelpFormatter` keeps the descriptions' line breaks and shows each option's default,
-  except where there is nothing to show (``None``, a flag that is off) or the help text already
-  says what the default is (it contains ``default``).
+  except where there is nothing to show (``None``, a flag that is off, an empty string or list)
+  or the help text already says what the default is (it contains ``default``).
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
             "default" in text
             or default is None
             or default is False
-            or default == []
+            or default in ([], "")
             or default is argparse.SUPPRESS
             or not action.option_strings
         ):

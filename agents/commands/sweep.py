@@ -20,6 +20,7 @@ examples:
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import threading
 from collections.abc import Iterator
@@ -181,6 +182,11 @@ def terminate_as_interrupt() -> Iterator[None]:
 
 
 def run(args: argparse.Namespace) -> int:
+    # SIGTERM must reach Python, so that the sweep's cleanup (ray.shutdown) runs: before Ray
+    # starts, terminate_as_interrupt raises KeyboardInterrupt; once it runs, ray.init's own
+    # handler raises SystemExit.  Ray's crash handler (C++) would take the signal first and
+    # abort the process, skipping the cleanup.
+    os.environ.setdefault("RAY_DISABLE_FAILURE_SIGNAL_HANDLER", "1")
     import ray
 
     from planar3p_agents.training import sweep

@@ -61,7 +61,7 @@ def check(args: argparse.Namespace) -> None:
     checks.at_least("--episodes", args.episodes, 1)
     checks.at_least("--seed", args.seed, 0)
     args.ids = checks.split_list("--ids", args.ids)
-    checks.known("--ids", args.ids, STUDY_POLICIES)
+    checks.known("--ids", args.ids, STUDY_POLICIES, "id")
     if args.gravity is not None:
         checks.in_range("--gravity", args.gravity, 0, 1000, high_open=True, unit="m/s^2")
     if args.fidelity and args.verify_rates:

@@ -32,7 +32,7 @@ def add_arguments(p: CliParser) -> None:
         default=Path("docs/figures/learning_curves_track.png"),
         help="the figure (PNG; missing directories are made)",
     )
-    p.add_argument("--json", type=Path, help="also write the curves (m) here")
+    p.add_argument("--json", type=Path, metavar="PATH", help="also write the curves (m) here")
 
 
 def check(args: argparse.Namespace) -> None:

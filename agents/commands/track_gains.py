@@ -42,7 +42,7 @@ def check(args: argparse.Namespace) -> None:
     checks.at_least("--episodes", args.episodes, 1)
     checks.at_least("--seed", args.seed, 0)
     args.suites = checks.split_list("--suites", args.suites)
-    checks.known("--suites", args.suites, TRACK_SUITES)
+    checks.known("--suites", args.suites, TRACK_SUITES, "suite")
 
 
 def run(args: argparse.Namespace) -> int:

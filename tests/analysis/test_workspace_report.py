@@ -7,7 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from script_loader import ROOT, load_script
+from script_loader import ROOT, command
 
 from planar3p_gym.analysis.workspace_figures import FIGURES
 from planar3p_gym.analysis.workspace_report import (
@@ -17,7 +17,7 @@ from planar3p_gym.analysis.workspace_report import (
     tables,
 )
 
-workspace_script = load_script("workspace")
+workspace_script = command("workspace")
 
 
 def _read(path: Path) -> str:

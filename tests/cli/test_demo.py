@@ -8,8 +8,9 @@ import json
 import gymnasium as gym
 import imageio.v2 as imageio
 import pytest
-from conftest import load_script
+from script_loader import command
 
+from planar3p_agents.commands import demo
 from planar3p_agents.controllers.floor import ZeroPolicy
 from planar3p_agents.evaluation.episode_gif import GIF_SIZE, record_gif
 from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_suite
@@ -87,8 +88,9 @@ def test_benchmark_of_a_task_suite_alone_writes_its_plots(tmp_path, bench):
 
 
 def test_demo_refuses_an_unknown_policy(tmp_path, capsys):
-    demo = load_script("demo")
-    code = demo.main(["--out", str(tmp_path), "--mode-change-policy", "pretrained:no_such"])
+    code = command("demo").main(
+        ["--out", str(tmp_path), "--mode-change-policy", "pretrained:no_such"]
+    )
     assert code == 2
     assert "unknown pretrained model" in capsys.readouterr().err
     assert not any(tmp_path.iterdir())  # nothing written
@@ -97,7 +99,6 @@ def test_demo_refuses_an_unknown_policy(tmp_path, capsys):
 def test_demo_default_policies_are_named_and_fit_their_ids():
     """The demo names its learned policies (not the first shipped file by sort order, which
     changes as policies are shipped) and each loads on the id its part plays."""
-    demo = load_script("demo")
     for spec, env_id in (
         (demo.REACH_POLICY, demo.REACH_ENV),
         (demo.MODE_CHANGE_POLICY, TASK_SUITES[demo.MODE_CHANGE].env_id),

@@ -20,7 +20,7 @@ from residual_helpers import (
     observation_with_errors,
     residual_model,
 )
-from script_loader import load_script
+from script_loader import command
 from stable_baselines3 import PPO
 
 import planar3p_gym
@@ -35,7 +35,7 @@ from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
 ID = planar3p_gym.ENV_ID
 HYPERPARAMS = training.HYPERPARAMS_DIR / "ppo_residual.yml"
-train_script = load_script("train")
+train_script = command("train")
 
 
 def _model(scale: float = 0.5, **policy_kwargs) -> PPO:

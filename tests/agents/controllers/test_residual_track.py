@@ -20,7 +20,7 @@ from residual_helpers import (
     observation_with_errors,
     residual_model,
 )
-from script_loader import load_script
+from script_loader import command
 from stable_baselines3 import PPO
 
 import planar3p_gym
@@ -30,7 +30,7 @@ from planar3p_agents.training import config as training
 from planar3p_gym.tasks.observation import SLICES
 
 ID = planar3p_gym.TRACK_ENV_ID
-train_script = load_script("train")
+train_script = command("train")
 
 
 def _model(scale: float = 0.1, **policy_kwargs) -> PPO:
@@ -214,7 +214,7 @@ def test_gain_sweep_plays_the_benchmark_episodes():
 
 
 def test_gain_sweep_script_rejects_bad_input(capsys):
-    script = load_script("track_gains")
+    script = command("track-gains")
     for argv in (["--gains", "6,x"], ["--gains", "-1"], ["--episodes", "0"], ["--suites", "goal"]):
         assert script.main([*argv, "--episodes", "1"] if "--episodes" not in argv else argv) == 2
         assert ": error: " in capsys.readouterr().err

@@ -8,11 +8,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from script_loader import load_script
+from script_loader import command
 
 from planar3p_agents.evaluation import seed_statistics as ss
 
-seed_report = load_script("seed_report")
+seed_report = command("seed-report")
 
 
 def test_iqm_point_is_the_mean_of_the_middle_half():

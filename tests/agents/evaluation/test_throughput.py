@@ -35,12 +35,11 @@ def load_script():
     ],
 )
 def test_bad_arguments_exit_2_with_one_line_before_any_work(argv, capsys, monkeypatch):
-    mod = load_script()
-
     def no_work(*args, **kwargs):
         raise AssertionError("measured despite bad arguments")
 
     monkeypatch.setattr(throughput, "single_env_rates", no_work)
+    mod = load_script()
     assert mod.main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.startswith("planar3p bench-env: error:")

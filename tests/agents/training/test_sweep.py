@@ -12,7 +12,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 pytest.importorskip("ray.tune")
 
-from script_loader import load_script
+from script_loader import command
 
 from planar3p_agents.training.run import RunOptions
 from planar3p_agents.training.sweep import COLUMNS, SweepSpec, run_sweep, search_space, validate
@@ -23,7 +23,7 @@ OPTIONS = dict(
 )
 
 
-sweep_script = load_script("sweep")
+sweep_script = command("sweep")
 
 
 @pytest.fixture(scope="module")

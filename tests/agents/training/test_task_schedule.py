@@ -186,12 +186,12 @@ def test_a_training_run_applies_its_stages_and_a_resumed_one_reapplies_them(tmp_
 
 
 def test_train_script_rejects_a_bad_schedule_before_writing(tmp_path: Path, capsys):
-    from script_loader import load_script
+    from script_loader import command
 
     run = tmp_path / "bad"
     argv = ["--algo", "ppo", "--env", "Planar3P-v0", "--timesteps", "64", "--run-dir", str(run)]
     argv += ["--params", "task_schedule={100: {min_distance: 0.1}}"]
-    assert load_script("train").main(argv) == 2
+    assert command("train").main(argv) == 2
     assert "cannot change in a running environment" in capsys.readouterr().err
     assert not run.exists()
 

@@ -10,11 +10,11 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
-from script_loader import load_script
+from script_loader import command
 
 from planar3p_agents.training import config as training
 
-train_script = load_script("train")
+train_script = command("train")
 
 SMOKE = {
     "ppo": ["n_steps=64", "batch_size=64", "n_epochs=1"],
