@@ -18,6 +18,8 @@ import re
 import p3docs as P
 
 OUT = P.DOCS / "api"
+#: The package of the command line's subcommands (plain-text docstrings: their ``--help``).
+COMMANDS = "planar3p_agents.commands"
 
 INDEX_INTRO = """\
 # API reference
@@ -49,6 +51,11 @@ def package_page(package: str, modules: list[str]) -> str:
     """One page per package: the package's docstring, then each of its modules."""
     out = [f"# `{package}`", "", "```{eval-rst}", f".. automodule:: {package}", "```", ""]
     for m in modules:
+        if m.startswith(COMMANDS + "."):
+            # A command's docstring is its plain-text ``--help`` description, not reST.
+            doc = (importlib.import_module(m).__doc__ or "").strip()
+            out += [f"## `{m}`", "", "```text", doc, "```", ""]
+            continue
         out += [f"## `{m}`", "", "```{eval-rst}", f".. automodule:: {m}", "```", ""]
     return "\n".join(out)
 

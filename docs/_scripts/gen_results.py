@@ -390,14 +390,15 @@ def study_page(study: dict[str, Any]) -> str:
         if text.startswith("# "):
             title, _, text = text.partition("\n")
             title = title[2:].strip()
-        lines += [
-            f"## {title}",
-            "",
-            f"From `{repo_rel}/{path.name}`.",
-            "",
-            _shift_headings(text.strip(), 2),
-            "",
-        ]
+        levels = [len(h) for h in re.findall(r"(?m)^(#{1,6}) ", text)]
+        # The file's own headings just below this section's; its images from the study folder.
+        text = _shift_headings(text.strip(), 3 - min(levels)) if levels else text.strip()
+        text = re.sub(
+            r"!\[([^\]]*)\]\(([\w.-]+\.png)\)",
+            lambda m: f"![{m.group(1)}](../{rel}/{m.group(2)})",
+            text,
+        )
+        lines += [f"## {title}", "", f"From `{repo_rel}/{path.name}`.", "", text, ""]
     figures = [
         f for f in ("success_rate.png", "errors.png", "trajectories.png") if (folder / f).exists()
     ]
