@@ -102,6 +102,7 @@ def test_script_on_task_suites_and_replay(tmp_path, bench, capsys):
         ("analytic-simultaneous", "goal"),
         ("analytic-simultaneous", "track-segments"),
         ("analytic-feedforward", "track-segments"),
+        ("analytic-feedforward-tuned", "track-segments"),  # (issue 25: tuned on seed 1000)
         ("zero", "track-segments"),
     }
     assert all(r["tracking_rms_error"] for r in rows if r["suite"] == "track-segments")
