@@ -25,6 +25,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from planar3p_agents.commands import checks
 from planar3p_agents.commands.parser import CliParser, UsageError
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
@@ -53,26 +54,6 @@ def _size(text: str) -> tuple[int, int]:
     return w, h
 
 
-def _positive(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from exc
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
-    return v
-
-
-def _seed(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}") from exc
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 0, got {text!r}")
-    return v
-
-
 def add_arguments(p: CliParser) -> None:
     p.add_argument(
         "--out",
@@ -86,17 +67,17 @@ def add_arguments(p: CliParser) -> None:
         default=None,
         help="ids to render (default: every registered Planar3P id)",
     )
-    p.add_argument("--seed", type=_seed, default=0, help="reset seed of the recorded episode")
+    p.add_argument("--seed", type=int, default=0, help="reset seed of the recorded episode")
     p.add_argument("--size", type=_size, default=(320, 240), help="GIF size, WIDTHxHEIGHT")
     p.add_argument("--frame-size", type=_size, default=(480, 360), help="PNG size")
-    p.add_argument("--frame-every", type=_positive, default=3, help="render every n-th step")
+    p.add_argument("--frame-every", type=int, default=3, help="render every n-th step")
     p.add_argument(
         "--max-steps",
-        type=_positive,
+        type=int,
         default=150,
         help="steps recorded at most (the episode is cut there)",
     )
-    p.add_argument("--max-kb", type=_positive, default=400, help="fail when a GIF is larger (kB)")
+    p.add_argument("--max-kb", type=int, default=400, help="fail when a GIF is larger (kB)")
     p.add_argument(
         "--controller",
         nargs="*",
@@ -111,6 +92,13 @@ def _fail(flag: str, msg: str) -> None:
 
 
 def check(args: argparse.Namespace) -> None:
+    checks.at_least("--seed", args.seed, 0)
+    for flag, value in (
+        ("--frame-every", args.frame_every),
+        ("--max-steps", args.max_steps),
+        ("--max-kb", args.max_kb),
+    ):
+        checks.at_least(flag, value, 1)
     """Validate everything before any work; returns the controller overrides."""
     import gymnasium as gym
 
