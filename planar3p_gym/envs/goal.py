@@ -16,7 +16,6 @@ import numpy as np
 from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
-from planar3p_gym import checks
 from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.goal import (
@@ -85,12 +84,6 @@ def flat_observation(obs: dict[str, ArrayLike], length: float) -> NDArray[np.flo
     )
     out = flat.astype(np.float32)
     return out[0] if single else out
-
-
-def _is_single(goal: ArrayLike) -> bool:
-    """Whether a (validated) goal argument is one goal ``(5,)`` rather than a batch."""
-    arr = checks.real_array(goal)
-    return arr is not None and arr.ndim == 1
 
 
 class Planar3PGoalEnv(Planar3PEnv):
@@ -189,7 +182,7 @@ class Planar3PGoalEnv(Planar3PEnv):
             self.design.characteristic_length,
             self.reward_type,
         )
-        return float(out[0]) if _is_single(achieved_goal) else out
+        return float(out[0]) if np.ndim(achieved_goal) == 1 else out  # (validated above)
 
     def compute_terminated(
         self, achieved_goal: ArrayLike, desired_goal: ArrayLike, info: Any
