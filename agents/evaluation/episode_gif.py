@@ -14,6 +14,8 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from planar3p_gym.envs.end_reason import end_reason
+
 __all__ = ["GIF_SIZE", "record_gif"]
 
 #: Frame size of the recorded animations, pixels (width, height).
@@ -31,7 +33,7 @@ def record_gif(
     """Play the episode ``options`` of ``env_id`` with the policy ``make_policy(env)`` (SB3's
     ``predict``; a ``reset()`` method is called first), render every ``frame_every``-th step,
     write the frames to ``path`` as a looping GIF at the matching frame rate, and return the
-    outcome: ``steps``, ``reason`` (termination reason or ``"time limit"``), ``success``,
+    outcome: ``steps``, ``reason`` (the end reason, e.g. ``"time_limit"``), ``success``,
     ``position_error_mm`` (final, mm)."""
     import imageio.v2 as imageio
 
@@ -63,7 +65,7 @@ def record_gif(
     imageio.mimsave(path, frames, duration=1.0 / fps, loop=0)
     return {
         "steps": steps,
-        "reason": info.get("termination_reason") or "time limit",
+        "reason": end_reason(terminated, truncated, info),
         "success": bool(info["is_success"]),
         "position_error_mm": 1000.0 * float(info["position_error"]),
     }

@@ -60,7 +60,7 @@ def test_record_gif_reports_a_timeout(tmp_path, mode_change_episode):
     )
     assert outcome == {
         "steps": 400,
-        "reason": "time limit",
+        "reason": "time_limit",
         "success": False,
         "position_error_mm": pytest.approx(outcome["position_error_mm"]),
     }
