@@ -510,7 +510,9 @@ class Planar3PSim:
             array_, request, iterator = fast[2]
             array_.num = 0
             _cp.cpSpaceEachBody(fast[0], iterator, request)
-            v = fast[6].tolist()  # (the readout's first 60 numbers, through a view)
+            # The readout's first 60 numbers, through a view: the projection reads them in
+            # place (no list in between), before they are written back below.
+            v = fast[6]
         # (The drives' setpoints for the next step are pulled to within
         # FOLLOWING_ERROR_LIMIT of their sliders, :meth:`_limit_following_error`.)
         pr = self._projector.project(  # type: ignore[union-attr]
