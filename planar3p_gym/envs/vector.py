@@ -116,11 +116,18 @@ class Planar3PVectorEnv(VectorEnv):
             last observation is in ``info["final_obs"]``, its last info entries in
             ``info["final_info"]``; what SB3's ``VecEnv`` expects, see
             :mod:`planar3p_agents.training.vec_adapter`).
-        **kwargs: :class:`Planar3PEnv` arguments, the same for every copy (``render_mode``
-            is not supported here).
+        **kwargs: :class:`Planar3PEnv` arguments, the same for every copy.  With
+            ``render_mode="rgb_array"`` every copy renders and :meth:`render` returns their
+            frames, as Gymnasium's own vector envs do; Gymnasium's vector wrappers show them
+            as a grid in a window (``gymnasium.wrappers.vector.HumanRendering``, which needs
+            opencv) or record them as one tiled video (``gymnasium.wrappers.vector.RecordVideo``).
     """
 
-    metadata = {"autoreset_mode": AutoresetMode.NEXT_STEP, "render_modes": []}
+    metadata = {
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+        "render_modes": ["rgb_array"],
+        "render_fps": Planar3PEnv.metadata["render_fps"],
+    }
     #: The single environment's class (subclasses below: the task ids' environments).
     env_class: type[Planar3PEnv] = Planar3PEnv
 
@@ -146,20 +153,25 @@ class Planar3PVectorEnv(VectorEnv):
             raise ValueError(
                 f"autoreset_mode must be NEXT_STEP or SAME_STEP, got {autoreset_mode!r}"
             )
-        self.metadata = {**self.metadata, "autoreset_mode": mode}
-        if kwargs.get("render_mode") is not None:
-            raise ValueError("Planar3PVectorEnv does not render; use gym.make for rendering")
+        render_mode = kwargs.get("render_mode")
+        if render_mode is not None:
+            checks.choice(render_mode, "render_mode", tuple(self.metadata["render_modes"]))
         self.num_envs = int(num_envs)
         self._envs = [self.env_class(**kwargs) for _ in range(self.num_envs)]
         self.max_episode_steps = (
             None if max_episode_steps is None or max_episode_steps == -1 else int(max_episode_steps)
         )
         first = self._envs[0]
+        self.metadata = {
+            **self.metadata,
+            "autoreset_mode": mode,
+            "render_fps": first.metadata["render_fps"],
+        }
         self.single_observation_space = first.observation_space
         self.single_action_space = first.action_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self.render_mode = None
+        self.render_mode = render_mode
         self._obs = np.zeros(self.observation_space.shape, dtype=np.float32)
         self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
@@ -306,6 +318,15 @@ class Planar3PVectorEnv(VectorEnv):
             out[key] = np.array([info[key] for info in infos], dtype=_DTYPES.get(key, np.float64))
             out["_" + key] = mask
         return out
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """The frames of every environment (``render_mode="rgb_array"``: a tuple of
+        ``(H, W, 3)`` uint8 arrays, environment ``i``'s at index ``i``), or ``None`` with a
+        warning when the vector env was made without a render mode."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode to make_vec()")
+            return None
+        return tuple(env.render() for env in self.envs)
 
     def close_extras(self, **kwargs: Any) -> None:
         for env in self._envs:

@@ -185,3 +185,72 @@ def test_sb3_adapter_matches_dummy_vec_env():
     model = sb3.PPO("MlpPolicy", native, n_steps=32, batch_size=32, n_epochs=1, seed=0)
     model.learn(64)
     native.close()
+
+
+@pytest.mark.parametrize(
+    ("env_id", "batch"),
+    [("Planar3P-v0", "scalar"), ("Planar3P-v0", "numpy"), ("Planar3PModeChange-v0", "auto")],
+)
+def test_render_gives_each_single_envs_frame(env_id, batch):
+    """The vector env renders (issue 27, item 9): a frame per environment, each the frame
+    the single environment renders after the same seeded reset and actions."""
+    kwargs = {"batch": batch} if env_id == "Planar3P-v0" else {}
+    venv = gym.make_vec(
+        env_id,
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        render_mode="rgb_array",
+        **kwargs,
+    )
+    singles = [gym.make(env_id, render_mode="rgb_array") for _ in range(2)]
+    actions = np.random.default_rng(3).uniform(-1, 1, (6, 2, 3)).astype(np.float32)
+    venv.reset(seed=7)
+    for i, env in enumerate(singles):
+        env.reset(seed=7 + i)
+    for a in actions:
+        venv.step(a)
+        for i, env in enumerate(singles):
+            env.step(a[i])
+    frames = venv.render()
+    assert isinstance(frames, tuple) and len(frames) == 2
+    for frame, env in zip(frames, singles, strict=True):
+        assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
+        np.testing.assert_array_equal(frame, env.render())
+    assert not np.array_equal(frames[0], frames[1])  # different episodes, different frames
+    venv.close()
+    for env in singles:
+        env.close()
+
+
+def test_render_records_a_tiled_video_through_gymnasiums_vector_wrapper(tmp_path):
+    """Gymnasium's vector ``RecordVideo`` tiles the frames into one video (2 x 2 for 4 envs)."""
+    from gymnasium.wrappers.vector import RecordVideo
+
+    venv = RecordVideo(
+        gym.make_vec(
+            "Planar3P-v0",
+            num_envs=4,
+            vectorization_mode="vector_entry_point",
+            render_mode="rgb_array",
+            render_size=(64, 48),
+        ),
+        str(tmp_path / "videos"),
+        step_trigger=lambda step: step == 0,
+        video_length=5,
+    )
+    venv.reset(seed=0)
+    for _ in range(6):
+        venv.step(np.zeros((4, 3), dtype=np.float32))
+    venv.close()
+    assert (venv.frame_rows, venv.frame_cols) == (2, 2)
+    videos = list((tmp_path / "videos").glob("*.mp4"))
+    assert len(videos) == 1 and videos[0].stat().st_size > 0
+
+
+def test_render_without_mode_warns_and_bad_mode_is_rejected():
+    venv = Planar3PVectorEnv(num_envs=2)
+    venv.reset(seed=0)
+    with pytest.warns(UserWarning, match="render_mode"):
+        assert venv.render() is None
+    with pytest.raises(ValueError, match="render_mode"):
+        Planar3PVectorEnv(num_envs=2, render_mode="human")
