@@ -163,6 +163,10 @@ class ModeChangeTask(TravelShaping, Task):
                 f"no working-mode pair of this design (start modes {env.modes}, {self.flips} "
                 "leg(s) flipped) has a certified start/target pair under the task's margins"
             )
+        # The sampler's table of each target mode's assembly modes (cached per design and
+        # config, about 30 ms each) is built here, not by the first reset that draws the mode.
+        for mt in {mt for mts in self.pairs.values() for mt in mts}:
+            task.assembly_modes(env.design, mt, env.task_config)
 
     def _requested_pair_viable(self, ms: ModeTriple, mt: ModeTriple) -> bool:
         """For a requested pair of working modes the construction-time check did not list:
