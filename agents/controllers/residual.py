@@ -48,7 +48,7 @@ from torch import nn
 
 from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.tracking import TRACK_OBS_SIZE, TrackingController
-from planar3p_gym.envs.arguments import design_from
+from planar3p_gym.checks import design_from
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
