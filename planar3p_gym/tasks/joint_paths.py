@@ -268,10 +268,16 @@ def _certify_segments(
     limits: PathLimits,
 ) -> tuple[NDArray[np.bool_], FloatArray, FloatArray, FloatArray]:
     """:func:`certify_joint_path` of ``S`` one-segment paths at once (rows of ``(S, 3)``
-    arrays, travels already checked against the stroke): ``(ok, margins, forces, ends)`` per
-    row (``ends``: the followed poses at ``rho_b``), the figures meaningful where ``ok``.  The
-    cheap tests (branch, end pose) come first, so the margins and forces are computed only for
-    the segments that pass them."""
+    arrays, or one ``(3,)`` row shared by every segment, e.g. a common start; travels already
+    checked against the stroke): ``(ok, margins, forces, ends)`` per row (``ends``: the
+    followed poses at ``rho_b``), the figures meaningful where ``ok``.  The cheap tests
+    (branch, end pose) come first, so the margins and forces are computed only for the
+    segments that pass them."""
+    shape = np.broadcast_shapes(rho_a.shape, rho_b.shape, pose_a.shape, pose_b.shape)
+    rows = (-1, 3) if len(shape) == 2 else (1, 3)
+    rho_a, rho_b, pose_a, pose_b = (
+        np.broadcast_to(a, shape).reshape(rows).copy() for a in (rho_a, rho_b, pose_a, pose_b)
+    )
     n = rho_a.shape[0]
     ok = np.zeros(n, dtype=np.bool_)
     margins, forces = np.ones(n), np.zeros(n)
@@ -422,15 +428,7 @@ def first_straight_path(
     cand = np.flatnonzero(np.isfinite(rt).all(axis=1) & _in_stroke(design, rt, limits))
     if not cand.size:
         return None
-    k = cand.size
-    ok, margins, forces, ends = _certify_segments(
-        design,
-        np.broadcast_to(rs, (k, 3)).copy(),
-        rt[cand],
-        np.broadcast_to(s, (k, 3)).copy(),
-        t[cand],
-        limits,
-    )
+    ok, margins, forces, ends = _certify_segments(design, rs, rt[cand], s, t[cand], limits)
     passed = np.flatnonzero(ok)
     if not passed.size:
         return None
@@ -464,28 +462,12 @@ def _waypoint_path(
     cand = np.flatnonzero(np.isfinite(rw).all(axis=1) & _in_stroke(design, rw, limits))
     if not cand.size:
         return None
-    k = cand.size
-    ok1, m1, f1, _ = _certify_segments(
-        design,
-        np.broadcast_to(rs, (k, 3)).copy(),
-        rw[cand],
-        np.broadcast_to(s, (k, 3)).copy(),
-        way[cand],
-        limits,
-    )
+    ok1, m1, f1, _ = _certify_segments(design, rs, rw[cand], s, way[cand], limits)
     cand = cand[ok1]
     m1, f1 = m1[ok1], f1[ok1]
     if not cand.size:
         return None
-    k = cand.size
-    ok2, m2, f2, _ = _certify_segments(
-        design,
-        rw[cand],
-        np.broadcast_to(rt, (k, 3)).copy(),
-        way[cand],
-        np.broadcast_to(t, (k, 3)).copy(),
-        limits,
-    )
+    ok2, m2, f2, _ = _certify_segments(design, rw[cand], rt, way[cand], t, limits)
     passed = np.flatnonzero(ok2)
     if not passed.size:
         return None
