@@ -33,6 +33,8 @@ from typing import Any
 
 import numpy as np
 
+from planar3p_gym.envs.end_reason import TIME_LIMIT
+
 __all__ = [
     "REACH_GRID",
     "TRACK_GRID",
@@ -93,7 +95,7 @@ def _score(suite: str, results: list[Any]) -> dict[str, Any]:
     return {
         "success_rate": float(np.mean([r.success for r in results])),
         "median_time_to_success": float(np.median(times)) if times else math.nan,
-        "failures": sum(r.termination_reason not in ("success", "timeout") for r in results),
+        "failures": sum(r.termination_reason not in ("success", TIME_LIMIT) for r in results),
         "median_tracking_rms_error": float(np.median(rms)) if rms else math.nan,
     }
 

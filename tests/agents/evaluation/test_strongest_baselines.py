@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+from types import SimpleNamespace
 
 import gymnasium as gym
 import numpy as np
@@ -115,6 +116,22 @@ def test_tune_gain_picks_by_success_then_time():
     assert gain == best["gain"]
     with pytest.raises(ValueError, match="no tuned baseline"):
         tuning.tune_gain("mode-change", episodes=1)
+
+
+def test_tuning_counts_only_the_environments_failures():
+    """A time-out (``time_limit``, the one name of that end) is not a failure of the tuning's
+    score; a singularity crossing or a breakdown is."""
+    results = [
+        SimpleNamespace(
+            termination_reason=reason,
+            success=reason == "success",
+            time_to_success=0.5,
+            task_metrics={},
+        )
+        for reason in ("success", "time_limit", "singularity_crossing", "physics_breakdown")
+    ]
+    score = tuning._score("standard", results)
+    assert score["failures"] == 2 and score["success_rate"] == 0.25
 
 
 def test_speed_bound_is_the_largest_travel_over_the_speed_limit():
