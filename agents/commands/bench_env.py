@@ -9,7 +9,7 @@ the reference measured in the same round):
   vector    total env steps/s of each id's vector env (native where the id has one, else
             SyncVectorEnv) at each of --sizes envs, against Reacher-v5 single and in
             SyncVectorEnv and CartPole-v1's native vector env of as many envs
-  resets    seeded reset times (us): median, p99, p99.9, max
+  resets    seeded reset times (us): median, p99, p99.9, max; unseeded: median, p99.9
   floor     the median full step beside pymunk's own step alone (cpSpaceStep on the env's own
             space, as many substeps), and a profile of one Planar3P-v0 step
   startup   a fresh process with an empty numba cache (first-call compile), then one with that
@@ -17,8 +17,8 @@ the reference measured in the same round):
   ppo       PPO training steps/s with the project's recipe (ppo.yml, native vector env) against
             the same PPO on Reacher-v5 through DummyVecEnv (needs the train extra)
 
-Then the targets table: each target of the issue, the measured value, met or not.  A few
-minutes (--quick: about one and a half).  Timings depend on the machine and its load; no test
+Then the targets table: each target of the issue, the measured value, met or not.  Ten
+minutes or so (--quick: a few).  Timings depend on the machine and its load; no test
 times anything.
 
 Library: planar3p_agents.evaluation.throughput.
@@ -59,9 +59,9 @@ TARGETS = {
     "single_task": ("single env, resets included, x Reacher-v5", 2.0, "min"),
     "floor": ("full step / pymunk's own step", 5.0, "max"),
     "vector64": ("native vector env x64 / Reacher-v5 SyncVectorEnv x64", 8.0, "min"),
-    "reset_v0": ("reset median (us)", 150.0, "max"),
-    "reset_task": ("reset median (us)", 1000.0, "max"),
-    "reset_task_tail": ("reset p99.9 (us)", 20000.0, "max"),
+    "reset_v0": ("seeded reset median (us)", 150.0, "max"),
+    "reset_task": ("seeded reset median (us)", 1000.0, "max"),
+    "reset_task_tail": ("seeded reset p99.9 (us)", 20000.0, "max"),
 }
 
 
@@ -70,7 +70,7 @@ def add_arguments(p: CliParser) -> None:
         full, quick = DEFAULTS[name]
         return f"(default: {full:g}, {quick:g} with --quick)"
 
-    p.add_argument("--quick", action="store_true", help="short run (about a minute and a half)")
+    p.add_argument("--quick", action="store_true", help="short run (a few minutes)")
     p.add_argument(
         "--ids",
         default=",".join(ALL_IDS),
@@ -156,7 +156,9 @@ def _ratios(rates: dict[str, list[float]], reference: str) -> dict[str, float]:
 
 
 def _x(value: float | None) -> str:
-    return "-" if value is None else f"{value:.2f}"
+    if value is None:
+        return "-"
+    return f"{value:.2f}" if value >= 0.1 else f"{value:.2g}"
 
 
 def _table(
@@ -245,7 +247,7 @@ def vector_section(args: argparse.Namespace, refs: list[str]) -> dict[str, Any]:
         "ratios to the references of the same size"
     )
     ref_single, ref_sync, ref_cart = f"{REACHER} single", f"{REACHER} sync", f"{CARTPOLE} native"
-    header = ["n  id", "kind", "steps/s", "x Reacher", "x ReacherSync", "x CartPole"]
+    header = ["n   id", "kind", "steps/s", "x Reacher", "x ReacherSync", "x CartPole"]
     widths = [30, 7, 11, 10, 14, 11]
     _table(header, [], widths)
     out: dict[str, Any] = {}
@@ -263,7 +265,7 @@ def vector_section(args: argparse.Namespace, refs: list[str]) -> dict[str, Any]:
         for k in rates:
             name = k if k in args.ids else k.rsplit(" ", 1)[0]
             rows.append(
-                [f"{n:<3}{name}", kinds[k], f"{_median(rates[k]):,.0f}"]
+                [f"{n:<4}{name}", kinds[k], f"{_median(rates[k]):,.0f}"]
                 + [_x(x[ref].get(k)) for ref in (ref_single, ref_sync, ref_cart)]
             )
         _table(header, rows, widths, show_header=False)
@@ -285,20 +287,21 @@ def resets_section(args: argparse.Namespace, refs: list[str]) -> dict[str, Any]:
 
     ids = args.ids + refs
     k = args.resets
-    print(f"\nresets: env.reset(seed=s), {k} seeds per id per round x {args.rounds} rounds (us)")
+    print(
+        f"\nresets (us): env.reset(seed=s), {k} new seeds per id per round x {args.rounds} "
+        "rounds; then as many unseeded resets (median, p99.9)"
+    )
     envs = {e: T.make_env(e) for e in ids}
+
+    def measure(env: Any) -> Callable[[int], tuple[Any, Any]]:
+        def one_round(r: int) -> tuple[Any, Any]:
+            seeded = T.reset_times(env, range(args.seed + r * k, args.seed + (r + 1) * k))
+            return seeded, T.reset_times(env, [None] * k)
+
+        return one_round
+
     try:
-        parts = T.interleave(
-            {
-                e: (
-                    lambda r, env=env: T.reset_times(
-                        env, range(args.seed + r * k, args.seed + (r + 1) * k)
-                    )
-                )
-                for e, env in envs.items()
-            },
-            args.rounds,
-        )
+        parts = T.interleave({e: measure(env) for e, env in envs.items()}, args.rounds)
     finally:
         for env in envs.values():
             env.close()
@@ -306,14 +309,19 @@ def resets_section(args: argparse.Namespace, refs: list[str]) -> dict[str, Any]:
     out = {}
     rows = []
     for e in ids:
-        fig = T.reset_summary(np.concatenate(parts[e]), seeds)
+        fig = T.reset_summary(np.concatenate([s for s, _ in parts[e]]), seeds)
         us = {key.replace("_ms", "_us"): 1e3 * fig[key] for key in fig if key.endswith("_ms")}
+        free = T.reset_summary(np.concatenate([u for _, u in parts[e]]), seeds)
+        unseeded = {q.replace("_ms", "_us"): 1e3 * free[q] for q in ("median_ms", "p99.9_ms")}
         out[e] = {"resets": fig["resets"], **us, "slowest_seeds_ms": fig["slowest"]}
+        out[e]["unseeded"] = unseeded
         rows.append(
             [e, str(fig["resets"])]
             + [f"{us[q]:,.0f}" for q in ("median_us", "p99_us", "p99.9_us", "max_us")]
+            + [f"{unseeded[q]:,.0f}" for q in ("median_us", "p99.9_us")]
         )
-    _table(["id", "resets", "median", "p99", "p99.9", "max"], rows, [26, 7, 8, 8, 8, 8])
+    header = ["id", "resets", "median", "p99", "p99.9", "max", "unseeded", "p99.9"]
+    _table(header, rows, [26, 7, 8, 8, 10, 10, 9, 10])
     return out
 
 
@@ -461,7 +469,7 @@ def print_targets(rows: list[dict[str, Any]]) -> None:
         bound = f"{sign} {b:,.0f}" if us else f"{sign} {b:g}"
         met = "-" if t["met"] is None else ("yes" if t["met"] else "NO")
         table.append([t["id"], t["target"], measured, bound, met])
-    _table(["id", "target", "measured", "required", "met"], table, [25, 52, 9, 9, 4], left=2)
+    _table(["id", "target", "measured", "required", "met"], table, [25, 52, 10, 9, 4], left=2)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -231,9 +231,10 @@ def single_rate(env: gym.Env, duration: float, seed: int, pool: int = 256) -> fl
     return n / (t - t0)
 
 
-def reset_times(env: gym.Env, seeds: Sequence[int]) -> np.ndarray:
+def reset_times(env: gym.Env, seeds: Sequence[int | None]) -> np.ndarray:
     """Wall times (s) of ``env.reset(seed=s)`` for each seed, in order (after one unseeded
-    reset, so that first-use costs are not counted)."""
+    reset, so that first-use costs are not counted); a seed ``None`` is an unseeded reset (the
+    env's generator goes on, as between a vector env's episodes)."""
     env.reset()
     out = np.empty(len(seeds))
     clock = time.perf_counter
@@ -282,8 +283,8 @@ def _pymunk_floor(sim: Any) -> Callable[[], int]:
 def step_and_floor_us(env: gym.Env, n_steps: int, seed: int) -> tuple[float, float]:
     """``(full, floor)``: the median wall time (us) of ``env.step`` (``env`` as ``gym.make``
     made it; resets not timed) over ``n_steps`` random-action steps, and the median of
-    pymunk's own step alone on the env's own space (:attr:`Planar3PSim.substeps
-    <planar3p_gym.sim.physics.Planar3PSim>` calls of ``cpSpaceStep``, the drives set to the
+    pymunk's own step alone on the env's own space (``substeps`` calls of ``cpSpaceStep``
+    (:class:`~planar3p_gym.sim.physics.Planar3PSim`), the drives set to the
     same commands untimed) over as many steps, from the same seeded reset.  The floor leaves
     the env's simulation off its constraint manifold: the env is reset after it."""
     actions = _actions(env.action_space, seed, n_steps)

@@ -100,6 +100,7 @@ def test_one_run_reports_every_id_and_size_and_the_targets(tmp_path, capsys, mon
         assert size["x_cartpole_native"]["CartPole-v1 native"] == 1.0
     assert set(got["resets"]) == set(ids + refs)
     assert all(r["resets"] == 4 and r["median_us"] > 0 for r in got["resets"].values())
+    assert all(r["unseeded"]["median_us"] > 0 for r in got["resets"].values())
     for e in ids:
         floor = got["floor"][e]
         assert len(floor["step_us"]) == len(floor["floor_us"]) == 2
@@ -145,10 +146,10 @@ def test_targets_rows_cover_each_id_and_judge_the_bounds():
     assert met[("Planar3PTrack-v0", x64)] is False
     assert met[("Planar3P-v0", "full step / pymunk's own step")] is True
     assert met[("Planar3PTrack-v0", "full step / pymunk's own step")] is None  # not measured
-    assert met[("Planar3P-v0", "reset median (us)")] is False  # 150 us for Planar3P-v0
-    assert met[("Planar3PTrack-v0", "reset median (us)")] is True  # 1 ms for the task ids
-    assert met[("Planar3PTrack-v0", "reset p99.9 (us)")] is False
-    assert ("Planar3P-v0", "reset p99.9 (us)") not in met
+    assert met[("Planar3P-v0", "seeded reset median (us)")] is False  # 150 us for Planar3P-v0
+    assert met[("Planar3PTrack-v0", "seeded reset median (us)")] is True  # 1 ms for the task ids
+    assert met[("Planar3PTrack-v0", "seeded reset p99.9 (us)")] is False
+    assert ("Planar3P-v0", "seeded reset p99.9 (us)") not in met
 
 
 def test_write_json_atomic_replaces_whole_files_only(tmp_path):
@@ -186,6 +187,7 @@ def test_throughput_measures_run_and_are_positive():
     env = throughput.make_env("Pendulum-v1")
     env.reset(seed=0)
     assert throughput.single_rate(env, 0.0, 0) > 0
+    assert throughput.reset_times(env, [None, None]).shape == (2,)  # unseeded resets
     times = throughput.reset_times(env, range(5))
     fig = throughput.reset_summary(times, range(5), slowest=2)
     assert times.shape == (5,) and fig["resets"] == 5 and len(fig["slowest"]) == 2
