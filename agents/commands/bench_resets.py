@@ -22,7 +22,6 @@ import argparse
 import json
 import os
 import platform
-import time
 from typing import Any
 
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
@@ -33,6 +32,7 @@ import numpy as np
 
 import planar3p_gym
 from planar3p_agents.commands.parser import CliParser, UsageError
+from planar3p_agents.evaluation.throughput import reset_summary, reset_times
 from planar3p_gym.atomic_files import write_atomic
 from planar3p_gym.envs.registry import ENV_SPECS
 
@@ -103,31 +103,9 @@ def make_envs(ids: list[str], kwargs: dict[str, Any]) -> dict[str, gym.Env]:
     return envs
 
 
-def reset_times(env: gym.Env, seeds: range) -> np.ndarray:
-    """Wall times (s) of ``env.reset(seed=s)`` for each seed, in order (after one unseeded
-    reset, so that first-use costs are not counted)."""
-    env.reset()
-    out = np.empty(len(seeds))
-    clock = time.perf_counter
-    for k, seed in enumerate(seeds):
-        t0 = clock()
-        env.reset(seed=seed)
-        out[k] = clock() - t0
-    return out
-
-
 def summary(times: np.ndarray, seeds: range) -> dict[str, Any]:
     """Median, p99, p99.9, max (ms) and the slowest seeds."""
-    ms = 1e3 * times
-    slow = np.argsort(ms)[::-1][:SLOWEST]
-    return {
-        "resets": int(ms.size),
-        "median_ms": float(np.median(ms)),
-        "p99_ms": float(np.percentile(ms, 99)),
-        "p99.9_ms": float(np.percentile(ms, 99.9)),
-        "max_ms": float(ms.max()),
-        "slowest": [[int(seeds[i]), round(float(ms[i]), 2)] for i in slow],
-    }
+    return reset_summary(times, seeds, SLOWEST)
 
 
 def run(args: argparse.Namespace) -> int:

@@ -1,23 +1,25 @@
-"""Throughput measurements of the environments (the logic of ``scripts/bench_env.py``).
+"""Throughput measurements of the environments (the logic of ``planar3p bench-env``).
 
+Every measurement is interleaved: a round measures each configuration of a section once, in
+an order rotated from round to round, so that a load drifting on a shared machine affects
+all alike; ratios are taken per round against the reference measured in the same round
+(paired) and the median of those ratios is reported (:func:`paired_ratio`).
+
+* :func:`interleave`: the rounds of a section (any measurement functions).
 * :func:`single_env_rates`: steps/s of single envs made with ``gym.make`` (their registered
   wrappers included), each measured by Gymnasium's own
-  :func:`gymnasium.utils.performance.benchmark_step` (random actions, resets included) for a
-  fixed duration; the envs are interleaved across repeats with a rotating order, so that a
-  load drifting on a shared machine affects all alike, and ratios are taken per repeat
-  (paired) before the median.
-* :func:`best_block_rates`: the envs (single ones and vector envs) stepped in short blocks,
-  round-robin, many times; each env's fastest blocks estimate its speed on an idle machine
-  (load only ever slows a block down), which makes ratios between envs reproducible on a
-  busy shared machine where rates of whole runs vary several-fold.
-* :func:`median_step_us`: the median wall time of single steps, each timed on its own
-  (ignores the steps during which a busy machine preempted the process).
-* :func:`vector_rates`: total env steps/s of a vector env: the native one
-  (``gym.make_vec``'s default for the ids that register it), ``SyncVectorEnv`` or
-  ``AsyncVectorEnv``.
+  :func:`gymnasium.utils.performance.benchmark_step` (random actions, resets included).
+* :func:`make_vector_env`, :func:`vector_rate`, :func:`single_rate`: total env steps/s of a
+  vector env (the id's native one, ``SyncVectorEnv`` where it has none) or of a single env
+  with pre-sampled actions, for a fixed duration.
+* :func:`reset_times`, :func:`reset_summary`: wall times of seeded resets.
+* :func:`step_and_floor_us`: the median full step beside the median of pymunk's own step
+  alone (``cpSpaceStep`` on the env's own space, the same number of substeps).
 * :func:`profile_step`: median time per step of the parts of a ``Planar3PEnv`` step.
-* :func:`ppo_rates`: PPO training steps/s with the native SB3 adapter, ``DummyVecEnv`` and
-  ``SubprocVecEnv`` (needs the ``train`` extra).
+* :func:`startup_times`: the first-call compile time (a fresh process, an empty numba cache)
+  and the cached start-up time (a fresh process, that cache).
+* :func:`ppo_rate`: PPO training steps/s with the project's recipe (``ppo.yml``) on an id or
+  the same settings on ``Reacher-v5`` (needs the ``train`` extra).
 * :func:`write_json_atomic`: results written to a temporary file, then renamed.
 """
 
@@ -26,8 +28,12 @@ from __future__ import annotations
 import json
 import os
 import statistics
+import subprocess
+import sys
+import tempfile
 import time
 import warnings
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import gymnasium as gym
@@ -35,18 +41,32 @@ import numpy as np
 from gymnasium.utils.performance import benchmark_step
 
 from planar3p_gym.atomic_files import write_atomic
+from planar3p_gym.envs.registry import ENV_SPECS
 
 __all__ = [
-    "best_block_rates",
+    "CARTPOLE",
+    "REACHER",
+    "interleave",
     "make_env",
-    "median_step_us",
+    "make_vector_env",
     "paired_ratio",
-    "ppo_rates",
+    "ppo_rate",
     "profile_step",
+    "reset_summary",
+    "reset_times",
     "single_env_rates",
-    "vector_rates",
+    "single_rate",
+    "startup_times",
+    "step_and_floor_us",
+    "vector_kind",
+    "vector_rate",
     "write_json_atomic",
 ]
+
+#: The references: MuJoCo's ``Reacher-v5`` (single and ``SyncVectorEnv``) and CartPole's
+#: native vector env.
+REACHER, CARTPOLE = "Reacher-v5", "CartPole-v1"
+_NATIVE = {row.id: row.vector_entry_point is not None for row in ENV_SPECS}
 
 
 def make_env(env_id: str, **kwargs: Any) -> gym.Env:
@@ -76,127 +96,9 @@ def single_env_rates(
     return rates
 
 
-def best_block_rates(
-    makers: dict[str, Any], block_steps: int, blocks: int, seed: int, quantile: float = 0.9
-) -> dict[str, float]:
-    """Env steps/s of each env at the ``quantile`` of its block rates (0.9: the fastest
-    tenth), blocks of ``block_steps`` env steps (a vector env's block: ``block_steps //
-    num_envs`` batch steps) interleaved round-robin ``blocks`` times.  ``makers`` maps
-    a label to a zero-argument function making the env (single or vector); random actions
-    are sampled up front; resets are included."""
-    envs = {k: make() for k, make in makers.items()}
-    runners = {}
-    for k, env in envs.items():
-        env.action_space.seed(seed)
-        vector = isinstance(env, gym.vector.VectorEnv)
-        # Blocks of about the same duration: a vector env's block has block_steps env steps.
-        n_batch = max(1, block_steps // env.num_envs) if vector else block_steps
-        actions = [env.action_space.sample() for _ in range(n_batch)]
-        env.reset(seed=seed)
-        runners[k] = (env, actions, env.num_envs if vector else 1, vector)
-    rates: dict[str, list[float]] = {k: [] for k in envs}
-    clock = time.perf_counter
-    try:
-        for _ in range(blocks + 1):  # the first round warms up
-            for k, (env, actions, n, vector) in runners.items():
-                step, reset = env.step, env.reset
-                t0 = clock()
-                if vector:
-                    for a in actions:
-                        step(a)
-                else:
-                    for a in actions:
-                        _, _, terminated, truncated, _ = step(a)
-                        if terminated or truncated:
-                            reset()
-                rates[k].append(n * len(actions) / (clock() - t0))
-    finally:
-        for env in envs.values():
-            env.close()
-    return {k: float(np.quantile(v[1:], quantile)) for k, v in rates.items()}
-
-
 def paired_ratio(a: list[float], b: list[float]) -> float:
     """Median of the per-repeat ratios ``a[r] / b[r]``."""
     return statistics.median(x / y for x, y in zip(a, b, strict=True))
-
-
-def median_step_us(env_id: str, n_steps: int, seed: int) -> float:
-    """Median wall time (us) of one ``gym.make(env_id)`` step over ``n_steps`` random-action
-    steps (resets not timed)."""
-    env = make_env(env_id)
-    env.action_space.seed(seed)
-    actions = [env.action_space.sample() for _ in range(n_steps)]
-    env.reset(seed=seed)
-    clock = time.perf_counter_ns
-    times = np.empty(n_steps, dtype=np.int64)
-    for n, a in enumerate(actions):
-        t0 = clock()
-        _, _, terminated, truncated, _ = env.step(a)
-        times[n] = clock() - t0
-        if terminated or truncated:
-            env.reset()
-    env.close()
-    return float(np.median(times)) / 1e3
-
-
-def vector_rates(
-    env_id: str,
-    kind: str,
-    num_envs: int,
-    n_steps: int,
-    repeats: int,
-    seed: int,
-    reference: str | None = None,
-) -> list[float] | tuple[list[float], list[float]]:
-    """Total env steps/s of a ``kind`` vector env (``"native"``, ``"native-numpy"``: the
-    native one with ``batch="numpy"``, ``"sync"`` or ``"async"``) of ``num_envs`` copies of
-    ``env_id``, ``n_steps`` batch steps per repeat.  With
-    ``reference`` (an env id), also the single-env steps/s of that id measured right before
-    each repeat, as many env steps with actions sampled up front, for paired ratios."""
-    modes = {
-        "native": "vector_entry_point",
-        "native-numpy": "vector_entry_point",
-        "sync": "sync",
-        "async": "async",
-    }
-    if kind not in modes:
-        raise ValueError(f"kind must be one of {sorted(modes)}, got {kind!r}")
-    extra = {"batch": "numpy"} if kind == "native-numpy" else {}
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        venv = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode=modes[kind], **extra)
-    try:
-        venv.action_space.seed(seed)
-        actions = [venv.action_space.sample() for _ in range(n_steps)]
-        venv.reset(seed=seed)
-        for a in actions[: min(50, n_steps)]:  # warm-up
-            venv.step(a)
-        ref_env = make_env(reference) if reference else None
-        if ref_env is not None:  # pre-sampled too: the same loop structure as the vector env
-            ref_env.action_space.seed(seed)
-            ref_actions = [ref_env.action_space.sample() for _ in range(num_envs * n_steps)]
-            ref_env.reset(seed=seed)
-        out, ref = [], []
-        for _ in range(repeats):
-            if ref_env is not None:
-                t0 = time.perf_counter()
-                for a in ref_actions:
-                    _, _, terminated, truncated, _ = ref_env.step(a)
-                    if terminated or truncated:
-                        ref_env.reset()
-                ref.append(len(ref_actions) / (time.perf_counter() - t0))
-            venv.reset(seed=seed)
-            t0 = time.perf_counter()
-            for a in actions:
-                venv.step(a)
-            out.append(num_envs * n_steps / (time.perf_counter() - t0))
-        if ref_env is not None:
-            ref_env.close()
-            return out, ref
-        return out
-    finally:
-        venv.close()
 
 
 def profile_step(env_id: str, n_steps: int, seed: int) -> dict[str, float]:
@@ -249,37 +151,257 @@ def profile_step(env_id: str, n_steps: int, seed: int) -> dict[str, float]:
     return out
 
 
-def ppo_rates(env_id: str, n_envs: int, timesteps: int, seed: int) -> dict[str, float]:
-    """PPO training steps/s (``model.learn(timesteps)``, SB3 defaults but ``n_steps`` sized to
-    the rollout) on ``n_envs`` copies of ``env_id`` through each vec env: ``native``
-    (:mod:`planar3p_agents.training.vec_adapter`), ``dummy`` (``DummyVecEnv``) and ``subproc``
-    (``SubprocVecEnv``, one process per env)."""
-    import torch
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.env_util import make_vec_env
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
-
-    from planar3p_agents.training.vec_adapter import make_native_vec_env
-
-    torch.set_num_threads(1)
-    n_steps = max(16, timesteps // (2 * n_envs))
-    out = {}
-    for kind in ("native", "dummy", "subproc"):
-        if kind == "native":
-            venv = make_native_vec_env(env_id, n_envs=n_envs, seed=seed)
-        else:
-            cls = DummyVecEnv if kind == "dummy" else SubprocVecEnv
-            venv = make_vec_env(f"planar3p_gym:{env_id}", n_envs, seed=seed, vec_env_cls=cls)
-        model = PPO("MlpPolicy", venv, n_steps=n_steps, batch_size=n_steps, seed=seed, n_epochs=4)
-        t0 = time.perf_counter()
-        model.learn(timesteps)
-        out[kind] = model.num_timesteps / (time.perf_counter() - t0)
-        venv.close()
-    return out
-
-
 def write_json_atomic(path: str | os.PathLike, data: Any) -> None:
     """Write ``data`` as JSON to ``path`` atomically (:func:`planar3p_gym.atomic_files.
     write_atomic`): a reader never sees a partial file, and a failure (also data that is not
     JSON) leaves the old file as it was."""
     write_atomic(path, json.dumps(data, indent=2))
+
+
+def interleave(measures: dict[str, Callable[[int], Any]], rounds: int) -> dict[str, list[Any]]:
+    """``{label: [result of each round]}``: round ``r`` calls every ``measures[label](r)`` once,
+    the order rotated by ``r`` (the first round starts with the first label)."""
+    labels = list(measures)
+    out: dict[str, list[Any]] = {k: [] for k in labels}
+    for r in range(rounds):
+        s = r % len(labels) if labels else 0
+        for k in labels[s:] + labels[:s]:
+            out[k].append(measures[k](r))
+    return out
+
+
+def vector_kind(env_id: str) -> str:
+    """``"native"`` where ``env_id`` registers a native vector env (the package's ids with a
+    vector entry point, CartPole), else ``"sync"``."""
+    if env_id in _NATIVE:
+        return "native" if _NATIVE[env_id] else "sync"
+    return "native" if gym.spec(env_id).vector_entry_point is not None else "sync"
+
+
+def make_vector_env(env_id: str, num_envs: int, kind: str | None = None) -> gym.vector.VectorEnv:
+    """``gym.make_vec(env_id, num_envs)``: the native vector env (``kind="native"``) or
+    ``SyncVectorEnv`` (``"sync"``); by default :func:`vector_kind`."""
+    kind = kind or vector_kind(env_id)
+    modes = {"native": "vector_entry_point", "sync": "sync"}
+    if kind not in modes:
+        raise ValueError(f"kind must be one of {sorted(modes)}, got {kind!r}")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return gym.make_vec(env_id, num_envs=num_envs, vectorization_mode=modes[kind])
+
+
+def _actions(space: gym.Space, seed: int, n: int) -> list[Any]:
+    space.seed(seed)
+    return [space.sample() for _ in range(n)]
+
+
+def vector_rate(venv: gym.vector.VectorEnv, duration: float, seed: int, pool: int = 16) -> float:
+    """Total env steps/s of ``venv`` stepped for ``duration`` seconds (at least one batch step)
+    with ``pool`` pre-sampled batch actions in turn; the vector env's autoreset (resets
+    included)."""
+    actions = _actions(venv.action_space, seed, pool)
+    step, clock, n = venv.step, time.perf_counter, 0
+    t0 = clock()
+    end = t0 + duration
+    while True:
+        step(actions[n % pool])
+        n += 1
+        t = clock()
+        if t >= end:
+            break
+    return venv.num_envs * n / (t - t0)
+
+
+def single_rate(env: gym.Env, duration: float, seed: int, pool: int = 256) -> float:
+    """Steps/s of a single env stepped for ``duration`` seconds with ``pool`` pre-sampled
+    actions in turn, reset when an episode ends (resets included): the loop of
+    :func:`vector_rate` for one env."""
+    actions = _actions(env.action_space, seed, pool)
+    step, reset, clock, n = env.step, env.reset, time.perf_counter, 0
+    t0 = clock()
+    end = t0 + duration
+    while True:
+        _, _, terminated, truncated, _ = step(actions[n % pool])
+        n += 1
+        if terminated or truncated:
+            reset()
+        t = clock()
+        if t >= end:
+            break
+    return n / (t - t0)
+
+
+def reset_times(env: gym.Env, seeds: Sequence[int | None]) -> np.ndarray:
+    """Wall times (s) of ``env.reset(seed=s)`` for each seed, in order (after one unseeded
+    reset, so that first-use costs are not counted); a seed ``None`` is an unseeded reset (the
+    env's generator goes on, as between a vector env's episodes)."""
+    env.reset()
+    out = np.empty(len(seeds))
+    clock = time.perf_counter
+    for k, seed in enumerate(seeds):
+        t0 = clock()
+        env.reset(seed=seed)
+        out[k] = clock() - t0
+    return out
+
+
+def reset_summary(times: np.ndarray, seeds: Sequence[int], slowest: int = 5) -> dict[str, Any]:
+    """Median, p99, p99.9, max (ms) of reset ``times`` (s) and the ``slowest`` seeds."""
+    ms = 1e3 * np.asarray(times)
+    slow = np.argsort(ms)[::-1][:slowest]
+    return {
+        "resets": int(ms.size),
+        "median_ms": float(np.median(ms)),
+        "p99_ms": float(np.percentile(ms, 99)),
+        "p99.9_ms": float(np.percentile(ms, 99.9)),
+        "max_ms": float(ms.max()),
+        "slowest": [[int(seeds[i]), round(float(ms[i]), 2)] for i in slow],
+    }
+
+
+def _pymunk_floor(sim: Any) -> Callable[[], int]:
+    """A function running ``sim.substeps`` of pymunk's own step on ``sim``'s space (Chipmunk's
+    ``cpSpaceStep`` directly where the sim does, else ``Space.step``) and returning its wall
+    time (ns)."""
+    from planar3p_gym.sim import physics
+
+    h, substeps, clock = sim._h, sim.substeps, time.perf_counter_ns
+    if sim._fast is not None:
+        cp_step, space = physics._cp.cpSpaceStep, sim._fast[0]
+    else:  # pragma: no cover - pymunk builds without the batch API
+        cp_step, space = (lambda _s, dt: sim.space.step(dt)), None
+
+    def run() -> int:
+        t0 = clock()
+        for _ in range(substeps):
+            cp_step(space, h)
+        return clock() - t0
+
+    return run
+
+
+def step_and_floor_us(env: gym.Env, n_steps: int, seed: int) -> tuple[float, float]:
+    """``(full, floor)``: the median wall time (us) of ``env.step`` (``env`` as ``gym.make``
+    made it; resets not timed) over ``n_steps`` random-action steps, and the median of
+    pymunk's own step alone on the env's own space (``substeps`` calls of ``cpSpaceStep``
+    (:class:`~planar3p_gym.sim.physics.Planar3PSim`), the drives set to the
+    same commands untimed) over as many steps, from the same seeded reset.  The floor leaves
+    the env's simulation off its constraint manifold: the env is reset after it."""
+    actions = _actions(env.action_space, seed, n_steps)
+    limit = env.spec.max_episode_steps if env.spec and env.spec.max_episode_steps else 250
+    clock = time.perf_counter_ns
+    full = np.empty(n_steps, dtype=np.int64)
+    env.reset(seed=seed)
+    step = env.step
+    for n, a in enumerate(actions):
+        t0 = clock()
+        _, _, terminated, truncated, _ = step(a)
+        full[n] = clock() - t0
+        if terminated or truncated:
+            env.reset()
+    floor = np.empty(n_steps, dtype=np.int64)
+    raw = env.unwrapped
+    env.reset(seed=seed)
+    vmax = raw.sim.design.max_speed
+    run, k = _pymunk_floor(raw.sim), 0
+    for n, a in enumerate(actions):
+        if k == limit:  # an episode's length, as the full step's resets
+            env.reset()
+            run, k = _pymunk_floor(raw.sim), 0
+        for drive, v in zip(raw.sim.drives, a.tolist(), strict=True):
+            drive.velocity = (v * vmax, 0.0)
+        floor[n] = run()
+        k += 1
+    env.reset(seed=seed)
+    return float(np.median(full)) / 1e3, float(np.median(floor)) / 1e3
+
+
+#: What a fresh process runs for :func:`startup_times`; argv[1]: the ids, comma-separated.
+_STARTUP = """\
+import json, sys, time
+t0 = time.perf_counter()
+import gymnasium as gym
+import planar3p_gym
+t1 = time.perf_counter()
+ids = {}
+for env_id in sys.argv[1].split(","):
+    t = time.perf_counter()
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    env.step(env.action_space.sample())
+    ids[env_id] = time.perf_counter() - t
+    env.close()
+print(json.dumps({"import_s": t1 - t0, "ids_s": ids, "total_s": time.perf_counter() - t0}))
+"""
+
+
+def startup_times(env_ids: Sequence[str], timeout: float = 900.0) -> dict[str, Any]:
+    """Start-up times (s) of fresh Python processes running ``import planar3p_gym``, then for
+    each id in turn ``gym.make(id)``, ``reset(seed=0)`` and one step: ``"cold"`` with an empty
+    numba cache (``NUMBA_CACHE_DIR``, a new temporary directory: every compiled function is
+    compiled on its first call), then ``"warm"`` in a second process with that cache.  Each
+    has ``import_s``, ``ids_s`` (per id, in order: later ids reuse what earlier ones
+    compiled), ``total_s`` (in the process) and ``process_s`` (the whole process, interpreter
+    start-up included, from outside)."""
+    out: dict[str, Any] = {}
+    with tempfile.TemporaryDirectory(prefix="planar3p-numba-") as cache:
+        env = {**os.environ, "NUMBA_CACHE_DIR": cache, "SDL_VIDEODRIVER": "dummy"}
+        env.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+        env.setdefault("PYTHONWARNINGS", "ignore")
+        for key in ("cold", "warm"):
+            t0 = time.perf_counter()
+            done = subprocess.run(
+                [sys.executable, "-c", _STARTUP, ",".join(env_ids)],
+                env=env,
+                capture_output=True,
+                text=True,
+                timeout=timeout,
+                check=False,
+            )
+            wall = time.perf_counter() - t0
+            if done.returncode != 0:
+                tail = (done.stderr.strip().splitlines() or ["?"])[-1]
+                raise RuntimeError(f"start-up process failed ({done.returncode}): {tail}")
+            out[key] = {**json.loads(done.stdout.strip().splitlines()[-1]), "process_s": wall}
+    return out
+
+
+def ppo_rate(env_id: str, timesteps: int, seed: int, kind: str = "recipe") -> float:
+    """PPO training steps/s (``model.learn(timesteps)``, construction not timed; torch one
+    thread) with the hyperparameters of ``ppo.yml``'s ``Planar3P-v0`` entry (the recipe
+    ``planar3p train --algo ppo`` uses: its envs, ``VecNormalize``, network, rollout), built
+    by the training code.  ``kind``: ``"recipe"`` (``env_id``'s own entry on the native vector
+    env adapter, as the recipe trains), ``"dummy"`` (the same settings on ``DummyVecEnv``,
+    ``env_id`` made with ``gym.make``: also ``Reacher-v5``)."""
+    import dataclasses
+
+    import torch
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+    from planar3p_agents.training import config, run
+
+    torch.set_num_threads(1)
+    recipe = env_id if kind == "recipe" else "Planar3P-v0"
+    entry = config.load_hyperparams(run.HYPERPARAMS_DIR / "ppo.yml", recipe, "ppo")
+    cfg = config.resolve("ppo", recipe, seed, entry, n_timesteps=timesteps)
+    cfg = dataclasses.replace(cfg, env_id=env_id)
+    if kind == "recipe":
+        venv, eval_env = run._make_envs(cfg, "native", None)
+        eval_env.close()
+    elif kind == "dummy":
+        factory = config.EnvFactory(env_id, cfg.env_kwargs)
+        venv = make_vec_env(factory, n_envs=cfg.n_envs, seed=seed, vec_env_cls=DummyVecEnv)
+        if cfg.normalize is not None:
+            venv = VecNormalize(venv, gamma=cfg.algo_kwargs.get("gamma", 0.99), **cfg.normalize)
+    else:
+        raise ValueError(f"kind must be 'recipe' or 'dummy', got {kind!r}")
+    try:
+        model = run._algo_class("ppo")(
+            config.policy_class(cfg.policy), venv, seed=seed, **run._model_kwargs(cfg, venv)
+        )
+        t0 = time.perf_counter()
+        model.learn(timesteps)
+        return model.num_timesteps / (time.perf_counter() - t0)
+    finally:
+        venv.close()

@@ -68,6 +68,8 @@ def _tree(root: Path) -> list[str]:
 #: there (module, attribute).
 WORK = [
     ("planar3p_agents.evaluation.throughput", "single_env_rates"),
+    ("planar3p_agents.evaluation.throughput", "interleave"),
+    ("planar3p_agents.evaluation.throughput", "startup_times"),
     ("planar3p_agents.evaluation.kinematics_throughput", "reachable_poses"),
     ("planar3p_agents.studies.physics_fidelity", "fidelity_report"),
     ("planar3p_agents.studies.goal_track_baselines", "goal_baseline"),
@@ -199,7 +201,9 @@ DEFECTS = [
     (["benchmark", "--episodes", "0", "--out", "{tmp}/bench"], "--episodes"),
     (["benchmark", "--out", "{file}/bench"], "--out"),
     (["benchmark", "--hold-force-fraction", "nan"], "--hold-force-fraction"),
-    (["bench-env", "--num-envs", "0"], "--num-envs"),
+    (["bench-env", "--sizes", "0"], "--sizes"),
+    (["bench-env", "--ids", "Planar3P-v9"], "--ids"),
+    (["bench-env", "--sections", "blocks"], "--sections"),
     (["seed-report", "{file}", "--out", "{ro}/seeds.md"], "--out"),
     (["seed-report", "{file}", "--seed", "-1"], "--seed"),
     (["plot-learning", "{tmp}", "--out", "{ro}/curves.png"], "--out"),
