@@ -5,6 +5,7 @@ Examples::
 
     python scripts/soak_end_stops.py                      # 1 000 000 steps per id and policy
     python scripts/soak_end_stops.py --steps-per-id 50000 --seed 1
+    python scripts/soak_end_stops.py --ids Planar3PAssemblyChange-v0
 
 Each id runs ``--steps-per-id`` steps with uniform-random actions and as many with bang-bang
 actions (each component -1 or +1), resetting as episodes end (reset seeds and actions from
@@ -143,6 +144,13 @@ def add_arguments(p: CliParser) -> None:
         help="steps per id and policy (uniform, bang-bang)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of resets and actions (>= 0)")
+    p.add_argument(
+        "--ids",
+        nargs="+",
+        default=list(IDS),
+        metavar="ID",
+        help=f"environment ids to soak (default: all, {', '.join(IDS)})",
+    )
 
 
 def check(args: argparse.Namespace) -> None:
@@ -150,13 +158,16 @@ def check(args: argparse.Namespace) -> None:
         raise UsageError(f"--steps-per-id must be >= 1, got {args.steps_per_id}")
     if args.seed < 0:
         raise UsageError(f"--seed must be >= 0, got {args.seed}")
+    unknown = [i for i in args.ids if i not in IDS]
+    if unknown:
+        raise UsageError(f"--ids: unknown id(s) {', '.join(unknown)}; known: {', '.join(IDS)}")
 
 
 def run(args: argparse.Namespace) -> int:
     print(row([name for name, _ in COLUMNS]))
     total = {"stroke": 0, "rate": 0, "closure": 0}
     start = time.perf_counter()
-    for env_id in IDS:
+    for env_id in args.ids:
         for policy in POLICIES:
             r = soak(env_id, policy, args.steps_per_id, args.seed)
             for key in total:

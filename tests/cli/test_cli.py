@@ -204,6 +204,8 @@ DEFECTS = [
     (["bench-env", "--sizes", "0"], "--sizes"),
     (["bench-env", "--ids", "Planar3P-v9"], "--ids"),
     (["bench-env", "--sections", "blocks"], "--sections"),
+    (["soak-end-stops", "--ids", "Planar3P-v9"], "--ids"),
+    (["soak-end-stops", "--steps-per-id", "0"], "--steps-per-id"),
     (["seed-report", "{file}", "--out", "{ro}/seeds.md"], "--out"),
     (["seed-report", "{file}", "--seed", "-1"], "--seed"),
     (["plot-learning", "{tmp}", "--out", "{ro}/curves.png"], "--out"),
