@@ -62,6 +62,7 @@ from numpy.typing import ArrayLike
 
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
+from planar3p_gym.sim.dynamics import MachineDynamics
 from planar3p_gym.sim.projection import LoopProjector
 from planar3p_gym.sim.projection import wrap_angle as _wrap
 
@@ -217,6 +218,48 @@ def substep_impulses(
     return f0, f1, f2, m0, m1, m2
 
 
+#: Distance along its rail of the static anchor of a slider's friction constraints (m): so far
+#: that the constraint's direction is the rail's (as the servo's long arm).
+FRICTION_ARM = 1000.0
+
+
+def _friction(
+    dyn: MachineDynamics,
+    ground: pymunk.Body,
+    sliders: list[pymunk.Body],
+    legs: list[pymunk.Body],
+    platform: pymunk.Body,
+) -> list[pymunk.Constraint]:
+    """The friction constraints of :class:`MachineDynamics` (only those with a nonzero
+    coefficient): per slider along its rail, per revolute joint ``B_i`` (slider-leg) and
+    ``C_i`` (leg-platform).  Coulomb friction is a velocity constraint of bounded force
+    without position correction (``max_bias = 0``): pymunk's idiom for dry friction, which the
+    iterative solver handles like any joint (static friction included, unlike a force law)."""
+    out: list[pymunk.Constraint] = []
+    for slider, leg in zip(sliders, legs, strict=True):
+        x = slider.position.x
+        if dyn.slider_coulomb > 0.0:
+            pin = pymunk.PinJoint(ground, slider, (x - FRICTION_ARM, 0.0), (0.0, 0.0))
+            pin.max_bias = 0.0
+            pin.max_force = dyn.slider_coulomb
+            out.append(pin)
+        if dyn.slider_viscous > 0.0:
+            out.append(
+                pymunk.DampedSpring(
+                    ground, slider, (x - FRICTION_ARM, 0.0), (0.0, 0.0), FRICTION_ARM, 0.0,
+                    dyn.slider_viscous,
+                )
+            )  # fmt: skip
+        for a, b in ((slider, leg), (leg, platform)):
+            if dyn.joint_coulomb > 0.0:
+                motor = pymunk.SimpleMotor(a, b, 0.0)
+                motor.max_force = dyn.joint_coulomb
+                out.append(motor)
+            if dyn.joint_viscous > 0.0:
+                out.append(pymunk.DampedRotarySpring(a, b, 0.0, 0.0, dyn.joint_viscous))
+    return out
+
+
 class Planar3PSim:
     """The 3-PRR mechanism as a pymunk space, stepped one control period at a time.
 
@@ -236,6 +279,9 @@ class Planar3PSim:
         platform_error_bias: the same for the platform's pivots ``C_i``.
         projection: project the state exactly onto the constraint manifold after every control
             step (module docstring); ``False`` keeps the original model (``Planar3P-v0``).
+        dynamics: friction, servo lag, base tilt and inertia errors of the machine
+            (:class:`~planar3p_gym.sim.dynamics.MachineDynamics` or a dict of its fields);
+            ``None`` or the ideal machine builds exactly the model built without it.
     """
 
     use_fast_path: bool = True
@@ -255,6 +301,7 @@ class Planar3PSim:
         error_bias: float = DEFAULT_ERROR_BIAS,
         platform_error_bias: float = DEFAULT_PLATFORM_ERROR_BIAS,
         projection: bool = False,
+        dynamics: MachineDynamics | dict | None = None,
     ) -> None:
         if not isinstance(design, Design):
             raise ValueError(f"design must be a Design, got {type(design).__name__}")
@@ -272,6 +319,7 @@ class Planar3PSim:
                 raise ValueError(f"{name} must be in [0, 1], got {bias!r}")
         if not isinstance(projection, (bool, np.bool_)):
             raise ValueError(f"projection must be True or False, got {projection!r}")
+        dyn = MachineDynamics.from_value(dynamics, "dynamics")
         p = np.asarray(pose, dtype=np.float64)
         if p.shape != (3,) or not np.isfinite(p).all():
             raise ValueError(f"pose must be 3 finite numbers (x, y, theta), got {pose!r}")
@@ -295,6 +343,11 @@ class Planar3PSim:
         self._forces = (0.0, 0.0, 0.0)
         self._saturated = (False, False, False)
         self.projection = bool(projection)
+        #: The machine's imperfections; ``None`` for the ideal machine (the default model).
+        self.dynamics: MachineDynamics | None = None if dyn.is_ideal else dyn
+        #: Servo setpoint velocities after the servo lag (m/s), with a lag only.
+        self._lagged = [0.0, 0.0, 0.0]
+        self._lag = 1.0 if self.dynamics is None else self.dynamics.lag_factor(self.dt)
         self._projector = (
             LoopProjector(design, self.dt, FOLLOWING_ERROR_LIMIT) if self.projection else None
         )
@@ -308,6 +361,7 @@ class Planar3PSim:
                 "error_bias": float(error_bias),
                 "platform_error_bias": float(platform_error_bias),
                 "projection": self.projection,
+                **({} if self.dynamics is None else {"dynamics": self.dynamics.to_dict()}),
             },
         )
         self._commands = array("d")
@@ -321,13 +375,15 @@ class Planar3PSim:
         self, pose: np.ndarray, rho: np.ndarray, error_bias: float, platform_error_bias: float
     ) -> None:
         d = self.design
+        dyn = self.dynamics
         space = pymunk.Space()
         space.iterations = self.iterations
-        space.gravity = (0.0, -d.gravity)
+        space.gravity = (0.0, -d.gravity) if dyn is None else dyn.gravity_vector(d.gravity)
+        inertia = 1.0 if dyn is None else dyn.inertia_scale
         x, y, th = (float(v) for v in pose)
         c, s = math.cos(th), math.sin(th)
         k1 = self._k[0]
-        platform = pymunk.Body(d.platform_mass, d.platform_mass * k1 * k1 / 12.0)
+        platform = pymunk.Body(d.platform_mass, inertia * d.platform_mass * k1 * k1 / 12.0)
         platform.position = (x + 0.5 * k1 * c, y + 0.5 * k1 * s)
         platform.angle = th
         space.add(platform)
@@ -340,7 +396,7 @@ class Planar3PSim:
             slider.position = (b, 0.0)
             drive = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
             drive.position = (b, 0.0)
-            leg = pymunk.Body(d.leg_mass, d.leg_mass * L * L / 12.0)
+            leg = pymunk.Body(d.leg_mass, inertia * d.leg_mass * L * L / 12.0)
             leg.position = (0.5 * (b + cx), 0.5 * cy)
             leg.angle = math.atan2(cy, cx - b)
             if self.projection:
@@ -384,6 +440,8 @@ class Planar3PSim:
         # commanded velocity.
         for group in joints:
             space.add(*group)
+        if dyn is not None:
+            space.add(*_friction(dyn, space.static_body, sliders, legs, platform))
         space.add(*servos)
         self.space = space
         self.platform = platform
@@ -468,6 +526,11 @@ class Planar3PSim:
     def step_unchecked(self, v0: float, v1: float, v2: float) -> SimState:
         """:meth:`step` without input validation, for callers that validated already."""
         self._commands.extend((v0, v1, v2))
+        if self._lag != 1.0:  # first-order servo lag (MachineDynamics.servo_lag)
+            lagged, f = self._lagged, self._lag
+            v0 = lagged[0] = lagged[0] + f * (v0 - lagged[0])
+            v1 = lagged[1] = lagged[1] + f * (v1 - lagged[1])
+            v2 = lagged[2] = lagged[2] + f * (v2 - lagged[2])
         if self._projector is None:  # (with projection, done when the state is written back)
             self._limit_following_error()
         if self._fast is None:
