@@ -77,32 +77,40 @@ OBSERVATION_ARGUMENTS: tuple[str, ...] = ("travel_goal",)
 #: motors (each stopped, forward or backward at ``max_speed``) as ``MultiDiscrete([3, 3, 3])``
 #: or as one ``Discrete(27)`` index (for DQN).
 ACTION_TYPES: tuple[str, ...] = ("continuous", "on-off", "on-off-discrete")
-#: The motor command of each value of an on-off action: 0 stop, 1 forward (+x), 2 backward.
+#: The motor command of each value of an on-off action: 0 stop, 1 forward (+x), 2 backward
+#: (times the rated speed).
 ON_OFF_COMMANDS: tuple[float, float, float] = (0.0, 1.0, -1.0)
+#: Default rated speed of the on-off motors, as a fraction of ``max_speed``: one control step
+#: at it moves a slider 0.4 mm on the default design at 50 Hz.  The travels an on-off machine
+#: can stop at are that coarse, and where the gripper moves several millimetres per
+#: millimetre of slider travel (towards a parallel singularity) a coarser step leaves no stop
+#: within the reach task's 2 mm tolerance: given 20 s, the on-off analytic controller
+#: (:mod:`planar3p_agents.controllers.on_off`) succeeded in 8 of 30 episodes of
+#: ``Planar3PReal-v0`` at 0.25 (1 mm a step) and in 17 of 30 at 0.1.
+ON_OFF_SPEED = 0.1
 #: Draws of a randomised machine at a reset before falling back to the nominal one, if the
 #: start pose is out of the drawn machine's reach (never happens with millimetre errors).
 MACHINE_DRAWS = 20
 
 
 def on_off_action(action: Any, action_type: str) -> tuple[float, float, float]:
-    """The slider commands (fractions of ``max_speed``: -1, 0 or 1) of an on-off action:
-    three integers in ``{0, 1, 2}`` for ``"on-off"``, one integer in ``[0, 27)`` for
-    ``"on-off-discrete"`` (its base-3 digits, slider 1 first); ``ValueError`` otherwise."""
+    """The motor commands (-1, 0 or 1, :data:`ON_OFF_COMMANDS`) of an on-off action: three
+    integers in ``{0, 1, 2}`` for ``"on-off"``, one integer in ``[0, 27)`` for
+    ``"on-off-discrete"`` (its base-3 digits, slider 1 first); integral floats are accepted
+    too; ``ValueError`` otherwise."""
     if action_type == "on-off-discrete":
         n = checks.as_int(action if np.ndim(action) == 0 else None)
         if n is None or not 0 <= n < 27:
             raise ValueError(f"action must be an integer in [0, 27), got {checks.short(action)}")
         digits = (n // 9, (n // 3) % 3, n % 3)
     else:
-        arr = np.asarray(action) if not isinstance(action, (str, bytes)) else None
-        if arr is None or arr.shape != (3,) or arr.dtype.kind not in "iu":
+        arr = checks.real_array(action)
+        if arr is None or arr.shape != (3,) or not all(v in (0, 1, 2) for v in arr.tolist()):
             raise ValueError(
                 f"action must be 3 integers in {{0, 1, 2}} (stop, forward, backward), got "
                 f"{checks.short(action)}"
             )
         digits = tuple(int(v) for v in arr.tolist())
-        if not all(0 <= d <= 2 for d in digits):
-            raise ValueError(f"action entries must be 0, 1 or 2, got {checks.short(action)}")
     c = ON_OFF_COMMANDS
     return c[digits[0]], c[digits[1]], c[digits[2]]
 
@@ -251,7 +259,8 @@ class Planar3PEnv(gym.Env):
     - ``action_type``: ``"continuous"`` (default, the Box above), ``"on-off"``
       (``MultiDiscrete([3, 3, 3])``: each motor stopped (0), forward (1) or backward (2) at
       ``max_speed``, as on the paper's prototype) or ``"on-off-discrete"`` (``Discrete(27)``,
-      the three digits in base 3, slider 1 first; for DQN).
+      the three digits in base 3, slider 1 first; for DQN).  ``on_off_speed``: the motors'
+      rated speed as a fraction of ``max_speed`` (default :data:`ON_OFF_SPEED`, 0.1).
     - ``task``: a :class:`planar3p_gym.tasks.Task`, or the ``"module:Class"`` path of a Task
       class built with ``task_kwargs`` (a dict of its constructor arguments) -- how a
       registration row names a new task without an environment class of its own
@@ -292,6 +301,7 @@ class Planar3PEnv(gym.Env):
         sensors: SensorConfig | dict | None = None,
         latency: LatencyConfig | dict | None = None,
         action_type: str = "continuous",
+        on_off_speed: float = ON_OFF_SPEED,
     ) -> None:
         self.task = make_task(task, task_kwargs)
         self.design = design_from(design)
@@ -338,6 +348,9 @@ class Planar3PEnv(gym.Env):
         sensors = None if sensors is None else config_from(sensors, SensorConfig, "sensors")
         latency = config_from(latency, LatencyConfig, "latency")
         action_type = checks.choice(action_type, "action_type", ACTION_TYPES)
+        on_off_speed = checks.number(on_off_speed, "on_off_speed", low=0.0, high=1.0, low_open=True)
+        #: Rated speed of the on-off motors as a fraction of ``max_speed``.
+        self.on_off_speed = on_off_speed
         #: Ranges of the per-episode machine (``None``: the nominal machine).
         self.randomization = None if randomization.is_zero else randomization
         #: The encoders' noise and resolution (``None``: the policy observes the true state).
@@ -600,7 +613,9 @@ class Planar3PEnv(gym.Env):
         if self.action_type == "continuous":
             chosen = parse_action(action)
         else:
-            chosen = on_off_action(action, self.action_type)
+            c0, c1, c2 = on_off_action(action, self.action_type)
+            v = self.on_off_speed
+            chosen = (c0 * v, c1 * v, c2 * v)
         assert self._action_line is not None and self._obs_line is not None
         a0, a1, a2 = self._action_line.push(chosen)
         vmax = self.design.max_speed
@@ -914,7 +929,11 @@ class Planar3PEnv(gym.Env):
             **({"randomization": self.randomization.to_dict()} if self.randomization else {}),
             **({"sensors": self.sensors.to_dict()} if self.sensors is not None else {}),
             **({"latency": self.latency.to_dict()} if self.latency else {}),
-            **({"action_type": self.action_type} if self.action_type != "continuous" else {}),
+            **(
+                {"action_type": self.action_type, "on_off_speed": self.on_off_speed}
+                if self.action_type != "continuous"
+                else {}
+            ),
         }
 
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from planar3p_gym import checks
 
-__all__ = ["MAX_DELAY", "DelayLine", "LatencyConfig"]
+__all__ = ["MAX_DELAY", "REALISTIC_LATENCY", "DelayLine", "LatencyConfig"]
 
 #: Largest delay accepted (control steps).
 MAX_DELAY = 2
@@ -89,3 +89,7 @@ class DelayLine:
         """Add ``item``; return the item ``delay`` pushes old."""
         self._items.append(item)
         return self._items[0]
+
+
+#: The latency of ``Planar3PReal-v0``: one control step between an action and its execution.
+REALISTIC_LATENCY = LatencyConfig(action_delay=1, observation_delay=0)

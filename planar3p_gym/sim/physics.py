@@ -230,11 +230,14 @@ def _friction(
     legs: list[pymunk.Body],
     platform: pymunk.Body,
 ) -> list[pymunk.Constraint]:
-    """The friction constraints of :class:`MachineDynamics` (only those with a nonzero
+    """The Coulomb friction constraints of :class:`MachineDynamics` (only those with a nonzero
     coefficient): per slider along its rail, per revolute joint ``B_i`` (slider-leg) and
-    ``C_i`` (leg-platform).  Coulomb friction is a velocity constraint of bounded force
-    without position correction (``max_bias = 0``): pymunk's idiom for dry friction, which the
-    iterative solver handles like any joint (static friction included, unlike a force law)."""
+    ``C_i`` (leg-platform).  Each is a velocity constraint of bounded force without position
+    correction (``max_bias = 0``): pymunk's idiom for dry friction, which the iterative solver
+    handles like any joint (sticking included, which a force law would not give).  Viscous
+    friction is a force, :meth:`Planar3PSim._apply_viscous` (pymunk's damped springs damp
+    implicitly towards the velocity the other constraints leave, which under a servo is not a
+    force proportional to the rate)."""
     out: list[pymunk.Constraint] = []
     for slider, leg in zip(sliders, legs, strict=True):
         x = slider.position.x
@@ -243,20 +246,11 @@ def _friction(
             pin.max_bias = 0.0
             pin.max_force = dyn.slider_coulomb
             out.append(pin)
-        if dyn.slider_viscous > 0.0:
-            out.append(
-                pymunk.DampedSpring(
-                    ground, slider, (x - FRICTION_ARM, 0.0), (0.0, 0.0), FRICTION_ARM, 0.0,
-                    dyn.slider_viscous,
-                )
-            )  # fmt: skip
         for a, b in ((slider, leg), (leg, platform)):
             if dyn.joint_coulomb > 0.0:
                 motor = pymunk.SimpleMotor(a, b, 0.0)
                 motor.max_force = dyn.joint_coulomb
                 out.append(motor)
-            if dyn.joint_viscous > 0.0:
-                out.append(pymunk.DampedRotarySpring(a, b, 0.0, 0.0, dyn.joint_viscous))
     return out
 
 
@@ -345,6 +339,21 @@ class Planar3PSim:
         self.projection = bool(projection)
         #: The machine's imperfections; ``None`` for the ideal machine (the default model).
         self.dynamics: MachineDynamics | None = None if dyn.is_ideal else dyn
+        self._viscous = dyn.slider_viscous > 0.0 or dyn.joint_viscous > 0.0
+        if self._viscous:
+            h = self.dt / self.substeps
+            leg_inertia = dyn.inertia_scale * design.leg_mass * min(design.leg_lengths) ** 2 / 12
+            # Explicit viscous forces are stable for c h / m < 2; half that is asked for.
+            if dyn.slider_viscous * h >= design.slider_mass:
+                raise ValueError(
+                    f"dynamics.slider_viscous ({dyn.slider_viscous} N s/m) times the physics "
+                    f"step ({h} s) must stay below the slider mass ({design.slider_mass} kg)"
+                )
+            if dyn.joint_viscous * h >= leg_inertia:
+                raise ValueError(
+                    f"dynamics.joint_viscous ({dyn.joint_viscous} N m s/rad) times the physics "
+                    f"step ({h} s) must stay below a leg's moment of inertia ({leg_inertia} kg m^2)"
+                )
         #: Servo setpoint velocities after the servo lag (m/s), with a lag only.
         self._lagged = [0.0, 0.0, 0.0]
         self._lag = 1.0 if self.dynamics is None else self.dynamics.lag_factor(self.dt)
@@ -545,9 +554,11 @@ class Planar3PSim:
         h = self._h
         f0 = f1 = f2 = 0.0
         m0 = m1 = m2 = 0.0
-        if self._fast is None:
+        if self._fast is None or self._viscous:
             servos = self.servos
             for _ in range(self.substeps):
+                if self._viscous:
+                    self._apply_viscous()
                 self.space.step(h)
                 j0, j1, j2 = servos[0].impulse, servos[1].impulse, servos[2].impulse
                 f0, f1, f2 = f0 + j0, f1 + j1, f2 + j2
@@ -563,6 +574,25 @@ class Planar3PSim:
         self._saturated = (m0 >= limit, m1 >= limit, m2 >= limit)
         self._state = self._read() if self._projector is None else self._project()
         return self._state
+
+    def _apply_viscous(self) -> None:
+        """Set the viscous friction forces of :attr:`dynamics` for the next physics step, from
+        the current velocities (explicit: held over the step; Chipmunk clears body forces
+        after each step): ``-c v`` on each slider along its rail, ``-c (w_a - w_b)`` on the
+        two bodies of each revolute joint, opposite on the other."""
+        dyn = self.dynamics
+        assert dyn is not None
+        cs, cj = dyn.slider_viscous, dyn.joint_viscous
+        platform = self.platform
+        for slider, leg in zip(self.sliders, self.legs, strict=True):
+            if cs > 0.0:
+                slider.force = (-cs * slider.velocity.x, 0.0)
+            if cj > 0.0:
+                # Joint B_i: the slider does not turn; joint C_i: leg against platform.
+                leg.torque = -cj * leg.angular_velocity - cj * (
+                    leg.angular_velocity - platform.angular_velocity
+                )
+                platform.torque += cj * (leg.angular_velocity - platform.angular_velocity)
 
     def _project(self) -> SimState:
         """Project the bodies onto the constraint manifold, write them back, return the state."""

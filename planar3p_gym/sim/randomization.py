@@ -159,15 +159,15 @@ class DynamicsRandomization:
         return SampledMachine(design, dynamics)
 
 
-#: The ranges of ``Planar3PReal-v0``: manufacturing errors of half a millimetre, masses and
+#: The ranges of ``Planar3PReal-v0``: manufacturing errors up to a millimetre, masses and
 #: inertias within 10 %, servo force within 10 %, friction and servo lag of the size of a small
 #: DC-motor-driven prototype, a base tilted by up to one degree.
 REALISTIC_RANDOMIZATION = DynamicsRandomization(
     mass=0.1,
     inertia=0.1,
-    leg_length=5e-4,
-    joint_position=5e-4,
-    rail_offset=5e-4,
+    leg_length=1e-3,
+    joint_position=1e-3,
+    rail_offset=1e-3,
     max_force=0.1,
     slider_coulomb=2.0,
     slider_viscous=5.0,
