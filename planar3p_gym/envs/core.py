@@ -165,7 +165,10 @@ class Planar3PEnv(gym.Env):
     ## Action Space
     ``Box(-1, 1, (3,), float32)``: slider velocity commands as fractions of the design's
     ``max_speed`` (m/s).  Values outside ``[-1, 1]`` are clipped; NaN/inf or a wrong shape
-    raise ``ValueError`` and leave the state unchanged.
+    raise ``ValueError`` and leave the state unchanged.  With ``action_type="on-off"`` (the
+    paper's prototype, ``Planar3PRealOnOff-v0``) ``MultiDiscrete([3, 3, 3])``: each motor
+    stopped (0), forward (1) or backward (2) at its rated speed; ``"on-off-discrete"``:
+    ``Discrete(27)``, the same as one index (for DQN).
 
     ## Observation Space
     ``Box(low, high, (31,), float32)``, SI units, documented index by index in
@@ -271,6 +274,9 @@ class Planar3PEnv(gym.Env):
     ``reset(options=spec)`` replays it exactly (:mod:`planar3p_gym.tasks.base`).
 
     ## Version History
+    - v0 (0.2.0, issue 26): the machine as built (``randomization``, ``sensors``, ``latency``,
+      ``action_type``), off by default: ``Planar3P-v0`` and every other id unchanged;
+      ``Planar3PReal-v0`` and ``Planar3PRealOnOff-v0`` turn them on.
     - v0 (0.2.0): the exact machine: the projected physics (``projection=True``), whose loop
       closure is exact on every step.  Before 0.2.0 this id ran the unprojected model (now
       ``projection=False``) and ``Planar3P-v0`` ran today's v0; that id is gone.  The
