@@ -31,8 +31,8 @@ EXPECTED: dict[str, str] = {
     "Planar3PTrack-v0": "875bf20df3926ab8228d4c23b1a2c75f09dfe01c5040572582fd6464786cb309",
     "Planar3PModeChange-v0": "09a70f8bc3296ded248c200f0ff16359c75f485bb963fcea7c351a134814a000",
     "Planar3PAssemblyChange-v0": "b5442c63a7b263943099dd55e58dd460a172a194a818a204443c489820a545b0",
-    "Planar3PReal-v0": "80849d5ed79b7125b2687dfa75634c1782fc1a4ba9ccf9ca79ef3ed9e04d9fdc",
-    "Planar3PRealOnOff-v0": "63a07e9bd79896183a0a3487ee07a802a99d9b7d42464cfc13c4b1e5dbf852d2",
+    "Planar3PReal-v0": "a7a122c6e655de31288f054a8d50ce6374ce64878552ec2ea248c698c8fea6c4",
+    "Planar3PRealOnOff-v0": "a7c99696c25266e93958770cdeef6af96f17bb6b08271153f95704ffa4b2a1df",
 }
 
 
