@@ -34,13 +34,15 @@ class MachineDynamics:
         slider_coulomb: Coulomb (dry) friction force of each slider on its rail (N): a
             constraint holding the slider's rail velocity at zero with at most this force
             (pymunk's idiom for friction: a zero-rate motor of bounded force).
-        slider_viscous: viscous friction coefficient of each slider on its rail (N s/m), a
-            zero-stiffness damped spring along the rail (Chipmunk integrates its damping
-            implicitly, so any coefficient is stable).
+        slider_viscous: viscous friction coefficient of each slider on its rail (N s/m): a
+            force ``-c v`` along the rail, explicit over each physics step ``h`` (the
+            simulation refuses ``c h`` at or above the slider's mass, where it would not be
+            stable).
         joint_coulomb: Coulomb friction torque of every revolute joint ``B_i`` and ``C_i``
             (N m): a :class:`pymunk.SimpleMotor` of rate 0 whose torque is bounded by it.
-        joint_viscous: viscous friction coefficient of every revolute joint (N m s/rad): a
-            :class:`pymunk.DampedRotarySpring` of zero stiffness.
+        joint_viscous: viscous friction coefficient of every revolute joint (N m s/rad):
+            torques ``-c (w_a - w_b)`` and its opposite on the joint's two bodies, explicit like
+            the sliders' (``c h`` below a leg's moment of inertia).
         servo_lag: time constant ``tau`` of a first-order lag between the commanded slider
             velocity and the servo's setpoint velocity (s): per control step ``dt`` the setpoint
             moves by ``1 - exp(-dt / tau)`` of its distance to the command (the exact

@@ -43,6 +43,13 @@ lines, the end stops being separate ``SlideJoint`` limits whose impulse is dropp
 slider leaves the stop (a groove's own ends keep a stale impulse after an impact, and with one
 substep a slider resting on the stop then bounced between two states).
 
+Imperfections (``dynamics=``, :class:`~planar3p_gym.sim.dynamics.MachineDynamics`; issue 26's
+machine as built): Coulomb friction of the sliders and joints as bounded-force velocity
+constraints added before the servos, viscous friction as explicit forces per physics step
+(:meth:`Planar3PSim._apply_viscous`; the hot loop then runs through pymunk's public API), a
+first-order lag of the servo setpoint velocity, a tilted gravity, scaled moments of inertia.
+The ideal machine (the default) adds nothing: the model is the one built without it.
+
 Snapshots: :meth:`Planar3PSim.get_state` / :meth:`Planar3PSim.set_state` restore a simulation
 bit for bit.  pymunk does not expose the solver's warm-start impulses, on which the next steps
 depend, so a snapshot records how the model was built and the commands it was stepped with, and
