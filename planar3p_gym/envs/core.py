@@ -99,6 +99,8 @@ def on_off_action(action: Any, action_type: str) -> tuple[float, float, float]:
     ``"on-off-discrete"`` (its base-3 digits, slider 1 first); integral floats are accepted
     too; ``ValueError`` otherwise."""
     if action_type == "on-off-discrete":
+        if isinstance(action, np.ndarray) and action.shape == (1,):
+            action = action[0]  # (a batch of one, as some agents return it)
         n = checks.as_int(action if np.ndim(action) == 0 else None)
         if n is None or not 0 <= n < 27:
             raise ValueError(f"action must be an integer in [0, 27), got {checks.short(action)}")
@@ -565,7 +567,7 @@ class Planar3PEnv(gym.Env):
         """The episode's machine from ``np_random`` (:attr:`randomization`): redrawn while the
         start pose is out of its reach (at most :data:`MACHINE_DRAWS` draws, then nominal)."""
         assert self.randomization is not None
-        machine = self._machine
+        machine = SampledMachine(self.design, MachineDynamics())
         for _ in range(MACHINE_DRAWS):
             drawn = self.randomization.sample(self.design, self.np_random)
             if bool(kinematics.inverse(drawn.design, np.asarray(start), mode).reachable):

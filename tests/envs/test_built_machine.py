@@ -142,6 +142,10 @@ def test_on_off_actions():
     assert on_off_action(np.array([0, 1, 2]), "on-off") == (0.0, 1.0, -1.0)
     assert on_off_action(5, "on-off-discrete") == (0.0, 1.0, -1.0)  # 5 = 0 * 9 + 1 * 3 + 2
     assert on_off_action(np.int64(26), "on-off-discrete") == (-1.0, -1.0, -1.0)
+    assert on_off_action(np.array([26]), "on-off-discrete") == (-1.0, -1.0, -1.0)
+    for bad in (27, -1, 2.5, True, np.array([1, 2])):
+        with pytest.raises(ValueError, match="action"):
+            on_off_action(bad, "on-off-discrete")
     env = gym.make("Planar3P-v0", action_type="on-off").unwrapped
     env.reset(seed=3)
     before = env.get_state()
@@ -189,6 +193,22 @@ def test_snapshots_of_the_realistic_id_continue_bit_for_bit():
 def test_bad_arguments_name_themselves(kwargs, name):
     with pytest.raises(ValueError, match=name):
         Planar3PEnv(**kwargs)
+
+
+def test_a_start_out_of_every_drawn_machine_s_reach_falls_back_to_the_nominal_machine(
+    monkeypatch,
+):
+    """When no draw reaches the start (none allowed here), the episode runs the nominal
+    machine, not the previous episode's."""
+    import planar3p_gym.envs.core as core
+
+    env = gym.make("Planar3P-v0", randomization={"rail_offset": 1e-3, "servo_lag": 0.01}).unwrapped
+    env.reset(seed=0)
+    assert env.sim.design != env.design and env.sim.dynamics is not None
+    monkeypatch.setattr(core, "MACHINE_DRAWS", 0)
+    env.reset(seed=1)
+    assert env.sim.design == env.design and env.sim.dynamics is None
+    assert env._true_kin.design == env.design
 
 
 def test_the_realistic_ranges_keep_the_task_solvable_in_principle():
