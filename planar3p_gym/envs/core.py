@@ -74,8 +74,8 @@ OBSERVATION_ARGUMENTS: tuple[str, ...] = ("travel_goal",)
 
 
 #: The action types of :class:`Planar3PEnv`: slider velocities, or the prototype's on-off
-#: motors (each stopped, forward or backward at ``max_speed``) as ``MultiDiscrete([3, 3, 3])``
-#: or as one ``Discrete(27)`` index (for DQN).
+#: motors (each stopped, forward or backward at their rated speed, :data:`ON_OFF_SPEED`) as
+#: ``MultiDiscrete([3, 3, 3])`` or as one ``Discrete(27)`` index (for DQN).
 ACTION_TYPES: tuple[str, ...] = ("continuous", "on-off", "on-off-discrete")
 #: The motor command of each value of an on-off action: 0 stop, 1 forward (+x), 2 backward
 #: (times the rated speed).
@@ -263,7 +263,7 @@ class Planar3PEnv(gym.Env):
       (``info["delays"]`` at reset).  Default: none.
     - ``action_type``: ``"continuous"`` (default, the Box above), ``"on-off"``
       (``MultiDiscrete([3, 3, 3])``: each motor stopped (0), forward (1) or backward (2) at
-      ``max_speed``, as on the paper's prototype) or ``"on-off-discrete"`` (``Discrete(27)``,
+      its rated speed, as on the paper's prototype) or ``"on-off-discrete"`` (``Discrete(27)``,
       the three digits in base 3, slider 1 first; for DQN).  ``on_off_speed``: the motors'
       rated speed as a fraction of ``max_speed`` (default :data:`ON_OFF_SPEED`, 0.1).
     - ``task``: a :class:`planar3p_gym.tasks.Task`, or the ``"module:Class"`` path of a Task
