@@ -10,6 +10,10 @@ paper's ``theta = beta + alpha_1 - pi``, :func:`pose_from_joints`); slider rates
 are backward differences of successive readings over the control period (what a controller
 sampling encoders has), zero at the first reading.
 
+Written here rather than taken from a library: the readings are a few lines of numpy on the
+simulation's own state, and the pose needs this machine's kinematics (Gymnasium's observation
+wrappers add noise to an observation, not to the joints it is computed from).
+
 The noise is drawn from the generator the caller passes (the environment's ``np_random``), in a
 fixed order (three travels, three leg angles, ``beta``), and only for a nonzero noise level.
 """
