@@ -1,7 +1,8 @@
 """planar3p-gym: a 3-PRR planar parallel manipulator as a Gymnasium environment.
 
 Importing the package registers every id of :data:`planar3p_gym.envs.registry.ENV_SPECS`
-(``Planar3P-v0`` and the task ids) with Gymnasium.  The layers, each a subpackage:
+(``Planar3P-v0``, the task ids and the built machine's ids) with Gymnasium.  The layers, each
+a subpackage:
 
 * :mod:`planar3p_gym.machine` -- design, exact kinematics, statics (numpy only);
 * :mod:`planar3p_gym.sim` -- the pymunk model, its projection, rendering;
@@ -19,6 +20,8 @@ from planar3p_gym.envs.registry import (
     GOAL_DENSE_ENV_ID,
     GOAL_ENV_ID,
     MODE_CHANGE_ENV_ID,
+    REAL_ENV_ID,
+    REAL_ON_OFF_ENV_ID,
     TRACK_ENV_ID,
     register_all,
 )
@@ -32,6 +35,8 @@ __all__ = [
     "GOAL_ENV_ID",
     "MAX_EPISODE_STEPS",
     "MODE_CHANGE_ENV_ID",
+    "REAL_ENV_ID",
+    "REAL_ON_OFF_ENV_ID",
     "TRACK_ENV_ID",
     "Design",
     "max_episode_steps",

@@ -34,12 +34,15 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 #: Controller of an id by its task's name (others: ``analytic-simultaneous``).
 TASK_CONTROLLER = {"track": "analytic-feedforward", "mode_change": "planner"}
+#: Controller of an id by its action type, before its task's (on-off motors).
+ACTION_CONTROLLER = {"on-off": "analytic-on-off", "on-off-discrete": "analytic-on-off"}
 #: What the controller names mean, for the captions.
 CONTROLLER_TEXT = {
     "analytic-simultaneous": "the paper's simple motions (simultaneous)",
     "analytic-feedforward": "the simple motions with the reference velocity fed forward",
     "planner": "the certified travel-space planner, then the simple motions",
     "crossing": "the crossing demonstration, then the simple motions",
+    "analytic-on-off": "the simple motions as on-off motor commands (dead-band bang-bang)",
 }
 ID_PREFIX = "Planar3P"
 
@@ -83,7 +86,7 @@ def add_arguments(p: CliParser) -> None:
         nargs="*",
         default=[],
         metavar="ID=NAME",
-        help="controller of an id (analytic-simultaneous, analytic-feedforward, planner, crossing)",
+        help="controller of an id (" + ", ".join(CONTROLLER_TEXT) + ")",
     )
 
 
@@ -148,7 +151,12 @@ def record(env_id: str, controller: str | None, args: argparse.Namespace) -> dic
     env = gym.make(env_id, render_mode="rgb_array", render_size=args.size)
     try:
         task = getattr(env.unwrapped.task, "name", "")
-        name = controller or TASK_CONTROLLER.get(task, "analytic-simultaneous")
+        action_type = getattr(env.unwrapped, "action_type", "continuous")
+        name = (
+            controller
+            or ACTION_CONTROLLER.get(action_type)
+            or TASK_CONTROLLER.get(task, "analytic-simultaneous")
+        )
         policy = make_controller(name, env_id, env)
         if hasattr(policy, "reset"):
             policy.reset()

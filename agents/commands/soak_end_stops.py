@@ -43,11 +43,19 @@ POLICIES = ("uniform", "bang-bang")
 STROKE_TOLERANCE = 5e-4
 
 
-def action(policy: str, rng: np.random.Generator) -> np.ndarray:
-    """One action of ``policy`` (``"uniform"`` or ``"bang-bang"``) from ``rng``."""
+def action(policy: str, rng: np.random.Generator, env: gym.Env | None = None) -> np.ndarray:
+    """One action of ``policy`` (``"uniform"`` or ``"bang-bang"``) from ``rng``; for an
+    ``env`` with on-off motors, as its motor commands (a rate above a third of the largest:
+    forward, below minus a third: backward, else stop; the same draws either way)."""
     if policy == "uniform":
-        return rng.uniform(-1.0, 1.0, 3).astype(np.float32)
-    return rng.choice(np.array([-1.0, 1.0], dtype=np.float32), 3)
+        a = rng.uniform(-1.0, 1.0, 3).astype(np.float32)
+    else:
+        a = rng.choice(np.array([-1.0, 1.0], dtype=np.float32), 3)
+    action_type = getattr(getattr(env, "unwrapped", None), "action_type", "continuous")
+    if action_type == "continuous":
+        return a
+    digits = np.where(a > 1.0 / 3.0, 1, np.where(a < -1.0 / 3.0, 2, 0)).astype(np.int64)
+    return digits if action_type == "on-off" else digits @ np.array([9, 3, 1])
 
 
 def rate_limit(env: gym.Env) -> float:
@@ -94,7 +102,7 @@ def soak(env_id: str, policy: str, steps: int, seed: int) -> dict[str, float]:
         out["episodes"] += 1
         bad = False
         while out["steps"] < steps:
-            _, _, terminated, truncated, info = env.step(action(policy, rng))
+            _, _, terminated, truncated, info = env.step(action(policy, rng, env))
             out["steps"] += 1
             breakdown = info["termination_reason"] == "physics_breakdown"
             m = check_state(env, breakdown)

@@ -10,14 +10,15 @@ observation.
 ======================  ======================================================  ================
 name                    policy                                                  ids
 ======================  ======================================================  ================
-analytic-simultaneous   the simple motions superposed (resolved-rate control)   all
-analytic-sequential     the simple motions one at a time                        all
+analytic-simultaneous   the simple motions superposed (resolved-rate control)   all but on-off
+analytic-sequential     the simple motions one at a time                        all but on-off
+analytic-on-off         the simple motions as on-off motor commands (bang-bang) on-off ids
 analytic-feedforward    simultaneous simple motions + reference velocity        tracking
-slider-line             straight line in slider space, synchronised, saturating reach, goal
-analytic-tuned          simultaneous simple motions, gain tuned per suite       reach, goal
+slider-line             straight line in slider space, synchronised, saturating reach, goal, real
+analytic-tuned          simultaneous simple motions, gain tuned per suite       reach, goal, real
 analytic-feedforward-   the feed-forward controller, gain tuned per suite       tracking
 tuned
-certified               slider line / simple motions / detour, as certified     reach, goal
+certified               slider line / simple motions / detour, as certified     reach, goal, real
 planner                 certified travel-space path, then simple motions        mode change
 crossing                dynamic crossing demonstration, then simple motions     assembly change
 random                  uniformly random actions (seeded)                       all
@@ -25,7 +26,8 @@ zero                    zero slider velocity                                    
 ======================  ======================================================  ================
 
 The analytic controllers read the 31 entries every observation starts with (and the tracking
-controller the reference velocity the tracking task appends), so they play every id; the
+controller the reference velocity the tracking task appends), so they play every id with slider
+rate actions (``analytic-on-off`` plays the on-off ids, ``Planar3PRealOnOff-v0``); the
 planner and the crossing demonstration need the target's travels and modes only their tasks
 observe.  A name followed by ``:gain=K`` (:data:`ANALYTIC_POLICIES`) sets the position and
 orientation gains to ``K`` (1/s) (``slider-line:gain=K``: its travel gain).
@@ -50,10 +52,14 @@ from planar3p_agents.controllers.layout import REGISTERED_IDS, ObservationLayout
 from planar3p_gym.envs.registry import (
     ASSEMBLY_CHANGE_ENV_ID,
     ENV_ID,
+    ENV_SPECS,
     GOAL_DENSE_ENV_ID,
     GOAL_ENV_ID,
     MODE_CHANGE_ENV_ID,
+    REAL_ENV_ID,
+    REAL_ON_OFF_ENV_ID,
     TRACK_ENV_ID,
+    action_type_of,
 )
 from planar3p_gym.machine.design import Design
 
@@ -61,14 +67,23 @@ __all__ = [
     "ANALYTIC_POLICIES",
     "BASELINES",
     "BUILTIN_POLICIES",
+    "CONTINUOUS_IDS",
+    "ON_OFF_IDS",
     "REACH_IDS",
     "Baseline",
     "BaselineContext",
     "baselines_for",
 ]
 
-#: The ids whose task is reaching a target pose in the start's working mode.
-REACH_IDS: tuple[str, ...] = (ENV_ID, GOAL_ENV_ID, GOAL_DENSE_ENV_ID)
+#: The ids whose task is reaching a target pose in the start's working mode (slider rates).
+REACH_IDS: tuple[str, ...] = (ENV_ID, GOAL_ENV_ID, GOAL_DENSE_ENV_ID, REAL_ENV_ID)
+#: The ids whose actions are slider rates (a ``Box``): every id but the on-off ones.
+CONTINUOUS_IDS: tuple[str, ...] = tuple(
+    row.id for row in ENV_SPECS if action_type_of(row) == "continuous"
+)
+#: The ids with the prototype's on-off motors (``MultiDiscrete`` or ``Discrete`` actions).
+ON_OFF_IDS: tuple[str, ...] = tuple(row.id for row in ENV_SPECS if row.id not in CONTINUOUS_IDS)
+assert REAL_ON_OFF_ENV_ID in ON_OFF_IDS
 
 
 @dataclass(frozen=True)
@@ -187,6 +202,16 @@ def _crossing(ctx: BaselineContext) -> Any:
     return CrossingController.from_env(ctx.env)
 
 
+def _on_off(ctx: BaselineContext) -> Any:
+    from gymnasium import spaces
+
+    from planar3p_agents.controllers.analytic import AnalyticController
+    from planar3p_agents.controllers.on_off import OnOffController
+
+    inner = AnalyticController(ctx.design, observation_size=ctx.layout.size, **ctx.gains())
+    return OnOffController(inner, discrete=isinstance(ctx.action_space, spaces.Discrete))
+
+
 def _random(ctx: BaselineContext) -> Any:
     from planar3p_agents.controllers.floor import RandomPolicy
 
@@ -207,14 +232,14 @@ BASELINES: dict[str, Baseline] = {
         Baseline(
             "analytic-simultaneous",
             "simple motions superposed (resolved-rate control)",
-            REGISTERED_IDS,
+            CONTINUOUS_IDS,
             _analytic("simultaneous"),
             takes_gain=True,
         ),
         Baseline(
             "analytic-sequential",
             "simple motions one at a time: rotation, vertical, horizontal",
-            REGISTERED_IDS,
+            CONTINUOUS_IDS,
             _analytic("sequential"),
             takes_gain=True,
         ),
@@ -253,6 +278,13 @@ BASELINES: dict[str, Baseline] = {
             "slider line where certified, else simple motions on a clear path, else a detour",
             REACH_IDS,
             _certified,
+        ),
+        Baseline(
+            "analytic-on-off",
+            "simple motions superposed, as on-off motor commands with dead bands (bang-bang)",
+            ON_OFF_IDS,
+            _on_off,
+            takes_gain=True,
         ),
         Baseline(
             "planner",

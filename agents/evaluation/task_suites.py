@@ -16,7 +16,16 @@ played by default).  The baselines are names of the one baseline registry,
 like any policy by :func:`planar3p_agents.policies.factory.load_policy` for the suite's
 environment: ``analytic-simultaneous`` (the paper's simultaneous simple motions, on every
 task), ``analytic-feedforward`` (tracking: the reference velocity fed forward),
-``planner`` (mode change), ``crossing`` (assembly change) and ``zero``.
+``planner`` (mode change), ``crossing`` (assembly change), ``analytic-on-off`` (on-off
+motors) and ``zero``.
+
+The built machine's suites (``real-*``, issue 26) draw each episode's machine at the
+benchmark's reset (``reset(seed=seed + index, options=spec)``): the machines are those of the
+benchmark's seeds, held out from the suite's episode draws and from training's resets.
+``real-reach-true-state`` plays the same episodes and machines with the true state observed
+(``sensors=None``): what the nominal-model sensing costs, and whether the randomised machine
+can be driven to the target at all; ``real-reach-nominal`` plays the same episodes on the
+nominal machine (the ``Planar3P-v0`` physics), the reference.
 """
 
 from __future__ import annotations
@@ -102,6 +111,37 @@ TASK_SUITES: dict[str, TaskSuiteDef] = {
         ("analytic-simultaneous", "crossing", "zero"),
         "start and target in opposite assembly modes (crossing a parallel singularity)",
         5,
+    ),
+    "real-reach": TaskSuiteDef(
+        "Planar3PReal-v0",
+        {},
+        ("analytic-simultaneous", "analytic-tuned", "slider-line", "certified", "zero"),
+        "reach on the machine as built (randomised machine per episode, encoder readings through "
+        "the nominal model, one step of action delay)",
+        7,
+    ),
+    "real-reach-true-state": TaskSuiteDef(
+        "Planar3PReal-v0",
+        {"sensors": None},
+        ("analytic-simultaneous", "analytic-tuned", "slider-line", "certified"),
+        "the same machines, observed without sensors (the true state): is the task solvable on "
+        "the randomised machine?",
+        8,
+    ),
+    "real-reach-nominal": TaskSuiteDef(
+        "Planar3PReal-v0",
+        {"randomization": {}, "sensors": None, "latency": {}},
+        ("analytic-simultaneous", "analytic-tuned", "slider-line", "certified"),
+        "the same episodes on the nominal machine (no randomisation, true state, no delay): the "
+        "reference the built machine is compared with",
+        10,
+    ),
+    "real-on-off": TaskSuiteDef(
+        "Planar3PRealOnOff-v0",
+        {},
+        ("analytic-on-off", "random", "zero"),
+        "reach on the machine as built with the prototype's on-off motors",
+        9,
     ),
 }
 

@@ -23,9 +23,11 @@ from planar3p_gym.checks import (
     parse_action,
 )
 from planar3p_gym.envs.end_reason import END_REASONS, TERMINATION_REASONS, TIME_LIMIT
+from planar3p_gym.envs.latency import DelayLine, LatencyConfig
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures, ScalarKinematics
+from planar3p_gym.sim.dynamics import MachineDynamics
 from planar3p_gym.sim.physics import (
     DEFAULT_ITERATIONS,
     DEFAULT_SUBSTEPS,
@@ -34,6 +36,8 @@ from planar3p_gym.sim.physics import (
     Planar3PSim,
     SimState,
 )
+from planar3p_gym.sim.randomization import DynamicsRandomization, SampledMachine
+from planar3p_gym.sim.sensors import Encoders, SensorConfig
 from planar3p_gym.tasks import ReachTask, Task
 from planar3p_gym.tasks import sampling as task_module
 from planar3p_gym.tasks.observation import (
@@ -48,6 +52,7 @@ from planar3p_gym.tasks.rewards import RewardWeights
 from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
+    "ACTION_TYPES",
     "DEFAULT_WORKING_MODE",
     "END_REASONS",
     "OBSERVATION_ARGUMENTS",
@@ -66,6 +71,50 @@ DEFAULT_WORKING_MODE: tuple[int, int, int] = (1, 1, -1)
 #: Arguments of :class:`Planar3PEnv` that change what a policy observes (the shape of the
 #: observation): a model trained with them must be played with them.
 OBSERVATION_ARGUMENTS: tuple[str, ...] = ("travel_goal",)
+
+
+#: The action types of :class:`Planar3PEnv`: slider velocities, or the prototype's on-off
+#: motors (each stopped, forward or backward at their rated speed, :data:`ON_OFF_SPEED`) as
+#: ``MultiDiscrete([3, 3, 3])`` or as one ``Discrete(27)`` index (for DQN).
+ACTION_TYPES: tuple[str, ...] = ("continuous", "on-off", "on-off-discrete")
+#: The motor command of each value of an on-off action: 0 stop, 1 forward (+x), 2 backward
+#: (times the rated speed).
+ON_OFF_COMMANDS: tuple[float, float, float] = (0.0, 1.0, -1.0)
+#: Default rated speed of the on-off motors, as a fraction of ``max_speed``: one control step
+#: at it moves a slider 0.4 mm on the default design at 50 Hz.  The travels an on-off machine
+#: can stop at are that coarse, and where the gripper moves several millimetres per
+#: millimetre of slider travel (towards a parallel singularity) a coarser step leaves no stop
+#: within the reach task's 2 mm tolerance: given 20 s, the on-off analytic controller
+#: (:mod:`planar3p_agents.controllers.on_off`) succeeded in 8 of 30 episodes of
+#: ``Planar3PReal-v0`` at 0.25 (1 mm a step) and in 17 of 30 at 0.1.
+ON_OFF_SPEED = 0.1
+#: Draws of a randomised machine at a reset before falling back to the nominal one, if the
+#: start pose is out of the drawn machine's reach (never happens with millimetre errors).
+MACHINE_DRAWS = 20
+
+
+def on_off_action(action: Any, action_type: str) -> tuple[float, float, float]:
+    """The motor commands (-1, 0 or 1, :data:`ON_OFF_COMMANDS`) of an on-off action: three
+    integers in ``{0, 1, 2}`` for ``"on-off"``, one integer in ``[0, 27)`` for
+    ``"on-off-discrete"`` (its base-3 digits, slider 1 first); integral floats are accepted
+    too; ``ValueError`` otherwise."""
+    if action_type == "on-off-discrete":
+        if isinstance(action, np.ndarray) and action.shape == (1,):
+            action = action[0]  # (a batch of one, as some agents return it)
+        n = checks.as_int(action if np.ndim(action) == 0 else None)
+        if n is None or not 0 <= n < 27:
+            raise ValueError(f"action must be an integer in [0, 27), got {checks.short(action)}")
+        digits = (n // 9, (n // 3) % 3, n % 3)
+    else:
+        arr = checks.real_array(action)
+        if arr is None or arr.shape != (3,) or not all(v in (0, 1, 2) for v in arr.tolist()):
+            raise ValueError(
+                f"action must be 3 integers in {{0, 1, 2}} (stop, forward, backward), got "
+                f"{checks.short(action)}"
+            )
+        digits = tuple(int(v) for v in arr.tolist())
+    c = ON_OFF_COMMANDS
+    return c[digits[0]], c[digits[1]], c[digits[2]]
 
 
 #: Keys of :meth:`Planar3PEnv.get_keys_to_action`: (+x, -x) for sliders 1, 2, 3.
@@ -118,7 +167,10 @@ class Planar3PEnv(gym.Env):
     ## Action Space
     ``Box(-1, 1, (3,), float32)``: slider velocity commands as fractions of the design's
     ``max_speed`` (m/s).  Values outside ``[-1, 1]`` are clipped; NaN/inf or a wrong shape
-    raise ``ValueError`` and leave the state unchanged.
+    raise ``ValueError`` and leave the state unchanged.  With ``action_type="on-off"`` (the
+    paper's prototype, ``Planar3PRealOnOff-v0``) ``MultiDiscrete([3, 3, 3])``: each motor
+    stopped (0), forward (1) or backward (2) at its rated speed; ``"on-off-discrete"``:
+    ``Discrete(27)``, the same as one index (for DQN).
 
     ## Observation Space
     ``Box(low, high, (31,), float32)``, SI units, documented index by index in
@@ -195,6 +247,25 @@ class Planar3PEnv(gym.Env):
       inverse kinematics, m) and ``tanh((target_rho - rho) / 1 cm)`` to the observation
       (:data:`planar3p_gym.tasks.observation.TRAVEL_GOAL_FIELDS`); reach task only, default
       ``False``.
+    - ``randomization``: a :class:`~planar3p_gym.sim.randomization.DynamicsRandomization` or a
+      dict of its fields: the ranges from which each episode's machine is drawn (masses,
+      inertias, leg lengths, joint positions, rail offsets, servo force limit, friction, servo
+      lag, base tilt), from ``np_random`` after the task's draws; the simulation and its loop
+      projection run the drawn machine (``info["machine"]`` at reset), the observation bounds,
+      the sensing model and ``self.design`` stay nominal.  Default: none (the nominal machine).
+    - ``sensors``: a :class:`~planar3p_gym.sim.sensors.SensorConfig` or a dict of its fields:
+      the observation is then computed from joint encoder readings (noise from ``np_random``,
+      quantised) with the nominal model (:mod:`planar3p_gym.sim.sensors`) -- travels, their
+      rates, pose, twist, leg angles and margins -- while success, reward and termination are
+      judged on the true state.  ``None`` (default): the true state is observed.
+    - ``latency``: a :class:`~planar3p_gym.envs.latency.LatencyConfig` or a dict of its fields:
+      action and observation delays of 0 to 2 control steps, drawn per episode
+      (``info["delays"]`` at reset).  Default: none.
+    - ``action_type``: ``"continuous"`` (default, the Box above), ``"on-off"``
+      (``MultiDiscrete([3, 3, 3])``: each motor stopped (0), forward (1) or backward (2) at
+      its rated speed, as on the paper's prototype) or ``"on-off-discrete"`` (``Discrete(27)``,
+      the three digits in base 3, slider 1 first; for DQN).  ``on_off_speed``: the motors'
+      rated speed as a fraction of ``max_speed`` (default :data:`ON_OFF_SPEED`, 0.1).
     - ``task``: a :class:`planar3p_gym.tasks.Task`, or the ``"module:Class"`` path of a Task
       class built with ``task_kwargs`` (a dict of its constructor arguments) -- how a
       registration row names a new task without an environment class of its own
@@ -205,6 +276,9 @@ class Planar3PEnv(gym.Env):
     ``reset(options=spec)`` replays it exactly (:mod:`planar3p_gym.tasks.base`).
 
     ## Version History
+    - v0 (0.2.0, issue 26): the machine as built (``randomization``, ``sensors``, ``latency``,
+      ``action_type``), off by default: ``Planar3P-v0`` and every other id unchanged;
+      ``Planar3PReal-v0`` and ``Planar3PRealOnOff-v0`` turn them on.
     - v0 (0.2.0): the exact machine: the projected physics (``projection=True``), whose loop
       closure is exact on every step.  Before 0.2.0 this id ran the unprojected model (now
       ``projection=False``) and ``Planar3P-v0`` ran today's v0; that id is gone.  The
@@ -231,6 +305,11 @@ class Planar3PEnv(gym.Env):
         task: Task | str | None = None,
         task_kwargs: dict[str, Any] | None = None,
         travel_goal: bool = False,
+        randomization: DynamicsRandomization | dict | None = None,
+        sensors: SensorConfig | dict | None = None,
+        latency: LatencyConfig | dict | None = None,
+        action_type: str = "continuous",
+        on_off_speed: float = ON_OFF_SPEED,
     ) -> None:
         self.task = make_task(task, task_kwargs)
         self.design = design_from(design)
@@ -273,6 +352,27 @@ class Planar3PEnv(gym.Env):
             for i, v in enumerate(render_size)
         )
         travel_goal = checks.flag(travel_goal, "travel_goal")
+        randomization = config_from(randomization, DynamicsRandomization, "randomization")
+        sensors = None if sensors is None else config_from(sensors, SensorConfig, "sensors")
+        latency = config_from(latency, LatencyConfig, "latency")
+        action_type = checks.choice(action_type, "action_type", ACTION_TYPES)
+        on_off_speed = checks.number(on_off_speed, "on_off_speed", low=0.0, high=1.0, low_open=True)
+        #: Rated speed of the on-off motors as a fraction of ``max_speed``.
+        self.on_off_speed = on_off_speed
+        #: Ranges of the per-episode machine (``None``: the nominal machine).
+        self.randomization = None if randomization.is_zero else randomization
+        #: The encoders' noise and resolution (``None``: the policy observes the true state).
+        self.sensors = sensors
+        #: Ranges of the per-episode delays (``None``: none).
+        self.latency = None if latency.is_zero else latency
+        self.action_type = action_type
+        #: Whether any feature of the built machine is on (the general step then runs).
+        self._realistic = (
+            self.randomization is not None
+            or sensors is not None
+            or self.latency is not None
+            or action_type != "continuous"
+        )
         self.control_frequency = float(control_frequency)
         self.dt = 1.0 / self.control_frequency
         self.substeps = int(substeps)
@@ -283,9 +383,20 @@ class Planar3PEnv(gym.Env):
         self.render_size = tuple(render_size)
         self.metadata = {**self.metadata, "render_fps": int(round(self.control_frequency))}
 
-        self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
+        if action_type == "on-off":
+            self.action_space = spaces.MultiDiscrete([3, 3, 3])
+        elif action_type == "on-off-discrete":
+            self.action_space = spaces.Discrete(27)
+        else:
+            self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
         self._obs_low, self._obs_high = bounds(self.design)
         self._kin = ScalarKinematics(self.design)
+        self._true_kin = self._kin  # the episode's machine (randomised: its true design)
+        self._encoders = None if sensors is None else Encoders(self.design, sensors, self.dt)
+        self._machine = SampledMachine(self.design, MachineDynamics())
+        self._delays = (0, 0)
+        self._action_line: DelayLine | None = None
+        self._obs_line: DelayLine | None = None
         self._length = self.design.characteristic_length
         self._renderer = None
         if self._fixed_mode:  # rejected here if it has no usable start/target pair
@@ -326,7 +437,7 @@ class Planar3PEnv(gym.Env):
                 self.reward_weights,
                 self.task_config.success_tolerances,
             )
-            if self.projection and type(self.task) is ReachTask
+            if self.projection and type(self.task) is ReachTask and not self._realistic
             else None
         )
         self._steps = 0
@@ -420,29 +531,75 @@ class Planar3PEnv(gym.Env):
         self._target_cs = (math.cos(self._target[2]), math.sin(self._target[2]))
         if self.travel_goal:
             self._target_rho = kinematics.inverse(self.design, self._target, mode).rho
+        machine = self._draw_machine(start, mode) if self.randomization else self._machine
         self._sim = Planar3PSim(
-            self.design,
+            machine.design,
             start,
             mode,
             dt=self.dt,
             substeps=self.substeps,
             iterations=self.solver_iterations,
             projection=self.projection,
+            dynamics=None if self.randomization is None else machine.dynamics,
         )
         state = self._sim.state
-        self._measures = self._kin.measures(state.pose, state.rho)
+        self._measures = self._true_kin.measures(state.pose, state.rho)
         self._assembly = self._measures.det_sign
-        self._obs = self._observe(state, self._measures)
+        if self._realistic:
+            self._begin_realistic()
+        self._obs = self._observe_machine(state, self._measures)
         errors = self._errors(state.pose)
         info = self._info(state, self._measures, None, {}, False, errors)
         info.update(self.task.step_info(0, state, errors))
         info["episode_spec"] = copy.deepcopy(spec)
+        if self.randomization is not None:
+            info["machine"] = machine.to_dict()
+        if self.latency is not None:
+            info["delays"] = self._delays
         self._last_info = info
+        if self._obs_line is not None:
+            self._obs_line = DelayLine(self._delays[1], self._obs.copy())
         if self.render_mode == "human":
             self.render()
         return self._obs.copy(), info
 
+    def _draw_machine(self, start: Any, mode: tuple[int, int, int]) -> SampledMachine:
+        """The episode's machine from ``np_random`` (:attr:`randomization`): redrawn while the
+        start pose is out of its reach (at most :data:`MACHINE_DRAWS` draws, then nominal)."""
+        assert self.randomization is not None
+        machine = SampledMachine(self.design, MachineDynamics())
+        for _ in range(MACHINE_DRAWS):
+            drawn = self.randomization.sample(self.design, self.np_random)
+            if bool(kinematics.inverse(drawn.design, np.asarray(start), mode).reachable):
+                machine = drawn
+                break
+        self._machine = machine
+        self._true_kin = (
+            self._kin if machine.design == self.design else ScalarKinematics(machine.design)
+        )
+        return machine
+
+    def _begin_realistic(self) -> None:
+        """Per-episode state of the built machine's features: the delays (drawn from
+        ``np_random``), their delay lines, the encoders."""
+        if self.latency is not None:
+            self._delays = self.latency.sample(self.np_random)
+        self._action_line = DelayLine(self._delays[0], (0.0, 0.0, 0.0))
+        self._obs_line = DelayLine(self._delays[1], None)
+        if self._encoders is not None:
+            self._encoders.reset()
+
+    def _observe_machine(self, state: SimState, measures: ConfigurationMeasures) -> np.ndarray:
+        """The observation of the true ``state`` (with ``measures``, its true margins): of the
+        encoders' reading and the nominal model's margins at it, with :attr:`sensors`."""
+        if self._encoders is None:
+            return self._observe(state, measures)
+        seen = self._encoders.measure(state, self.np_random)
+        return self._observe(seen, self._kin.measures(seen.pose, seen.rho))
+
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self._realistic:
+            return self._realistic_step(action)
         sim = self.sim
         a0, a1, a2 = parse_action(action)
         vmax = self.design.max_speed
@@ -455,6 +612,25 @@ class Planar3PEnv(gym.Env):
         ):  # (the reach task's reference is its fixed target)
             return self._fused_step(state, (a0, a1, a2))
         return self._general_step(state, (a0, a1, a2))
+
+    def _realistic_step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        """:meth:`step` with the built machine's features: the action type, the action delay,
+        the general step (on the true state, observed through the encoders), the observation
+        delay.  The reward's effort term is that of the action executed."""
+        sim = self.sim
+        if self.action_type == "continuous":
+            chosen = parse_action(action)
+        else:
+            c0, c1, c2 = on_off_action(action, self.action_type)
+            v = self.on_off_speed
+            chosen = (c0 * v, c1 * v, c2 * v)
+        assert self._action_line is not None and self._obs_line is not None
+        a0, a1, a2 = self._action_line.push(chosen)
+        vmax = self.design.max_speed
+        state = sim.step_unchecked(a0 * vmax, a1 * vmax, a2 * vmax)
+        self._steps += 1
+        obs, reward, terminated, truncated, info = self._general_step(state, (a0, a1, a2))
+        return self._obs_line.push(obs), reward, terminated, truncated, info
 
     def _general_step(
         self, state: SimState, action: tuple[float, float, float]
@@ -471,8 +647,8 @@ class Planar3PEnv(gym.Env):
             measures = self._measures
             pos_err, ang_err = self._errors(self._last_info["pose"])
         else:
-            measures = self._kin.measures(state.pose, state.rho)
-            self._obs = self._observe(state, measures)
+            measures = self._true_kin.measures(state.pose, state.rho)
+            self._obs = self._observe_machine(state, measures)
             pos_err, ang_err = self._errors(state.pose)
             reason = self.task.termination(state, measures, (pos_err, ang_err), self._assembly)
             success = reason == "success"
@@ -606,6 +782,12 @@ class Planar3PEnv(gym.Env):
         "_obs",
         "_measures",
         "_last_info",
+        "_true_kin",
+        "_machine",
+        "_delays",
+        "_action_line",
+        "_obs_line",
+        "_encoders",
     )
 
     def get_state(self) -> dict[str, Any]:
@@ -750,6 +932,16 @@ class Planar3PEnv(gym.Env):
             "task": self.task.name,
             "task_arguments": self.task.arguments(),
             "travel_goal": self.travel_goal,
+            # The built machine's features, only where on (the records of earlier runs stay
+            # valid as they are).
+            **({"randomization": self.randomization.to_dict()} if self.randomization else {}),
+            **({"sensors": self.sensors.to_dict()} if self.sensors is not None else {}),
+            **({"latency": self.latency.to_dict()} if self.latency else {}),
+            **(
+                {"action_type": self.action_type, "on_off_speed": self.on_off_speed}
+                if self.action_type != "continuous"
+                else {}
+            ),
         }
 
 

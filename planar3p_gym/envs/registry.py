@@ -15,6 +15,10 @@ from typing import Any
 
 from gymnasium.envs.registration import register, registry
 
+from planar3p_gym.envs.latency import REALISTIC_LATENCY
+from planar3p_gym.sim.randomization import REALISTIC_RANDOMIZATION
+from planar3p_gym.sim.sensors import REALISTIC_SENSORS
+
 __all__ = [
     "ASSEMBLY_CHANGE_ENV_ID",
     "ENV_ID",
@@ -22,8 +26,11 @@ __all__ = [
     "GOAL_DENSE_ENV_ID",
     "GOAL_ENV_ID",
     "MODE_CHANGE_ENV_ID",
+    "REAL_ENV_ID",
+    "REAL_ON_OFF_ENV_ID",
     "TRACK_ENV_ID",
     "EnvRegistration",
+    "action_type_of",
     "register_all",
 ]
 
@@ -33,6 +40,8 @@ GOAL_DENSE_ENV_ID = "Planar3PGoalDense-v0"
 TRACK_ENV_ID = "Planar3PTrack-v0"
 MODE_CHANGE_ENV_ID = "Planar3PModeChange-v0"
 ASSEMBLY_CHANGE_ENV_ID = "Planar3PAssemblyChange-v0"
+REAL_ENV_ID = "Planar3PReal-v0"
+REAL_ON_OFF_ENV_ID = "Planar3PRealOnOff-v0"
 
 _ENVS = "planar3p_gym.envs"
 
@@ -58,7 +67,9 @@ class EnvRegistration:
 
 #: Every id of the package.  Time limits: reach 5 s; goal-conditioned reach 2 s (short
 #: episodes suit hindsight relabelling; the analytic controller needs at most 75 steps over
-#: 200 episodes in random working modes); tracking 10 s; mode change 8 s; assembly change 12 s.
+#: 200 episodes in random working modes); tracking 10 s; mode change 8 s; assembly change 12 s;
+#: the built machine's reach, like the reach, 5 s, and with on-off motors (their rated speed is a
+#: tenth of ``max_speed``) 20 s.
 ENV_SPECS: tuple[EnvRegistration, ...] = (
     EnvRegistration(
         ENV_ID,
@@ -108,7 +119,37 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
         "assembly_change",
         vector_entry_point=f"{_ENVS}.vector:Planar3PAssemblyChangeVectorEnv",
     ),
+    EnvRegistration(
+        REAL_ENV_ID,
+        f"{_ENVS}.core:Planar3PEnv",
+        250,
+        "reach on the machine as built: randomised dynamics, encoder readings, one step of delay",
+        "reach",
+        kwargs={
+            "randomization": REALISTIC_RANDOMIZATION.to_dict(),
+            "sensors": REALISTIC_SENSORS.to_dict(),
+            "latency": REALISTIC_LATENCY.to_dict(),
+        },
+    ),
+    EnvRegistration(
+        REAL_ON_OFF_ENV_ID,
+        f"{_ENVS}.core:Planar3PEnv",
+        1000,
+        "the built machine's reach with the prototype's on-off motors (MultiDiscrete actions)",
+        "reach",
+        kwargs={
+            "randomization": REALISTIC_RANDOMIZATION.to_dict(),
+            "sensors": REALISTIC_SENSORS.to_dict(),
+            "latency": REALISTIC_LATENCY.to_dict(),
+            "action_type": "on-off",
+        },
+    ),
 )
+
+
+def action_type_of(row: EnvRegistration) -> str:
+    """The action type of a registered id (:data:`planar3p_gym.envs.core.ACTION_TYPES`)."""
+    return str(row.kwargs.get("action_type", "continuous"))
 
 
 def register_all() -> None:

@@ -43,6 +43,13 @@ lines, the end stops being separate ``SlideJoint`` limits whose impulse is dropp
 slider leaves the stop (a groove's own ends keep a stale impulse after an impact, and with one
 substep a slider resting on the stop then bounced between two states).
 
+Imperfections (``dynamics=``, :class:`~planar3p_gym.sim.dynamics.MachineDynamics`; issue 26's
+machine as built): Coulomb friction of the sliders and joints as bounded-force velocity
+constraints added before the servos, viscous friction as explicit forces per physics step
+(:meth:`Planar3PSim._apply_viscous`; the hot loop then runs through pymunk's public API), a
+first-order lag of the servo setpoint velocity, a tilted gravity, scaled moments of inertia.
+The ideal machine (the default) adds nothing: the model is the one built without it.
+
 Snapshots: :meth:`Planar3PSim.get_state` / :meth:`Planar3PSim.set_state` restore a simulation
 bit for bit.  pymunk does not expose the solver's warm-start impulses, on which the next steps
 depend, so a snapshot records how the model was built and the commands it was stepped with, and
@@ -62,6 +69,7 @@ from numpy.typing import ArrayLike
 
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
+from planar3p_gym.sim.dynamics import MachineDynamics
 from planar3p_gym.sim.projection import LoopProjector
 from planar3p_gym.sim.projection import wrap_angle as _wrap
 
@@ -217,6 +225,42 @@ def substep_impulses(
     return f0, f1, f2, m0, m1, m2
 
 
+#: Distance along its rail of the static anchor of a slider's friction constraints (m): so far
+#: that the constraint's direction is the rail's (as the servo's long arm).
+FRICTION_ARM = 1000.0
+
+
+def _friction(
+    dyn: MachineDynamics,
+    ground: pymunk.Body,
+    sliders: list[pymunk.Body],
+    legs: list[pymunk.Body],
+    platform: pymunk.Body,
+) -> list[pymunk.Constraint]:
+    """The Coulomb friction constraints of :class:`MachineDynamics` (only those with a nonzero
+    coefficient): per slider along its rail, per revolute joint ``B_i`` (slider-leg) and
+    ``C_i`` (leg-platform).  Each is a velocity constraint of bounded force without position
+    correction (``max_bias = 0``): pymunk's idiom for dry friction, which the iterative solver
+    handles like any joint (sticking included, which a force law would not give).  Viscous
+    friction is a force, :meth:`Planar3PSim._apply_viscous` (pymunk's damped springs damp
+    implicitly towards the velocity the other constraints leave, which under a servo is not a
+    force proportional to the rate)."""
+    out: list[pymunk.Constraint] = []
+    for slider, leg in zip(sliders, legs, strict=True):
+        x = slider.position.x
+        if dyn.slider_coulomb > 0.0:
+            pin = pymunk.PinJoint(ground, slider, (x - FRICTION_ARM, 0.0), (0.0, 0.0))
+            pin.max_bias = 0.0
+            pin.max_force = dyn.slider_coulomb
+            out.append(pin)
+        for a, b in ((slider, leg), (leg, platform)):
+            if dyn.joint_coulomb > 0.0:
+                motor = pymunk.SimpleMotor(a, b, 0.0)
+                motor.max_force = dyn.joint_coulomb
+                out.append(motor)
+    return out
+
+
 class Planar3PSim:
     """The 3-PRR mechanism as a pymunk space, stepped one control period at a time.
 
@@ -236,6 +280,9 @@ class Planar3PSim:
         platform_error_bias: the same for the platform's pivots ``C_i``.
         projection: project the state exactly onto the constraint manifold after every control
             step (module docstring); ``False`` keeps the original model (``Planar3P-v0``).
+        dynamics: friction, servo lag, base tilt and inertia errors of the machine
+            (:class:`~planar3p_gym.sim.dynamics.MachineDynamics` or a dict of its fields);
+            ``None`` or the ideal machine builds exactly the model built without it.
     """
 
     use_fast_path: bool = True
@@ -255,6 +302,7 @@ class Planar3PSim:
         error_bias: float = DEFAULT_ERROR_BIAS,
         platform_error_bias: float = DEFAULT_PLATFORM_ERROR_BIAS,
         projection: bool = False,
+        dynamics: MachineDynamics | dict | None = None,
     ) -> None:
         if not isinstance(design, Design):
             raise ValueError(f"design must be a Design, got {type(design).__name__}")
@@ -272,6 +320,7 @@ class Planar3PSim:
                 raise ValueError(f"{name} must be in [0, 1], got {bias!r}")
         if not isinstance(projection, (bool, np.bool_)):
             raise ValueError(f"projection must be True or False, got {projection!r}")
+        dyn = MachineDynamics.from_value(dynamics, "dynamics")
         p = np.asarray(pose, dtype=np.float64)
         if p.shape != (3,) or not np.isfinite(p).all():
             raise ValueError(f"pose must be 3 finite numbers (x, y, theta), got {pose!r}")
@@ -295,6 +344,26 @@ class Planar3PSim:
         self._forces = (0.0, 0.0, 0.0)
         self._saturated = (False, False, False)
         self.projection = bool(projection)
+        #: The machine's imperfections; ``None`` for the ideal machine (the default model).
+        self.dynamics: MachineDynamics | None = None if dyn.is_ideal else dyn
+        self._viscous = dyn.slider_viscous > 0.0 or dyn.joint_viscous > 0.0
+        if self._viscous:
+            h = self.dt / self.substeps
+            leg_inertia = dyn.inertia_scale * design.leg_mass * min(design.leg_lengths) ** 2 / 12
+            # Explicit viscous forces are stable for c h / m < 2; half that is asked for.
+            if dyn.slider_viscous * h >= design.slider_mass:
+                raise ValueError(
+                    f"dynamics.slider_viscous ({dyn.slider_viscous} N s/m) times the physics "
+                    f"step ({h} s) must stay below the slider mass ({design.slider_mass} kg)"
+                )
+            if dyn.joint_viscous * h >= leg_inertia:
+                raise ValueError(
+                    f"dynamics.joint_viscous ({dyn.joint_viscous} N m s/rad) times the physics "
+                    f"step ({h} s) must stay below a leg's moment of inertia ({leg_inertia} kg m^2)"
+                )
+        #: Servo setpoint velocities after the servo lag (m/s), with a lag only.
+        self._lagged = [0.0, 0.0, 0.0]
+        self._lag = 1.0 if self.dynamics is None else self.dynamics.lag_factor(self.dt)
         self._projector = (
             LoopProjector(design, self.dt, FOLLOWING_ERROR_LIMIT) if self.projection else None
         )
@@ -308,6 +377,7 @@ class Planar3PSim:
                 "error_bias": float(error_bias),
                 "platform_error_bias": float(platform_error_bias),
                 "projection": self.projection,
+                **({} if self.dynamics is None else {"dynamics": self.dynamics.to_dict()}),
             },
         )
         self._commands = array("d")
@@ -321,13 +391,15 @@ class Planar3PSim:
         self, pose: np.ndarray, rho: np.ndarray, error_bias: float, platform_error_bias: float
     ) -> None:
         d = self.design
+        dyn = self.dynamics
         space = pymunk.Space()
         space.iterations = self.iterations
-        space.gravity = (0.0, -d.gravity)
+        space.gravity = (0.0, -d.gravity) if dyn is None else dyn.gravity_vector(d.gravity)
+        inertia = 1.0 if dyn is None else dyn.inertia_scale
         x, y, th = (float(v) for v in pose)
         c, s = math.cos(th), math.sin(th)
         k1 = self._k[0]
-        platform = pymunk.Body(d.platform_mass, d.platform_mass * k1 * k1 / 12.0)
+        platform = pymunk.Body(d.platform_mass, inertia * d.platform_mass * k1 * k1 / 12.0)
         platform.position = (x + 0.5 * k1 * c, y + 0.5 * k1 * s)
         platform.angle = th
         space.add(platform)
@@ -340,7 +412,7 @@ class Planar3PSim:
             slider.position = (b, 0.0)
             drive = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
             drive.position = (b, 0.0)
-            leg = pymunk.Body(d.leg_mass, d.leg_mass * L * L / 12.0)
+            leg = pymunk.Body(d.leg_mass, inertia * d.leg_mass * L * L / 12.0)
             leg.position = (0.5 * (b + cx), 0.5 * cy)
             leg.angle = math.atan2(cy, cx - b)
             if self.projection:
@@ -384,6 +456,8 @@ class Planar3PSim:
         # commanded velocity.
         for group in joints:
             space.add(*group)
+        if dyn is not None:
+            space.add(*_friction(dyn, space.static_body, sliders, legs, platform))
         space.add(*servos)
         self.space = space
         self.platform = platform
@@ -468,6 +542,11 @@ class Planar3PSim:
     def step_unchecked(self, v0: float, v1: float, v2: float) -> SimState:
         """:meth:`step` without input validation, for callers that validated already."""
         self._commands.extend((v0, v1, v2))
+        if self._lag != 1.0:  # first-order servo lag (MachineDynamics.servo_lag)
+            lagged, f = self._lagged, self._lag
+            v0 = lagged[0] = lagged[0] + f * (v0 - lagged[0])
+            v1 = lagged[1] = lagged[1] + f * (v1 - lagged[1])
+            v2 = lagged[2] = lagged[2] + f * (v2 - lagged[2])
         if self._projector is None:  # (with projection, done when the state is written back)
             self._limit_following_error()
         if self._fast is None:
@@ -482,9 +561,11 @@ class Planar3PSim:
         h = self._h
         f0 = f1 = f2 = 0.0
         m0 = m1 = m2 = 0.0
-        if self._fast is None:
+        if self._fast is None or self._viscous:
             servos = self.servos
             for _ in range(self.substeps):
+                if self._viscous:
+                    self._apply_viscous()
                 self.space.step(h)
                 j0, j1, j2 = servos[0].impulse, servos[1].impulse, servos[2].impulse
                 f0, f1, f2 = f0 + j0, f1 + j1, f2 + j2
@@ -500,6 +581,25 @@ class Planar3PSim:
         self._saturated = (m0 >= limit, m1 >= limit, m2 >= limit)
         self._state = self._read() if self._projector is None else self._project()
         return self._state
+
+    def _apply_viscous(self) -> None:
+        """Set the viscous friction forces of :attr:`dynamics` for the next physics step, from
+        the current velocities (explicit: held over the step; Chipmunk clears body forces
+        after each step): ``-c v`` on each slider along its rail, ``-c (w_a - w_b)`` on the
+        two bodies of each revolute joint, opposite on the other."""
+        dyn = self.dynamics
+        assert dyn is not None
+        cs, cj = dyn.slider_viscous, dyn.joint_viscous
+        platform = self.platform
+        for slider, leg in zip(self.sliders, self.legs, strict=True):
+            if cs > 0.0:
+                slider.force = (-cs * slider.velocity.x, 0.0)
+            if cj > 0.0:
+                # Joint B_i: the slider does not turn; joint C_i: leg against platform.
+                leg.torque = -cj * leg.angular_velocity - cj * (
+                    leg.angular_velocity - platform.angular_velocity
+                )
+                platform.torque += cj * (leg.angular_velocity - platform.angular_velocity)
 
     def _project(self) -> SimState:
         """Project the bodies onto the constraint manifold, write them back, return the state."""

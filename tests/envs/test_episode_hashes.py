@@ -31,6 +31,8 @@ EXPECTED: dict[str, str] = {
     "Planar3PTrack-v0": "875bf20df3926ab8228d4c23b1a2c75f09dfe01c5040572582fd6464786cb309",
     "Planar3PModeChange-v0": "09a70f8bc3296ded248c200f0ff16359c75f485bb963fcea7c351a134814a000",
     "Planar3PAssemblyChange-v0": "b5442c63a7b263943099dd55e58dd460a172a194a818a204443c489820a545b0",
+    "Planar3PReal-v0": "a7a122c6e655de31288f054a8d50ce6374ce64878552ec2ea248c698c8fea6c4",
+    "Planar3PRealOnOff-v0": "a7c99696c25266e93958770cdeef6af96f17bb6b08271153f95704ffa4b2a1df",
 }
 
 

@@ -100,7 +100,7 @@ def test_end_stops_hold_on_every_id(env_id, policy, seed):
     env.reset(seed=seed)
     rng = np.random.default_rng(seed)
     for _ in range(STEPS):
-        _, _, terminated, truncated, info = env.step(soak.action(policy, rng))
+        _, _, terminated, truncated, info = env.step(soak.action(policy, rng, env))
         if assert_step_holds(env, info) or terminated or truncated:
             break
 

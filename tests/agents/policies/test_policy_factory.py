@@ -22,6 +22,7 @@ from planar3p_agents.controllers.layout import (
 from planar3p_agents.controllers.registry import (
     ANALYTIC_POLICIES,
     BASELINES,
+    ON_OFF_IDS,
     baselines_for,
 )
 from planar3p_agents.evaluation.task_suites import TASK_SUITES
@@ -77,7 +78,7 @@ def play(env: gym.Env, policy, seed: int) -> dict:
     while True:
         action, state = policy.predict(obs, state=state, episode_start=np.array([start]))
         start = False
-        assert env.action_space.contains(np.asarray(action, dtype=np.float32)), action
+        assert env.action_space.contains(np.asarray(action, dtype=env.action_space.dtype)), action
         obs, _, terminated, truncated, info = env.step(action)
         steps += 1
         if terminated or truncated:
@@ -95,9 +96,13 @@ def test_registry_is_the_one_list_of_names():
         assert b.ids and set(b.ids) <= set(REGISTERED_IDS)
         assert parse_policy_spec(name).kind == "builtin"
     for env_id in REGISTERED_IDS:
-        assert {"analytic-simultaneous", "analytic-sequential", "random", "zero"} <= set(
-            baselines_for(env_id)
+        analytic = (
+            {"analytic-on-off"}
+            if env_id in ON_OFF_IDS
+            else {"analytic-simultaneous", "analytic-sequential"}
         )
+        assert analytic | {"random", "zero"} <= set(baselines_for(env_id))
+    assert ON_OFF_IDS == (planar3p_gym.REAL_ON_OFF_ENV_ID,)
     assert BASELINES["planner"].ids == (planar3p_gym.MODE_CHANGE_ENV_ID,)
     assert BASELINES["crossing"].ids == (planar3p_gym.ASSEMBLY_CHANGE_ENV_ID,)
     assert BASELINES["analytic-feedforward"].ids == (planar3p_gym.TRACK_ENV_ID,)
@@ -147,6 +152,7 @@ def test_baseline_plays_every_id_it_supports(spec, env_id):
     assert isinstance(policy, GoalAdapter) == isinstance(env.observation_space, gym.spaces.Dict)
     if ":gain=" in spec:
         inner = policy.policy if isinstance(policy, GoalAdapter) else policy
+        inner = getattr(inner, "inner", inner)  # the on-off controller's analytic one
         if hasattr(inner, "position_gain"):  # the analytic controllers
             assert inner.position_gain == inner.orientation_gain == 12.0
         else:  # the slider line: its travel gain
