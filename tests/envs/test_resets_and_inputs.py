@@ -274,7 +274,14 @@ def test_gymnasium_play_runs_with_the_env_mapping(monkeypatch):
     """gymnasium.utils.play.play finds the mapping on the env: pressing 'q' drives slider 1."""
     monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
     pygame = pytest.importorskip("pygame")
+    import matplotlib
+
+    backend = matplotlib.get_backend()
     from gymnasium.utils.play import play
+
+    # Importing gymnasium.utils.play switches matplotlib to TkAgg for the whole process: the
+    # tests that run after this one in the same worker get their backend back.
+    matplotlib.use(backend)
 
     actions = []
 
