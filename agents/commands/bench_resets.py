@@ -31,6 +31,7 @@ import gymnasium as gym
 import numpy as np
 
 import planar3p_gym
+from planar3p_agents.commands import checks
 from planar3p_agents.commands.parser import CliParser, UsageError
 from planar3p_agents.evaluation.throughput import reset_summary, reset_times
 from planar3p_gym.atomic_files import write_atomic
@@ -67,9 +68,7 @@ def check(args: argparse.Namespace) -> None:
         raise UsageError(f"--seeds must be >= 1, got {args.seeds}")
     if args.first_seed < 0:
         raise UsageError(f"--first-seed must be >= 0, got {args.first_seed}")
-    unknown = [i for i in args.ids if i not in ALL_IDS]
-    if unknown:
-        raise UsageError(f"--ids: unknown id(s) {', '.join(unknown)}; known: {', '.join(ALL_IDS)}")
+    checks.known("--ids", args.ids, ALL_IDS, "id")
     try:
         kwargs = json.loads(args.kwargs)
     except json.JSONDecodeError as exc:

@@ -33,6 +33,7 @@ import gymnasium as gym
 import numpy as np
 
 import planar3p_gym
+from planar3p_agents.commands import checks
 from planar3p_agents.commands.parser import CliParser, UsageError
 from planar3p_gym.sim.projection import MAX_CLOSURE_ERROR, LoopProjector
 
@@ -166,9 +167,7 @@ def check(args: argparse.Namespace) -> None:
         raise UsageError(f"--steps-per-id must be >= 1, got {args.steps_per_id}")
     if args.seed < 0:
         raise UsageError(f"--seed must be >= 0, got {args.seed}")
-    unknown = [i for i in args.ids if i not in IDS]
-    if unknown:
-        raise UsageError(f"--ids: unknown id(s) {', '.join(unknown)}; known: {', '.join(IDS)}")
+    checks.known("--ids", args.ids, IDS, "id")
 
 
 def run(args: argparse.Namespace) -> int:
