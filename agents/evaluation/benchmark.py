@@ -48,7 +48,7 @@ from planar3p_agents.policies.factory import (
     policy_label,
     run_env_kwargs,
 )
-from planar3p_agents.policies.play_envs import PlayEnvs, observation_kwargs
+from planar3p_agents.policies.play_envs import PlayEnvs, play_kwargs
 from planar3p_agents.zoo.layout import shipped_model_of
 from planar3p_gym import atomic_files
 from planar3p_gym.machine.design import Design
@@ -214,7 +214,10 @@ def _load_suite_policies(
                     )
                     continue
             if task or (ps.kind == "builtin" and BASELINES[ps.name].per_suite):
-                pols[label] = load_policy(ps, env=envs[name], seed=seed, device=device, suite=name)
+                env = envs[name]
+                if ps.path is not None:  # a model: checked against the env it is played in
+                    env = variants.get(env, run_env_kwargs(ps.path))
+                pols[label] = load_policy(ps, env=env, seed=seed, device=device, suite=name)
             else:
                 if label not in shared:
                     trained = run_env_kwargs(ps.path) if ps.path is not None else None
@@ -223,11 +226,11 @@ def _load_suite_policies(
                 pols[label] = shared[label]
             trained_with = getattr(pols[label], "env_kwargs", None)
             if trained_with and label not in meta:
-                seen = observation_kwargs(trained_with)
+                seen = play_kwargs(trained_with, envs[name])
                 warn(
                     f"{label} was trained with environment arguments {trained_with}; the "
                     "benchmark runs each suite's own environment"
-                    + (f", with the observation arguments {seen}" if seen else "")
+                    + (f", with the model's interface arguments {seen}" if seen else "")
                 )
             meta.setdefault(label, (text, training_seed(ps.path)))
         if not pols:

@@ -25,7 +25,8 @@ benchmark's seeds, held out from the suite's episode draws and from training's r
 ``real-reach-true-state`` plays the same episodes and machines with the true state observed
 (``sensors=None``): what the nominal-model sensing costs, and whether the randomised machine
 can be driven to the target at all; ``real-reach-nominal`` plays the same episodes on the
-nominal machine (the ``Planar3P-v0`` physics), the reference.
+nominal machine (the ``Planar3P-v0`` physics), the reference; ``real-mode-change`` is the
+mode change with the built machine's randomisation, sensors and delay.
 """
 
 from __future__ import annotations
@@ -38,6 +39,9 @@ import gymnasium as gym
 import numpy as np
 
 from planar3p_agents.evaluation.reach_suites import EpisodeSpec, Suite, triple
+from planar3p_gym.envs.latency import REALISTIC_LATENCY
+from planar3p_gym.sim.randomization import REALISTIC_RANDOMIZATION
+from planar3p_gym.sim.sensors import REALISTIC_SENSORS
 
 __all__ = [
     "TASK_SUITES",
@@ -142,6 +146,18 @@ TASK_SUITES: dict[str, TaskSuiteDef] = {
         ("analytic-on-off", "random", "zero"),
         "reach on the machine as built with the prototype's on-off motors",
         9,
+    ),
+    "real-mode-change": TaskSuiteDef(
+        "Planar3PModeChange-v0",
+        {
+            "randomization": REALISTIC_RANDOMIZATION.to_dict(),
+            "sensors": REALISTIC_SENSORS.to_dict(),
+            "latency": REALISTIC_LATENCY.to_dict(),
+        },
+        ("analytic-simultaneous", "planner", "zero"),
+        "working-mode change on the machine as built (the randomisation, sensors and delay of "
+        "Planar3PReal-v0)",
+        11,
     ),
 }
 

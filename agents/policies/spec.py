@@ -52,6 +52,7 @@ SB3_ALGORITHMS: dict[str, str] = {
     "td3": "TD3",
     "a2c": "A2C",
     "ddpg": "DDPG",
+    "dqn": "DQN",
     "tqc": "TQC",  # sb3-contrib
 }
 PRETRAINED_PREFIX = "pretrained:"

@@ -64,9 +64,9 @@ __all__ = [
     "versions",
 ]
 
-ALGORITHMS = ("ppo", "sac", "td3", "tqc")
+ALGORITHMS = ("ppo", "sac", "td3", "tqc", "dqn")
 #: Off-policy algorithms (replay buffer saved with checkpoints; HER possible).
-OFF_POLICY = ("sac", "td3", "tqc")
+OFF_POLICY = ("sac", "td3", "tqc", "dqn")
 #: Replay buffers a YAML entry may name in ``replay_buffer_class`` (by their SB3 class name).
 REPLAY_BUFFERS = ("HerReplayBuffer",)
 #: Where the shipped, tuned hyperparameter files live (``<algo>.yml``).

@@ -127,13 +127,13 @@ def latest_checkpoint(run_dir: Path) -> tuple[Path, int]:
 
 
 def _algo_class(algo: str) -> Any:
-    from stable_baselines3 import PPO, SAC, TD3
+    from stable_baselines3 import DQN, PPO, SAC, TD3
 
     if algo == "tqc":
         from sb3_contrib import TQC
 
         return TQC
-    return {"ppo": PPO, "sac": SAC, "td3": TD3}[algo]
+    return {"ppo": PPO, "sac": SAC, "td3": TD3, "dqn": DQN}[algo]
 
 
 def _check_env(env_id: str, env_kwargs: dict[str, Any]) -> None:
@@ -168,6 +168,26 @@ def _task_schedule(cfg: TrainConfig) -> list[tuple[int, dict[str, Any]]] | None:
         return parse_task_schedule(cfg.task_schedule, base)
     finally:
         env.close()
+
+
+def _check_action_space(cfg: TrainConfig) -> None:
+    """DQN needs a ``Discrete`` action space: ``ValueError`` saying how to get one otherwise
+    (before SB3's own assertion, which would read as a bad hyperparameter)."""
+    if cfg.algo != "dqn":
+        return
+    import gymnasium as gym
+
+    env = gym.make(cfg.env_id, **cfg.env_kwargs)
+    try:
+        space = env.action_space
+    finally:
+        env.close()
+    if not isinstance(space, gym.spaces.Discrete):
+        raise ValueError(
+            f"DQN needs a Discrete action space; {cfg.env_id} with {cfg.env_kwargs or 'no'} "
+            f"environment kwargs has {space} (for the on-off machine pass --env-kwargs "
+            "action_type='\"on-off-discrete\"')"
+        )
 
 
 def _check_native(cfg: TrainConfig) -> None:
@@ -312,6 +332,7 @@ def plan_run(
     schedule = _task_schedule(cfg)
     if options.vec_env == "native":
         _check_native(cfg)
+    _check_action_space(cfg)
     model = _check_model(cfg)
     done = resume_from[1] if resume_from else 0
     if cfg.n_timesteps <= done:

@@ -56,6 +56,7 @@ __all__ = [
     "DEFAULT_WORKING_MODE",
     "END_REASONS",
     "OBSERVATION_ARGUMENTS",
+    "ON_OFF_ACTION_TYPES",
     "RESET_OPTIONS",
     "TERMINATION_REASONS",
     "TIME_LIMIT",
@@ -77,6 +78,10 @@ OBSERVATION_ARGUMENTS: tuple[str, ...] = ("travel_goal",)
 #: motors (each stopped, forward or backward at their rated speed, :data:`ON_OFF_SPEED`) as
 #: ``MultiDiscrete([3, 3, 3])`` or as one ``Discrete(27)`` index (for DQN).
 ACTION_TYPES: tuple[str, ...] = ("continuous", "on-off", "on-off-discrete")
+#: Action types that command the same motors and differ only in how an action is written (three
+#: commands or one index): a model trained with one can be played on an environment made with
+#: the other by making that environment with the model's action type.
+ON_OFF_ACTION_TYPES: tuple[str, ...] = ("on-off", "on-off-discrete")
 #: The motor command of each value of an on-off action: 0 stop, 1 forward (+x), 2 backward
 #: (times the rated speed).
 ON_OFF_COMMANDS: tuple[float, float, float] = (0.0, 1.0, -1.0)
@@ -101,7 +106,10 @@ def on_off_action(action: Any, action_type: str) -> tuple[float, float, float]:
     if action_type == "on-off-discrete":
         if isinstance(action, np.ndarray) and action.shape == (1,):
             action = action[0]  # (a batch of one, as some agents return it)
-        n = checks.as_int(action if np.ndim(action) == 0 else None)
+        value = action if np.ndim(action) == 0 else None
+        n = checks.as_int(value)
+        if n is None and (f := checks.as_finite_float(value)) is not None and f.is_integer():
+            n = int(f)  # an integral float, as for the three commands
         if n is None or not 0 <= n < 27:
             raise ValueError(f"action must be an integer in [0, 27), got {checks.short(action)}")
         digits = (n // 9, (n // 3) % 3, n % 3)

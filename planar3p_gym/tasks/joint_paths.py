@@ -19,6 +19,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym import checks
@@ -142,39 +143,60 @@ def _track(
 ) -> _Tracked:
     """Follow the branch through ``pose_a[s]`` along the straight travel path from ``rho_a[s]``
     to ``rho_b[s]`` (all ``(S, 3)``), for every ``s`` at once: one direct-kinematics solve of
-    the ``S * points`` travels, the gaps from every solution at a point to every solution at
-    the next in one array, then a walk over the points through the nearest-solution table.
-    The same decisions as following each segment point by point (the nearest solution to the
-    previous followed pose, unambiguous when the second-nearest is at least
-    :data:`_AMBIGUITY_RATIO` times farther), to the bit."""
+    the ``S * points`` travels, then the walk over the points (:func:`_walk`): at each point
+    the nearest solution to the previous followed pose, unambiguous when the second-nearest is
+    at least :data:`_AMBIGUITY_RATIO` times farther."""
     u = np.linspace(0.0, 1.0, points)[:, None]
     rho = rho_a[:, None, :] + u * (rho_b - rho_a)[:, None, :]  # (S, P, 3)
     sol = kinematics.forward_batch(design, rho)
-    cand, valid = sol.poses, sol.valid  # (S, P, 4, 3), (S, P, 4)
-    n = rho.shape[0]
-    # first point: from the given pose; then from each solution k at point j to each l at j+1
-    first = np.where(valid[:, 0], _pose_gap(design, pose_a[:, None, :], cand[:, 0]), np.inf)
-    with np.errstate(invalid="ignore"):
-        gaps = _pose_gap(design, cand[:, :-1, :, None, :], cand[:, 1:, None, :, :])
-    gaps = np.where(valid[:, 1:, None, :], gaps, np.inf)  # (S, P-1, 4, 4)
-    order0 = np.argsort(first, axis=-1)
-    order = np.argsort(gaps, axis=-1)
-    near0 = np.take_along_axis(first, order0[..., :2], axis=-1)
-    near = np.take_along_axis(gaps, order[..., :2], axis=-1)
-    ok0 = np.isfinite(near0[..., 0]) & ~(near0[..., 1] < _AMBIGUITY_RATIO * near0[..., 0])
-    ok = np.isfinite(near[..., 0]) & ~(near[..., 1] < _AMBIGUITY_RATIO * near[..., 0])
-    nxt = order[..., 0]  # (S, P-1, 4): the nearest solution at j+1 to solution k at j
-    rows = np.arange(n)
-    k = order0[:, 0]
-    alive = ok0.copy()
-    index = np.empty((n, points), dtype=np.intp)
-    index[:, 0] = k
-    for j in range(points - 1):
-        alive &= ok[rows, j, k]
-        k = nxt[rows, j, k]
-        index[:, j + 1] = k
+    cand = np.ascontiguousarray(sol.poses)  # (S, P, 4, 3)
+    start = np.ascontiguousarray(np.broadcast_to(pose_a, (rho.shape[0], 3)), dtype=np.float64)
+    index, alive = _walk(
+        cand, np.ascontiguousarray(sol.valid), start, design.characteristic_length, _AMBIGUITY_RATIO
+    )
     poses = np.take_along_axis(cand, index[:, :, None, None], axis=2)[:, :, 0, :]
     return _Tracked(rho, poses, alive)
+
+
+@njit(cache=True)
+def _walk(
+    cand: FloatArray, valid: NDArray[np.bool_], start: FloatArray, length: float, ratio: float
+) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
+    """The branch walk of :func:`_track`: for each segment ``s``, from ``start[s]`` through the
+    solutions ``cand[s, j]`` ``(4, 3)`` (``valid[s, j]`` marks the real ones) point after
+    point, the index of the followed solution at every point and whether the branch stayed
+    unambiguous (gaps ``|(dx, dy, length * dtheta)|``, m, with ``dtheta`` wrapped to
+    ``[-pi, pi)``; ties go to the lower index).  Written as loops and compiled with numba
+    because it only ever compares the followed solution with the next point's four, where an
+    array formulation computes all sixteen gaps per point and sorts them; past the point where
+    a branch is lost its indices stay 0."""
+    n, points = cand.shape[0], cand.shape[1]
+    index = np.zeros((n, points), dtype=np.intp)
+    alive = np.zeros(n, dtype=np.bool_)
+    two_pi = 2.0 * math.pi
+    for s in range(n):
+        px, py, pt = start[s, 0], start[s, 1], start[s, 2]
+        ok = True
+        for j in range(points):
+            best, second, k = math.inf, math.inf, 0
+            for m in range(cand.shape[2]):
+                if not valid[s, j, m]:
+                    continue
+                dx = cand[s, j, m, 0] - px
+                dy = cand[s, j, m, 1] - py
+                dt = ((cand[s, j, m, 2] - pt + math.pi) % two_pi - math.pi) * length
+                gap = math.sqrt(dx * dx + dy * dy + dt * dt)
+                if gap < best:
+                    second, best, k = best, gap, m
+                elif gap < second:
+                    second = gap
+            if not best < math.inf or second < ratio * best:
+                ok = False
+                break
+            index[s, j] = k
+            px, py, pt = cand[s, j, k, 0], cand[s, j, k, 1], cand[s, j, k, 2]
+        alive[s] = ok
+    return index, alive
 
 
 def track_segment(

@@ -143,7 +143,10 @@ def test_on_off_actions():
     assert on_off_action(5, "on-off-discrete") == (0.0, 1.0, -1.0)  # 5 = 0 * 9 + 1 * 3 + 2
     assert on_off_action(np.int64(26), "on-off-discrete") == (-1.0, -1.0, -1.0)
     assert on_off_action(np.array([26]), "on-off-discrete") == (-1.0, -1.0, -1.0)
-    for bad in (27, -1, 2.5, True, np.array([1, 2])):
+    # integral floats, as the three commands accept them (a runner's float64 array of one)
+    assert on_off_action(np.array([9.0]), "on-off-discrete") == (1.0, 0.0, 0.0)
+    assert on_off_action(26.0, "on-off-discrete") == (-1.0, -1.0, -1.0)
+    for bad in (27, -1, 2.5, 27.0, np.nan, True, 1j, np.array([1, 2])):
         with pytest.raises(ValueError, match="action"):
             on_off_action(bad, "on-off-discrete")
     env = gym.make("Planar3P-v0", action_type="on-off").unwrapped

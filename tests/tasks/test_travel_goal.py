@@ -147,7 +147,7 @@ def test_benchmark_plays_a_travel_goal_model_in_an_env_that_has_it(tmp_path, ben
     ]
     assert bench.main(args) == 0
     captured = capsys.readouterr()
-    assert "with the observation arguments {'travel_goal': True}" in captured.err
+    assert "with the model's interface arguments {'travel_goal': True}" in captured.err
     assert "| run/model | standard | 1 |" in captured.out
     summary = json.loads((out / "summary.json").read_text())
     assert summary["settings"]["policy_env_kwargs"]["run/model"] == kwargs

@@ -85,6 +85,48 @@ def test_smoke_training_writes_complete_loadable_run(algo: str, tmp_path: Path) 
     assert a1.shape == (1, 3) and np.all(np.abs(a1) <= 1.0)
 
 
+def test_dqn_trains_on_the_on_off_machine_and_the_benchmark_plays_it(tmp_path: Path, bench) -> None:
+    """Issue 26 item 4: DQN on the Discrete(27) on-off machine, end to end: a complete run,
+    and the benchmark plays the model on the real-on-off suite (MultiDiscrete) in the suite's
+    environment made with the model's action encoding."""
+    run = tmp_path / "dqn"
+    argv = _smoke_args("ppo", run, steps=256)
+    argv[argv.index("ppo")] = "dqn"
+    argv = argv[: argv.index("--params")] + [
+        "--env",
+        "Planar3PRealOnOff-v0",
+        "--env-kwargs",
+        'action_type="on-off-discrete"',
+        "--params",
+        "learning_starts=64",
+        "batch_size=32",
+        "buffer_size=1000",
+    ]
+    assert train_script.main(argv) == 0
+    config = json.loads((run / "config.json").read_text())
+    assert config["config"]["algo"] == "dqn"
+    assert config["config"]["env_kwargs"] == {"action_type": "on-off-discrete"}
+    out = tmp_path / "bench"
+    code = bench.main(
+        [
+            "--suites",
+            "real-on-off",
+            "--policies",
+            f"dqn:{run / 'model.zip'}:stats={run / 'vecnormalize.pkl'}",
+            "--episodes",
+            "1",
+            "--out",
+            str(out),
+            "--no-progress",
+            "--no-plots",
+        ]
+    )
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    (row,) = [r for r in summary["summaries"] if r["suite"] == "real-on-off"]
+    assert row["episodes"] == 1
+
+
 def test_resume_continues_from_last_checkpoint(tmp_path: Path) -> None:
     run = tmp_path / "ppo"
     assert train_script.main(_smoke_args("ppo", run, steps=256)) == 0
@@ -102,7 +144,9 @@ def test_resume_continues_from_last_checkpoint(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["--algo", "dqn"], "unknown algorithm"),
+        (["--algo", "a2c"], "unknown algorithm"),
+        (["--algo", "dqn"], "has no entry for 'Planar3P-v0'"),
+        (["--algo", "dqn", "--env", "Planar3PRealOnOff-v0"], "DQN needs a Discrete action space"),
         (["--algo", "sac", "--env", "NoSuchEnv-v9"], "unknown environment id"),
         (["--algo", "sac", "--hyperparams", "/nonexistent.yml"], "does not exist"),
         (["--algo", "sac", "--env-kwargs", "substeps=0"], "invalid environment kwargs"),
@@ -223,13 +267,19 @@ def test_unreadable_config_is_a_clear_error(tmp_path: Path, capsys) -> None:
 
 
 def test_shipped_hyperparameters_resolve() -> None:
-    for algo in training.ALGORITHMS:
-        entry = training.load_hyperparams(
-            training.HYPERPARAMS_DIR / f"{algo}.yml", "Planar3P-v0", algo
-        )
-        cfg = training.resolve(algo, "Planar3P-v0", 0, entry)
-        assert cfg.n_timesteps > 0 and cfg.n_envs >= 1
-        assert isinstance(cfg.algo_kwargs.get("policy_kwargs"), dict)
+    """Every entry of every shipped file, for a registered id."""
+    import gymnasium as gym
+    import yaml
+
+    for path in sorted(training.HYPERPARAMS_DIR.glob("*.yml")):
+        algo = path.stem.split("_")[0]
+        assert algo in training.ALGORITHMS, path.name
+        for env_id in yaml.safe_load(path.read_text()):
+            assert env_id in gym.registry, (path.name, env_id)
+            entry = training.load_hyperparams(path, env_id, algo)
+            cfg = training.resolve(algo, env_id, 0, entry)
+            assert cfg.n_timesteps > 0 and cfg.n_envs >= 1, (path.name, env_id)
+            assert isinstance(cfg.algo_kwargs.get("policy_kwargs"), dict), (path.name, env_id)
 
 
 def test_her_and_tqc_entries_resolve_to_sb3_classes() -> None:
