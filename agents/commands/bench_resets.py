@@ -1,9 +1,14 @@
 """Reset times of every registered id: ``env.reset(seed=s)`` for ``s`` in a range of seeds.
 
-Prints, per id, the median, p99, p99.9 and maximum wall time of one seeded reset (ms) and the
-seeds of the slowest resets.  The target of issue 27 is a p99.9 below 100 ms over 10,000 seeds
-on a quiet machine; this script measures, it asserts nothing (timings depend on the machine, so
-no test times anything).
+Prints, per id, the median, p99, p99.9 and maximum wall time of one seeded reset (ms), how
+many of the interpreter's full garbage collections ran during the resets and the longest of
+them (ms), and the seeds of the slowest resets.  A full collection traverses every object of the
+process (about 100 ms once numba is loaded) and lands in whichever reset triggers it;
+``--freeze-gc`` calls :func:`gc.freeze` after making the envs (and :func:`gc.unfreeze` at the
+end), which leaves the objects alive then out of those traversals: the difference between the
+two runs is what the collector, not the resets' own work, costs.  The target of issue 27 is a
+p99.9 below 100 ms over 10,000 seeds on a quiet machine; this script measures, it asserts
+nothing (timings depend on the machine, so no test times anything).
 
 Each id is made once with ``gym.make`` (the construction is not timed) and reset once unseeded
 before the timed resets (first-use costs such as lazily built tables are not counted).
@@ -14,11 +19,13 @@ Usage::
     .venv/bin/python scripts/bench_resets.py --seeds 500 --ids Planar3PModeChange-v0
     .venv/bin/python scripts/bench_resets.py --ids Planar3PModeChange-v0 \\
         --kwargs '{"working_mode": "random"}'
+    .venv/bin/python scripts/bench_resets.py --ids Planar3PAssemblyChange-v0 --freeze-gc
 """
 
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import os
 import platform
@@ -33,7 +40,7 @@ import numpy as np
 import planar3p_gym
 from planar3p_agents.commands import checks
 from planar3p_agents.commands.parser import CliParser, UsageError
-from planar3p_agents.evaluation.throughput import reset_summary, reset_times
+from planar3p_agents.evaluation.throughput import FullCollections, reset_summary, reset_times
 from planar3p_gym.atomic_files import write_atomic
 from planar3p_gym.envs.registry import ENV_SPECS
 
@@ -58,6 +65,12 @@ def add_arguments(ap: CliParser) -> None:
         metavar="JSON",
         help="keyword arguments of gym.make for every id, a JSON object, e.g. "
         '\'{"working_mode": "random"}\'',
+    )
+    ap.add_argument(
+        "--freeze-gc",
+        action="store_true",
+        help="call gc.freeze() once the envs are made (the objects alive then, numba's compiler "
+        "state among them, are left out of later full garbage collections)",
     )
     ap.add_argument("--json", metavar="PATH", help="also write the figures as JSON to PATH")
 
@@ -110,29 +123,53 @@ def summary(times: np.ndarray, seeds: range) -> dict[str, Any]:
 def run(args: argparse.Namespace) -> int:
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     envs = make_envs(args.ids, args.kwargs)
+    if args.freeze_gc:
+        gc.freeze()
     print(
         f"python {platform.python_version()}, gymnasium {gym.__version__}, "
         f"planar3p_gym {planar3p_gym.__version__}, {os.cpu_count()} CPUs, "
         f"load average {os.getloadavg()[0]:.2f}; seeds {seeds.start}..{seeds.stop - 1}"
         + (f", kwargs {args.kwargs}" if args.kwargs else "")
+        + (", gc.freeze() after making the envs" if args.freeze_gc else "")
     )
     print(
-        f"{'id':<28} {'resets':>7} {'median':>8} {'p99':>8} {'p99.9':>8} {'max':>8}  "
-        "slowest seeds (ms)"
+        f"{'id':<28} {'resets':>7} {'median':>8} {'p99':>8} {'p99.9':>8} {'max':>8} "
+        f"{'full GCs':>9} {'longest':>8}  slowest seeds (ms)"
     )
     results = {}
-    for env_id, env in envs.items():
-        fig = summary(reset_times(env, seeds), seeds)
-        env.close()
-        results[env_id] = fig
-        slow = ", ".join(f"{s}: {t:g}" for s, t in fig["slowest"])
-        print(
-            f"{env_id:<28} {fig['resets']:>7} {fig['median_ms']:>8.2f} {fig['p99_ms']:>8.2f} "
-            f"{fig['p99.9_ms']:>8.2f} {fig['max_ms']:>8.2f}  {slow}",
-            flush=True,
-        )
+    try:
+        for env_id, env in envs.items():
+            results[env_id] = _measure(env_id, env, seeds)
+    finally:
+        if args.freeze_gc:
+            gc.unfreeze()
     print(f"(times in ms; load average {os.getloadavg()[0]:.2f} at the end)")
     if args.json is not None:
-        record = {"seeds": [seeds.start, seeds.stop], "kwargs": args.kwargs, **results}
+        record = {
+            "seeds": [seeds.start, seeds.stop],
+            "kwargs": args.kwargs,
+            "freeze_gc": args.freeze_gc,
+            **results,
+        }
         write_atomic(args.json, json.dumps(record, indent=2) + "\n")
     return 0
+
+
+def _measure(env_id: str, env: gym.Env, seeds: range) -> dict[str, Any]:
+    """Time the resets of one env, print its line and return its figures (the env is closed)."""
+    try:
+        with FullCollections() as full:
+            times = reset_times(env, seeds)
+    finally:
+        env.close()
+    fig = summary(times, seeds)
+    fig["full_collections"] = len(full.times)
+    fig["longest_full_collection_ms"] = 1e3 * max(full.times, default=0.0)
+    slow = ", ".join(f"{s}: {t:g}" for s, t in fig["slowest"])
+    print(
+        f"{env_id:<28} {fig['resets']:>7} {fig['median_ms']:>8.2f} {fig['p99_ms']:>8.2f} "
+        f"{fig['p99.9_ms']:>8.2f} {fig['max_ms']:>8.2f} {fig['full_collections']:>9} "
+        f"{fig['longest_full_collection_ms']:>8.2f}  {slow}",
+        flush=True,
+    )
+    return fig

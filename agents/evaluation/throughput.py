@@ -12,7 +12,8 @@ all alike; ratios are taken per round against the reference measured in the same
 * :func:`make_vector_env`, :func:`vector_rate`, :func:`single_rate`: total env steps/s of a
   vector env (the id's native one, ``SyncVectorEnv`` where it has none) or of a single env
   with pre-sampled actions, for a fixed duration.
-* :func:`reset_times`, :func:`reset_summary`: wall times of seeded resets.
+* :func:`reset_times`, :func:`reset_summary`: wall times of seeded resets;
+  :class:`FullCollections`: the interpreter's full garbage collections during a block.
 * :func:`step_and_floor_us`: the median full step beside the median of pymunk's own step
   alone (``cpSpaceStep`` on the env's own space, the same number of substeps).
 * :func:`profile_step`: median time per step of the parts of a ``Planar3PEnv`` step.
@@ -25,6 +26,7 @@ all alike; ratios are taken per round against the reference measured in the same
 
 from __future__ import annotations
 
+import gc
 import json
 import os
 import statistics
@@ -46,6 +48,7 @@ from planar3p_gym.envs.registry import ENV_SPECS
 __all__ = [
     "CARTPOLE",
     "REACHER",
+    "FullCollections",
     "interleave",
     "make_env",
     "make_vector_env",
@@ -229,6 +232,35 @@ def single_rate(env: gym.Env, duration: float, seed: int, pool: int = 256) -> fl
         if t >= end:
             break
     return n / (t - t0)
+
+
+class FullCollections:
+    """Counts CPython's full (generation-2) garbage collections inside a ``with`` block and
+    their wall times (s), through :data:`gc.callbacks`.
+
+    A full collection traverses every object the process tracks (some 120,000 once numba's
+    compiler state is loaded, about 100 ms on the reference machine), so it shows as a single
+    slow reset or step; pymunk's bodies and constraints are each in a reference cycle with
+    their cffi handle and are freed only by the collector, which is what triggers them."""
+
+    def __init__(self) -> None:
+        self.times: list[float] = []
+        self._start = 0.0
+
+    def _callback(self, phase: str, info: dict[str, Any]) -> None:
+        if info.get("generation") != 2:
+            return
+        if phase == "start":
+            self._start = time.perf_counter()
+        else:
+            self.times.append(time.perf_counter() - self._start)
+
+    def __enter__(self) -> FullCollections:
+        gc.callbacks.append(self._callback)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        gc.callbacks.remove(self._callback)
 
 
 def reset_times(env: gym.Env, seeds: Sequence[int | None]) -> np.ndarray:

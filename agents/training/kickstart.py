@@ -35,7 +35,9 @@ class KickstartReport:
         steps: environment steps labelled by the teacher, all rounds (summed over the envs).
         episodes: episodes the teacher finished.
         teacher_success_rate: fraction of those episodes that succeeded.
-        action_mse: final mean squared error of the student's action mean (normalised units).
+        action_mse: final loss of the student's actions: the mean squared error of its action
+            mean (normalised units) for continuous actions, the mean negative log-likelihood of
+            the teacher's actions (nats) for discrete ones.
         value_mse: final mean squared error of the value function (normalised returns).
     """
 
@@ -102,15 +104,20 @@ def kickstart_ppo(
     seed: int = 0,
     dagger_rounds: int = 2,
 ) -> KickstartReport:
-    """Fit a PPO model's action mean and value function to ``steps`` teacher-labelled steps
-    per round: one round driven by the teacher, then ``dagger_rounds`` driven by the student."""
+    """Fit a PPO model's actions and value function to ``steps`` teacher-labelled steps per
+    round: one round driven by the teacher, then ``dagger_rounds`` driven by the student.
+    Continuous actions fit the action mean (squared error), discrete ones (the on-off motors)
+    the teacher's action's probability (cross-entropy)."""
     import torch as th
     from stable_baselines3 import PPO
 
     if not isinstance(model, PPO):
         raise ValueError("kick-starting is implemented for PPO only")
+    from gymnasium import spaces
+
     per_env = max(1, steps // model.env.num_envs)
     policy = model.policy
+    continuous = isinstance(model.action_space, spaces.Box)
     device = policy.device
     params = [p for name, p in policy.named_parameters() if name != "log_std"]
     optimizer = th.optim.Adam(params, lr=learning_rate)
@@ -137,9 +144,14 @@ def kickstart_ppo(
             a_sum = v_sum = 0.0
             for start in range(0, n, batch_size):
                 idx = order[start : start + batch_size].to(device)
-                mean = policy.get_distribution(obs[idx]).distribution.mean
-                values = policy.predict_values(obs[idx]).flatten()
-                a_loss = th.mean((mean - act[idx]) ** 2)
+                if continuous:  # the action mean onto the teacher's actions
+                    mean = policy.get_distribution(obs[idx]).distribution.mean
+                    values = policy.predict_values(obs[idx]).flatten()
+                    a_loss = th.mean((mean - act[idx]) ** 2)
+                else:  # discrete actions: the teacher's action made likely (cross-entropy)
+                    values, log_prob, _ = policy.evaluate_actions(obs[idx], act[idx])
+                    values = values.flatten()
+                    a_loss = -th.mean(log_prob)
                 v_loss = th.mean((values - ret[idx]) ** 2)
                 optimizer.zero_grad()
                 (a_loss + 0.5 * v_loss).backward()

@@ -8,6 +8,7 @@ fast paths are checked against the slow reference they replace, decision for dec
 from __future__ import annotations
 
 import itertools
+import json
 import math
 
 import gymnasium as gym
@@ -517,3 +518,31 @@ def test_bench_resets_prints_the_figures(capsys, tmp_path):
     text = capsys.readouterr().out
     assert "Planar3P-v0" in text and "p99.9" in text
     assert '"Planar3P-v0"' in out.read_text()
+
+
+def test_full_collections_are_counted_and_a_frozen_gc_is_thawed(capsys, tmp_path):
+    """bench-resets reports the interpreter's full collections during the resets (one forced
+    here); ``--freeze-gc`` freezes after making the envs and unfreezes at the end."""
+    import gc
+
+    from planar3p_agents.evaluation.throughput import FullCollections
+
+    gc.disable()  # only the explicit collections below (callbacks still run)
+    try:
+        with FullCollections() as full:
+            gc.collect(1)  # a young collection is not a full one
+            gc.collect()
+    finally:
+        gc.enable()
+    assert len(full.times) == 1 and full.times[0] >= 0.0
+    assert full._callback not in gc.callbacks
+    mod = load_script("bench_resets")
+    out = tmp_path / "resets.json"
+    argv = ["--seeds", "2", "--ids", "Planar3P-v0", "--freeze-gc", "--json", str(out)]
+    assert mod.main(argv) == 0
+    assert gc.get_freeze_count() == 0
+    text = capsys.readouterr().out
+    assert "gc.freeze()" in text and "full GCs" in text
+    record = json.loads(out.read_text())
+    assert record["freeze_gc"] is True
+    assert record["Planar3P-v0"]["full_collections"] >= 0
