@@ -540,6 +540,7 @@ class Planar3PEnv(gym.Env):
         if self.travel_goal:
             self._target_rho = kinematics.inverse(self.design, self._target, mode).rho
         machine = self._draw_machine(start, mode) if self.randomization else self._machine
+        previous = self._sim
         self._sim = Planar3PSim(
             machine.design,
             start,
@@ -550,6 +551,8 @@ class Planar3PEnv(gym.Env):
             projection=self.projection,
             dynamics=None if self.randomization is None else machine.dynamics,
         )
+        if previous is not None:  # freed now, not left to the garbage collector
+            previous.close()
         state = self._sim.state
         self._measures = self._true_kin.measures(state.pose, state.rho)
         self._assembly = self._measures.det_sign
@@ -850,6 +853,8 @@ class Planar3PEnv(gym.Env):
             )
         sim = None if state["sim"] is None else Planar3PSim.from_state(state["sim"])
         self._restore_random_state(state)
+        if self._sim is not None:  # the model being replaced (Planar3PSim.close)
+            self._sim.close()
         self._sim = sim
         for key, value in copy.deepcopy(state["episode"]).items():
             setattr(self, key, value)

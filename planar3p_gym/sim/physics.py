@@ -99,8 +99,10 @@ try:  # Direct Chipmunk calls skip pymunk's per-call Python bookkeeping (the hot
             "pmIntArrayNew",
         )
     )
+    #: Whether :meth:`Planar3PSim.close` can clear the Chipmunk user data (pymunk's bindings).
+    _RELEASE = hasattr(_cp, "cpBodySetUserData") and hasattr(_cp, "cpConstraintSetUserData")
 except ImportError:  # pragma: no cover - other pymunk builds
-    _FAST = False
+    _FAST = _RELEASE = False
 
 #: Numbers per body in a readout: ``x, y, angle, vx, vy, angular velocity`` (pymunk's batch
 #: layout for these fields).
@@ -381,6 +383,7 @@ class Planar3PSim:
             },
         )
         self._commands = array("d")
+        self._closed = False
         #: ``(u_1x, u_1y, u_2x, u_2y, u_3x, u_3y, cos theta, sin theta)`` after the last
         #: projected step (:class:`planar3p_gym.sim.projection.Projected`); None without one.
         self.geometry: tuple[float, ...] | None = None
@@ -541,6 +544,8 @@ class Planar3PSim:
 
     def step_unchecked(self, v0: float, v1: float, v2: float) -> SimState:
         """:meth:`step` without input validation, for callers that validated already."""
+        if self._closed:
+            raise ValueError("this simulation was closed (Planar3PSim.close); build a new one")
         self._commands.extend((v0, v1, v2))
         if self._lag != 1.0:  # first-order servo lag (MachineDynamics.servo_lag)
             lagged, f = self._lagged, self._lag
@@ -658,6 +663,39 @@ class Planar3PSim:
             elif slider_x - setpoints[i] > FOLLOWING_ERROR_LIMIT:
                 drive.position = (slider_x - FOLLOWING_ERROR_LIMIT, 0.0)
 
+    # ------------------------------------------------------------------ release
+    def close(self) -> None:
+        """Free the pymunk model now (idempotent): stepping raises ``ValueError`` afterwards;
+        :attr:`state` and :meth:`get_state` stay readable.
+
+        Why by hand: every pymunk body and constraint keeps a cffi handle to itself as its
+        Chipmunk user data, a reference cycle that only the garbage collector frees.  Each
+        discarded model would leave some 400 objects to the collector, whose survivors of the
+        young collections trigger the full ones; a full collection traverses the whole process
+        (about 100 ms once numba is loaded), which showed as 100-200 ms resets
+        (docs/throughput.md, reset tails).  Closing removes the constraints and bodies from the
+        space, clears their user data in Chipmunk (pymunk's destructors only remove and free,
+        they never read it) and drops the handles, so the model is freed by reference
+        counting as soon as its last reference goes.  The handles are pymunk's private
+        ``_data_handle`` attributes (pymunk 7, pinned); without them the objects are only
+        removed from the space and left to the collector as before."""
+        if self._closed:
+            return
+        self._closed = True
+        space = self.space
+        constraints, bodies = list(space.constraints), list(space.bodies)
+        space.remove(*constraints, *bodies)
+        if not _RELEASE:  # pragma: no cover - other pymunk builds
+            return
+        for obj in (*constraints, *bodies, space.static_body):
+            if not hasattr(obj, "_data_handle"):
+                continue
+            if isinstance(obj, pymunk.Constraint):
+                _cp.cpConstraintSetUserData(obj._constraint, _ffi.NULL)
+            else:
+                _cp.cpBodySetUserData(obj._body, _ffi.NULL)
+            obj._data_handle = None
+
     # ------------------------------------------------------------------ snapshots
     def get_state(self) -> SimSnapshot:
         """A snapshot from which :meth:`set_state` / :meth:`from_state` restore this simulation
@@ -687,7 +725,9 @@ class Planar3PSim:
 
     def set_state(self, snapshot: SimSnapshot) -> None:
         """Put this simulation in the state of ``snapshot`` (see :meth:`from_state`)."""
-        self.__dict__.update(Planar3PSim.from_state(snapshot).__dict__)
+        fresh = Planar3PSim.from_state(snapshot)
+        self.close()  # the model being replaced
+        self.__dict__.update(fresh.__dict__)
 
     def __getstate__(self) -> dict:
         # pymunk's C structures cannot be pickled; a snapshot rebuilds them exactly.

@@ -145,6 +145,22 @@ def verify_crossing(
     s = np.asarray(start, dtype=np.float64)
     t = np.asarray(target, dtype=np.float64)
     sim = make_sim(s, mode)
+    try:
+        return _run_demonstration(design, sim, s, t, mode, limits, breakdown_distance)
+    finally:
+        sim.close()  # freed now, not left to the garbage collector (Planar3PSim.close)
+
+
+def _run_demonstration(
+    design: Design,
+    sim: Planar3PSim,
+    s: np.ndarray,
+    t: np.ndarray,
+    mode: ModeTriple,
+    limits: CrossingLimits,
+    breakdown_distance: float,
+) -> tuple[bool, dict[str, float]]:
+    """The body of :func:`verify_crossing` on its simulation ``sim``."""
     kin = ScalarKinematics(design)
     state = sim.state
     target_asm = -kin.measures(state.pose, state.rho).det_sign

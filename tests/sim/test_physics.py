@@ -123,6 +123,31 @@ def test_built_state_is_the_exact_inverse_kinematics():
             np.testing.assert_allclose(st.leg_angles, np.arctan2(u[:, 1], u[:, 0]), atol=1e-12)
 
 
+def test_a_closed_simulation_is_freed_by_reference_counting():
+    """close() (issue 27's reset tails): the model no longer needs the garbage collector,
+    stays readable, refuses to step, and closing twice is harmless."""
+    import gc
+    import weakref
+
+    sim = Planar3PSim(DESIGN, sampled_starts(DEFAULT_MODE, 1)[0], DEFAULT_MODE, projection=True)
+    sim.step((0.01, 0.0, -0.01))
+    state, snapshot = sim.state, sim.get_state()
+    bodies = [weakref.ref(b) for b in (sim.platform, *sim.sliders, *sim.legs)]
+    sim.close()
+    sim.close()
+    assert sim.state == state and sim.get_state() == snapshot
+    with pytest.raises(ValueError, match="closed"):
+        sim.step((0.0, 0.0, 0.0))
+    assert sim.get_state() == snapshot  # the refused step recorded nothing
+    np.testing.assert_array_equal(Planar3PSim.from_state(snapshot).state.pose, state.pose)
+    gc.disable()  # freed without the collector: by reference counting alone
+    try:
+        del sim
+        assert all(ref() is None for ref in bodies)
+    finally:
+        gc.enable()
+
+
 @pytest.mark.parametrize(
     "kwargs",
     [
