@@ -1,4 +1,4 @@
-"""Train a PPO, SAC, TD3 or TQC agent (Stable-Baselines3 / sb3-contrib) on a registered id.
+"""Train a PPO, SAC, TD3, TQC or DQN agent (Stable-Baselines3 / sb3-contrib) on a registered id.
 
 Hyperparameters come from agents/training/hyperparams/<algo>.yml (rl-zoo3 format, keyed by
 the environment id) unless --hyperparams names another file; --params overrides single
