@@ -107,21 +107,9 @@ def test_dqn_trains_on_the_on_off_machine_and_the_benchmark_plays_it(tmp_path: P
     assert config["config"]["algo"] == "dqn"
     assert config["config"]["env_kwargs"] == {"action_type": "on-off-discrete"}
     out = tmp_path / "bench"
-    code = bench.main(
-        [
-            "--suites",
-            "real-on-off",
-            "--policies",
-            f"dqn:{run / 'model.zip'}:stats={run / 'vecnormalize.pkl'}",
-            "--episodes",
-            "1",
-            "--out",
-            str(out),
-            "--no-progress",
-            "--no-plots",
-        ]
-    )
-    assert code == 0
+    spec = f"dqn:{run / 'model.zip'}:stats={run / 'vecnormalize.pkl'}"
+    argv = "--suites real-on-off --episodes 1 --no-progress --no-plots".split()
+    assert bench.main([*argv, "--policies", spec, "--out", str(out)]) == 0
     summary = json.loads((out / "summary.json").read_text())
     (row,) = [r for r in summary["summaries"] if r["suite"] == "real-on-off"]
     assert row["episodes"] == 1
