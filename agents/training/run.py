@@ -170,26 +170,6 @@ def _task_schedule(cfg: TrainConfig) -> list[tuple[int, dict[str, Any]]] | None:
         env.close()
 
 
-def _check_action_space(cfg: TrainConfig) -> None:
-    """DQN needs a ``Discrete`` action space: ``ValueError`` saying how to get one otherwise
-    (before SB3's own assertion, which would read as a bad hyperparameter)."""
-    if cfg.algo != "dqn":
-        return
-    import gymnasium as gym
-
-    env = gym.make(cfg.env_id, **cfg.env_kwargs)
-    try:
-        space = env.action_space
-    finally:
-        env.close()
-    if not isinstance(space, gym.spaces.Discrete):
-        raise ValueError(
-            f"DQN needs a Discrete action space; {cfg.env_id} with {cfg.env_kwargs or 'no'} "
-            f"environment kwargs has {space} (for the on-off machine pass --env-kwargs "
-            "action_type='\"on-off-discrete\"')"
-        )
-
-
 def _check_native(cfg: TrainConfig) -> None:
     from planar3p_agents.training.vec_adapter import make_native_vec_env
 
@@ -219,6 +199,7 @@ def _check_model(cfg: TrainConfig) -> Any:
                 cfg.algo_kwargs[key] = tuple(value)
     venv = DummyVecEnv([EnvFactory(cfg.env_id, cfg.env_kwargs)] * cfg.n_envs)
     try:
+        _check_action_space(cfg, venv.action_space)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             if cfg.normalize is not None:
@@ -228,6 +209,19 @@ def _check_model(cfg: TrainConfig) -> Any:
         raise ValueError(f"invalid hyperparameters for {cfg.algo.upper()}: {exc!r}") from exc
     finally:
         venv.close()
+
+
+def _check_action_space(cfg: TrainConfig, space: Any) -> None:
+    """DQN needs a ``Discrete`` action space: ``ValueError`` saying how to get one otherwise
+    (before SB3's own assertion, which would read as a bad hyperparameter)."""
+    from gymnasium import spaces
+
+    if cfg.algo == "dqn" and not isinstance(space, spaces.Discrete):
+        raise ValueError(
+            f"DQN needs a Discrete action space; {cfg.env_id} with {cfg.env_kwargs or 'no'} "
+            f"environment kwargs has {space} (for the on-off machine pass --env-kwargs "
+            "action_type='\"on-off-discrete\"')"
+        )
 
 
 #: Hyperparameters that must be at least 1 (SB3 fails only later, while training).
@@ -332,7 +326,6 @@ def plan_run(
     schedule = _task_schedule(cfg)
     if options.vec_env == "native":
         _check_native(cfg)
-    _check_action_space(cfg)
     model = _check_model(cfg)
     done = resume_from[1] if resume_from else 0
     if cfg.n_timesteps <= done:

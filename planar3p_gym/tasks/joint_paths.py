@@ -26,6 +26,7 @@ from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.statics import holding_forces_at
+from planar3p_gym.tasks.observation import wrap_angle
 
 __all__ = [
     "JointPath",
@@ -165,15 +166,15 @@ def _walk(
     """The branch walk of :func:`_track`: for each segment ``s``, from ``start[s]`` through the
     solutions ``cand[s, j]`` ``(4, 3)`` (``valid[s, j]`` marks the real ones) point after
     point, the index of the followed solution at every point and whether the branch stayed
-    unambiguous (gaps ``|(dx, dy, length * dtheta)|``, m, with ``dtheta`` wrapped to
-    ``[-pi, pi)``; ties go to the lower index).  Written as loops and compiled with numba
-    because it only ever compares the followed solution with the next point's four, where an
-    array formulation computes all sixteen gaps per point and sorts them; past the point where
-    a branch is lost its indices stay 0."""
+    unambiguous (the gaps of :func:`_pose_gap`, ``|(dx, dy, length * dtheta)|`` in m, with
+    ``dtheta`` wrapped by :func:`~planar3p_gym.tasks.observation.wrap_angle`; ties go to the
+    lower index).  Written as loops and compiled with numba because it only ever compares the
+    followed solution with the next point's four, where an array formulation computes all
+    sixteen gaps per point and sorts them; past the point where a branch is lost its indices
+    stay 0."""
     n, points = cand.shape[0], cand.shape[1]
     index = np.zeros((n, points), dtype=np.intp)
     alive = np.zeros(n, dtype=np.bool_)
-    two_pi = 2.0 * math.pi
     for s in range(n):
         px, py, pt = start[s, 0], start[s, 1], start[s, 2]
         ok = True
@@ -184,7 +185,7 @@ def _walk(
                     continue
                 dx = cand[s, j, m, 0] - px
                 dy = cand[s, j, m, 1] - py
-                dt = ((cand[s, j, m, 2] - pt + math.pi) % two_pi - math.pi) * length
+                dt = wrap_angle(cand[s, j, m, 2] - pt) * length
                 gap = math.sqrt(dx * dx + dy * dy + dt * dt)
                 if gap < best:
                     second, best, k = best, gap, m
