@@ -5,7 +5,9 @@ each entry holding the algorithm's keyword arguments plus the zoo's own keys ``n
 ``policy``, ``n_envs``, ``normalize`` (bool, or a dict / string of VecNormalize kwargs),
 ``noise_type``/``noise_std`` (action noise of off-policy algorithms) and ``policy_kwargs``
 (a mapping, or a string such as ``"dict(net_arch=[256, 256])"`` as the zoo writes them).
-Off-policy entries may name ``replay_buffer_class: HerReplayBuffer`` with
+Off-policy entries may name ``replay_buffer_class: HerReplayBuffer`` (or the project's
+:class:`~planar3p_agents.training.her.CompactHerReplayBuffer`, the same with only the ``info``
+keys relabelling reads kept) with
 ``replay_buffer_kwargs`` (a mapping or a ``dict(...)`` string) for goal-conditioned ids
 (``Planar3PGoal-v0``), as rl-zoo3's files do; ``tqc`` is sb3-contrib's TQC.
 A ``lin_`` prefix on ``learning_rate`` or ``clip_range`` means a linear schedule to 0
@@ -68,7 +70,7 @@ ALGORITHMS = ("ppo", "sac", "td3", "tqc", "dqn")
 #: Off-policy algorithms (replay buffer saved with checkpoints; HER possible).
 OFF_POLICY = ("sac", "td3", "tqc", "dqn")
 #: Replay buffers a YAML entry may name in ``replay_buffer_class`` (by their SB3 class name).
-REPLAY_BUFFERS = ("HerReplayBuffer",)
+REPLAY_BUFFERS = ("HerReplayBuffer", "CompactHerReplayBuffer")
 #: Where the shipped, tuned hyperparameter files live (``<algo>.yml``).
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 
@@ -349,9 +351,12 @@ def _resolve_replay_buffer(algo: str, kwargs: dict[str, Any]) -> None:
             raise ValueError(
                 f"replay_buffer_class must be one of {', '.join(REPLAY_BUFFERS)}, got {name!r}"
             )
-        from stable_baselines3 import HerReplayBuffer
+        if name == "CompactHerReplayBuffer":
+            from planar3p_agents.training.her import CompactHerReplayBuffer as buffer_class
+        else:
+            from stable_baselines3 import HerReplayBuffer as buffer_class
 
-        kwargs["replay_buffer_class"] = HerReplayBuffer
+        kwargs["replay_buffer_class"] = buffer_class
     buffer_kwargs = kwargs.get("replay_buffer_kwargs")
     if isinstance(buffer_kwargs, str):
         buffer_kwargs = _literal(buffer_kwargs, "replay_buffer_kwargs")

@@ -50,6 +50,7 @@ from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
     "GOAL_SIZE",
+    "RELABEL_INFO_KEYS",
     "REWARD_TYPES",
     "GoalTask",
     "achieved_goal",
@@ -64,6 +65,9 @@ __all__ = [
 
 #: Length of a goal vector ``(x, y, cos theta, sin theta, v)``.
 GOAL_SIZE = 5
+#: The keys of a step's ``info`` that :func:`goal_reward` (and so the goal env's
+#: ``compute_reward``) reads: all a replay buffer must keep of ``info`` for exact relabelling.
+RELABEL_INFO_KEYS = ("goal_free_reward", "failure")
 #: Reward variants: ``"sparse"`` (0 on success, -1 otherwise) or ``"dense"`` (the reach
 #: reward's shaping terms).
 REWARD_TYPES = ("sparse", "dense")
