@@ -198,7 +198,10 @@ def _load_suite_policies(
     for name in suites:
         task = name in TASK_SUITES
         base = TASK_SUITES[name].baselines if task else REACH_BASELINES
-        texts = [t for spec in specs for t in (base if spec == "baselines" else (spec,))]
+        # A name both in the suite's baselines and given on its own is played once.
+        texts = list(
+            dict.fromkeys(t for spec in specs for t in (base if spec == "baselines" else (spec,)))
+        )
         pols: dict[str, Any] = {}
         for text in texts:
             label = policy_label(text)

@@ -28,6 +28,7 @@ from planar3p_gym.tasks.observation import SLICES
 __all__ = [
     "FAILURE_CAUSES",
     "EpisodeResult",
+    "episode_bound",
     "episode_seed",
     "evaluate",
     "reset_episode",
@@ -130,7 +131,7 @@ def speed_bound(design: Design, start: Any, target: Any, mode: Any) -> float:
     return bound if math.isfinite(bound) else math.nan
 
 
-def _episode_bound(design: Design, spec: EpisodeSpec) -> float:
+def episode_bound(design: Design, spec: EpisodeSpec) -> float:
     """:func:`speed_bound` of ``spec`` if its target is in its start's working mode (a reach
     suite, or the goal task), else NaN."""
     if spec.target is None:
@@ -237,7 +238,7 @@ def run_episode(
         cause = _diagnose(info, design, base.task_config) if can_succeed else "completed"
     else:
         cause = reason
-    bound = _episode_bound(design, spec)
+    bound = episode_bound(design, spec)
     return EpisodeResult(
         policy=policy_name,
         suite=spec.suite,

@@ -72,54 +72,76 @@ class TaskSuiteDef:
     index: int = 0
 
 
+#: The goal-conditioned suites' baselines: the analytic controller as shipped, the strongest
+#: baselines of the reach (tuned gain, slider line, certified planner; issue 25, item 1) and the
+#: random policy (the 0 of the normalized scores), through the goal adapter.
+GOAL_BASELINES = (
+    "analytic-simultaneous",
+    "analytic-tuned",
+    "slider-line",
+    "certified",
+    "random",
+)
 #: The task suites, in report order.
 TASK_SUITES: dict[str, TaskSuiteDef] = {
     "goal": TaskSuiteDef(
         "Planar3PGoal-v0",
         {},
-        ("analytic-simultaneous",),
+        GOAL_BASELINES,
         "goal-conditioned reach (sparse reward): start/goal pairs as the environment draws them",
         1,
     ),
     "goal-dense": TaskSuiteDef(
         "Planar3PGoalDense-v0",
         {},
-        ("analytic-simultaneous",),
+        GOAL_BASELINES,
         "goal-conditioned reach (dense reward): start/goal pairs as the environment draws them",
         6,
     ),
     "track-segments": TaskSuiteDef(
         "Planar3PTrack-v0",
         {"reference": "segments"},
-        ("analytic-simultaneous", "analytic-feedforward", "analytic-feedforward-tuned", "zero"),
+        (
+            "analytic-simultaneous",
+            "analytic-feedforward",
+            "analytic-feedforward-tuned",
+            "random",
+            "zero",
+        ),
         "tracking a reference of smooth random minimum-jerk segments",
         2,
     ),
     "track-figure-eight": TaskSuiteDef(
         "Planar3PTrack-v0",
         {"reference": "figure_eight"},
-        ("analytic-simultaneous", "analytic-feedforward", "analytic-feedforward-tuned", "zero"),
+        (
+            "analytic-simultaneous",
+            "analytic-feedforward",
+            "analytic-feedforward-tuned",
+            "random",
+            "zero",
+        ),
         "tracking a figure-eight reference",
         3,
     ),
     "mode-change": TaskSuiteDef(
         "Planar3PModeChange-v0",
         {},
-        ("analytic-simultaneous", "planner", "zero"),
+        ("analytic-simultaneous", "planner", "random", "zero"),
         "start and target in different working modes (a leg must pass its rail's perpendicular)",
         4,
     ),
     "assembly-change": TaskSuiteDef(
         "Planar3PAssemblyChange-v0",
         {},
-        ("analytic-simultaneous", "crossing", "zero"),
+        ("analytic-simultaneous", "crossing", "random", "zero"),
         "start and target in opposite assembly modes (crossing a parallel singularity)",
         5,
     ),
     "real-reach": TaskSuiteDef(
         "Planar3PReal-v0",
         {},
-        ("analytic-simultaneous", "analytic-tuned", "slider-line", "certified", "zero"),
+        ("analytic-simultaneous", "analytic-tuned", "slider-line", "certified", "random", "zero"),
         "reach on the machine as built (randomised machine per episode, encoder readings through "
         "the nominal model, one step of action delay)",
         7,
@@ -154,7 +176,7 @@ TASK_SUITES: dict[str, TaskSuiteDef] = {
             "sensors": REALISTIC_SENSORS.to_dict(),
             "latency": REALISTIC_LATENCY.to_dict(),
         },
-        ("analytic-simultaneous", "planner", "zero"),
+        ("analytic-simultaneous", "planner", "random", "zero"),
         "working-mode change on the machine as built (the randomisation, sensors and delay of "
         "Planar3PReal-v0)",
         11,

@@ -5,9 +5,11 @@ A baseline tuned on the episodes it is then scored on would be flattered; so eac
 drawn again from :data:`TUNING_SEED` (never the benchmark's seed), and the gain is chosen on
 that draw among a fixed grid:
 
-* reach suites (``standard``, ``hard``, ``far``), the simple motions
-  (:class:`~planar3p_agents.controllers.analytic.AnalyticController`, simultaneous): the
-  highest success rate, then the shortest median time to success, then the smaller gain;
+* reach suites (``standard``, ``hard``, ``far``, the goal-conditioned ``goal`` and
+  ``goal-dense`` and the built machine's ``real-reach``), the simple motions
+  (``analytic-simultaneous:gain=K`` of the baseline registry, through the goal adapter on the
+  goal ids): the highest success rate, then the shortest median time to success, then the
+  smaller gain;
 * tracking suites (``track-segments``, ``track-figure-eight``), the feed-forward controller
   (:class:`~planar3p_agents.controllers.tracking.TrackingController`): no failure (crossing or
   breakdown), then the smallest median RMS tracking error, then the smaller gain.
@@ -56,7 +58,11 @@ TRACK_GRID: tuple[float, ...] = (4.0, 6.0, 8.0, 12.0, 16.0, 20.0, 25.0, 30.0, 40
 TUNED_GAINS_FILE = Path(__file__).with_name("tuned_gains.json")
 #: Tuned baseline -> (the controller tuned, the suites it is tuned on, default suite).
 TUNED_BASELINES: dict[str, tuple[str, tuple[str, ...], str]] = {
-    "analytic-tuned": ("analytic-simultaneous", ("standard", "hard", "far"), "standard"),
+    "analytic-tuned": (
+        "analytic-simultaneous",
+        ("standard", "hard", "far", "goal", "goal-dense", "real-reach"),
+        "standard",
+    ),
     "analytic-feedforward-tuned": (
         "analytic-feedforward",
         ("track-segments", "track-figure-eight"),
@@ -66,12 +72,12 @@ TUNED_BASELINES: dict[str, tuple[str, tuple[str, ...], str]] = {
 
 
 def _controller(name: str, env: Any, gain: float) -> Any:
-    from planar3p_agents.controllers.analytic import AnalyticController
     from planar3p_agents.controllers.tracking import TrackingController
+    from planar3p_agents.policies.factory import load_policy
 
     if name == "analytic-feedforward":
         return TrackingController.from_env(env, position_gain=gain, orientation_gain=gain)
-    return AnalyticController.from_env(env, position_gain=gain, orientation_gain=gain)
+    return load_policy(f"{name}:gain={gain:g}", env)
 
 
 def _draw(suite: str, episodes: int, seed: int) -> tuple[Any, Any]:

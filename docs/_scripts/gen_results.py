@@ -17,10 +17,14 @@ it; ``tests/test_docs.py`` checks that the README's copy matches the data).
 from __future__ import annotations
 
 import argparse
+import json
+import math
 import re
+from functools import cache
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import p3docs as P
 from results_data import (
     format_success,
@@ -32,6 +36,9 @@ from results_data import (
     study_page_name,
     suite_env,
 )
+
+from planar3p_agents.evaluation import normalized_scores as NS
+from planar3p_agents.evaluation.seed_statistics import group_label, stratified_bootstrap_iqm
 
 OUT = P.DOCS / "results"
 NOTES = P.NOTES / "studies"
@@ -158,6 +165,13 @@ HEADLINE: list[dict[str, str]] = [
 
 UNITS = {"success": "%", "time": "s", "tracking": "mm"}
 
+#: The studies that played the strongest baselines on the suites' seed-0 draws: the reach suites
+#: (``strongest-baselines``) and the task suites (``tasks``).  The headline compares each learned
+#: policy with the baselines of these runs (and says when its study drew other episodes).
+REFERENCE_STUDIES = ("strongest-baselines", "tasks")
+#: Bootstrap resamples of the headline's normalized-score intervals.
+RESAMPLES = 2000
+
 #: The order of the studies in the navigation (the story: baselines, learning from scratch and
 #: its probes, residual policies, the other tasks, the stress test); studies not named here
 #: follow in alphabetical order.
@@ -216,38 +230,122 @@ def parse_seed_table(path: Path) -> list[dict[str, str]]:
     return rows
 
 
-def _baseline_value(r: dict[str, Any], metric: str) -> str:
-    if metric == "tracking":
-        return f"{r['tracking_rms_mm']:.3f} mm"
-    if metric == "time":
-        t = r["time_to_success"]
-        return f"{format_success(r)} %, {t:.2f} s" if t is not None else format_success(r)
-    return f"{format_success(r)} %"
+@cache
+def _episodes(folder: Path) -> tuple[dict[str, str], ...]:
+    return tuple(_with_bounds(folder, NS.read_rows(folder / "episodes.csv")))
 
 
-def strongest_builtin(study: dict[str, Any], suite: str, metric: str) -> list[dict[str, Any]]:
-    """The plain analytic controller and, if different, the strongest built-in policy of a
-    study on ``suite`` (floor references left out)."""
-    specs = study["summary"]["settings"].get("policies", {})
-    rows = [
-        row_of(study, s)
-        for s in study["summary"]["summaries"]
-        if s["suite"] == suite
-        and is_builtin(specs.get(s["policy"], s["policy"]))
-        and s["policy"] not in ("zero", "random")
-    ]
-    if not rows:
-        return []
-    if metric == "tracking":
-        best = min(rows, key=lambda r: r["tracking_rms_mm"])
-        plain = [r for r in rows if r["policy"] == "analytic-feedforward"]
-    else:
-        best = max(rows, key=lambda r: (r["success_rate"] or 0, -(r["time_to_success"] or 1e9)))
-        plain = [r for r in rows if r["policy"] == "analytic-simultaneous"]
-    out = plain[:1]
-    if best not in out:
-        out.append(best)
+#: What makes an episode of a suite (``suites.json`` also records path diagnostics, which
+#: later versions of the benchmark compute differently for the same episodes).
+EPISODE_KEYS = ("start", "target", "working_mode", "options")
+
+
+def _suite_episodes(study: dict[str, Any], suite: str) -> str:
+    """The episodes of ``suite`` in a study's ``suites.json`` (canonical JSON of
+    :data:`EPISODE_KEYS`)."""
+    entries = (study["suites"] or {}).get("suites", [])
+    hit = [e.get("episodes") for e in entries if e.get("name") == suite]
+    episodes = [{k: e.get(k) for k in EPISODE_KEYS} for e in (hit[0] if hit else [])]
+    return json.dumps(episodes, sort_keys=True)
+
+
+@cache
+def _bounds(folder: Path) -> dict[tuple[str, str], float]:
+    """The speed bound (s) of every episode of a study's suites, by ``(suite, index)``, from its
+    ``suites.json`` (:func:`planar3p_agents.evaluation.episodes.speed_bound`; NaN where the
+    task has none).  Studies written before the benchmark recorded the bound get it here."""
+    from planar3p_agents.evaluation.episodes import episode_bound
+    from planar3p_agents.evaluation.reach_suites import load_suites
+
+    path = folder / "suites.json"
+    if not path.exists():
+        return {}
+    suites, design = load_suites(path)
+    return {
+        (name, str(spec.index)): episode_bound(design, spec)
+        for name, suite in suites.items()
+        for spec in suite.episodes
+    }
+
+
+def _with_bounds(folder: Path, rows: list[dict[str, str]]) -> list[dict[str, str]]:
+    """``rows`` with the speed bound filled in where the study did not record it."""
+    bounds = _bounds(folder)
+    out = []
+    for r in rows:
+        if not r.get("speed_bound"):
+            r = {**r, "speed_bound": str(bounds.get((r["suite"], r["index"]), math.nan))}
+        out.append(r)
     return out
+
+
+def _median_over_bound(rows: list[dict[str, str]]) -> float:
+    """Median time to success over the speed bound of the successful episodes (NaN if none)."""
+    r = [NS.episode_values(x)["time"] for x in rows]
+    inv = [1.0 / v for v in r if math.isfinite(v) and v > 0]
+    return float(np.median(inv)) if inv else math.nan
+
+
+def _scores(rows: list[dict[str, str]], suite: str) -> dict[str, tuple[float, float, float]]:
+    """Per metric with a reference on ``suite`` (success and time; the return where neither
+    has one, as on tracking): the IQM of the runs' normalized scores (one run per training
+    seed) and its 95 % stratified-bootstrap interval."""
+    matrix = NS.score_matrix(rows)
+    refs = NS.load_references().get(suite, {})
+    metrics = [m for m in ("success", "time") if m in refs] or ["return"]
+    out = {}
+    for m in metrics:
+        x = np.array([r[f"score_{m}"] for r in matrix], dtype=np.float64)
+        if x.size and np.isfinite(x).all():
+            out[m] = stratified_bootstrap_iqm(x[:, None], n_resamples=RESAMPLES, seed=0)
+    return out
+
+
+def _fmt_scores(scores: dict[str, tuple[float, float, float]], intervals: bool) -> str:
+    """``success 92 [90, 94], time 80 [78, 83]`` (with intervals) or ``score 92 / 80``
+    (``return score 99`` where the return is the only score)."""
+    if not scores:
+        return "–"
+    if not intervals:
+        label = "return score " if list(scores) == ["return"] else "score "
+        return label + " / ".join(f"{p:.0f}" for p, _, _ in scores.values())
+    return ", ".join(f"{m} {p:.0f} [{lo:.0f}, {hi:.0f}]" for m, (p, lo, hi) in scores.items())
+
+
+def _fmt_ratio(x: float) -> str:
+    return f"{x:.2f}x" if math.isfinite(x) else "–"
+
+
+def reference_baselines(study: dict[str, Any], suite: str) -> str:
+    """The paper's controller and the suite's strongest baselines
+    (:func:`planar3p_agents.evaluation.normalized_scores.best_baselines`) as played by the
+    reference study of ``suite``: success %, median time over the speed bound, normalized
+    scores."""
+    for name in REFERENCE_STUDIES:
+        ref = _study(name)
+        rows = [r for r in _episodes(ref["folder"]) if r["suite"] == suite]
+        if rows:
+            break
+    else:
+        return "–"
+    cells = []
+    for policy in dict.fromkeys(("analytic-simultaneous", *NS.best_baselines(suite))):
+        sel = [r for r in rows if r["policy"] == policy]
+        if not sel:
+            continue
+        scores = _scores(sel, suite)
+        parts = [f"`{policy}`"]
+        if "success" in scores:
+            parts.append(
+                f"{100.0 * np.mean([NS.episode_values(r)['success'] for r in sel]):.0f} %,"
+            )
+        if "time" in scores:
+            parts.append(f"{_fmt_ratio(_median_over_bound(sel))},")
+        parts.append(_fmt_scores(scores, intervals=False))
+        cells.append(" ".join(parts))
+    same = _suite_episodes(ref, suite) == _suite_episodes(study, suite)
+    note = "" if same else f" (`{ref['name']}`'s draw of the suite)"
+    return "; ".join(cells) + note
 
 
 def headline_rows() -> list[list[str]]:
@@ -261,17 +359,22 @@ def headline_rows() -> list[list[str]]:
             raise LookupError(f"{h['study']}/{h['seeds']}: no row {h['policy']} on {h['suite']}")
         r = hit[0]
         learned = f"{r['iqm']} {UNITS[h['metric']]} (seeds: {r['per_seed']})"
-        base = "; ".join(
-            f"`{b['policy']}` {_baseline_value(b, h['metric'])}"
-            for b in strongest_builtin(study, h["suite"], h["metric"])
-        )
+        rows = [
+            x
+            for x in _episodes(study["folder"])
+            if x["suite"] == h["suite"] and group_label(x["policy"]) == h["policy"]
+        ]
+        if not rows:
+            raise LookupError(f"{h['study']}: no episodes of {h['policy']} on {h['suite']}")
         env = suite_env(study, h["suite"])
         out.append(
             [
                 f"{h['task']} (`{h['suite']}`, `{env}`)",
                 h["learned"],
                 learned,
-                base,
+                _fmt_scores(_scores(rows, h["suite"]), intervals=True),
+                _fmt_ratio(_median_over_bound(rows)),
+                reference_baselines(study, h["suite"]),
                 h.get("note", ""),
                 h["study"],
             ]
@@ -283,7 +386,9 @@ HEADLINE_HEADER = [
     "task (suite, id)",
     "learned policy",
     "learned: IQM [95% CI] across seeds",
-    "built-in baselines, same episodes",
+    "normalized score: IQM [95% CI] across seeds",
+    "time / speed bound (median)",
+    "baselines: success, time / speed bound, normalized score",
     "verdict",
     "study",
 ]

@@ -193,6 +193,44 @@ def test_normalized_scores_between_random_and_best_baseline(tmp_path):
         assert (tmp_path / name).is_file()
 
 
+def test_task_suites_score_against_their_own_best_baseline():
+    rows = []
+    for policy, ok, ret in (
+        ("random", False, -300.0),
+        ("planner", True, -20.0),
+        ("zero", False, -50.0),
+    ):
+        for suite in ("mode-change", "track-segments"):
+            rows.append(
+                {
+                    "policy": policy,
+                    "training_seed": "",
+                    "suite": suite,
+                    "success": ok and suite == "mode-change",  # tracking has no success test
+                    "time_to_success": 1.0 if ok and suite == "mode-change" else "",
+                    "speed_bound": "",  # no speed bound on these suites
+                    "episode_return": ret,
+                }
+            )
+    rows += [dict(r, policy="analytic-feedforward-tuned", episode_return=-10.0) for r in rows[:1]]
+    rows[-1]["suite"] = "track-segments"
+    refs = ns.make_references(rows)
+    assert ns.best_baselines("mode-change") == ("planner",)
+    assert refs["mode-change"]["success"] == {"random": 0.0, "best": 1.0, "best_policy": "planner"}
+    assert refs["mode-change"]["return"]["best"] == -20.0  # not zero's: not a best baseline
+    assert set(refs["mode-change"]) == {"success", "return"}  # no speed bound: no time score
+    assert set(refs["track-segments"]) == {"return"}  # no success test either
+    assert refs["track-segments"]["return"]["best_policy"] == "analytic-feedforward-tuned"
+    assert ns.get_normalized_score("track-segments", -155.0, "return", refs) == pytest.approx(50.0)
+    with pytest.raises(ValueError, match="no reference for the success score"):
+        ns.get_normalized_score("track-segments", 1.0, "success", refs)
+    matrix = ns.score_matrix(rows, refs)
+    track = [r for r in matrix if r["suite"] == "track-segments" and r["policy"] == "zero"][0]
+    assert math.isnan(track["score_success"]) and track["score_return"] == pytest.approx(
+        100.0 * (-50.0 + 300.0) / 290.0, abs=1e-3
+    )
+
+
 def test_probability_of_improvement():
     a, b = np.array([[2.0, 2.0]]), np.array([[1.0, 1.0]])
     assert ns.probability_of_improvement(a, b)[0] == 1.0
@@ -200,9 +238,12 @@ def test_probability_of_improvement():
     assert ns.probability_of_improvement(a, a)[0] == 0.5
 
 
-def test_reference_file_covers_the_reach_suites():
+def test_reference_file_covers_the_reach_and_task_suites():
     refs = json.loads(ns.REFERENCE_FILE.read_text())
-    assert set(refs["suites"]) >= {"standard", "hard", "far"}
+    assert set(refs["suites"]) >= {"standard", "hard", "far", "goal", "mode-change"}
+    for suite, entry in refs["suites"].items():
+        assert refs["best_of"][suite] == list(ns.best_baselines(suite))
+        assert all(m["best_policy"] in ns.best_baselines(suite) for m in entry.values())
     assert ns.get_normalized_score("standard", refs["suites"]["standard"]["success"]["best"]) == (
         pytest.approx(100.0)
     )

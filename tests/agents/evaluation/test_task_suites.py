@@ -100,6 +100,11 @@ def test_script_on_task_suites_and_replay(tmp_path, bench, capsys):
     rows = read_csv(out / "episodes.csv")
     assert {(r["policy"], r["suite"]) for r in rows} == {
         ("analytic-simultaneous", "goal"),
+        ("analytic-tuned", "goal"),  # issue 25: the strongest reach baselines on the goal ids
+        ("slider-line", "goal"),
+        ("certified", "goal"),
+        ("random", "goal"),
+        ("random", "track-segments"),
         ("analytic-simultaneous", "track-segments"),
         ("analytic-feedforward", "track-segments"),
         ("analytic-feedforward-tuned", "track-segments"),  # (issue 25: tuned on seed 1000)
@@ -122,7 +127,8 @@ def test_script_policies_that_do_not_apply(tmp_path, bench, capsys):
     assert bench.main([*base, "--policies", "baselines,crossing,random", "--no-plots"]) == 0
     assert "crossing does not apply to suite goal" in capsys.readouterr().err
     rows = read_csv(out / "episodes.csv")
-    assert [r["policy"] for r in rows] == ["analytic-simultaneous", "random"]
+    # random is one of the goal suite's baselines and is played once
+    assert [r["policy"] for r in rows] == list(ts.TASK_SUITES["goal"].baselines)
 
 
 def test_load_suite_policies_shares_reach_policies():
