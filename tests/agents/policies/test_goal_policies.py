@@ -113,9 +113,11 @@ def test_ppo_dict_policy_uses_its_dict_statistics(tmp_path: Path) -> None:
 
 
 def test_shipped_goal_hyperparameters_resolve() -> None:
-    """The goal entries of ppo.yml and sac.yml: Dict policies, HER with the info dicts copied
-    (exact failure penalties), SAC trained once per 8 transitions."""
-    from stable_baselines3 import HerReplayBuffer
+    """The goal entries of ppo.yml and sac.yml: Dict policies, HER with the relabelling keys of
+    the info dicts kept (exact failure penalties), SAC trained once per 8 transitions on the
+    goal-error features, the tolerance curriculum ending at the id's own tolerances."""
+    from planar3p_agents.training.her import CompactHerReplayBuffer
+    from planar3p_gym.tasks.sampling import TaskConfig
 
     ppo = training.resolve(
         "ppo",
@@ -130,9 +132,16 @@ def test_shipped_goal_hyperparameters_resolve() -> None:
     sac = training.resolve(
         "sac", GOAL, 0, training.load_hyperparams(training.HYPERPARAMS_DIR / "sac.yml", GOAL, "sac")
     )
-    assert sac.algo_kwargs["replay_buffer_class"] is HerReplayBuffer
+    assert sac.algo_kwargs["replay_buffer_class"] is CompactHerReplayBuffer
     assert sac.algo_kwargs["replay_buffer_kwargs"]["copy_info_dict"] is True
     assert sac.n_envs * sac.algo_kwargs["train_freq"] / sac.algo_kwargs["gradient_steps"] == 8
+    assert sac.normalize == {"norm_obs_keys": ["observation"], "norm_reward": False}
+    assert sac.algo_kwargs["policy_kwargs"]["features_extractor_class"] is GoalErrorExtractor
+    last = sac.task_schedule[max(sac.task_schedule)]
+    own = TaskConfig()
+    assert last["position_tolerance"] == own.position_tolerance
+    assert last["rest_speed"] == own.rest_speed
+    assert last["orientation_tolerance"] == own.orientation_tolerance
 
 
 def test_goal_error_features_match_the_flat_observation() -> None:
