@@ -68,13 +68,17 @@ GOAL_SIZE = 5
 #: Reward variants: ``"sparse"`` (0 on success, -1 otherwise) or ``"dense"`` (the reach
 #: reward's shaping terms).
 REWARD_TYPES = ("sparse", "dense")
+#: ``(low, high)`` float32 bounds that clip nothing.
+_NO_BOUND = (np.full(GOAL_SIZE, -np.inf, np.float32), np.full(GOAL_SIZE, np.inf, np.float32))
 
 
 def goal_of_pose(pose: ArrayLike, speed: float = 0.0) -> NDArray[np.float32]:
     """The goal vector (float32, shape ``(5,)``) of a pose ``(x, y, theta)`` (m, m, rad) and a
-    slider speed (m/s)."""
+    slider speed (m/s, >= 0) (:func:`write_achieved_goal`, not clipped)."""
     x, y, th = (float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3))
-    return np.array([x, y, math.cos(th), math.sin(th), speed], dtype=np.float32)
+    out = np.empty(GOAL_SIZE, dtype=np.float32)
+    write_achieved_goal(out, x, y, th, float(speed), 0.0, 0.0, _NO_BOUND[0], _NO_BOUND[1])
+    return out
 
 
 def pose_of_goal(goal: ArrayLike) -> Pose:
@@ -450,5 +454,10 @@ class GoalTask(ReachTask):
 
 
 def achieved_goal(pose: ArrayLike, rho_dot: ArrayLike) -> NDArray[np.float32]:
-    """The achieved goal of a state: pose (m, m, rad) and fastest slider speed (m/s)."""
-    return goal_of_pose(pose, float(np.max(np.abs(np.asarray(rho_dot, dtype=np.float64)))))
+    """The achieved goal of a state: pose (m, m, rad) and fastest slider speed (m/s), not
+    clipped (:func:`write_achieved_goal`)."""
+    x, y, th = (float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3))
+    r0, r1, r2 = (float(v) for v in np.asarray(rho_dot, dtype=np.float64).reshape(3))
+    out = np.empty(GOAL_SIZE, dtype=np.float32)
+    write_achieved_goal(out, x, y, th, r0, r1, r2, _NO_BOUND[0], _NO_BOUND[1])
+    return out
