@@ -54,8 +54,9 @@ from planar3p_gym.sim import physics
 from planar3p_gym.sim.batch_step import BatchProjector, BatchState
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task_module
-from planar3p_gym.tasks.observation import travel_goal_entries
-from planar3p_gym.tasks.reach_step import BatchReach
+from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
+from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, BatchReach
+from planar3p_gym.tasks.rewards import TERM_NAMES
 from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
@@ -466,7 +467,13 @@ class _BatchCore:
         state and bodies, the episode's observation, measures and info)."""
         env = self.venv._envs[i]
         if not self.numpy:
-            env._last_info = env._info(*self.pending_info[i])  # type: ignore[misc]
+            state, res = self.pending_info[i]  # type: ignore[misc]
+            reason = REASONS[int(res[1])]
+            measures = ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles)
+            terms = dict(zip(TERM_NAMES, res[TERMS_START:], strict=True))
+            errors = (res[2], res[3])
+            env._obs = self.venv._obs[i].copy()
+            env._last_info = env._info(state, measures, reason, terms, reason == "success", errors)
             self.pending[i] = False
             return
         last = self.last
@@ -576,15 +583,15 @@ class _BatchCore:
         terminated: np.ndarray,
         info: dict[str, Any],
     ) -> None:
-        """Step the environments ``idx``, each through its simulation and
-        :class:`~planar3p_gym.tasks.reach_step.ReachStep` (the single env's fused step without its
+        """Step the environments ``idx``, each through its simulation and the single env's
+        compiled outputs (:meth:`~planar3p_gym.tasks.reach_step.ReachStep.compute`, without its
         ``info`` dict, which :meth:`sync` builds when asked for); outputs into the batch."""
         venv = self.venv
         envs, obs_out, breakdown = venv._envs, venv._obs, self.breakdown
         commands, actions = (a * self.vmax).tolist(), a.tolist()
         pending, flags = self.pending_info, self.pending
-        rows: list[list[float]] = []  # observations before float32 and the bounds
-        stepped: list[int] = []  # the envs whose row is in rows
+        width = OBS_SIZE
+        stepped: list[int] = []  # the envs stepped by the compiled outputs
         # One tuple per env: reward, reason, errors, margins, sign, closure error.
         results: list[tuple] = []
         for i in idx:
@@ -594,17 +601,24 @@ class _BatchCore:
             state = sim.step_unchecked(v0, v1, v2)
             env._steps += 1
             if state.finite and state.closure_error <= breakdown:
-                row, m, reason, terms, pe, ae = env._reach_step.values(  # type: ignore[union-attr]
-                    state, sim.geometry, env._target, env._target_cs, env._assembly, actions[i]
-                )
-                rows.append(row)
+                rs = env._reach_step
+                res = rs.compute(  # type: ignore[union-attr]
+                    sim._projector.last_state,
+                    state.pose[2],
+                    env._target,
+                    env._target_cs,
+                    env._assembly,
+                    actions[i],
+                ).tolist()
+                obs_out[i, :width] = rs.obs  # type: ignore[union-attr]
                 stepped.append(i)
-                env._measures = m
-                pending[i] = (state, m, reason, terms, reason == "success", (pe, ae))
+                env._measures = ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles)
+                pending[i] = (state, res)
                 flags[i] = True
                 results.append(
-                    (sum(terms.values()), reason, pe, ae, m[0], m[1], m[2], state.closure_error)
-                )
+                    (res[0], REASONS[int(res[1])], res[2], res[3], res[4], res[5], int(res[6]),
+                     state.closure_error)
+                )  # fmt: skip
             else:  # physics breakdown: the single env's general step
                 if flags[i]:
                     self.sync(i)
@@ -614,16 +628,9 @@ class _BatchCore:
                 results.append(
                     (r, *(full[key] for key in _RESULT_KEYS))  # type: ignore[arg-type]
                 )
-        if rows:  # float32 and the bounds over the batch (elementwise: the single env's)
-            obs = np.array(rows, dtype=np.float32)
-            np.minimum(obs, self.high, out=obs)
-            np.maximum(obs, self.low, out=obs)
-            if self.travel_goal:
-                goal = np.array([envs[i]._target_rho for i in stepped])
-                obs = np.concatenate([obs, travel_goal_entries(obs[:, :3], goal)], axis=1)
-            obs_out[stepped] = obs
-            for k, i in enumerate(stepped):
-                envs[i]._obs = obs[k]
+        if stepped and self.travel_goal:  # the joint-space goal over the batch
+            goal = np.array([envs[i]._target_rho for i in stepped])
+            obs_out[stepped, width:] = travel_goal_entries(obs_out[stepped, :3], goal)
         sel = slice(None) if len(idx) == len(envs) else idx
         venv._elapsed[sel] += 1
         rew, reasons, *columns = zip(*results, strict=True)

@@ -12,6 +12,15 @@ intermediate values are shared (``cos alpha_i = u_ix / |u_i|`` instead of ``cos(
 ``|dp|`` as ``sqrt(dx^2 + dy^2)``), so the numbers agree with the general step to float64
 rounding (``tests/sim/test_batch_step.py``).
 
+The pass is one compiled call, :func:`reach_outputs`, from the projection's state array (the
+23 numbers of :attr:`planar3p_gym.sim.projection.LoopProjector.last_state`): the single env's
+fused step and the native vector env's scalar batch both call it (through
+:meth:`ReachStep.compute`), and it calls the one definition of each formula
+(:func:`~planar3p_gym.machine.margins.leg_margins`,
+:func:`~planar3p_gym.tasks.observation.write_reach_values`,
+:func:`~planar3p_gym.tasks.observation.within_tolerances`,
+:func:`~planar3p_gym.tasks.rewards.weighted_terms`).
+
 :mod:`planar3p_gym.sim.batch_step` does the same arithmetic, operation for operation, on numpy
 arrays over the environments of a vector env; keep the two in step.
 """
@@ -29,13 +38,21 @@ from planar3p_gym.machine.margins import leg_margins, leg_margins_batch
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.tasks import rewards
 from planar3p_gym.tasks.observation import OBS_SIZE, within_tolerances, write_reach_values
-from planar3p_gym.tasks.rewards import TERM_NAMES, weighted_terms_batch
+from planar3p_gym.tasks.rewards import TERM_NAMES, weighted_terms, weighted_terms_batch
 
 if TYPE_CHECKING:
     from planar3p_gym.sim.batch_step import BatchState
     from planar3p_gym.sim.physics import SimState
 
-__all__ = ["BatchReach", "ReachStep", "leg_measures"]
+__all__ = [
+    "REASONS",
+    "RESULT_FIELDS",
+    "TERMS_START",
+    "BatchReach",
+    "ReachStep",
+    "leg_measures",
+    "reach_outputs",
+]
 
 
 def leg_measures(
@@ -49,8 +66,88 @@ def leg_measures(
     return leg_margins(*geometry, *k, *legs, ref)
 
 
+#: ``info["termination_reason"]`` of the codes of :func:`reach_outputs` (0, 1, 2).
+REASONS: tuple[str | None, ...] = (None, "success", "singularity_crossing")
+#: Entries of the result array of :func:`reach_outputs`, in order (the weighted reward terms
+#: last, in the order of :data:`~planar3p_gym.tasks.rewards.TERM_NAMES`).
+RESULT_FIELDS = (
+    "reward",
+    "reason",
+    "position_error",
+    "orientation_error",
+    "parallel_margin",
+    "serial_margin",
+    "assembly_mode",
+    *TERM_NAMES,
+)
+#: Index of the first reward term in the result array.
+TERMS_START = RESULT_FIELDS.index(TERM_NAMES[0])
+
+
+@njit(cache=True)
+def reach_outputs(
+    st: np.ndarray, theta: float, target: np.ndarray, assembly: int,
+    a0: float, a1: float, a2: float,
+    consts: np.ndarray, w: np.ndarray, low: np.ndarray, high: np.ndarray,
+    row: np.ndarray, obs: np.ndarray, res: np.ndarray,
+) -> None:  # fmt: skip
+    """The outputs of a reach step in one compiled pass (module docstring).
+
+    ``st``: the state after the step, 23 float64 (SI units): ``rho``, ``rho_dot``, the pose
+    ``(x, y, theta)``, the twist, the leg angles and the geometry ``(u_1x, u_1y, u_2x, u_2y,
+    u_3x, u_3y, cos theta, sin theta)`` (the layout of
+    :func:`planar3p_gym.sim.projection.project_readout`'s state; its ``theta`` is not read);
+    ``theta``: the platform angle wrapped into ``(-pi, pi]`` (rad, as
+    :class:`~planar3p_gym.sim.physics.SimState` holds it).  ``target``: ``(x, y,
+    theta, cos theta, sin theta)`` of the target (m, m, rad, 1, 1); ``assembly``: the start's
+    ``sign det A``; ``a0, a1, a2``: the clipped action; ``consts``: the joint offsets (m), the
+    leg lengths (m), the characteristic length (m) and the success tolerances (m, rad, m/s);
+    ``w``: :meth:`~planar3p_gym.tasks.rewards.RewardWeights.as_array`; ``low``, ``high``: the
+    observation's float32 bounds.
+
+    Writes the 31 observation values (float64, not clipped) into ``row``, the observation
+    (float32, clipped to ``[low, high]``) into ``obs`` and :data:`RESULT_FIELDS` into ``res``
+    (the reason as 0 none, 1 success, 2 singularity crossing; the reward is the terms' sum
+    from 0.0 in :data:`~planar3p_gym.tasks.rewards.TERM_NAMES` order, as ``sum`` adds them).
+    """
+    ref = consts[6]
+    x1, y1, x2, y2, x3, y3, c, s = st[15], st[16], st[17], st[18], st[19], st[20], st[21], st[22]
+    parallel, serial, sign, n1, n2, n3 = leg_margins(
+        x1, y1, x2, y2, x3, y3, c, s,
+        consts[0], consts[1], consts[2], consts[3], consts[4], consts[5], ref,
+    )  # fmt: skip
+    legs_cs = np.empty(6)
+    legs_cs[0], legs_cs[1], legs_cs[2] = x1 / n1, y1 / n1, x2 / n2
+    legs_cs[3], legs_cs[4], legs_cs[5] = y2 / n2, x3 / n3, y3 / n3
+    rho_dot = st[3:6]
+    pose = np.empty(3)
+    pose[0], pose[1], pose[2] = st[6], st[7], theta
+    dx, dy, dth = write_reach_values(
+        row, st[0:3], rho_dot, pose, c, s, st[9:12], legs_cs, target[0:3], target[3],
+        target[4], parallel, serial, ref,
+    )  # fmt: skip
+    pos_err = math.sqrt(dx * dx + dy * dy)
+    reason = 0
+    if sign == -assembly:
+        reason = 2
+    elif within_tolerances(pos_err, dth, rho_dot, consts[7], consts[8], consts[9]):
+        reason = 1
+    terms = weighted_terms(
+        w, pos_err, dth, ref, parallel, serial, a0, a1, a2, reason == 1, reason == 2
+    )
+    total = 0.0
+    for t in range(6):
+        total += terms[t]
+        res[TERMS_START + t] = terms[t]
+    res[0], res[1], res[2], res[3] = total, reason, pos_err, dth
+    res[4], res[5], res[6] = parallel, serial, sign
+    for j in range(OBS_SIZE):
+        obs[j] = max(min(np.float32(row[j]), high[j]), low[j])
+
+
 class ReachStep:
-    """Fused outputs of a reach step of ``env`` (module docstring); constants cached here.
+    """Fused outputs of a reach step of ``env`` (module docstring); constants and the output
+    buffers of :func:`reach_outputs` kept here.
 
     Args:
         design: the machine (:class:`~planar3p_gym.machine.design.Design`).
@@ -72,8 +169,50 @@ class ReachStep:
         self.legs = design.leg_lengths
         self.ref = design.characteristic_length
         self.low, self.high = low, high
+        self._low32 = np.ascontiguousarray(low, dtype=np.float32)
+        self._high32 = np.ascontiguousarray(high, dtype=np.float32)
         self.weights = weights
+        self._consts = np.zeros(10)
+        self._consts[:7] = (*self.k, *self.legs, self.ref)
         self.tolerances = tolerances
+        self._target = np.zeros(5)
+        #: The last :meth:`compute`'s observation values (float64, not clipped), observation
+        #: (float32, clipped) and results (:data:`RESULT_FIELDS`); overwritten by each call.
+        self.row = np.zeros(OBS_SIZE)
+        self.obs = np.zeros(OBS_SIZE, dtype=np.float32)
+        self.res = np.zeros(len(RESULT_FIELDS))
+
+    @property
+    def tolerances(self) -> tuple[float, float, float]:
+        """Position (m), orientation (rad) and rest-speed (m/s) tolerances of the success
+        test."""
+        return self._tolerances
+
+    @tolerances.setter
+    def tolerances(self, value: tuple[float, float, float]) -> None:
+        self._tolerances = (float(value[0]), float(value[1]), float(value[2]))
+        self._consts[7:] = self._tolerances
+
+    def compute(
+        self,
+        st: np.ndarray,
+        theta: float,
+        target: tuple[float, float, float],
+        target_cs: tuple[float, float],
+        assembly: int,
+        action: tuple[float, float, float],
+    ) -> np.ndarray:
+        """:func:`reach_outputs` of the state array ``st`` (its layout there) and the wrapped
+        platform angle ``theta`` (rad) into :attr:`row`, :attr:`obs` and :attr:`res`
+        (returned)."""
+        t = self._target
+        t[0], t[1], t[2] = target
+        t[3], t[4] = target_cs
+        reach_outputs(
+            st, theta, t, assembly, action[0], action[1], action[2], self._consts,
+            self.weights.as_array(), self._low32, self._high32, self.row, self.obs, self.res,
+        )  # fmt: skip
+        return self.res
 
     def outputs(
         self,
@@ -86,68 +225,18 @@ class ReachStep:
     ) -> tuple[np.ndarray, ConfigurationMeasures, str | None, dict[str, float], float, float]:
         """``(observation, measures, termination reason, reward terms, position error (m),
         orientation error (rad))`` of a finite state after a step with ``action``."""
-        out = self.values(state, geometry, target, target_cs, assembly, action)
-        obs = np.array(out[0], dtype=np.float32)
-        np.minimum(obs, self.high, out=obs)
-        np.maximum(obs, self.low, out=obs)
-        return obs, *out[1:]  # type: ignore[return-value]
-
-    def values(
-        self,
-        state: SimState,
-        geometry: tuple[float, ...],
-        target: tuple[float, float, float],
-        target_cs: tuple[float, float],
-        assembly: int,
-        action: tuple[float, float, float],
-    ) -> tuple[list[float], ConfigurationMeasures, str | None, dict[str, float], float, float]:
-        """:meth:`outputs` with the observation as its 31 float64 values, not yet converted
-        to float32 and clipped to the bounds (what a vector env does over the batch)."""
-        parallel, serial, sign, n1, n2, n3 = leg_measures(geometry, self.k, self.legs, self.ref)
-        x1, y1, x2, y2, x3, y3, c, s = geometry
-        values = np.empty(OBS_SIZE)
-        rho_dot = np.array(state.rho_dot)
-        dx, dy, dth = write_reach_values(
-            values, np.array(state.rho), rho_dot, np.array(state.pose), c, s,
-            np.array(state.twist), np.array((x1 / n1, y1 / n1, x2 / n2, y2 / n2, x3 / n3, y3 / n3)),
-            np.array(target), target_cs[0], target_cs[1], parallel, serial, self.ref,
-        )  # fmt: skip
-        length = self.ref
-        pos_err = math.sqrt(dx * dx + dy * dy)
-        if sign == -assembly:
-            reason: str | None = "singularity_crossing"
-        elif within_tolerances(pos_err, dth, rho_dot, *self.tolerances):
-            reason = "success"
-        else:
-            reason = None
-        terms = reward_terms(self.weights, pos_err, dth, length, parallel, serial, action, reason)
-        measures = ConfigurationMeasures(parallel, serial, sign, state.leg_angles)
-        return values.tolist(), measures, reason, terms, pos_err, dth
-
-
-def reward_terms(
-    w: Any,
-    pos_err: float,
-    ang_err: float,
-    length: float,
-    parallel: float,
-    serial: float,
-    action: tuple[float, float, float],
-    reason: str | None,
-) -> dict[str, float]:
-    """:func:`planar3p_gym.tasks.rewards.reward_terms` of the reach task (both barriers on) for
-    weights ``w``, errors (m, rad), margins and the termination ``reason``."""
-    return rewards.reward_terms(
-        w,
-        position_error=pos_err,
-        orientation_error=ang_err,
-        length=length,
-        parallel_margin=parallel,
-        serial_margin=serial,
-        action=action,
-        success=reason == "success",
-        failure=reason == "singularity_crossing",
-    )
+        st = np.array(
+            (*state.rho, *state.rho_dot, *state.pose, *state.twist, *state.leg_angles, *geometry)
+        )
+        res = self.compute(st, state.pose[2], target, target_cs, assembly, action).tolist()
+        return (
+            self.obs.copy(),
+            ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles),
+            REASONS[int(res[1])],
+            dict(zip(TERM_NAMES, res[TERMS_START:], strict=True)),
+            res[2],
+            res[3],
+        )
 
 
 @njit(cache=True)
