@@ -702,15 +702,7 @@ class _BatchCore:
                 a[idx].T,
                 np.array([venv._envs[i]._reach_step.tolerances for i in idx]).T,
             )
-        terms = o["terms"]
-        reward = (
-            terms["pose"]
-            + terms["precision"]
-            + terms["singularity"]
-            + terms["action"]
-            + terms["success"]
-            + terms["failure"]
-        )
+        reward = o["reward"]  # (the terms' sum, as the single env adds them)
         bad = ~st.finite | (st.closure > self.breakdown)
         bad_rows = np.nonzero(bad)[0].tolist()
         if bad_rows and self.last is not None:  # bring those envs to their previous step

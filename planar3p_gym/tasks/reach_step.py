@@ -34,11 +34,11 @@ import numpy as np
 from numba import njit
 
 from planar3p_gym.machine.design import Design
-from planar3p_gym.machine.margins import leg_margins, leg_margins_batch
+from planar3p_gym.machine.margins import leg_margins
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.tasks import rewards
 from planar3p_gym.tasks.observation import OBS_SIZE, within_tolerances, write_reach_values
-from planar3p_gym.tasks.rewards import TERM_NAMES, weighted_terms, weighted_terms_batch
+from planar3p_gym.tasks.rewards import TERM_NAMES, weighted_terms
 
 if TYPE_CHECKING:
     from planar3p_gym.sim.batch_step import BatchState
@@ -52,6 +52,7 @@ __all__ = [
     "ReachStep",
     "leg_measures",
     "reach_outputs",
+    "reach_outputs_batch",
 ]
 
 
@@ -240,62 +241,49 @@ class ReachStep:
 
 
 @njit(cache=True)
-def reach_values_batch(
-    rho: np.ndarray, rho_dot: np.ndarray, pose: np.ndarray, c: np.ndarray, s: np.ndarray,
-    twist: np.ndarray, legs_cs: np.ndarray, target: np.ndarray, target_cs: np.ndarray,
-    parallel: np.ndarray, serial: np.ndarray, length: float, tolerances: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
-    """:func:`~planar3p_gym.tasks.observation.write_reach_values` and
-    :func:`~planar3p_gym.tasks.observation.within_tolerances` of ``N`` environments (arrays
-    ``(k, N)`` of the single env's values): the observation values ``(N, 31)``, the position
-    and orientation errors ``(2, N)`` (m, rad) and the success tests ``(N,)`` (before the
-    crossing test)."""
-    n = c.shape[0]
-    rows = np.empty((n, OBS_SIZE))
-    errors = np.empty((2, n))
-    success = np.empty(n, np.bool_)
+def reach_outputs_batch(
+    states: np.ndarray, target: np.ndarray, assembly: np.ndarray, action: np.ndarray,
+    tolerances: np.ndarray, consts: np.ndarray, w: np.ndarray, low: np.ndarray,
+    high: np.ndarray, rows: np.ndarray, obs: np.ndarray, res: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`reach_outputs` of ``N`` environments, in one compiled loop: ``states``
+    ``(23, N)`` (:func:`~planar3p_gym.sim.projection.project_batch`'s, theta wrapped),
+    ``target`` ``(5, N)``, ``assembly`` ``(N,)``, ``action`` ``(3, N)``, ``tolerances``
+    ``(3, N)`` (each environment's; they replace those of ``consts``); writes ``rows``
+    ``(N, 31)``, ``obs`` ``(N, 31)`` float32 and ``res`` ``(len(RESULT_FIELDS), N)``."""
+    n = states.shape[1]
+    st = np.empty(states.shape[0])
+    tg = np.empty(target.shape[0])
+    cs = consts.copy()
+    r = np.empty(res.shape[0])
     for j in range(n):
-        dx, dy, dth = write_reach_values(
-            rows[j], rho[:, j], rho_dot[:, j], pose[:, j], c[j], s[j], twist[:, j],
-            legs_cs[:, j], target[:, j], target_cs[0, j], target_cs[1, j],
-            parallel[j], serial[j], length,
+        for k in range(st.shape[0]):
+            st[k] = states[k, j]
+        for k in range(tg.shape[0]):
+            tg[k] = target[k, j]
+        cs[7], cs[8], cs[9] = tolerances[0, j], tolerances[1, j], tolerances[2, j]
+        reach_outputs(
+            st, st[8], tg, assembly[j], action[0, j], action[1, j], action[2, j], cs, w, low,
+            high, rows[j], obs[j], r,
         )  # fmt: skip
-        pos_err = math.sqrt(dx * dx + dy * dy)
-        errors[0, j], errors[1, j] = pos_err, dth
-        success[j] = within_tolerances(
-            pos_err, dth, rho_dot[:, j], tolerances[0, j], tolerances[1, j], tolerances[2, j]
-        )
-    return rows, errors, success
+        for k in range(r.shape[0]):
+            res[k, j] = r[k]
 
 
 class BatchReach:
-    """:meth:`planar3p_gym.tasks.reach_step.ReachStep.outputs` over a batch.
+    """:meth:`planar3p_gym.tasks.reach_step.ReachStep.compute` over a batch
+    (:func:`reach_outputs_batch`: the same compiled outputs in a loop).
 
     Args:
         reach: the :class:`~planar3p_gym.tasks.reach_step.ReachStep` of one of the (identically
             configured) environments.
     """
 
-    def __init__(self, reach: Any) -> None:
-        self.k = np.array(reach.k).reshape(3, 1)
-        self.legs = np.array(reach.legs).reshape(3, 1)
-        self.ref = reach.ref
-        self.low = reach.low.astype(np.float32)
-        self.high = reach.high.astype(np.float32)
+    def __init__(self, reach: ReachStep) -> None:
+        self.low = reach._low32
+        self.high = reach._high32
         self.weights = reach.weights
-
-    def measures(self, st: BatchState) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``(parallel margin, serial margin, sign det A, |u_i|)`` as in
-        :func:`planar3p_gym.tasks.reach_step.leg_measures`."""
-        return leg_margins_batch(
-            np.ascontiguousarray(st.ux),
-            np.ascontiguousarray(st.uy),
-            np.ascontiguousarray(st.c),
-            np.ascontiguousarray(st.s),
-            self.k[:, 0],
-            self.legs[:, 0],
-            self.ref,
-        )
+        self.consts = reach._consts.copy()
 
     def outputs(
         self,
@@ -305,58 +293,53 @@ class BatchReach:
         assembly: np.ndarray,
         action: np.ndarray,
         tolerances: np.ndarray,
-    ) -> dict[str, np.ndarray]:
+    ) -> dict[str, Any]:
         """Observations ``(N, 31)`` float32, margins, sign, termination (``reason``: 0 none,
-        1 success, 2 singularity crossing), reward terms and errors of finite states;
+        1 success, 2 singularity crossing), reward terms, their sum (``reward``) and errors;
         ``target`` ``(3, N)``, ``target_cs`` ``(2, N)``, ``assembly`` ``(N,)``, ``action``
         ``(3, N)`` clipped, ``tolerances`` ``(3, N)``: each environment's position (m),
         orientation (rad) and rest-speed (m/s) tolerances (``ReachStep.tolerances``)."""
-        parallel, serial, sign, norm = self.measures(st)
-        n = st.c.shape[0]
-        legs_cs = np.empty((6, n))
-        legs_cs[0::2] = st.ux / norm
-        legs_cs[1::2] = st.uy / norm
-        rows, errors, success = reach_values_batch(
-            np.ascontiguousarray(st.rho),
-            np.ascontiguousarray(st.rho_dot),
-            np.ascontiguousarray(st.pose),
-            np.ascontiguousarray(st.c),
-            np.ascontiguousarray(st.s),
-            np.ascontiguousarray(st.twist),
-            legs_cs,
-            np.ascontiguousarray(target, dtype=np.float64),
-            np.ascontiguousarray(target_cs, dtype=np.float64),
-            parallel,
-            serial,
-            self.ref,
-            np.ascontiguousarray(tolerances, dtype=np.float64),
-        )
-        length = self.ref
-        obs = rows.astype(np.float32)
-        np.minimum(obs, self.high, out=obs)
-        np.maximum(obs, self.low, out=obs)
-        pos_err, dth = errors
-        crossing = sign == -assembly
-        success &= ~crossing
-        terms_array = weighted_terms_batch(
-            self.weights.as_array(),
-            np.ascontiguousarray(pos_err),
-            np.ascontiguousarray(dth),
-            length,
-            np.ascontiguousarray(parallel),
-            np.ascontiguousarray(serial),
+        states = st.states if getattr(st, "states", None) is not None else _state_rows(st)
+        n = states.shape[1]
+        rows = np.empty((n, OBS_SIZE))
+        obs = np.empty((n, OBS_SIZE), dtype=np.float32)
+        res = np.empty((len(RESULT_FIELDS), n))
+        reach_outputs_batch(
+            np.ascontiguousarray(states, dtype=np.float64),
+            np.ascontiguousarray(np.concatenate([target, target_cs]), dtype=np.float64),
+            np.ascontiguousarray(assembly, dtype=np.int64),
             np.ascontiguousarray(action, dtype=np.float64),
-            np.ascontiguousarray(success),
-            np.ascontiguousarray(crossing),
-        )
-        terms = dict(zip(TERM_NAMES, terms_array, strict=True))
+            np.ascontiguousarray(tolerances, dtype=np.float64),
+            self.consts, self.weights.as_array(), self.low, self.high, rows, obs, res,
+        )  # fmt: skip
         return {
             "obs": obs,
-            "parallel": parallel,
-            "serial": serial,
-            "sign": sign,
-            "reason": success.astype(np.int64) + 2 * crossing,
-            "terms": terms,
-            "position_error": pos_err,
-            "orientation_error": dth,
+            "reward": res[0],
+            "parallel": res[4],
+            "serial": res[5],
+            "sign": res[6].astype(np.int64),
+            "reason": res[1].astype(np.int64),
+            "terms": dict(zip(TERM_NAMES, res[TERMS_START:], strict=True)),
+            "position_error": res[2],
+            "orientation_error": res[3],
         }
+
+
+def _state_rows(st: BatchState) -> np.ndarray:
+    """The ``(23, N)`` state rows of :func:`reach_outputs_batch` from a
+    :class:`~planar3p_gym.sim.batch_step.BatchState` without them (leg angles, which the
+    outputs do not read, as zeros when absent)."""
+    n = st.c.shape[0]
+    legs = getattr(st, "leg_angles", None)
+    geometry = np.empty((8, n))
+    geometry[0:6:2], geometry[1:6:2], geometry[6], geometry[7] = st.ux, st.uy, st.c, st.s
+    return np.concatenate(
+        [
+            st.rho,
+            st.rho_dot,
+            st.pose,
+            st.twist,
+            np.zeros((3, n)) if legs is None else legs,
+            geometry,
+        ]
+    )
