@@ -10,22 +10,28 @@ infos are Gymnasium's vector layout (each key an array over the batch with a boo
 
 **The reach task on the projected physics** (``Planar3P-v0``) is stepped without the single
 environments' ``step``: ``batch="scalar"`` runs each simulation and the single environment's
-fused outputs (:class:`~planar3p_gym.tasks.reach_step.ReachStep`) in plain floats and writes them
-into the batch arrays (the per-environment ``info`` dicts are only built when asked for);
-``batch="numpy"`` keeps only what is per simulation in a Python loop (writing the bodies into
-pymunk, ``cpSpaceStep`` and the servo impulses, reading the bodies back: one Chipmunk call
+compiled outputs (:meth:`~planar3p_gym.tasks.reach_step.ReachStep.compute`, one call) and
+writes them into the batch arrays (the per-environment ``info`` dicts are only built when asked
+for); ``batch="numpy"`` keeps only what is per simulation in a Python loop (writing the bodies
+into pymunk, ``cpSpaceStep`` and the servo impulses, reading the bodies back: one Chipmunk call
 each, through pymunk's batch iterators on a row of one numpy array shared by the batch) and
-computes the projection onto the constraint manifold, the configuration measures, the
-observations, the termination and the reward over the whole batch in numpy
-(:mod:`planar3p_gym.sim.batch_step`).  Both do the single environment's operations in the same
-order, so the trajectories are the single environments' bit for bit
-(``tests/envs/test_vector_env.py``).  numpy's overhead per operation makes the numpy batch pay only
-for many environments (:data:`NUMPY_BATCH_MIN`; ``batch="auto"``, the default, chooses by it).
+computes the projection onto the constraint manifold and the outputs (configuration measures,
+observations, termination, reward) in two compiled loops over the batch
+(:mod:`planar3p_gym.sim.batch_step`, :func:`~planar3p_gym.tasks.reach_step.reach_outputs_batch`),
+each the single environment's compiled function.  Both give the single environments'
+trajectories bit for bit (``tests/envs/test_vector_env.py``).  The batched path pays from a
+few environments on (:data:`NUMPY_BATCH_MIN`;
+``batch="auto"``, the default, chooses by it).
 In numpy mode the projected bodies are written back into pymunk at the start of the next step
 (with the new servo commands).  Either way the single environments' own attributes
 (``env.sim.state``, ``env._last_info``, ...) are brought up to date when
 :attr:`Planar3PVectorEnv.envs` or :meth:`Planar3PVectorEnv.get_state` is used, and a state
 that fails the physics-breakdown test takes the single environment's own (general) step.
+
+**Infos** are arrays over the batch, filled from the compiled outputs' result arrays: no
+per-environment dict is built on the reach task's batched step (the task ids below step
+through each environment's own ``step``, whose ``info`` dict is Gymnasium's contract, and their
+entries are gathered into the arrays).
 
 **Per-environment step** (every other configuration, e.g. ``Planar3P-v0``, and the task ids
 ``Planar3PTrack-v0``, ``Planar3PModeChange-v0``, ``Planar3PAssemblyChange-v0`` through the
@@ -68,12 +74,12 @@ __all__ = [
     "Planar3PVectorEnv",
 ]
 
-#: Batch size from which ``batch="auto"`` computes the projection and the outputs in numpy
-#: over the batch rather than environment by environment in plain floats: numpy's overhead of
-#: about a microsecond per operation, over some 300 operations a step, is repaid only by
-#: many environments (measured on 2 cores: numpy 1.5x slower at 16 environments, 1.5x faster
-#: at 64, 2.7x at 256; ``scripts/bench_env.py`` prints both).
-NUMPY_BATCH_MIN = 32
+#: Batch size from which ``batch="auto"`` computes the projection and the outputs in compiled
+#: loops over the batch rather than environment by environment: the batched loops save the
+#: Python work of each environment's step and are faster from about 4 environments (measured
+#: on 2 cores under load, env steps/s of the batched over the scalar path: 0.6 at 1, 0.74 at 2,
+#: 1.1-1.3 at 4, 1.9 at 16, 1.8 at 64; docs/throughput.md).
+NUMPY_BATCH_MIN = 4
 
 #: ``info`` entries returned over the batch (as in the single env's ``info``).
 INFO_KEYS = (
@@ -108,10 +114,11 @@ class Planar3PVectorEnv(VectorEnv):
         max_episode_steps: time limit in steps (``None`` or -1: none); ``gym.make_vec`` passes
             the registered one.
         batch: how the reach task on the projected physics is stepped: ``"scalar"`` (each
-            environment's fused step in plain floats), ``"numpy"`` (projection and outputs in
-            numpy over the batch) or ``"auto"`` (numpy from :data:`NUMPY_BATCH_MIN`
-            environments); the same numbers either way.  Other configurations always step
-            environment by environment.
+            environment's simulation step and compiled outputs in turn), ``"numpy"`` (pymunk
+            per environment, then the projection and the outputs in compiled loops over the
+            batch; the name is historical) or ``"auto"`` (``"numpy"`` from
+            :data:`NUMPY_BATCH_MIN` environments); the same numbers either way.  Other
+            configurations always step environment by environment.
         autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default, Gymnasium's) or
             ``AutoresetMode.SAME_STEP`` (an ended episode is reset within the same step: its
             last observation is in ``info["final_obs"]``, its last info entries in

@@ -227,6 +227,10 @@ class LoopProjector:
             ]
         )  # fmt: skip
         self.constants.flags.writeable = False
+        #: The state array of the last :meth:`project` (:func:`project_readout`'s 23 values,
+        #: theta not wrapped): what the fused reach step's compiled outputs read
+        #: (:func:`planar3p_gym.tasks.reach_step.reach_outputs`).  Replaced by each call.
+        self.last_state = np.zeros(23)
 
     def project(
         self,
@@ -248,9 +252,6 @@ class LoopProjector:
             self.constants,
             float(setpoint_limit),
         )
-        #: The state array of the last projection (``project_readout``'s 23 values, theta
-        #: not wrapped): what the fused step's compiled outputs read
-        #: (:func:`planar3p_gym.tasks.reach_step.reach_outputs`).  Replaced by each call.
         self.last_state = st
         s = st.tolist()
         return Projected(

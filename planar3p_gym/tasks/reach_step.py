@@ -13,16 +13,16 @@ intermediate values are shared (``cos alpha_i = u_ix / |u_i|`` instead of ``cos(
 rounding (``tests/sim/test_batch_step.py``).
 
 The pass is one compiled call, :func:`reach_outputs`, from the projection's state array (the
-23 numbers of :attr:`planar3p_gym.sim.projection.LoopProjector.last_state`): the single env's
-fused step and the native vector env's scalar batch both call it (through
-:meth:`ReachStep.compute`), and it calls the one definition of each formula
-(:func:`~planar3p_gym.machine.margins.leg_margins`,
+23 numbers the projector keeps as ``LoopProjector.last_state``,
+:class:`planar3p_gym.sim.projection.LoopProjector`), and it calls the one definition of each
+formula (:func:`~planar3p_gym.machine.margins.leg_margins`,
 :func:`~planar3p_gym.tasks.observation.write_reach_values`,
 :func:`~planar3p_gym.tasks.observation.within_tolerances`,
-:func:`~planar3p_gym.tasks.rewards.weighted_terms`).
-
-:mod:`planar3p_gym.sim.batch_step` does the same arithmetic, operation for operation, on numpy
-arrays over the environments of a vector env; keep the two in step.
+:func:`~planar3p_gym.tasks.rewards.weighted_terms`).  The single env's fused step and the
+native vector env's scalar batch call it through :meth:`ReachStep.compute`; the numpy batch
+through :func:`reach_outputs_batch`, the same function in a compiled loop over the batch's
+projected states (:mod:`planar3p_gym.sim.batch_step`), so all three give the same numbers bit
+for bit.
 """
 
 from __future__ import annotations
