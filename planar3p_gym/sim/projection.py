@@ -266,6 +266,17 @@ class LoopProjector:
             (s[15], s[16], s[17], s[18], s[19], s[20], s[21], s[22]),
         )
 
+    def project_in_place(
+        self, v: np.ndarray, s0: bool, s1: bool, s2: bool, setpoint_limit: float
+    ) -> tuple[np.ndarray, float]:
+        """:meth:`project` of the readout array ``v`` (float64, at least 60 numbers), writing
+        the bodies to write back into ``v[:60]`` itself; returns the state array
+        (:func:`project_readout`'s 23 values, also kept as :attr:`last_state`) and the
+        closure error (m).  ``s0, s1, s2``: the servo saturation flags."""
+        st, closure = _project_in_place(v, s0, s1, s2, self.constants, setpoint_limit)
+        self.last_state = st
+        return st, closure
+
 
 @njit(cache=True)
 def project_readout(
@@ -502,6 +513,18 @@ def project_readout(
         x1, y1, x2, y2, x3, y3, c, s,
     ])  # fmt: skip
     return out, state, closure, steps
+
+
+@njit(cache=True)
+def _project_in_place(
+    v: np.ndarray, s0: bool, s1: bool, s2: bool, consts: np.ndarray, setpoint_limit: float
+) -> tuple[np.ndarray, float]:
+    """:func:`project_readout` of ``v[:60]`` with the bodies written back into ``v[:60]``:
+    ``(state, closure_error)``."""
+    out, state, closure, _ = project_readout(v, s0, s1, s2, consts, setpoint_limit)
+    for k in range(60):
+        v[k] = out[k]
+    return state, closure
 
 
 @njit(cache=True)
