@@ -37,7 +37,12 @@ from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.margins import leg_margins
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.tasks import rewards
-from planar3p_gym.tasks.observation import OBS_SIZE, within_tolerances, write_reach_values
+from planar3p_gym.tasks.observation import (
+    OBS_SIZE,
+    clip_float32,
+    within_tolerances,
+    write_reach_values,
+)
 from planar3p_gym.tasks.rewards import TERM_NAMES, weighted_terms
 
 if TYPE_CHECKING:
@@ -142,8 +147,7 @@ def reach_outputs(
         res[TERMS_START + t] = terms[t]
     res[0], res[1], res[2], res[3] = total, reason, pos_err, dth
     res[4], res[5], res[6] = parallel, serial, sign
-    for j in range(OBS_SIZE):
-        obs[j] = max(min(np.float32(row[j]), high[j]), low[j])
+    clip_float32(row, low, high, obs)
 
 
 class ReachStep:
