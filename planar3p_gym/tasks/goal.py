@@ -261,6 +261,23 @@ def _info_field(info: Any, key: str, n: int) -> np.ndarray:
         raise ValueError(f"info[{key!r}] must be a number") from exc
 
 
+@njit(cache=True)
+def evaluate_state_goal(
+    out: np.ndarray, x: float, y: float, theta: float, r0: float, r1: float, r2: float,
+    low: np.ndarray, high: np.ndarray, desired: np.ndarray, failed: bool,
+    position_tolerance: float, orientation_tolerance: float, rest_speed: float,
+) -> tuple[float, float, bool]:  # fmt: skip
+    """:func:`write_achieved_goal` of a state into ``out``, then :func:`goal_test` of that
+    float32 goal against ``desired`` (float32 ``(5,)``): one compiled call per step."""
+    write_achieved_goal(out, x, y, theta, r0, r1, r2, low, high)
+    a = out.astype(np.float64)
+    d = desired.astype(np.float64)
+    return goal_test(
+        a[0], a[1], a[2], a[3], a[4], d[0], d[1], d[2], d[3], d[4],
+        failed, position_tolerance, orientation_tolerance, rest_speed,
+    )  # fmt: skip
+
+
 def _failed(info: Any, n: int) -> NDArray[np.bool_]:
     """``info["failure"]`` per goal pair (:func:`_info_field`) as booleans."""
     return _info_field(info, "failure", n) > 0.5
@@ -414,12 +431,13 @@ class GoalTask(ReachTask):
         :attr:`achieved`, and its errors and success against the desired goal into
         :attr:`evaluation` (returned): once per step, the success test and the reward read
         them.  ``failed``: the step ended by a failure (no success then)."""
-        a = self.achieved
-        write_achieved_goal(a, *pose, *rho_dot, self._goal_low, self._goal_high)
-        a0, a1, a2, a3, a4 = a.tolist()
-        d0, d1, d2, d3, d4 = self.desired.tolist()
-        tol = self.env.task_config.success_tolerances
-        self.evaluation = goal_test(a0, a1, a2, a3, a4, d0, d1, d2, d3, d4, failed, *tol)
+        x, y, th = pose
+        r0, r1, r2 = rho_dot
+        pt, ot, rs = self.env.task_config.success_tolerances
+        self.evaluation = evaluate_state_goal(
+            self.achieved, x, y, th, r0, r1, r2, self._goal_low, self._goal_high, self.desired,
+            failed, pt, ot, rs,
+        )  # fmt: skip
         return self.evaluation
 
     def is_success(self, state: Any, errors: tuple[float, float]) -> bool:
