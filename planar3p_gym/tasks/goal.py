@@ -23,10 +23,14 @@ failure penalty for the dense reward; the failure penalty alone for the sparse o
 breakdown).  With those infos (``copy_info_dict=True``) relabelled rewards are exact; with empty
 infos those terms count as 0 and a failure as absent (the goal-dependent part stays exact).
 
-The environment computes its own reward, success and termination with these functions on the
-float32 goal vectors it returns, so ``env.compute_reward(obs["achieved_goal"],
-obs["desired_goal"], info)`` equals the returned reward bit for bit, for single goals and
-batches alike.
+Each formula is defined once and compiled: :func:`goal_test` (errors and success of a goal
+pair), :func:`goal_reward_value` (the reward of a pair) and :func:`write_achieved_goal` (the
+goal vector of a state).  The environment evaluates the goals it returns once per step with
+them (:meth:`GoalTask.evaluate`, in its termination test; the observation and the reward read
+that evaluation), and the numpy API (:func:`goal_success`, :func:`goal_reward`,
+:func:`goal_errors`) loops the same functions over a batch (:func:`goal_tests`,
+:func:`goal_rewards`), so ``env.compute_reward(obs["achieved_goal"], obs["desired_goal"],
+info)`` equals the returned reward bit for bit, for single goals and batches alike.
 
 Episode spec: the reach spec (``task`` is ``"goal"``) plus, when the goal was requested as a
 vector (``reset(options={"desired_goal": g})``), ``"desired_goal"`` (5 floats).
@@ -54,13 +58,19 @@ __all__ = [
     "REWARD_TYPES",
     "GoalTask",
     "achieved_goal",
+    "evaluate_state_goal",
     "goal_bounds",
     "goal_errors",
     "goal_free_reward",
     "goal_of_pose",
     "goal_reward",
+    "goal_reward_value",
+    "goal_rewards",
     "goal_success",
+    "goal_test",
+    "goal_tests",
     "pose_of_goal",
+    "write_achieved_goal",
 ]
 
 #: Length of a goal vector ``(x, y, cos theta, sin theta, v)``.
