@@ -61,7 +61,7 @@ from planar3p_gym.sim.batch_step import BatchProjector, BatchState
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task_module
 from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
-from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, BatchReach
+from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, TOLERANCES, BatchReach
 from planar3p_gym.tasks.rewards import TERM_NAMES
 from planar3p_gym.tasks.sampling import TaskConfig
 
@@ -411,6 +411,12 @@ class _BatchCore:
         self.reach = BatchReach(env._reach_step)
         self.low, self.high = env._obs_low, env._obs_high
         self.projector: BatchProjector | None = None  # made from the first simulation
+        #: Every environment's fused-step constants (their tolerances among them), one row
+        #: each, shared with its ReachStep: a tolerance changed through an environment's
+        #: ``set_task_config`` shows here with no loop over the environments.
+        self.consts = np.zeros((n, 10))
+        for i, e in enumerate(venv._envs):
+            e._reach_step.share_constants(self.consts[i])  # type: ignore[union-attr]
         ffi, cp = physics._ffi, physics._cp
         self.buf = np.zeros((n, _ROW))
         base = ffi.cast("double *", self.buf.ctypes.data)
@@ -707,7 +713,7 @@ class _BatchCore:
                 self.target_cs[:, idx],
                 self.assembly[idx],
                 a[idx].T,
-                np.array([venv._envs[i]._reach_step.tolerances for i in idx]).T,
+                self.consts[idx, TOLERANCES].T,
             )
         reward = o["reward"]  # (the terms' sum, as the single env adds them)
         bad = ~st.finite | (st.closure > self.breakdown)

@@ -53,6 +53,7 @@ __all__ = [
     "REASONS",
     "RESULT_FIELDS",
     "TERMS_START",
+    "TOLERANCES",
     "BatchReach",
     "ReachStep",
     "leg_measures",
@@ -88,6 +89,8 @@ RESULT_FIELDS = (
 )
 #: Index of the first reward term in the result array.
 TERMS_START = RESULT_FIELDS.index(TERM_NAMES[0])
+#: Entries of the constants of :func:`reach_outputs` that are the success tolerances.
+TOLERANCES = slice(7, 10)
 
 
 @njit(cache=True)
@@ -196,7 +199,14 @@ class ReachStep:
     @tolerances.setter
     def tolerances(self, value: tuple[float, float, float]) -> None:
         self._tolerances = (float(value[0]), float(value[1]), float(value[2]))
-        self._consts[7:] = self._tolerances
+        self._consts[TOLERANCES] = self._tolerances
+
+    def share_constants(self, row: np.ndarray) -> None:
+        """Keep the constants of :func:`reach_outputs` in ``row`` (a float64 view of 10
+        numbers, e.g. a row of a vector env's array of every environment's constants), so
+        that a change of :attr:`tolerances` shows there."""
+        row[:] = self._consts
+        self._consts = row
 
     def compute(
         self,
@@ -265,7 +275,7 @@ def reach_outputs_batch(
             st[k] = states[k, j]
         for k in range(tg.shape[0]):
             tg[k] = target[k, j]
-        cs[7], cs[8], cs[9] = tolerances[0, j], tolerances[1, j], tolerances[2, j]
+        cs[7], cs[8], cs[9] = tolerances[0, j], tolerances[1, j], tolerances[2, j]  # TOLERANCES
         reach_outputs(
             st, st[8], tg, assembly[j], action[0, j], action[1, j], action[2, j], cs, w, low,
             high, rows[j], obs[j], r,
