@@ -430,16 +430,16 @@ class GoalTask(ReachTask):
         #: The achieved goal of the last state evaluated (float32, clipped to the goal space:
         #: the ``achieved_goal`` the environment returns), overwritten by :meth:`evaluate`.
         self.achieved = np.zeros(GOAL_SIZE, dtype=np.float32)
-        #: ``(position error (m), orientation error (rad), success)`` of :attr:`achieved`
-        #: against :attr:`desired` (:func:`goal_test`), from :meth:`evaluate`.
+        #: ``(position error (m), orientation error (rad), success)`` of ``achieved``
+        #: against ``desired`` (:func:`goal_test`), from :meth:`evaluate`.
         self.evaluation: tuple[float, float, bool] = (0.0, 0.0, False)
 
     def evaluate(
         self, pose: tuple[float, float, float], rho_dot: tuple[float, float, float], failed: bool
     ) -> tuple[float, float, bool]:
         """The achieved goal of a state (pose in m, m, rad; slider rates in m/s) into
-        :attr:`achieved`, and its errors and success against the desired goal into
-        :attr:`evaluation` (returned): once per step, the success test and the reward read
+        ``achieved``, and its errors and success against the desired goal into
+        ``evaluation`` (returned): once per step, the success test and the reward read
         them.  ``failed``: the step ended by a failure (no success then)."""
         x, y, th = pose
         r0, r1, r2 = rho_dot
@@ -466,7 +466,7 @@ class GoalTask(ReachTask):
 
     def step_reward(self, goal_free: float) -> float:
         """The reward of the step last evaluated (:meth:`evaluate`): :func:`goal_reward_value`
-        of its :attr:`evaluation` and the goal-independent part ``goal_free``, so exactly
+        of its ``evaluation`` and the goal-independent part ``goal_free``, so exactly
         :func:`goal_reward` of the goals the environment returns."""
         env = self.env
         pos, ang, success = self.evaluation
