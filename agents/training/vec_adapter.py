@@ -3,12 +3,24 @@
 ``make_native_vec_env("Planar3P-v0", n_envs=16, seed=0)`` is a drop-in replacement for SB3's
 ``make_vec_env(..., vec_env_cls=DummyVecEnv)``: all environments step in this process, in one
 call, without ``gym.make``'s wrappers.  SB3's conventions are kept: an ended episode is reset
-within the same step (the vector env's ``SAME_STEP`` autoreset), its last observation is
-``infos[i]["terminal_observation"]`` and ``infos[i]["TimeLimit.truncated"]`` says whether the
-time limit ended it; each ``infos[i]`` carries the core entries of the single env's ``info``
-(:data:`planar3p_gym.envs.vector.INFO_KEYS`, ``is_success`` among them) and ``"episode"``
-statistics (``r``, ``l``, ``t``) at the end of an episode, as SB3's ``Monitor`` would add
-them (so ``ep_rew_mean`` and success rates are logged without a Monitor wrapper).
+within the same step (the vector env's ``SAME_STEP`` autoreset).
+
+**What ``step`` passes as ``infos``** (a list of ``num_envs`` dicts, as SB3's ``VecEnv``
+requires), built without a per-environment dict for the episodes that go on:
+
+- an environment whose episode goes on gets an empty dict ``{}`` (a new one each step);
+- an environment whose episode ended in the step gets the core entries of the single env's
+  last ``info`` (:data:`planar3p_gym.envs.vector.INFO_KEYS`, ``is_success`` among them, as
+  Python scalars), ``"terminal_observation"`` (its last observation), ``"TimeLimit.truncated"``
+  (the time limit ended it and nothing else did) and ``"episode"`` (``r``: return, ``l``:
+  length, ``t``: seconds since the adapter was made), as SB3's ``Monitor`` would add them, so
+  ``ep_rew_mean`` and success rates are logged without a Monitor wrapper.
+
+That is every key SB3 reads (``VecNormalize``, the on- and off-policy rollouts, the
+success-rate buffer, ``EvalCallback``, ``evaluate_policy``): they read infos only where an
+episode ended.  The step's entries of **every** environment are passed through as the vector
+env returned them, Gymnasium's layout of arrays over the batch: ``NativeVecEnv.batch_infos``
+(``batch_infos["position_error"][i]``, ...), replaced at each ``step`` and ``reset``.
 """
 
 from __future__ import annotations
@@ -69,6 +81,10 @@ class NativeVecEnv(VecEnv):
         self._returns = np.zeros(self.num_envs, dtype=np.float64)
         self._lengths = np.zeros(self.num_envs, dtype=np.int64)
         self._t0 = time.time()
+        #: The last ``step``'s (or ``reset``'s) info entries of every environment as the vector
+        #: env returned them: a dict of arrays over the batch with ``"_key"`` masks (module
+        #: docstring).
+        self.batch_infos: dict[str, Any] = {}
 
     def reset(self) -> np.ndarray:
         seeds = self._seeds if any(s is not None for s in self._seeds) else None
@@ -76,6 +92,7 @@ class NativeVecEnv(VecEnv):
         if any(o != self._options[0] for o in self._options):
             raise ValueError("NativeVecEnv resets every env with the same options")
         obs, infos = self.venv.reset(seed=seeds, options=options)
+        self.batch_infos = infos
         self.reset_infos = [self._info(infos, i) for i in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
@@ -89,27 +106,26 @@ class NativeVecEnv(VecEnv):
     def step_wait(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict[str, Any]]]:
         assert self._actions is not None, "step_async first"
         obs, rewards, terminated, truncated, infos = self.venv.step(self._actions)
+        self.batch_infos = infos
         dones = terminated | truncated
         self._returns += rewards
         self._lengths += 1
-        final = infos.get("final_info")
-        out = []
-        for i in range(self.num_envs):
-            if dones[i]:
-                info = self._info(final, i)
-                info["terminal_observation"] = infos["final_obs"][i]
+        out: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        ended = np.flatnonzero(dones).tolist()
+        if ended:
+            final, final_obs = infos["final_info"], infos["final_obs"]
+            t = round(time.time() - self._t0, 6)
+            for i in ended:
+                info = out[i] = self._info(final, i)
+                info["terminal_observation"] = final_obs[i]
                 info["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
                 info["episode"] = {
                     "r": float(self._returns[i]),
                     "l": int(self._lengths[i]),
-                    "t": round(time.time() - self._t0, 6),
+                    "t": t,
                 }
-                self._returns[i] = 0.0
-                self._lengths[i] = 0
-            else:
-                info = self._info(infos, i)
-                info["TimeLimit.truncated"] = False
-            out.append(info)
+            self._returns[ended] = 0.0
+            self._lengths[ended] = 0
         return obs, rewards.astype(np.float32), dones, out
 
     @staticmethod

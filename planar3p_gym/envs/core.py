@@ -47,8 +47,8 @@ from planar3p_gym.tasks.observation import (
     travel_goal_entries,
     wrap_angle,
 )
-from planar3p_gym.tasks.reach_step import ReachStep
-from planar3p_gym.tasks.rewards import RewardWeights
+from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, ReachStep
+from planar3p_gym.tasks.rewards import TERM_NAMES, RewardWeights
 from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
@@ -695,25 +695,28 @@ class Planar3PEnv(gym.Env):
     def _fused_step(
         self, state: SimState, action: tuple[float, float, float]
     ) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        """The rest of :meth:`step` for the reach task on the projected physics, through
-        :class:`planar3p_gym.tasks.reach_step.ReachStep` (same results to float64 rounding)."""
-        obs, measures, reason, terms, pos_err, ang_err = self._reach_step.outputs(  # type: ignore[union-attr]
-            state,
-            self._sim.geometry,
-            self._target,
-            self._target_cs,
-            self._assembly,
-            action,  # type: ignore[union-attr]
-        )
+        """The rest of :meth:`step` for the reach task on the projected physics: one compiled
+        call (:func:`planar3p_gym.tasks.reach_step.reach_outputs`) on the projection's state
+        array (same results as the general step to float64 rounding)."""
+        rs = self._reach_step
+        assert rs is not None and self._sim is not None
+        st = self._sim._projector.last_state  # type: ignore[union-attr]
+        res = rs.compute(
+            st, state.pose[2], self._target, self._target_cs, self._assembly, action
+        ).tolist()
+        obs = rs.obs.copy()
         if self.travel_goal:
             obs = self._with_travel_goal(obs)
         self._obs = obs
-        info = self._info(state, measures, reason, terms, reason == "success", (pos_err, ang_err))
+        reason = REASONS[int(res[1])]
+        measures = ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles)
+        terms = dict(zip(TERM_NAMES, res[TERMS_START:], strict=True))
+        info = self._info(state, measures, reason, terms, reason == "success", (res[2], res[3]))
         self._measures = measures
         self._last_info = info
         if self.render_mode == "human":
             self.render()
-        return obs.copy(), float(sum(terms.values())), reason is not None, False, info
+        return obs.copy(), res[0], reason is not None, False, info
 
     def set_task_config(self, changes: dict[str, Any]) -> TaskConfig:
         """Change fields of :attr:`task_config` in the running environment (a curriculum on

@@ -23,7 +23,6 @@ from planar3p_gym.tasks.goal import (
     GoalTask,
     _goals,
     _info_field,
-    achieved_goal,
     goal_bounds,
     goal_free_reward,
     goal_reward,
@@ -214,20 +213,30 @@ class Planar3PGoalEnv(Planar3PEnv):
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict]:
         flat, _, terminated, truncated, info = super().step(action)
-        info["failure"] = info["termination_reason"] in self.task.failure_reasons
-        info["goal_free_reward"] = goal_free_reward(info["reward_terms"], self.reward_type)
-        obs = self._dict_obs(flat, info)
-        reward = self.goal_task.step_reward(obs["achieved_goal"], info)
-        return obs, reward, terminated, truncated, info
+        task = self.goal_task
+        reason = info["termination_reason"]
+        failure = reason in task.failure_reasons
+        info["failure"] = failure
+        free = goal_free_reward(info["reward_terms"], self.reward_type)
+        info["goal_free_reward"] = free
+        if reason == "physics_breakdown":  # (no termination test ran: the last good state)
+            task.evaluate(info["pose"], info["rho_dot"], True)
+        # The goals were evaluated once, by the task's termination test (GoalTask.evaluate):
+        # the observation and the reward read that evaluation.
+        obs = {
+            "observation": flat[ROBOT_INDEX],
+            "achieved_goal": task.achieved.copy(),
+            "desired_goal": task.desired.copy(),
+        }
+        return obs, task.step_reward(free), terminated, truncated, info
 
     def _dict_obs(self, flat: np.ndarray, info: dict[str, Any]) -> dict[str, np.ndarray]:
-        achieved = achieved_goal(info["pose"], info["rho_dot"])
-        np.minimum(achieved, self._goal_high, out=achieved)
-        np.maximum(achieved, self._goal_low, out=achieved)
+        task = self.goal_task
+        task.evaluate(info["pose"], info["rho_dot"], False)
         return {
             "observation": flat[ROBOT_INDEX],
-            "achieved_goal": achieved,
-            "desired_goal": self.goal_task.desired.copy(),
+            "achieved_goal": task.achieved.copy(),
+            "desired_goal": task.desired.copy(),
         }
 
     @property

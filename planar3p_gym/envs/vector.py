@@ -10,22 +10,28 @@ infos are Gymnasium's vector layout (each key an array over the batch with a boo
 
 **The reach task on the projected physics** (``Planar3P-v0``) is stepped without the single
 environments' ``step``: ``batch="scalar"`` runs each simulation and the single environment's
-fused outputs (:class:`~planar3p_gym.tasks.reach_step.ReachStep`) in plain floats and writes them
-into the batch arrays (the per-environment ``info`` dicts are only built when asked for);
-``batch="numpy"`` keeps only what is per simulation in a Python loop (writing the bodies into
-pymunk, ``cpSpaceStep`` and the servo impulses, reading the bodies back: one Chipmunk call
+compiled outputs (:meth:`~planar3p_gym.tasks.reach_step.ReachStep.compute`, one call) and
+writes them into the batch arrays (the per-environment ``info`` dicts are only built when asked
+for); ``batch="numpy"`` keeps only what is per simulation in a Python loop (writing the bodies
+into pymunk, ``cpSpaceStep`` and the servo impulses, reading the bodies back: one Chipmunk call
 each, through pymunk's batch iterators on a row of one numpy array shared by the batch) and
-computes the projection onto the constraint manifold, the configuration measures, the
-observations, the termination and the reward over the whole batch in numpy
-(:mod:`planar3p_gym.sim.batch_step`).  Both do the single environment's operations in the same
-order, so the trajectories are the single environments' bit for bit
-(``tests/envs/test_vector_env.py``).  numpy's overhead per operation makes the numpy batch pay only
-for many environments (:data:`NUMPY_BATCH_MIN`; ``batch="auto"``, the default, chooses by it).
+computes the projection onto the constraint manifold and the outputs (configuration measures,
+observations, termination, reward) in two compiled loops over the batch
+(:mod:`planar3p_gym.sim.batch_step`, :func:`~planar3p_gym.tasks.reach_step.reach_outputs_batch`),
+each the single environment's compiled function.  Both give the single environments'
+trajectories bit for bit (``tests/envs/test_vector_env.py``).  The batched path pays from a
+few environments on (:data:`NUMPY_BATCH_MIN`;
+``batch="auto"``, the default, chooses by it).
 In numpy mode the projected bodies are written back into pymunk at the start of the next step
 (with the new servo commands).  Either way the single environments' own attributes
 (``env.sim.state``, ``env._last_info``, ...) are brought up to date when
 :attr:`Planar3PVectorEnv.envs` or :meth:`Planar3PVectorEnv.get_state` is used, and a state
 that fails the physics-breakdown test takes the single environment's own (general) step.
+
+**Infos** are arrays over the batch, filled from the compiled outputs' result arrays: no
+per-environment dict is built on the reach task's batched step (the task ids below step
+through each environment's own ``step``, whose ``info`` dict is Gymnasium's contract, and their
+entries are gathered into the arrays).
 
 **Per-environment step** (every other configuration, e.g. ``Planar3P-v0``, and the task ids
 ``Planar3PTrack-v0``, ``Planar3PModeChange-v0``, ``Planar3PAssemblyChange-v0`` through the
@@ -54,8 +60,9 @@ from planar3p_gym.sim import physics
 from planar3p_gym.sim.batch_step import BatchProjector, BatchState
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task_module
-from planar3p_gym.tasks.observation import travel_goal_entries
-from planar3p_gym.tasks.reach_step import BatchReach
+from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
+from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, TOLERANCES, BatchReach
+from planar3p_gym.tasks.rewards import TERM_NAMES
 from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
@@ -67,12 +74,12 @@ __all__ = [
     "Planar3PVectorEnv",
 ]
 
-#: Batch size from which ``batch="auto"`` computes the projection and the outputs in numpy
-#: over the batch rather than environment by environment in plain floats: numpy's overhead of
-#: about a microsecond per operation, over some 300 operations a step, is repaid only by
-#: many environments (measured on 2 cores: numpy 1.5x slower at 16 environments, 1.5x faster
-#: at 64, 2.7x at 256; ``scripts/bench_env.py`` prints both).
-NUMPY_BATCH_MIN = 32
+#: Batch size from which ``batch="auto"`` computes the projection and the outputs in compiled
+#: loops over the batch rather than environment by environment: the batched loops save the
+#: Python work of each environment's step and are faster from about 4 environments (measured
+#: on 2 cores under load, env steps/s of the batched over the scalar path: 0.6 at 1, 0.74 at 2,
+#: 1.1-1.3 at 4, 1.9 at 16, 1.8 at 64; docs/throughput.md).
+NUMPY_BATCH_MIN = 4
 
 #: ``info`` entries returned over the batch (as in the single env's ``info``).
 INFO_KEYS = (
@@ -107,10 +114,11 @@ class Planar3PVectorEnv(VectorEnv):
         max_episode_steps: time limit in steps (``None`` or -1: none); ``gym.make_vec`` passes
             the registered one.
         batch: how the reach task on the projected physics is stepped: ``"scalar"`` (each
-            environment's fused step in plain floats), ``"numpy"`` (projection and outputs in
-            numpy over the batch) or ``"auto"`` (numpy from :data:`NUMPY_BATCH_MIN`
-            environments); the same numbers either way.  Other configurations always step
-            environment by environment.
+            environment's simulation step and compiled outputs in turn), ``"numpy"`` (pymunk
+            per environment, then the projection and the outputs in compiled loops over the
+            batch; the name is historical) or ``"auto"`` (``"numpy"`` from
+            :data:`NUMPY_BATCH_MIN` environments); the same numbers either way.  Other
+            configurations always step environment by environment.
         autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default, Gymnasium's) or
             ``AutoresetMode.SAME_STEP`` (an ended episode is reset within the same step: its
             last observation is in ``info["final_obs"]``, its last info entries in
@@ -403,6 +411,12 @@ class _BatchCore:
         self.reach = BatchReach(env._reach_step)
         self.low, self.high = env._obs_low, env._obs_high
         self.projector: BatchProjector | None = None  # made from the first simulation
+        #: Every environment's fused-step constants (their tolerances among them), one row
+        #: each, shared with its ReachStep: a tolerance changed through an environment's
+        #: ``set_task_config`` shows here with no loop over the environments.
+        self.consts = np.zeros((n, 10))
+        for i, e in enumerate(venv._envs):
+            e._reach_step.share_constants(self.consts[i])  # type: ignore[union-attr]
         ffi, cp = physics._ffi, physics._cp
         self.buf = np.zeros((n, _ROW))
         base = ffi.cast("double *", self.buf.ctypes.data)
@@ -466,7 +480,13 @@ class _BatchCore:
         state and bodies, the episode's observation, measures and info)."""
         env = self.venv._envs[i]
         if not self.numpy:
-            env._last_info = env._info(*self.pending_info[i])  # type: ignore[misc]
+            state, res = self.pending_info[i]  # type: ignore[misc]
+            reason = REASONS[int(res[1])]
+            measures = ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles)
+            terms = dict(zip(TERM_NAMES, res[TERMS_START:], strict=True))
+            errors = (res[2], res[3])
+            env._obs = self.venv._obs[i].copy()
+            env._last_info = env._info(state, measures, reason, terms, reason == "success", errors)
             self.pending[i] = False
             return
         last = self.last
@@ -576,15 +596,15 @@ class _BatchCore:
         terminated: np.ndarray,
         info: dict[str, Any],
     ) -> None:
-        """Step the environments ``idx``, each through its simulation and
-        :class:`~planar3p_gym.tasks.reach_step.ReachStep` (the single env's fused step without its
+        """Step the environments ``idx``, each through its simulation and the single env's
+        compiled outputs (:meth:`~planar3p_gym.tasks.reach_step.ReachStep.compute`, without its
         ``info`` dict, which :meth:`sync` builds when asked for); outputs into the batch."""
         venv = self.venv
         envs, obs_out, breakdown = venv._envs, venv._obs, self.breakdown
         commands, actions = (a * self.vmax).tolist(), a.tolist()
         pending, flags = self.pending_info, self.pending
-        rows: list[list[float]] = []  # observations before float32 and the bounds
-        stepped: list[int] = []  # the envs whose row is in rows
+        width = OBS_SIZE
+        stepped: list[int] = []  # the envs stepped by the compiled outputs
         # One tuple per env: reward, reason, errors, margins, sign, closure error.
         results: list[tuple] = []
         for i in idx:
@@ -594,17 +614,24 @@ class _BatchCore:
             state = sim.step_unchecked(v0, v1, v2)
             env._steps += 1
             if state.finite and state.closure_error <= breakdown:
-                row, m, reason, terms, pe, ae = env._reach_step.values(  # type: ignore[union-attr]
-                    state, sim.geometry, env._target, env._target_cs, env._assembly, actions[i]
-                )
-                rows.append(row)
+                rs = env._reach_step
+                res = rs.compute(  # type: ignore[union-attr]
+                    sim._projector.last_state,
+                    state.pose[2],
+                    env._target,
+                    env._target_cs,
+                    env._assembly,
+                    actions[i],
+                ).tolist()
+                obs_out[i, :width] = rs.obs  # type: ignore[union-attr]
                 stepped.append(i)
-                env._measures = m
-                pending[i] = (state, m, reason, terms, reason == "success", (pe, ae))
+                env._measures = ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles)
+                pending[i] = (state, res)
                 flags[i] = True
                 results.append(
-                    (sum(terms.values()), reason, pe, ae, m[0], m[1], m[2], state.closure_error)
-                )
+                    (res[0], REASONS[int(res[1])], res[2], res[3], res[4], res[5], int(res[6]),
+                     state.closure_error)
+                )  # fmt: skip
             else:  # physics breakdown: the single env's general step
                 if flags[i]:
                     self.sync(i)
@@ -614,16 +641,9 @@ class _BatchCore:
                 results.append(
                     (r, *(full[key] for key in _RESULT_KEYS))  # type: ignore[arg-type]
                 )
-        if rows:  # float32 and the bounds over the batch (elementwise: the single env's)
-            obs = np.array(rows, dtype=np.float32)
-            np.minimum(obs, self.high, out=obs)
-            np.maximum(obs, self.low, out=obs)
-            if self.travel_goal:
-                goal = np.array([envs[i]._target_rho for i in stepped])
-                obs = np.concatenate([obs, travel_goal_entries(obs[:, :3], goal)], axis=1)
-            obs_out[stepped] = obs
-            for k, i in enumerate(stepped):
-                envs[i]._obs = obs[k]
+        if stepped and self.travel_goal:  # the joint-space goal over the batch
+            goal = np.array([envs[i]._target_rho for i in stepped])
+            obs_out[stepped, width:] = travel_goal_entries(obs_out[stepped, :3], goal)
         sel = slice(None) if len(idx) == len(envs) else idx
         venv._elapsed[sel] += 1
         rew, reasons, *columns = zip(*results, strict=True)
@@ -693,17 +713,9 @@ class _BatchCore:
                 self.target_cs[:, idx],
                 self.assembly[idx],
                 a[idx].T,
-                np.array([venv._envs[i]._reach_step.tolerances for i in idx]).T,
+                self.consts[idx, TOLERANCES].T,
             )
-        terms = o["terms"]
-        reward = (
-            terms["pose"]
-            + terms["precision"]
-            + terms["singularity"]
-            + terms["action"]
-            + terms["success"]
-            + terms["failure"]
-        )
+        reward = o["reward"]  # (the terms' sum, as the single env adds them)
         bad = ~st.finite | (st.closure > self.breakdown)
         bad_rows = np.nonzero(bad)[0].tolist()
         if bad_rows and self.last is not None:  # bring those envs to their previous step

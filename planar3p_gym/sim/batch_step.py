@@ -33,6 +33,9 @@ class BatchState:
         ux, uy: ``(3, N)`` leg vectors ``u_i = C_i - B_i`` (m); ``c, s``: ``(N,)``
             ``cos, sin theta``.
         finite: ``(N,)`` whether every number of the state is finite.
+        states: ``(23, N)`` all of them as rows (the layout of
+            :func:`~planar3p_gym.sim.projection.project_batch`; the arrays above are views
+            of it), what the compiled reach outputs read.
     """
 
     __slots__ = (
@@ -44,6 +47,7 @@ class BatchState:
         "rho",
         "rho_dot",
         "s",
+        "states",
         "twist",
         "ux",
         "uy",
@@ -89,4 +93,5 @@ class BatchProjector:
             c=states[21],
             s=states[22],
             finite=np.isfinite(total),
+            states=states,
         )

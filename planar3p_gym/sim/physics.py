@@ -609,36 +609,50 @@ class Planar3PSim:
     def _project(self) -> SimState:
         """Project the bodies onto the constraint manifold, write them back, return the state."""
         fast = self._fast
-        if fast is None:
-            v = self._public_values()
-        else:
+        projector = self._projector
+        assert projector is not None
+        if fast is not None:
+            # Read the bodies into pymunk's array, project them in place there (one compiled
+            # call on a view of it) and write them back from it.
             array_, request, iterator = fast[2]
             array_.num = 0
             _cp.cpSpaceEachBody(fast[0], iterator, request)
-            # The readout's first 60 numbers, through a view: the projection reads them in
-            # place (no list in between), before they are written back below.
-            v = fast[6]
-        # (The drives' setpoints for the next step are pulled to within
-        # FOLLOWING_ERROR_LIMIT of their sliders, :meth:`_limit_following_error`.)
-        pr = self._projector.project(  # type: ignore[union-attr]
-            v, self._saturated, FOLLOWING_ERROR_LIMIT
-        )
-        out = pr.bodies
-        if fast is None:
-            for n, body in enumerate(self._bodies):
-                o = 6 * n
-                if body.body_type == pymunk.Body.KINEMATIC:
-                    if out[o] != v[o]:
-                        body.position = (out[o], out[o + 1])
-                    continue
-                body.position = (out[o], out[o + 1])
-                body.angle = out[o + 2]
-                body.velocity = (out[o + 3], out[o + 4])
-                body.angular_velocity = out[o + 5]
-        else:
-            fast[6][:] = array("d", out)  # (through the view: one copy)
+            view = fast[6]
+            sat = self._saturated
+            st, closure = projector.project_in_place(
+                np.asarray(view), sat[0], sat[1], sat[2], FOLLOWING_ERROR_LIMIT
+            )
             array_.num = 0
             _cp.cpSpaceEachBody(fast[0], fast[5], request)
+            self._setpoints = [view[12], view[30], view[48]]
+            s = st.tolist()
+            self.geometry = (s[15], s[16], s[17], s[18], s[19], s[20], s[21], s[22])
+            return SimState(
+                self._time,
+                (s[0], s[1], s[2]),
+                (s[3], s[4], s[5]),
+                (s[6], s[7], _wrap(s[8])),
+                (s[9], s[10], s[11]),
+                (s[12], s[13], s[14]),
+                self._forces,
+                self._saturated,
+                closure,
+            )
+        v = self._public_values()
+        # (The drives' setpoints for the next step are pulled to within
+        # FOLLOWING_ERROR_LIMIT of their sliders, :meth:`_limit_following_error`.)
+        pr = projector.project(v, self._saturated, FOLLOWING_ERROR_LIMIT)
+        out = pr.bodies
+        for n, body in enumerate(self._bodies):
+            o = 6 * n
+            if body.body_type == pymunk.Body.KINEMATIC:
+                if out[o] != v[o]:
+                    body.position = (out[o], out[o + 1])
+                continue
+            body.position = (out[o], out[o + 1])
+            body.angle = out[o + 2]
+            body.velocity = (out[o + 3], out[o + 4])
+            body.angular_velocity = out[o + 5]
         self._setpoints = [out[12], out[30], out[48]]
         self.geometry = pr.geometry
         return SimState(

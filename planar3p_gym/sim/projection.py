@@ -227,6 +227,10 @@ class LoopProjector:
             ]
         )  # fmt: skip
         self.constants.flags.writeable = False
+        #: The state array of the last :meth:`project` (:func:`project_readout`'s 23 values,
+        #: theta not wrapped): what the fused reach step's compiled outputs read
+        #: (:func:`planar3p_gym.tasks.reach_step.reach_outputs`).  Replaced by each call.
+        self.last_state = np.zeros(23)
 
     def project(
         self,
@@ -248,6 +252,7 @@ class LoopProjector:
             self.constants,
             float(setpoint_limit),
         )
+        self.last_state = st
         s = st.tolist()
         return Projected(
             out.tolist(),
@@ -260,6 +265,17 @@ class LoopProjector:
             int(steps),
             (s[15], s[16], s[17], s[18], s[19], s[20], s[21], s[22]),
         )
+
+    def project_in_place(
+        self, v: np.ndarray, s0: bool, s1: bool, s2: bool, setpoint_limit: float
+    ) -> tuple[np.ndarray, float]:
+        """:meth:`project` of the readout array ``v`` (float64, at least 60 numbers), writing
+        the bodies to write back into ``v[:60]`` itself; returns the state array
+        (:func:`project_readout`'s 23 values, also kept as :attr:`last_state`) and the
+        closure error (m).  ``s0, s1, s2``: the servo saturation flags."""
+        st, closure = _project_in_place(v, s0, s1, s2, self.constants, setpoint_limit)
+        self.last_state = st
+        return st, closure
 
 
 @njit(cache=True)
@@ -497,6 +513,18 @@ def project_readout(
         x1, y1, x2, y2, x3, y3, c, s,
     ])  # fmt: skip
     return out, state, closure, steps
+
+
+@njit(cache=True)
+def _project_in_place(
+    v: np.ndarray, s0: bool, s1: bool, s2: bool, consts: np.ndarray, setpoint_limit: float
+) -> tuple[np.ndarray, float]:
+    """:func:`project_readout` of ``v[:60]`` with the bodies written back into ``v[:60]``:
+    ``(state, closure_error)``."""
+    out, state, closure, _ = project_readout(v, s0, s1, s2, consts, setpoint_limit)
+    for k in range(60):
+        v[k] = out[k]
+    return state, closure
 
 
 @njit(cache=True)

@@ -23,10 +23,14 @@ failure penalty for the dense reward; the failure penalty alone for the sparse o
 breakdown).  With those infos (``copy_info_dict=True``) relabelled rewards are exact; with empty
 infos those terms count as 0 and a failure as absent (the goal-dependent part stays exact).
 
-The environment computes its own reward, success and termination with these functions on the
-float32 goal vectors it returns, so ``env.compute_reward(obs["achieved_goal"],
-obs["desired_goal"], info)`` equals the returned reward bit for bit, for single goals and
-batches alike.
+Each formula is defined once and compiled: :func:`goal_test` (errors and success of a goal
+pair), :func:`goal_reward_value` (the reward of a pair) and :func:`write_achieved_goal` (the
+goal vector of a state).  The environment evaluates the goals it returns once per step with
+them (:meth:`GoalTask.evaluate`, in its termination test; the observation and the reward read
+that evaluation), and the numpy API (:func:`goal_success`, :func:`goal_reward`,
+:func:`goal_errors`) loops the same functions over a batch (:func:`goal_tests`,
+:func:`goal_rewards`), so ``env.compute_reward(obs["achieved_goal"], obs["desired_goal"],
+info)`` equals the returned reward bit for bit, for single goals and batches alike.
 
 Episode spec: the reach spec (``task`` is ``"goal"``) plus, when the goal was requested as a
 vector (``reset(options={"desired_goal": g})``), ``"desired_goal"`` (5 floats).
@@ -38,6 +42,7 @@ import math
 from typing import Any, ClassVar
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym import checks
@@ -45,7 +50,7 @@ from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.base import Pose
 from planar3p_gym.tasks.observation import SLICES, SPEED_BOUND_FACTOR, bounds
 from planar3p_gym.tasks.reach import ReachTask
-from planar3p_gym.tasks.rewards import RewardWeights, weighted_terms_batch
+from planar3p_gym.tasks.rewards import RewardWeights, weighted_terms
 from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
@@ -54,13 +59,19 @@ __all__ = [
     "REWARD_TYPES",
     "GoalTask",
     "achieved_goal",
+    "evaluate_state_goal",
     "goal_bounds",
     "goal_errors",
     "goal_free_reward",
     "goal_of_pose",
     "goal_reward",
+    "goal_reward_value",
+    "goal_rewards",
     "goal_success",
+    "goal_test",
+    "goal_tests",
     "pose_of_goal",
+    "write_achieved_goal",
 ]
 
 #: Length of a goal vector ``(x, y, cos theta, sin theta, v)``.
@@ -71,13 +82,17 @@ RELABEL_INFO_KEYS = ("goal_free_reward", "failure")
 #: Reward variants: ``"sparse"`` (0 on success, -1 otherwise) or ``"dense"`` (the reach
 #: reward's shaping terms).
 REWARD_TYPES = ("sparse", "dense")
+#: ``(low, high)`` float32 bounds that clip nothing.
+_NO_BOUND = (np.full(GOAL_SIZE, -np.inf, np.float32), np.full(GOAL_SIZE, np.inf, np.float32))
 
 
 def goal_of_pose(pose: ArrayLike, speed: float = 0.0) -> NDArray[np.float32]:
     """The goal vector (float32, shape ``(5,)``) of a pose ``(x, y, theta)`` (m, m, rad) and a
-    slider speed (m/s)."""
+    slider speed (m/s, >= 0) (:func:`write_achieved_goal`, not clipped)."""
     x, y, th = (float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3))
-    return np.array([x, y, math.cos(th), math.sin(th), speed], dtype=np.float32)
+    out = np.empty(GOAL_SIZE, dtype=np.float32)
+    write_achieved_goal(out, x, y, th, float(speed), 0.0, 0.0, _NO_BOUND[0], _NO_BOUND[1])
+    return out
 
 
 def pose_of_goal(goal: ArrayLike) -> Pose:
@@ -126,7 +141,9 @@ def _goals(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndar
             f"achieved_goal and desired_goal must have the same shape, got {a.shape} and {d.shape}"
         )
     single = a.ndim == 1
-    return a.reshape(-1, GOAL_SIZE), d.reshape(-1, GOAL_SIZE), single
+    a = np.ascontiguousarray(a.reshape(-1, GOAL_SIZE))
+    d = np.ascontiguousarray(d.reshape(-1, GOAL_SIZE))
+    return a, d, single
 
 
 def goal_errors(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -138,20 +155,99 @@ def goal_errors(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np
 
 def _errors(a: np.ndarray, d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`goal_errors` of validated ``(n, 5)`` float64 goals."""
-    pos = np.hypot(d[:, 0] - a[:, 0], d[:, 1] - a[:, 1])
-    ang = np.arctan2(a[:, 2] * d[:, 3] - a[:, 3] * d[:, 2], a[:, 2] * d[:, 2] + a[:, 3] * d[:, 3])
+    pos, ang, _ = goal_tests(a, d, np.zeros(a.shape[0], np.bool_), 0.0, 0.0, 0.0)
     return pos, ang
 
 
-def _evaluate(
-    a: np.ndarray, d: np.ndarray, info: Any, cfg: TaskConfig
-) -> tuple[np.ndarray, np.ndarray, NDArray[np.bool_]]:
-    """Errors and success of validated ``(n, 5)`` float64 goals (one evaluation shared by
-    the success test and the reward)."""
-    pos, ang = _errors(a, d)
-    failed = _info_field(info, "failure", pos.shape[0]) > 0.5
-    close = (pos <= cfg.position_tolerance) & (np.abs(ang) <= cfg.orientation_tolerance)
-    return pos, ang, close & (a[:, 4] <= d[:, 4] + cfg.rest_speed) & ~failed
+@njit(cache=True)
+def goal_test(
+    a0: float, a1: float, a2: float, a3: float, a4: float,
+    d0: float, d1: float, d2: float, d3: float, d4: float,
+    failed: bool, position_tolerance: float, orientation_tolerance: float, rest_speed: float,
+) -> tuple[float, float, bool]:  # fmt: skip
+    """The one definition of a goal pair's errors and success: ``(position error (m),
+    orientation error desired minus achieved (rad, in [-pi, pi]), success)`` of an achieved
+    goal ``a`` and a desired goal ``d`` (module docstring); ``failed``: the step ended by a
+    failure (no success then).  Tolerances in m, rad and m/s."""
+    pos = math.hypot(d0 - a0, d1 - a1)
+    ang = math.atan2(a2 * d3 - a3 * d2, a2 * d2 + a3 * d3)
+    close = pos <= position_tolerance and abs(ang) <= orientation_tolerance
+    return pos, ang, close and a4 <= d4 + rest_speed and not failed
+
+
+@njit(cache=True)
+def goal_tests(
+    a: np.ndarray, d: np.ndarray, failed: np.ndarray,
+    position_tolerance: float, orientation_tolerance: float, rest_speed: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
+    """:func:`goal_test` of ``n`` goal pairs (``a``, ``d`` float64 ``(n, 5)``, ``failed``
+    ``(n,)`` bool): errors ``(n,)`` (m, rad) and successes ``(n,)``."""
+    n = a.shape[0]
+    pos = np.empty(n)
+    ang = np.empty(n)
+    success = np.empty(n, np.bool_)
+    for j in range(n):
+        pos[j], ang[j], success[j] = goal_test(
+            a[j, 0], a[j, 1], a[j, 2], a[j, 3], a[j, 4],
+            d[j, 0], d[j, 1], d[j, 2], d[j, 3], d[j, 4],
+            failed[j], position_tolerance, orientation_tolerance, rest_speed,
+        )  # fmt: skip
+    return pos, ang, success
+
+
+@njit(cache=True)
+def goal_reward_value(
+    w: np.ndarray, position_error: float, orientation_error: float, length: float,
+    success: bool, dense: bool, goal_free: float,
+) -> float:  # fmt: skip
+    """The one definition of the goal reward of one goal pair: its goal-dependent part plus
+    ``goal_free`` (the goal-independent part, :func:`goal_free_reward`).  Sparse: ``-1``
+    unless ``success`` (``0``); dense: the reach reward's pose, precision and success terms
+    (:func:`planar3p_gym.tasks.rewards.weighted_terms`, barriers and effort off: they are
+    goal-free).  ``w`` is :meth:`RewardWeights.as_array`, errors in m and rad, ``length`` the
+    characteristic length (m)."""
+    if dense:
+        t = weighted_terms(
+            w, position_error, orientation_error, length, 1.0, 1.0, 0.0, 0.0, 0.0, success, False
+        )
+        goal = t[0] + t[1] + t[4]
+    else:
+        goal = (1.0 if success else 0.0) - 1.0
+    return goal + goal_free
+
+
+@njit(cache=True)
+def goal_rewards(
+    w: np.ndarray, a: np.ndarray, d: np.ndarray, failed: np.ndarray, goal_free: np.ndarray,
+    length: float, dense: bool,
+    position_tolerance: float, orientation_tolerance: float, rest_speed: float,
+) -> np.ndarray:  # fmt: skip
+    """:func:`goal_reward_value` of ``n`` goal pairs (``a``, ``d`` float64 ``(n, 5)``;
+    ``failed``, ``goal_free`` ``(n,)``) after :func:`goal_test`: rewards ``(n,)``."""
+    n = a.shape[0]
+    out = np.empty(n)
+    for j in range(n):
+        pos, ang, success = goal_test(
+            a[j, 0], a[j, 1], a[j, 2], a[j, 3], a[j, 4],
+            d[j, 0], d[j, 1], d[j, 2], d[j, 3], d[j, 4],
+            failed[j], position_tolerance, orientation_tolerance, rest_speed,
+        )  # fmt: skip
+        out[j] = goal_reward_value(w, pos, ang, length, success, dense, goal_free[j])
+    return out
+
+
+@njit(cache=True)
+def write_achieved_goal(
+    out: np.ndarray, x: float, y: float, theta: float,
+    r0: float, r1: float, r2: float, low: np.ndarray, high: np.ndarray,
+) -> None:  # fmt: skip
+    """Write the achieved goal of a state, ``(x, y, cos theta, sin theta, max_i |rho_dot_i|)``
+    (m, m, 1, 1, m/s; :func:`goal_of_pose`), as float32 clipped to ``[low, high]`` (the goal
+    space, :func:`goal_bounds`) into ``out`` (float32 ``(5,)``)."""
+    speed = max(abs(r0), abs(r1), abs(r2))
+    values = (x, y, math.cos(theta), math.sin(theta), speed)
+    for j in range(5):
+        out[j] = min(max(np.float32(values[j]), low[j]), high[j])
 
 
 def _info_field(info: Any, key: str, n: int) -> np.ndarray:
@@ -179,14 +275,36 @@ def _info_field(info: Any, key: str, n: int) -> np.ndarray:
         raise ValueError(f"info[{key!r}] must be a number") from exc
 
 
+@njit(cache=True)
+def evaluate_state_goal(
+    out: np.ndarray, x: float, y: float, theta: float, r0: float, r1: float, r2: float,
+    low: np.ndarray, high: np.ndarray, desired: np.ndarray, failed: bool,
+    position_tolerance: float, orientation_tolerance: float, rest_speed: float,
+) -> tuple[float, float, bool]:  # fmt: skip
+    """:func:`write_achieved_goal` of a state into ``out``, then :func:`goal_test` of that
+    float32 goal against ``desired`` (float32 ``(5,)``): one compiled call per step."""
+    write_achieved_goal(out, x, y, theta, r0, r1, r2, low, high)
+    a = out.astype(np.float64)
+    d = desired.astype(np.float64)
+    return goal_test(
+        a[0], a[1], a[2], a[3], a[4], d[0], d[1], d[2], d[3], d[4],
+        failed, position_tolerance, orientation_tolerance, rest_speed,
+    )  # fmt: skip
+
+
+def _failed(info: Any, n: int) -> NDArray[np.bool_]:
+    """``info["failure"]`` per goal pair (:func:`_info_field`) as booleans."""
+    return _info_field(info, "failure", n) > 0.5
+
+
 def goal_success(
     achieved: ArrayLike, desired: ArrayLike, info: Any, cfg: TaskConfig
 ) -> NDArray[np.bool_]:
     """Success per goal pair, shape ``(n,)``: within ``position_tolerance`` (m) and
     ``orientation_tolerance`` (rad), achieved speed at most desired speed plus ``rest_speed``
-    (m/s), and not ``info["failure"]``."""
+    (m/s), and not ``info["failure"]`` (:func:`goal_test`)."""
     a, d, _ = _goals(achieved, desired)
-    return _evaluate(a, d, info, cfg)[2]
+    return goal_tests(a, d, _failed(info, a.shape[0]), *cfg.success_tolerances)[2]
 
 
 def goal_reward(
@@ -197,44 +315,27 @@ def goal_reward(
     weights: RewardWeights,
     length: float,
     reward_type: str,
-    *,
-    checked: bool = False,
 ) -> NDArray[np.float64]:
     """The reward per goal pair, shape ``(n,)``: its goal-dependent part plus
-    ``info["goal_free_reward"]``.
+    ``info["goal_free_reward"]`` (:func:`goal_reward_value` after :func:`goal_test`, the
+    definitions the environment's step uses).
 
     Sparse: ``-1`` unless successful (``0``).  Dense: ``-w_pose e - w_precision (1 -
     exp(-d / s)) + w_success [success]`` with ``d = |dp| + length |dtheta|`` (m), ``e = d /
-    length`` (the reach reward's goal terms, :mod:`planar3p_gym.tasks.rewards`).  ``checked``: the
-    goals are float64 arrays ``(n, 5)`` known to be valid (the input checks are skipped, the
-    arithmetic is the same).
+    length`` (the reach reward's goal terms, :mod:`planar3p_gym.tasks.rewards`).
     """
-    if checked:
-        a, d = np.asarray(achieved), np.asarray(desired)
-    else:
-        a, d, _ = _goals(achieved, desired)
-    pos, ang, success = _evaluate(a, d, info, cfg)
-    free = _info_field(info, "goal_free_reward", pos.shape[0])
-    if reward_type == "sparse":
-        goal = success.astype(np.float64) - 1.0
-    else:
-        # The reach reward's pose, precision and success terms (one definition), with the
-        # barriers and the effort off: those are goal-free and are in ``free``.
-        n = pos.shape[0]
-        ones = np.ones(n)
-        terms = weighted_terms_batch(
-            weights.as_array(),
-            np.ascontiguousarray(pos, dtype=np.float64),
-            np.ascontiguousarray(ang, dtype=np.float64),
-            float(length),
-            ones,
-            ones,
-            np.zeros((3, n)),
-            np.ascontiguousarray(success),
-            np.zeros(n, np.bool_),
-        )
-        goal = terms[0] + terms[1] + terms[4]
-    return goal + free
+    a, d, _ = _goals(achieved, desired)
+    n = a.shape[0]
+    return goal_rewards(
+        weights.as_array(),
+        a,
+        d,
+        _failed(info, n),
+        _info_field(info, "goal_free_reward", n),
+        float(length),
+        reward_type == "dense",
+        *cfg.success_tolerances,
+    )
 
 
 def goal_free_reward(terms: dict[str, float], reward_type: str) -> float:
@@ -327,31 +428,68 @@ class GoalTask(ReachTask):
             self.desired = goal_of_pose(spec["target"])
         return start, mode
 
-    def is_success(self, state: Any, errors: tuple[float, float]) -> bool:
-        # A crossing is tested before this: no failure here.  The goals are valid by
-        # construction: skip the public functions' checks (same arithmetic).
-        a = achieved_goal(state.pose, state.rho_dot).astype(np.float64)[None, :]
-        d = self.desired.astype(np.float64)[None, :]
-        return bool(_evaluate(a, d, None, self.env.task_config)[2][0])
+    def bind(self, env: Any) -> None:
+        super().bind(env)
+        self._goal_low, self._goal_high = goal_bounds(env.design)
+        #: The achieved goal of the last state evaluated (float32, clipped to the goal space:
+        #: the ``achieved_goal`` the environment returns), overwritten by :meth:`evaluate`.
+        self.achieved = np.zeros(GOAL_SIZE, dtype=np.float32)
+        #: ``(position error (m), orientation error (rad), success)`` of ``achieved``
+        #: against ``desired`` (:func:`goal_test`), from :meth:`evaluate`.
+        self.evaluation: tuple[float, float, bool] = (0.0, 0.0, False)
 
-    def step_reward(self, achieved: NDArray[np.float32], info: dict[str, Any]) -> float:
-        """The reward of a step, exactly :func:`goal_reward` of the float32 goals the
-        environment returns (without the public function's input checks)."""
+    def evaluate(
+        self, pose: tuple[float, float, float], rho_dot: tuple[float, float, float], failed: bool
+    ) -> tuple[float, float, bool]:
+        """The achieved goal of a state (pose in m, m, rad; slider rates in m/s) into
+        ``achieved``, and its errors and success against the desired goal into
+        ``evaluation`` (returned): once per step, the success test and the reward read
+        them.  ``failed``: the step ended by a failure (no success then)."""
+        x, y, th = pose
+        r0, r1, r2 = rho_dot
+        pt, ot, rs = self.env.task_config.success_tolerances
+        self.evaluation = evaluate_state_goal(
+            self.achieved, x, y, th, r0, r1, r2, self._goal_low, self._goal_high, self.desired,
+            failed, pt, ot, rs,
+        )  # fmt: skip
+        return self.evaluation
+
+    def is_success(self, state: Any, errors: tuple[float, float]) -> bool:
+        return self.evaluate(state.pose, state.rho_dot, False)[2]
+
+    def termination(
+        self, state: Any, measures: Any, errors: tuple[float, float], assembly: int
+    ) -> str | None:
+        """As the reach task's, with success on the goals; evaluates the step's goals
+        (:meth:`evaluate`) whatever the outcome, for the reward."""
+        crossing = measures.det_sign == -assembly
+        success = self.evaluate(state.pose, state.rho_dot, crossing)[2]
+        if crossing:
+            return "singularity_crossing"
+        return "success" if success else None
+
+    def step_reward(self, goal_free: float) -> float:
+        """The reward of the step last evaluated (:meth:`evaluate`): :func:`goal_reward_value`
+        of its ``evaluation`` and the goal-independent part ``goal_free``, so exactly
+        :func:`goal_reward` of the goals the environment returns."""
         env = self.env
-        return float(
-            goal_reward(
-                achieved.astype(np.float64)[None, :],
-                self.desired.astype(np.float64)[None, :],
-                info,
-                env.task_config,
-                env.reward_weights,
-                env.design.characteristic_length,
-                self.reward_type,
-                checked=True,
-            )[0]
+        pos, ang, success = self.evaluation
+        return goal_reward_value(
+            env.reward_weights.as_array(),
+            pos,
+            ang,
+            env.design.characteristic_length,
+            success,
+            self.reward_type == "dense",
+            goal_free,
         )
 
 
 def achieved_goal(pose: ArrayLike, rho_dot: ArrayLike) -> NDArray[np.float32]:
-    """The achieved goal of a state: pose (m, m, rad) and fastest slider speed (m/s)."""
-    return goal_of_pose(pose, float(np.max(np.abs(np.asarray(rho_dot, dtype=np.float64)))))
+    """The achieved goal of a state: pose (m, m, rad) and fastest slider speed (m/s), not
+    clipped (:func:`write_achieved_goal`)."""
+    x, y, th = (float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3))
+    r0, r1, r2 = (float(v) for v in np.asarray(rho_dot, dtype=np.float64).reshape(3))
+    out = np.empty(GOAL_SIZE, dtype=np.float32)
+    write_achieved_goal(out, x, y, th, r0, r1, r2, _NO_BOUND[0], _NO_BOUND[1])
+    return out

@@ -12,8 +12,17 @@ intermediate values are shared (``cos alpha_i = u_ix / |u_i|`` instead of ``cos(
 ``|dp|`` as ``sqrt(dx^2 + dy^2)``), so the numbers agree with the general step to float64
 rounding (``tests/sim/test_batch_step.py``).
 
-:mod:`planar3p_gym.sim.batch_step` does the same arithmetic, operation for operation, on numpy
-arrays over the environments of a vector env; keep the two in step.
+The pass is one compiled call, :func:`reach_outputs`, from the projection's state array (the
+23 numbers the projector keeps as ``LoopProjector.last_state``,
+:class:`planar3p_gym.sim.projection.LoopProjector`), and it calls the one definition of each
+formula (:func:`~planar3p_gym.machine.margins.leg_margins`,
+:func:`~planar3p_gym.tasks.observation.write_reach_values`,
+:func:`~planar3p_gym.tasks.observation.within_tolerances`,
+:func:`~planar3p_gym.tasks.rewards.weighted_terms`).  The single env's fused step and the
+native vector env's scalar batch call it through :meth:`ReachStep.compute`; the numpy batch
+through :func:`reach_outputs_batch`, the same function in a compiled loop over the batch's
+projected states (:mod:`planar3p_gym.sim.batch_step`), so all three give the same numbers bit
+for bit.
 """
 
 from __future__ import annotations
@@ -25,17 +34,32 @@ import numpy as np
 from numba import njit
 
 from planar3p_gym.machine.design import Design
-from planar3p_gym.machine.margins import leg_margins, leg_margins_batch
+from planar3p_gym.machine.margins import leg_margins
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.tasks import rewards
-from planar3p_gym.tasks.observation import OBS_SIZE, within_tolerances, write_reach_values
-from planar3p_gym.tasks.rewards import TERM_NAMES, weighted_terms_batch
+from planar3p_gym.tasks.observation import (
+    OBS_SIZE,
+    clip_float32,
+    within_tolerances,
+    write_reach_values,
+)
+from planar3p_gym.tasks.rewards import TERM_NAMES, weighted_terms
 
 if TYPE_CHECKING:
     from planar3p_gym.sim.batch_step import BatchState
     from planar3p_gym.sim.physics import SimState
 
-__all__ = ["BatchReach", "ReachStep", "leg_measures"]
+__all__ = [
+    "REASONS",
+    "RESULT_FIELDS",
+    "TERMS_START",
+    "TOLERANCES",
+    "BatchReach",
+    "ReachStep",
+    "leg_measures",
+    "reach_outputs",
+    "reach_outputs_batch",
+]
 
 
 def leg_measures(
@@ -49,8 +73,89 @@ def leg_measures(
     return leg_margins(*geometry, *k, *legs, ref)
 
 
+#: ``info["termination_reason"]`` of the codes of :func:`reach_outputs` (0, 1, 2).
+REASONS: tuple[str | None, ...] = (None, "success", "singularity_crossing")
+#: Entries of the result array of :func:`reach_outputs`, in order (the weighted reward terms
+#: last, in the order of :data:`~planar3p_gym.tasks.rewards.TERM_NAMES`).
+RESULT_FIELDS = (
+    "reward",
+    "reason",
+    "position_error",
+    "orientation_error",
+    "parallel_margin",
+    "serial_margin",
+    "assembly_mode",
+    *TERM_NAMES,
+)
+#: Index of the first reward term in the result array.
+TERMS_START = RESULT_FIELDS.index(TERM_NAMES[0])
+#: Entries of the constants of :func:`reach_outputs` that are the success tolerances.
+TOLERANCES = slice(7, 10)
+
+
+@njit(cache=True)
+def reach_outputs(
+    st: np.ndarray, theta: float, target: np.ndarray, assembly: int,
+    a0: float, a1: float, a2: float,
+    consts: np.ndarray, w: np.ndarray, low: np.ndarray, high: np.ndarray,
+    row: np.ndarray, obs: np.ndarray, res: np.ndarray,
+) -> None:  # fmt: skip
+    """The outputs of a reach step in one compiled pass (module docstring).
+
+    ``st``: the state after the step, 23 float64 (SI units): ``rho``, ``rho_dot``, the pose
+    ``(x, y, theta)``, the twist, the leg angles and the geometry ``(u_1x, u_1y, u_2x, u_2y,
+    u_3x, u_3y, cos theta, sin theta)`` (the layout of
+    :func:`planar3p_gym.sim.projection.project_readout`'s state; its ``theta`` is not read);
+    ``theta``: the platform angle wrapped into ``(-pi, pi]`` (rad, as
+    :class:`~planar3p_gym.sim.physics.SimState` holds it).  ``target``: ``(x, y,
+    theta, cos theta, sin theta)`` of the target (m, m, rad, 1, 1); ``assembly``: the start's
+    ``sign det A``; ``a0, a1, a2``: the clipped action; ``consts``: the joint offsets (m), the
+    leg lengths (m), the characteristic length (m) and the success tolerances (m, rad, m/s);
+    ``w``: :meth:`~planar3p_gym.tasks.rewards.RewardWeights.as_array`; ``low``, ``high``: the
+    observation's float32 bounds.
+
+    Writes the 31 observation values (float64, not clipped) into ``row``, the observation
+    (float32, clipped to ``[low, high]``) into ``obs`` and :data:`RESULT_FIELDS` into ``res``
+    (the reason as 0 none, 1 success, 2 singularity crossing; the reward is the terms' sum
+    from 0.0 in :data:`~planar3p_gym.tasks.rewards.TERM_NAMES` order, as ``sum`` adds them).
+    """
+    ref = consts[6]
+    x1, y1, x2, y2, x3, y3, c, s = st[15], st[16], st[17], st[18], st[19], st[20], st[21], st[22]
+    parallel, serial, sign, n1, n2, n3 = leg_margins(
+        x1, y1, x2, y2, x3, y3, c, s,
+        consts[0], consts[1], consts[2], consts[3], consts[4], consts[5], ref,
+    )  # fmt: skip
+    legs_cs = np.empty(6)
+    legs_cs[0], legs_cs[1], legs_cs[2] = x1 / n1, y1 / n1, x2 / n2
+    legs_cs[3], legs_cs[4], legs_cs[5] = y2 / n2, x3 / n3, y3 / n3
+    rho_dot = st[3:6]
+    pose = np.empty(3)
+    pose[0], pose[1], pose[2] = st[6], st[7], theta
+    dx, dy, dth = write_reach_values(
+        row, st[0:3], rho_dot, pose, c, s, st[9:12], legs_cs, target[0:3], target[3],
+        target[4], parallel, serial, ref,
+    )  # fmt: skip
+    pos_err = math.sqrt(dx * dx + dy * dy)
+    reason = 0
+    if sign == -assembly:
+        reason = 2
+    elif within_tolerances(pos_err, dth, rho_dot, consts[7], consts[8], consts[9]):
+        reason = 1
+    terms = weighted_terms(
+        w, pos_err, dth, ref, parallel, serial, a0, a1, a2, reason == 1, reason == 2
+    )
+    total = 0.0
+    for t in range(6):
+        total += terms[t]
+        res[TERMS_START + t] = terms[t]
+    res[0], res[1], res[2], res[3] = total, reason, pos_err, dth
+    res[4], res[5], res[6] = parallel, serial, sign
+    clip_float32(row, low, high, obs)
+
+
 class ReachStep:
-    """Fused outputs of a reach step of ``env`` (module docstring); constants cached here.
+    """Fused outputs of a reach step of ``env`` (module docstring); constants and the output
+    buffers of :func:`reach_outputs` kept here.
 
     Args:
         design: the machine (:class:`~planar3p_gym.machine.design.Design`).
@@ -72,8 +177,57 @@ class ReachStep:
         self.legs = design.leg_lengths
         self.ref = design.characteristic_length
         self.low, self.high = low, high
+        self._low32 = np.ascontiguousarray(low, dtype=np.float32)
+        self._high32 = np.ascontiguousarray(high, dtype=np.float32)
         self.weights = weights
+        self._consts = np.zeros(10)
+        self._consts[:7] = (*self.k, *self.legs, self.ref)
         self.tolerances = tolerances
+        self._target = np.zeros(5)
+        #: The last :meth:`compute`'s observation values (float64, not clipped), observation
+        #: (float32, clipped) and results (:data:`RESULT_FIELDS`); overwritten by each call.
+        self.row = np.zeros(OBS_SIZE)
+        self.obs = np.zeros(OBS_SIZE, dtype=np.float32)
+        self.res = np.zeros(len(RESULT_FIELDS))
+
+    @property
+    def tolerances(self) -> tuple[float, float, float]:
+        """Position (m), orientation (rad) and rest-speed (m/s) tolerances of the success
+        test."""
+        return self._tolerances
+
+    @tolerances.setter
+    def tolerances(self, value: tuple[float, float, float]) -> None:
+        self._tolerances = (float(value[0]), float(value[1]), float(value[2]))
+        self._consts[TOLERANCES] = self._tolerances
+
+    def share_constants(self, row: np.ndarray) -> None:
+        """Keep the constants of :func:`reach_outputs` in ``row`` (a float64 view of 10
+        numbers, e.g. a row of a vector env's array of every environment's constants), so
+        that a change of :attr:`tolerances` shows there."""
+        row[:] = self._consts
+        self._consts = row
+
+    def compute(
+        self,
+        st: np.ndarray,
+        theta: float,
+        target: tuple[float, float, float],
+        target_cs: tuple[float, float],
+        assembly: int,
+        action: tuple[float, float, float],
+    ) -> np.ndarray:
+        """:func:`reach_outputs` of the state array ``st`` (its layout there) and the wrapped
+        platform angle ``theta`` (rad) into :attr:`row`, :attr:`obs` and :attr:`res`
+        (returned)."""
+        t = self._target
+        t[0], t[1], t[2] = target
+        t[3], t[4] = target_cs
+        reach_outputs(
+            st, theta, t, assembly, action[0], action[1], action[2], self._consts,
+            self.weights.as_array(), self._low32, self._high32, self.row, self.obs, self.res,
+        )  # fmt: skip
+        return self.res
 
     def outputs(
         self,
@@ -86,127 +240,64 @@ class ReachStep:
     ) -> tuple[np.ndarray, ConfigurationMeasures, str | None, dict[str, float], float, float]:
         """``(observation, measures, termination reason, reward terms, position error (m),
         orientation error (rad))`` of a finite state after a step with ``action``."""
-        out = self.values(state, geometry, target, target_cs, assembly, action)
-        obs = np.array(out[0], dtype=np.float32)
-        np.minimum(obs, self.high, out=obs)
-        np.maximum(obs, self.low, out=obs)
-        return obs, *out[1:]  # type: ignore[return-value]
-
-    def values(
-        self,
-        state: SimState,
-        geometry: tuple[float, ...],
-        target: tuple[float, float, float],
-        target_cs: tuple[float, float],
-        assembly: int,
-        action: tuple[float, float, float],
-    ) -> tuple[list[float], ConfigurationMeasures, str | None, dict[str, float], float, float]:
-        """:meth:`outputs` with the observation as its 31 float64 values, not yet converted
-        to float32 and clipped to the bounds (what a vector env does over the batch)."""
-        parallel, serial, sign, n1, n2, n3 = leg_measures(geometry, self.k, self.legs, self.ref)
-        x1, y1, x2, y2, x3, y3, c, s = geometry
-        values = np.empty(OBS_SIZE)
-        rho_dot = np.array(state.rho_dot)
-        dx, dy, dth = write_reach_values(
-            values, np.array(state.rho), rho_dot, np.array(state.pose), c, s,
-            np.array(state.twist), np.array((x1 / n1, y1 / n1, x2 / n2, y2 / n2, x3 / n3, y3 / n3)),
-            np.array(target), target_cs[0], target_cs[1], parallel, serial, self.ref,
-        )  # fmt: skip
-        length = self.ref
-        pos_err = math.sqrt(dx * dx + dy * dy)
-        if sign == -assembly:
-            reason: str | None = "singularity_crossing"
-        elif within_tolerances(pos_err, dth, rho_dot, *self.tolerances):
-            reason = "success"
-        else:
-            reason = None
-        terms = reward_terms(self.weights, pos_err, dth, length, parallel, serial, action, reason)
-        measures = ConfigurationMeasures(parallel, serial, sign, state.leg_angles)
-        return values.tolist(), measures, reason, terms, pos_err, dth
-
-
-def reward_terms(
-    w: Any,
-    pos_err: float,
-    ang_err: float,
-    length: float,
-    parallel: float,
-    serial: float,
-    action: tuple[float, float, float],
-    reason: str | None,
-) -> dict[str, float]:
-    """:func:`planar3p_gym.tasks.rewards.reward_terms` of the reach task (both barriers on) for
-    weights ``w``, errors (m, rad), margins and the termination ``reason``."""
-    return rewards.reward_terms(
-        w,
-        position_error=pos_err,
-        orientation_error=ang_err,
-        length=length,
-        parallel_margin=parallel,
-        serial_margin=serial,
-        action=action,
-        success=reason == "success",
-        failure=reason == "singularity_crossing",
-    )
+        st = np.array(
+            (*state.rho, *state.rho_dot, *state.pose, *state.twist, *state.leg_angles, *geometry)
+        )
+        res = self.compute(st, state.pose[2], target, target_cs, assembly, action).tolist()
+        return (
+            self.obs.copy(),
+            ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles),
+            REASONS[int(res[1])],
+            dict(zip(TERM_NAMES, res[TERMS_START:], strict=True)),
+            res[2],
+            res[3],
+        )
 
 
 @njit(cache=True)
-def reach_values_batch(
-    rho: np.ndarray, rho_dot: np.ndarray, pose: np.ndarray, c: np.ndarray, s: np.ndarray,
-    twist: np.ndarray, legs_cs: np.ndarray, target: np.ndarray, target_cs: np.ndarray,
-    parallel: np.ndarray, serial: np.ndarray, length: float, tolerances: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
-    """:func:`~planar3p_gym.tasks.observation.write_reach_values` and
-    :func:`~planar3p_gym.tasks.observation.within_tolerances` of ``N`` environments (arrays
-    ``(k, N)`` of the single env's values): the observation values ``(N, 31)``, the position
-    and orientation errors ``(2, N)`` (m, rad) and the success tests ``(N,)`` (before the
-    crossing test)."""
-    n = c.shape[0]
-    rows = np.empty((n, OBS_SIZE))
-    errors = np.empty((2, n))
-    success = np.empty(n, np.bool_)
+def reach_outputs_batch(
+    states: np.ndarray, target: np.ndarray, assembly: np.ndarray, action: np.ndarray,
+    tolerances: np.ndarray, consts: np.ndarray, w: np.ndarray, low: np.ndarray,
+    high: np.ndarray, rows: np.ndarray, obs: np.ndarray, res: np.ndarray,
+) -> None:  # fmt: skip
+    """:func:`reach_outputs` of ``N`` environments, in one compiled loop: ``states``
+    ``(23, N)`` (:func:`~planar3p_gym.sim.projection.project_batch`'s, theta wrapped),
+    ``target`` ``(5, N)``, ``assembly`` ``(N,)``, ``action`` ``(3, N)``, ``tolerances``
+    ``(3, N)`` (each environment's; they replace those of ``consts``); writes ``rows``
+    ``(N, 31)``, ``obs`` ``(N, 31)`` float32 and ``res`` ``(len(RESULT_FIELDS), N)``."""
+    n = states.shape[1]
+    st = np.empty(states.shape[0])
+    tg = np.empty(target.shape[0])
+    cs = consts.copy()
+    r = np.empty(res.shape[0])
     for j in range(n):
-        dx, dy, dth = write_reach_values(
-            rows[j], rho[:, j], rho_dot[:, j], pose[:, j], c[j], s[j], twist[:, j],
-            legs_cs[:, j], target[:, j], target_cs[0, j], target_cs[1, j],
-            parallel[j], serial[j], length,
+        for k in range(st.shape[0]):
+            st[k] = states[k, j]
+        for k in range(tg.shape[0]):
+            tg[k] = target[k, j]
+        cs[7], cs[8], cs[9] = tolerances[0, j], tolerances[1, j], tolerances[2, j]  # TOLERANCES
+        reach_outputs(
+            st, st[8], tg, assembly[j], action[0, j], action[1, j], action[2, j], cs, w, low,
+            high, rows[j], obs[j], r,
         )  # fmt: skip
-        pos_err = math.sqrt(dx * dx + dy * dy)
-        errors[0, j], errors[1, j] = pos_err, dth
-        success[j] = within_tolerances(
-            pos_err, dth, rho_dot[:, j], tolerances[0, j], tolerances[1, j], tolerances[2, j]
-        )
-    return rows, errors, success
+        for k in range(r.shape[0]):
+            res[k, j] = r[k]
 
 
 class BatchReach:
-    """:meth:`planar3p_gym.tasks.reach_step.ReachStep.outputs` over a batch.
+    """:meth:`planar3p_gym.tasks.reach_step.ReachStep.compute` over a batch
+    (:func:`reach_outputs_batch`: the same compiled outputs in a loop).
 
     Args:
         reach: the :class:`~planar3p_gym.tasks.reach_step.ReachStep` of one of the (identically
             configured) environments.
     """
 
-    def __init__(self, reach: Any) -> None:
-        self.k = np.array(reach.k).reshape(3, 1)
-        self.legs = np.array(reach.legs).reshape(3, 1)
-        self.ref = reach.ref
-        self.low = reach.low.astype(np.float32)
-        self.high = reach.high.astype(np.float32)
+    def __init__(self, reach: ReachStep) -> None:
+        self.low = reach._low32
+        self.high = reach._high32
         self.weights = reach.weights
-
-    def measures(self, st: BatchState) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """``(parallel margin, serial margin, sign det A, |u_i|)`` as in
-        :func:`planar3p_gym.tasks.reach_step.leg_measures`."""
-        return leg_margins_batch(
-            np.ascontiguousarray(st.ux),
-            np.ascontiguousarray(st.uy),
-            np.ascontiguousarray(st.c),
-            np.ascontiguousarray(st.s),
-            self.k[:, 0],
-            self.legs[:, 0],
-            self.ref,
-        )
+        self.consts = reach._consts.copy()
 
     def outputs(
         self,
@@ -216,58 +307,53 @@ class BatchReach:
         assembly: np.ndarray,
         action: np.ndarray,
         tolerances: np.ndarray,
-    ) -> dict[str, np.ndarray]:
+    ) -> dict[str, Any]:
         """Observations ``(N, 31)`` float32, margins, sign, termination (``reason``: 0 none,
-        1 success, 2 singularity crossing), reward terms and errors of finite states;
+        1 success, 2 singularity crossing), reward terms, their sum (``reward``) and errors;
         ``target`` ``(3, N)``, ``target_cs`` ``(2, N)``, ``assembly`` ``(N,)``, ``action``
         ``(3, N)`` clipped, ``tolerances`` ``(3, N)``: each environment's position (m),
         orientation (rad) and rest-speed (m/s) tolerances (``ReachStep.tolerances``)."""
-        parallel, serial, sign, norm = self.measures(st)
-        n = st.c.shape[0]
-        legs_cs = np.empty((6, n))
-        legs_cs[0::2] = st.ux / norm
-        legs_cs[1::2] = st.uy / norm
-        rows, errors, success = reach_values_batch(
-            np.ascontiguousarray(st.rho),
-            np.ascontiguousarray(st.rho_dot),
-            np.ascontiguousarray(st.pose),
-            np.ascontiguousarray(st.c),
-            np.ascontiguousarray(st.s),
-            np.ascontiguousarray(st.twist),
-            legs_cs,
-            np.ascontiguousarray(target, dtype=np.float64),
-            np.ascontiguousarray(target_cs, dtype=np.float64),
-            parallel,
-            serial,
-            self.ref,
-            np.ascontiguousarray(tolerances, dtype=np.float64),
-        )
-        length = self.ref
-        obs = rows.astype(np.float32)
-        np.minimum(obs, self.high, out=obs)
-        np.maximum(obs, self.low, out=obs)
-        pos_err, dth = errors
-        crossing = sign == -assembly
-        success &= ~crossing
-        terms_array = weighted_terms_batch(
-            self.weights.as_array(),
-            np.ascontiguousarray(pos_err),
-            np.ascontiguousarray(dth),
-            length,
-            np.ascontiguousarray(parallel),
-            np.ascontiguousarray(serial),
+        states = st.states if getattr(st, "states", None) is not None else _state_rows(st)
+        n = states.shape[1]
+        rows = np.empty((n, OBS_SIZE))
+        obs = np.empty((n, OBS_SIZE), dtype=np.float32)
+        res = np.empty((len(RESULT_FIELDS), n))
+        reach_outputs_batch(
+            np.ascontiguousarray(states, dtype=np.float64),
+            np.ascontiguousarray(np.concatenate([target, target_cs]), dtype=np.float64),
+            np.ascontiguousarray(assembly, dtype=np.int64),
             np.ascontiguousarray(action, dtype=np.float64),
-            np.ascontiguousarray(success),
-            np.ascontiguousarray(crossing),
-        )
-        terms = dict(zip(TERM_NAMES, terms_array, strict=True))
+            np.ascontiguousarray(tolerances, dtype=np.float64),
+            self.consts, self.weights.as_array(), self.low, self.high, rows, obs, res,
+        )  # fmt: skip
         return {
             "obs": obs,
-            "parallel": parallel,
-            "serial": serial,
-            "sign": sign,
-            "reason": success.astype(np.int64) + 2 * crossing,
-            "terms": terms,
-            "position_error": pos_err,
-            "orientation_error": dth,
+            "reward": res[0],
+            "parallel": res[4],
+            "serial": res[5],
+            "sign": res[6].astype(np.int64),
+            "reason": res[1].astype(np.int64),
+            "terms": dict(zip(TERM_NAMES, res[TERMS_START:], strict=True)),
+            "position_error": res[2],
+            "orientation_error": res[3],
         }
+
+
+def _state_rows(st: BatchState) -> np.ndarray:
+    """The ``(23, N)`` state rows of :func:`reach_outputs_batch` from a
+    :class:`~planar3p_gym.sim.batch_step.BatchState` without them (leg angles, which the
+    outputs do not read, as zeros when absent)."""
+    n = st.c.shape[0]
+    legs = getattr(st, "leg_angles", None)
+    geometry = np.empty((8, n))
+    geometry[0:6:2], geometry[1:6:2], geometry[6], geometry[7] = st.ux, st.uy, st.c, st.s
+    return np.concatenate(
+        [
+            st.rho,
+            st.rho_dot,
+            st.pose,
+            st.twist,
+            np.zeros((3, n)) if legs is None else legs,
+            geometry,
+        ]
+    )

@@ -84,6 +84,49 @@ def test_reward_equals_compute_reward_single_and_batched(env_id):
         assert [s[1] for s in steps] == [-1.0] * (len(steps) - 1) + [0.0]
 
 
+def test_compiled_goal_errors_and_success_match_numpy_formulas():
+    """The compiled goal test (:func:`planar3p_gym.tasks.goal.goal_test`, which the step and
+    the batched API share) against the module docstring's formulas in numpy: errors to a few
+    ulps (libm's and numpy's ``atan2`` may differ in the last bit), success exactly (no pair
+    lies within 1e-9 of a tolerance)."""
+    from planar3p_gym.tasks.goal import goal_errors, goal_success
+    from planar3p_gym.tasks.sampling import TaskConfig
+
+    rng = np.random.default_rng(0)
+    n = 400
+    d = np.column_stack([rng.uniform(-0.3, 0.3, (n, 2)), np.zeros((n, 3))])
+    th = rng.uniform(-np.pi, np.pi, n)
+    d[:, 2], d[:, 3] = np.cos(th), np.sin(th)
+    a = d.copy()
+    a[:, :2] += rng.normal(0.0, 0.002, (n, 2))
+    dth = rng.normal(0.0, 0.02, n)
+    a[:, 2], a[:, 3] = np.cos(th - dth), np.sin(th - dth)
+    a[:, 4] = rng.uniform(0.0, 0.02, n)
+    pos, ang = goal_errors(a, d)
+    ref_pos = np.hypot(d[:, 0] - a[:, 0], d[:, 1] - a[:, 1])
+    ref_ang = np.arctan2(
+        a[:, 2] * d[:, 3] - a[:, 3] * d[:, 2], a[:, 2] * d[:, 2] + a[:, 3] * d[:, 3]
+    )
+    np.testing.assert_allclose(pos, ref_pos, rtol=4e-16, atol=0.0)
+    np.testing.assert_allclose(ang, ref_ang, rtol=4e-16, atol=1e-18)
+    np.testing.assert_allclose(ang, dth, rtol=1e-9, atol=1e-12)  # the signed angle d - a
+    cfg = TaskConfig()
+    tol_p, tol_a, rest = cfg.success_tolerances
+    for margin in (
+        np.abs(ref_pos - tol_p),
+        np.abs(np.abs(ref_ang) - tol_a),
+        np.abs(a[:, 4] - rest),
+    ):
+        assert margin.min() > 1e-9
+    expected = (ref_pos <= tol_p) & (np.abs(ref_ang) <= tol_a) & (a[:, 4] <= rest)
+    assert 0 < expected.sum() < n
+    np.testing.assert_array_equal(goal_success(a, d, None, cfg), expected)
+    failed = [{"failure": bool(i % 2)} for i in range(n)]
+    np.testing.assert_array_equal(
+        goal_success(a, d, failed, cfg), expected & (np.arange(n) % 2 == 0)
+    )
+
+
 @pytest.mark.parametrize("env_id", IDS)
 @pytest.mark.parametrize("relabel_at", [0.5, 1.0])
 def test_relabelled_rewards_match_a_replay_with_that_goal(env_id, relabel_at):

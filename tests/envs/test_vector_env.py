@@ -87,6 +87,59 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, ba
     venv.close()
 
 
+@pytest.mark.parametrize(
+    ("env_id", "kwargs", "batch"),
+    [
+        ("Planar3P-v0", {}, "scalar"),
+        ("Planar3P-v0", {}, "numpy"),
+        ("Planar3P-v0", {"breakdown_threshold": 1e-15}, "scalar"),
+        ("Planar3P-v0", {"breakdown_threshold": 1e-15}, "numpy"),
+        ("Planar3PTrack-v0", {}, "auto"),
+    ],
+)
+def test_same_step_infos_are_the_single_envs_episode_by_episode(env_id, kwargs, batch):
+    """``SAME_STEP`` autoreset (what the SB3 adapter uses): the batch info arrays of a step
+    are each single env's ``info`` of that step, or of its reset where its episode ended; the
+    ended episodes' last observations and infos are ``final_obs`` / ``final_info``, bit for
+    bit, episode by episode."""
+    n, steps, limit = 3, 100, 30
+    venv = gym.make_vec(
+        env_id,
+        num_envs=n,
+        max_episode_steps=limit,
+        batch=batch,
+        autoreset_mode=AutoresetMode.SAME_STEP,
+        **kwargs,
+    )
+    singles = [gym.make(env_id, max_episode_steps=limit, **kwargs) for _ in range(n)]
+    actions = np.random.default_rng(3).uniform(-1.0, 1.0, (steps, n, 3)).astype(np.float32)
+    venv.reset(seed=5)
+    for i, env in enumerate(singles):
+        env.reset(seed=5 + i)
+    ends = 0
+    for a in actions:
+        obs, rewards, terminated, truncated, infos = venv.step(a)
+        for i, env in enumerate(singles):
+            o, r, te, tr, info = env.step(a[i])
+            assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr)
+            if te or tr:
+                ends += 1
+                assert infos["_final_obs"][i] and infos["_final_info"][i]
+                np.testing.assert_array_equal(infos["final_obs"][i], o)
+                for key in INFO_KEYS:
+                    assert infos["final_info"][key][i] == info[key], key
+                    assert infos["final_info"]["_" + key][i]
+                o, info = env.reset()
+            elif "final_obs" in infos:
+                assert not infos["_final_obs"][i] and not infos["_final_info"][i]
+            np.testing.assert_array_equal(obs[i], o)
+            for key in INFO_KEYS:
+                assert infos[key][i] == info[key], key
+                assert infos["_" + key][i]
+    assert ends >= n * 2
+    venv.close()
+
+
 def test_batch_modes_and_their_choice():
     assert gym.make_vec("Planar3P-v0", num_envs=2)._core.numpy is False
     assert gym.make_vec("Planar3P-v0", num_envs=NUMPY_BATCH_MIN)._core.numpy is True
@@ -173,14 +226,19 @@ def test_sb3_adapter_matches_dummy_vec_env():
         np.testing.assert_array_equal(x[1], y[1])
         np.testing.assert_array_equal(x[2], y[2])
         for i in range(n):
-            for key in ("TimeLimit.truncated", "is_success", "closure_error"):
-                assert x[3][i][key] == y[3][i][key]
-            if x[2][i]:
+            if x[2][i]:  # the ended episode's last info entries, as the single env's
                 ends += 1
+                for key in ("TimeLimit.truncated", *INFO_KEYS):
+                    assert x[3][i][key] == y[3][i][key], key
                 np.testing.assert_array_equal(
                     x[3][i]["terminal_observation"], y[3][i]["terminal_observation"]
                 )
                 assert x[3][i]["episode"]["l"] == limit
+            else:  # no per-env dict: every env's entries are the batch arrays
+                assert x[3][i] == {}
+                for key in INFO_KEYS:
+                    assert native.batch_infos[key][i] == y[3][i][key], key
+                    assert native.batch_infos["_" + key][i]
     assert ends >= n * 2
     model = sb3.PPO("MlpPolicy", native, n_steps=32, batch_size=32, n_epochs=1, seed=0)
     model.learn(64)
