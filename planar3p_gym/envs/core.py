@@ -541,18 +541,23 @@ class Planar3PEnv(gym.Env):
             self._target_rho = kinematics.inverse(self.design, self._target, mode).rho
         machine = self._draw_machine(start, mode) if self.randomization else self._machine
         previous = self._sim
-        self._sim = Planar3PSim(
-            machine.design,
-            start,
-            mode,
-            dt=self.dt,
-            substeps=self.substeps,
-            iterations=self.solver_iterations,
-            projection=self.projection,
-            dynamics=None if self.randomization is None else machine.dynamics,
-        )
-        if previous is not None:  # freed now, not left to the garbage collector
-            previous.close()
+        if previous is not None and self.randomization is None and not previous.closed:
+            # The same machine every episode: the bodies are moved, bit for bit the model a
+            # new build would give (Planar3PSim.reset).
+            previous.reset(start, mode)
+        else:  # a new machine (randomised dynamics): built anew
+            self._sim = Planar3PSim(
+                machine.design,
+                start,
+                mode,
+                dt=self.dt,
+                substeps=self.substeps,
+                iterations=self.solver_iterations,
+                projection=self.projection,
+                dynamics=None if self.randomization is None else machine.dynamics,
+            )
+            if previous is not None:  # freed now, not left to the garbage collector
+                previous.close()
         state = self._sim.state
         self._measures = self._true_kin.measures(state.pose, state.rho)
         self._assembly = self._measures.det_sign

@@ -14,8 +14,10 @@ following error (the slider lagging its integrated command) at no more than
 :data:`FOLLOWING_ERROR_LIMIT` (after saturation the drive does not try to catch up more).  Near a
 parallel singularity the servos saturate as a real machine's would.
 
-A model is built from a pose and working mode with the exact inverse kinematics; building a
-new :class:`Planar3PSim` is how a simulation is reset (spaces are never copied).
+A model is built from a pose and working mode with the exact inverse kinematics; spaces are
+never copied.  :meth:`Planar3PSim.reset` starts a new episode in the same space by moving the
+bodies (and clearing the solver's accumulated impulses): bit for bit the model a new build
+gives, at a fraction of its cost (``tests/sim/test_sim_reset.py``).
 
 Solver settings: joints drift apart when their bodies rotate (pymunk integrates positions to
 first order), by about ``h^2 omega^2 r / 2`` per physics step ``h``, and each step removes a
@@ -101,8 +103,31 @@ try:  # Direct Chipmunk calls skip pymunk's per-call Python bookkeeping (the hot
     )
     #: Whether :meth:`Planar3PSim.close` can clear the Chipmunk user data (pymunk's bindings).
     _RELEASE = hasattr(_cp, "cpBodySetUserData") and hasattr(_cp, "cpConstraintSetUserData")
+    #: Whether :meth:`Planar3PSim.reset` can move the bodies through Chipmunk's C API (else it
+    #: rebuilds the model).
+    _MOVE = _FAST and all(
+        hasattr(_cp, name)
+        for name in (
+            "cpBodySetPosition",
+            "cpBodyGetPosition",
+            "cpBodySetAngle",
+            "cpBodySetAngularVelocity",
+            "cpBodySetForce",
+            "cpBodySetTorque",
+            "cpBodyWorldToLocal",
+            "cpBodyLocalToWorld",
+            "cpPivotJointSetAnchorA",
+            "cpPivotJointSetAnchorB",
+            "cpPinJointSetAnchorA",
+            "cpPinJointSetDist",
+            "cpBodySetVelocity",
+            "cpConstraintGetMaxForce",
+            "cpConstraintSetMaxForce",
+            "cpSpaceSetIterations",
+        )
+    )
 except ImportError:  # pragma: no cover - other pymunk builds
-    _FAST = _RELEASE = False
+    _FAST = _RELEASE = _MOVE = False
 
 #: Numbers per body in a readout: ``x, y, angle, vx, vy, angular velocity`` (pymunk's batch
 #: layout for these fields).
@@ -202,6 +227,21 @@ class SimSnapshot:
     def steps(self) -> int:
         """Control steps since the build."""
         return len(self.commands) // 3
+
+
+def _start(design: Design, pose: ArrayLike, working_mode: ArrayLike) -> tuple[np.ndarray, Any]:
+    """``pose`` as a float array and its travels in ``working_mode``; ``ValueError`` unless it
+    is 3 finite numbers reachable within the stroke."""
+    p = np.asarray(pose, dtype=np.float64)
+    if p.shape != (3,) or not np.isfinite(p).all():
+        raise ValueError(f"pose must be 3 finite numbers (x, y, theta), got {pose!r}")
+    rho, reachable = kinematics.inverse(design, p, working_mode)
+    if not bool(reachable):
+        raise ValueError(
+            f"pose {tuple(p)} is not reachable in working mode {tuple(working_mode)} "
+            f"within the stroke [0, {design.stroke}] m (travels {rho})"
+        )
+    return p, rho
 
 
 def substep_impulses(
@@ -323,15 +363,7 @@ class Planar3PSim:
         if not isinstance(projection, (bool, np.bool_)):
             raise ValueError(f"projection must be True or False, got {projection!r}")
         dyn = MachineDynamics.from_value(dynamics, "dynamics")
-        p = np.asarray(pose, dtype=np.float64)
-        if p.shape != (3,) or not np.isfinite(p).all():
-            raise ValueError(f"pose must be 3 finite numbers (x, y, theta), got {pose!r}")
-        rho, reachable = kinematics.inverse(design, p, working_mode)
-        if not bool(reachable):
-            raise ValueError(
-                f"pose {tuple(p)} is not reachable in working mode {tuple(working_mode)} "
-                f"within the stroke [0, {design.stroke}] m (travels {rho})"
-            )
+        p, rho = _start(design, pose, working_mode)
         self.design = design
         self.dt = float(dt)
         self.substeps = int(substeps)
@@ -384,6 +416,8 @@ class Planar3PSim:
         )
         self._commands = array("d")
         self._closed = False
+        #: Whether the last :meth:`reset` moved the bodies (False: it rebuilt the model).
+        self.moved = False
         #: ``(u_1x, u_1y, u_2x, u_2y, u_3x, u_3y, cos theta, sin theta)`` after the last
         #: projected step (:class:`planar3p_gym.sim.projection.Projected`); None without one.
         self.geometry: tuple[float, ...] | None = None
@@ -463,6 +497,13 @@ class Planar3PSim:
             space.add(*_friction(dyn, space.static_body, sliders, legs, platform))
         space.add(*servos)
         self.space = space
+        self._pivots = tuple((group[-2], group[-1]) for group in joints)
+        # The pin joints whose length their constructor measures: servos, sliders' friction.
+        self._pins = (
+            *servos,
+            *(c for c in space.constraints if isinstance(c, pymunk.PinJoint) and c not in servos),
+        )
+        self._constraint_ptrs = tuple(c._constraint for c in space.constraints)
         self.platform = platform
         self.sliders = tuple(sliders)
         self.drives = tuple(drives)
@@ -473,6 +514,7 @@ class Planar3PSim:
         self._bodies = (platform, *(b for i in range(3) for b in (sliders[i], drives[i], legs[i])))
         self._warm_start(space, (platform, *sliders, *legs))
         self._fast = self._fast_path(space, drives, servos) if self.use_fast_path else None
+        self._move = self._move_handles() if _MOVE and self._fast is not None else None
         self._state = self._read()
 
     def _fast_path(
@@ -529,6 +571,129 @@ class Planar3PSim:
             body.velocity = (0.0, 0.0)
             body.angular_velocity = 0.0
         space.iterations = self.iterations
+
+    @property
+    def closed(self) -> bool:
+        """Whether :meth:`close` was called (stepping and :meth:`reset` then raise)."""
+        return self._closed
+
+    # ------------------------------------------------------------------ moving
+    def reset(self, pose: ArrayLike, working_mode: ArrayLike = (1, 1, -1)) -> SimState:
+        """Start a new episode at rest at ``pose`` (m, m, rad) in ``working_mode``: afterwards
+        the simulation is, bit for bit, the one ``Planar3PSim(design, pose, working_mode,
+        **settings)`` builds with this one's design, dynamics and settings (its state, its next
+        steps and :meth:`get_state`), whatever it went through before.  Returns the state.
+
+        The pymunk space is kept and its bodies moved (Chipmunk's C API, :meth:`_place`): every
+        constraint's accumulated impulse, which the solver warm-starts from, is first cleared
+        by one solver step with every force limit at zero (the clamp leaves exactly zero); the
+        bodies are then placed, anchored and warm-started as :meth:`_build` does.  Without
+        Chipmunk's C API (``use_fast_path`` False, other pymunk builds) the model is rebuilt;
+        :attr:`moved` tells which.  ``ValueError`` (nothing changed) if the pose is not
+        reachable in ``working_mode`` within the stroke, or the simulation was closed.
+        """
+        if self._closed:
+            raise ValueError("this simulation was closed (Planar3PSim.close); build a new one")
+        p, rho = _start(self.design, pose, working_mode)
+        settings = self._origin[2]
+        if self._move is None:
+            fresh = Planar3PSim(self.design, p, working_mode, **settings)
+            self.close()
+            self.__dict__.update(fresh.__dict__)
+            return self._state
+        space_ptr, h = self._fast[0], self._h
+        limits = [_cp.cpConstraintGetMaxForce(c) for c in self._constraint_ptrs]
+        for c in self._constraint_ptrs:
+            _cp.cpConstraintSetMaxForce(c, 0.0)
+        self._place(p, rho)
+        _cp.cpSpaceSetIterations(space_ptr, 1)
+        _cp.cpSpaceStep(space_ptr, h)  # every accumulated impulse clamped to [-0, 0]
+        for c, limit in zip(self._constraint_ptrs, limits, strict=True):
+            _cp.cpConstraintSetMaxForce(c, limit)
+        self._place(p, rho)
+        _cp.cpSpaceSetIterations(space_ptr, WARM_START_ITERATIONS)  # as _warm_start
+        _cp.cpSpaceStep(space_ptr, h)
+        self._place(p, rho)
+        _cp.cpSpaceSetIterations(space_ptr, self.iterations)
+        self._time = 0.0
+        self._forces = (0.0, 0.0, 0.0)
+        self._saturated = (False, False, False)
+        self._lagged = [0.0, 0.0, 0.0]
+        del self._commands[:]  # (in place: a vector env holds this array)
+        self.geometry = None
+        self._origin = (
+            (float(p[0]), float(p[1]), float(p[2])),
+            tuple(int(m) for m in working_mode),
+            settings,
+        )
+        self.moved = True
+        self._state = self._read()
+        return self._state
+
+    def _place(self, pose: np.ndarray, rho: np.ndarray) -> None:
+        """Put every body at rest where :meth:`_build` puts it for ``pose`` (travels ``rho``)
+        and re-anchor the joints as their constructors do (Chipmunk's world-to-local transforms
+        for the pivots, the pins' lengths measured between their anchors): bit for bit the
+        model a new build has before its warm start.  Through Chipmunk's C API
+        (:meth:`_move_handles`)."""
+        cp = _cp
+        set_position, set_angle = cp.cpBodySetPosition, cp.cpBodySetAngle
+        set_velocity, set_rate = cp.cpBodySetVelocity, cp.cpBodySetAngularVelocity
+        set_force, set_torque = cp.cpBodySetForce, cp.cpBodySetTorque
+        to_local, to_world = cp.cpBodyWorldToLocal, cp.cpBodyLocalToWorld
+        set_a, set_b = cp.cpPivotJointSetAnchorA, cp.cpPivotJointSetAnchorB
+        bodies, pivots, pins = self._move
+        x, y, th = (float(v) for v in pose)
+        c, s = math.cos(th), math.sin(th)
+        k1 = self._k[0]
+        places = [((x + 0.5 * k1 * c, y + 0.5 * k1 * s), th)]
+        points = []
+        for i in range(3):
+            b = self._origins[i] + float(rho[i])
+            k = self._k[i]
+            cx, cy = x + k * c, y + k * s
+            places += [((b, 0.0), 0.0), ((b, 0.0), 0.0)]  # slider, drive
+            places.append(((0.5 * (b + cx), 0.5 * cy), math.atan2(cy, cx - b)))  # leg
+            points += [(b, 0.0), (cx, cy)]  # pivots B_i, C_i
+        zero = (0.0, 0.0)
+        for ptr, (position, angle) in zip(bodies, places, strict=True):
+            set_position(ptr, position)
+            set_angle(ptr, angle)
+            set_velocity(ptr, zero)
+            set_rate(ptr, 0.0)
+            set_force(ptr, zero)
+            set_torque(ptr, 0.0)
+        for (ptr, a, b), point in zip(pivots, points, strict=True):  # as cpPivotJointNew
+            set_a(ptr, to_local(a, point))
+            set_b(ptr, to_local(b, point))
+        for ptr, a, b, anchor_a, anchor_b in pins:  # the length as cpPinJointInit measures it
+            if anchor_a is None:  # a slider's friction pin, anchored on the ground (_friction)
+                anchor_a = (cp.cpBodyGetPosition(b).x - FRICTION_ARM, 0.0)
+                cp.cpPinJointSetAnchorA(ptr, anchor_a)
+            p1, p2 = to_world(a, anchor_a), to_world(b, anchor_b)
+            dx, dy = p2.x - p1.x, p2.y - p1.y
+            cp.cpPinJointSetDist(ptr, math.sqrt(dx * dx + dy * dy))
+
+    def _move_handles(self) -> tuple:
+        """Chipmunk handles of :meth:`_place`: the bodies in readout order; each pivot's joint
+        and bodies (``B_1, C_1, B_2, ...``); each pin's joint, bodies and anchors (``None``
+        for the anchor a slider's friction pin takes from the slider's position)."""
+        pivots = tuple(
+            (joint._constraint, joint.a._body, joint.b._body)
+            for pair in self._pivots
+            for joint in pair
+        )
+        pins = tuple(
+            (
+                pin._constraint,
+                pin.a._body,
+                pin.b._body,
+                None if pin.a.body_type == pymunk.Body.STATIC else tuple(pin.anchor_a),
+                tuple(pin.anchor_b),
+            )
+            for pin in self._pins
+        )
+        return tuple(b._body for b in self._bodies), pivots, pins
 
     # ------------------------------------------------------------------ stepping
     def step(self, velocity_command: ArrayLike) -> SimState:
