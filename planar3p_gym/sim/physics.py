@@ -605,15 +605,15 @@ class Planar3PSim:
         limits = [_cp.cpConstraintGetMaxForce(c) for c in self._constraint_ptrs]
         for c in self._constraint_ptrs:
             _cp.cpConstraintSetMaxForce(c, 0.0)
-        self._place(p, rho)
+        places = self._place(p, rho)
         _cp.cpSpaceSetIterations(space_ptr, 1)
         _cp.cpSpaceStep(space_ptr, h)  # every accumulated impulse clamped to [-0, 0]
         for c, limit in zip(self._constraint_ptrs, limits, strict=True):
             _cp.cpConstraintSetMaxForce(c, limit)
-        self._place(p, rho)
+        self._rest(places)  # (the anchors stay: a step does not move them)
         _cp.cpSpaceSetIterations(space_ptr, WARM_START_ITERATIONS)  # as _warm_start
         _cp.cpSpaceStep(space_ptr, h)
-        self._place(p, rho)
+        self._rest(places)
         _cp.cpSpaceSetIterations(space_ptr, self.iterations)
         self._time = 0.0
         self._forces = (0.0, 0.0, 0.0)
@@ -630,16 +630,13 @@ class Planar3PSim:
         self._state = self._read()
         return self._state
 
-    def _place(self, pose: np.ndarray, rho: np.ndarray) -> None:
+    def _place(self, pose: np.ndarray, rho: np.ndarray) -> list:
         """Put every body at rest where :meth:`_build` puts it for ``pose`` (travels ``rho``)
         and re-anchor the joints as their constructors do (Chipmunk's world-to-local transforms
         for the pivots, the pins' lengths measured between their anchors): bit for bit the
         model a new build has before its warm start.  Through Chipmunk's C API
-        (:meth:`_move_handles`)."""
+        (:meth:`_move_handles`).  Returns the bodies' places for :meth:`_rest`."""
         cp = _cp
-        set_position, set_angle = cp.cpBodySetPosition, cp.cpBodySetAngle
-        set_velocity, set_rate = cp.cpBodySetVelocity, cp.cpBodySetAngularVelocity
-        set_force, set_torque = cp.cpBodySetForce, cp.cpBodySetTorque
         to_local, to_world = cp.cpBodyWorldToLocal, cp.cpBodyLocalToWorld
         set_a, set_b = cp.cpPivotJointSetAnchorA, cp.cpPivotJointSetAnchorB
         bodies, pivots, pins = self._move
@@ -655,14 +652,7 @@ class Planar3PSim:
             places += [((b, 0.0), 0.0), ((b, 0.0), 0.0)]  # slider, drive
             places.append(((0.5 * (b + cx), 0.5 * cy), math.atan2(cy, cx - b)))  # leg
             points += [(b, 0.0), (cx, cy)]  # pivots B_i, C_i
-        zero = (0.0, 0.0)
-        for ptr, (position, angle) in zip(bodies, places, strict=True):
-            set_position(ptr, position)
-            set_angle(ptr, angle)
-            set_velocity(ptr, zero)
-            set_rate(ptr, 0.0)
-            set_force(ptr, zero)
-            set_torque(ptr, 0.0)
+        self._rest(places)
         for (ptr, a, b), point in zip(pivots, points, strict=True):  # as cpPivotJointNew
             set_a(ptr, to_local(a, point))
             set_b(ptr, to_local(b, point))
@@ -673,6 +663,22 @@ class Planar3PSim:
             p1, p2 = to_world(a, anchor_a), to_world(b, anchor_b)
             dx, dy = p2.x - p1.x, p2.y - p1.y
             cp.cpPinJointSetDist(ptr, math.sqrt(dx * dx + dy * dy))
+        return places
+
+    def _rest(self, places: list) -> None:
+        """Put each body at its place ``(position, angle)`` (readout order), at rest and free of
+        forces."""
+        cp, zero = _cp, (0.0, 0.0)
+        set_position, set_angle = cp.cpBodySetPosition, cp.cpBodySetAngle
+        set_velocity, set_rate = cp.cpBodySetVelocity, cp.cpBodySetAngularVelocity
+        set_force, set_torque = cp.cpBodySetForce, cp.cpBodySetTorque
+        for ptr, (position, angle) in zip(self._move[0], places, strict=True):
+            set_position(ptr, position)
+            set_angle(ptr, angle)
+            set_velocity(ptr, zero)
+            set_rate(ptr, 0.0)
+            set_force(ptr, zero)
+            set_torque(ptr, 0.0)
 
     def _move_handles(self) -> tuple:
         """Chipmunk handles of :meth:`_place`: the bodies in readout order; each pivot's joint
