@@ -639,7 +639,7 @@ class Planar3PSim:
         cp = _cp
         to_local, to_world = cp.cpBodyWorldToLocal, cp.cpBodyLocalToWorld
         set_a, set_b = cp.cpPivotJointSetAnchorA, cp.cpPivotJointSetAnchorB
-        bodies, pivots, pins = self._move
+        _, pivots, pins = self._move
         x, y, th = (float(v) for v in pose)
         c, s = math.cos(th), math.sin(th)
         k1 = self._k[0]
