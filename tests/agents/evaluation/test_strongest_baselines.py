@@ -225,7 +225,7 @@ def test_task_suites_score_against_their_own_best_baseline():
     with pytest.raises(ValueError, match="no reference for the success score"):
         ns.get_normalized_score("track-segments", 1.0, "success", refs)
     matrix = ns.score_matrix(rows, refs)
-    track = [r for r in matrix if r["suite"] == "track-segments" and r["policy"] == "zero"][0]
+    track = next(r for r in matrix if r["suite"] == "track-segments" and r["policy"] == "zero")
     assert math.isnan(track["score_success"]) and track["score_return"] == pytest.approx(
         100.0 * (-50.0 + 300.0) / 290.0, abs=1e-3
     )
