@@ -273,14 +273,20 @@ def test_shipped_hyperparameters_resolve() -> None:
 def test_her_and_tqc_entries_resolve_to_sb3_classes() -> None:
     from stable_baselines3 import HerReplayBuffer
 
+    from planar3p_agents.training.her import CompactHerReplayBuffer
+
     for algo in ("sac", "tqc"):
         entry = training.load_hyperparams(
             training.HYPERPARAMS_DIR / f"{algo}.yml", "Planar3PGoal-v0", algo
         )
         cfg = training.resolve(algo, "Planar3PGoal-v0", 0, entry)
-        assert cfg.algo_kwargs["replay_buffer_class"] is HerReplayBuffer
+        assert cfg.algo_kwargs["replay_buffer_class"] is CompactHerReplayBuffer
+        assert issubclass(CompactHerReplayBuffer, HerReplayBuffer)
         assert cfg.algo_kwargs["replay_buffer_kwargs"]["goal_selection_strategy"] == "future"
-        assert cfg.policy == "MultiInputPolicy" and cfg.normalize is None
+        assert cfg.policy == "MultiInputPolicy"
+    # SB3's own buffer by its name, as rl-zoo3's files write it
+    cfg = training.resolve("sac", "Planar3PGoal-v0", 0, {"replay_buffer_class": "HerReplayBuffer"})
+    assert cfg.algo_kwargs["replay_buffer_class"] is HerReplayBuffer
     entry = {"replay_buffer_class": "HerReplayBuffer"}
     with pytest.raises(ValueError, match="off-policy"):
         training.resolve("ppo", "Planar3PGoal-v0", 0, entry)
