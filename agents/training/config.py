@@ -69,8 +69,11 @@ __all__ = [
 ALGORITHMS = ("ppo", "sac", "td3", "tqc", "dqn")
 #: Off-policy algorithms (replay buffer saved with checkpoints; HER possible).
 OFF_POLICY = ("sac", "td3", "tqc", "dqn")
-#: Replay buffers a YAML entry may name in ``replay_buffer_class`` (by their SB3 class name).
-REPLAY_BUFFERS = ("HerReplayBuffer", "CompactHerReplayBuffer")
+#: Replay buffers a YAML entry may name in ``replay_buffer_class``: class name -> its module.
+REPLAY_BUFFERS = {
+    "HerReplayBuffer": "stable_baselines3",
+    "CompactHerReplayBuffer": "planar3p_agents.training.her",
+}
 #: Where the shipped, tuned hyperparameter files live (``<algo>.yml``).
 HYPERPARAMS_DIR = Path(__file__).resolve().parent / "hyperparams"
 
@@ -347,16 +350,13 @@ def _resolve_replay_buffer(algo: str, kwargs: dict[str, Any]) -> None:
     if name is not None:
         if algo not in OFF_POLICY:
             raise ValueError(f"replay_buffer_class needs an off-policy algorithm, not {algo!r}")
-        if name not in REPLAY_BUFFERS:
+        if not isinstance(name, str) or name not in REPLAY_BUFFERS:
             raise ValueError(
                 f"replay_buffer_class must be one of {', '.join(REPLAY_BUFFERS)}, got {name!r}"
             )
-        if name == "CompactHerReplayBuffer":
-            from planar3p_agents.training.her import CompactHerReplayBuffer as buffer_class
-        else:
-            from stable_baselines3 import HerReplayBuffer as buffer_class
+        import importlib
 
-        kwargs["replay_buffer_class"] = buffer_class
+        kwargs["replay_buffer_class"] = getattr(importlib.import_module(REPLAY_BUFFERS[name]), name)
     buffer_kwargs = kwargs.get("replay_buffer_kwargs")
     if isinstance(buffer_kwargs, str):
         buffer_kwargs = _literal(buffer_kwargs, "replay_buffer_kwargs")
