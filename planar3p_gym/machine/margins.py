@@ -1,12 +1,11 @@
 """The singularity margins of one configuration, defined once and compiled.
 
 Every per-step user of the margins -- the env's general step
-(:class:`~planar3p_gym.machine.scalar_kinematics.ScalarKinematics`), the fused reach step
-(:mod:`planar3p_gym.tasks.reach_step`), the native vector env's batched step
-(:mod:`planar3p_gym.sim.batch_step`) and the workspace study's grids
-(:mod:`planar3p_gym.analysis.workspace`) -- calls the functions below: :func:`leg_margins` for
-one configuration, :func:`leg_margins_batch` and :func:`inverse_condition_batch` for many (the
-same scalar definition in a compiled loop).  The SVD of
+(:class:`~planar3p_gym.machine.scalar_kinematics.ScalarKinematics`) and the compiled reach-step
+outputs (:mod:`planar3p_gym.tasks.reach_step`, which the single env and the native vector env's
+batched step share) -- calls :func:`leg_margins`, one configuration at a time; the workspace
+study's grids (:mod:`planar3p_gym.analysis.workspace`) call :func:`inverse_condition_batch`,
+the same scalar definition in a compiled loop.  The SVD of
 :func:`planar3p_gym.machine.kinematics.parallel_margin` is the mathematical definition they are
 tested against.
 
@@ -35,7 +34,7 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["inverse_condition", "inverse_condition_batch", "leg_margins", "leg_margins_batch"]
+__all__ = ["inverse_condition", "inverse_condition_batch", "leg_margins"]
 
 
 @njit(cache=True)
@@ -104,29 +103,6 @@ def leg_margins(
     parallel = inverse_condition(a, b, cc, d, e, f, g, h, i)
     sign = (1 if det > 0.0 else 0) - (1 if det < 0.0 else 0)
     return parallel, serial, sign, n1, n2, n3
-
-
-@njit(cache=True)
-def leg_margins_batch(
-    ux: np.ndarray, uy: np.ndarray, c: np.ndarray, s: np.ndarray,
-    k: np.ndarray, legs: np.ndarray, ref: float,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:  # fmt: skip
-    """:func:`leg_margins` of ``N`` configurations: ``ux``, ``uy`` ``(3, N)`` (m), ``c``,
-    ``s`` ``(N,)``, ``k`` and ``legs`` ``(3,)`` (m); returns the parallel and serial margins
-    ``(N,)``, ``sign det A`` ``(N,)`` int64 and ``|u_i|`` ``(3, N)`` (m)."""
-    n = c.shape[0]
-    parallel = np.empty(n)
-    serial = np.empty(n)
-    sign = np.empty(n, np.int64)
-    norm = np.empty((3, n))
-    for j in range(n):
-        out = leg_margins(
-            ux[0, j], uy[0, j], ux[1, j], uy[1, j], ux[2, j], uy[2, j], c[j], s[j],
-            k[0], k[1], k[2], legs[0], legs[1], legs[2], ref,
-        )  # fmt: skip
-        parallel[j], serial[j], sign[j] = out[0], out[1], out[2]
-        norm[0, j], norm[1, j], norm[2, j] = out[3], out[4], out[5]
-    return parallel, serial, sign, norm
 
 
 @njit(cache=True)

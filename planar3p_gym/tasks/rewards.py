@@ -33,7 +33,6 @@ __all__ = [
     "reward_terms",
     "singularity_penalty",
     "weighted_terms",
-    "weighted_terms_batch",
 ]
 
 #: The singularity penalty of one margin is capped at this value (it stays finite at 0).
@@ -168,8 +167,8 @@ def weighted_terms(
     a0: float, a1: float, a2: float, success: bool, failure: bool,
 ) -> tuple[float, float, float, float, float, float]:  # fmt: skip
     """The weighted terms ``(pose, precision, singularity, action, success, failure)`` of one
-    step: the one definition of the reward, which :func:`reward_terms` (one env) and
-    :func:`weighted_terms_batch` (a vector env) call.
+    step: the one definition of the reward, which :func:`reward_terms` and the compiled step
+    outputs (:mod:`planar3p_gym.tasks.reach_step`, single env and vector env) call.
 
     ``w`` is :meth:`RewardWeights.as_array`; the errors are in m and rad, ``length`` is the
     design's characteristic length (m); a margin of 1 switches its barrier off.
@@ -183,28 +182,6 @@ def weighted_terms(
         w[5] if success else 0.0,
         -w[6] if failure else 0.0,
     )
-
-
-@njit(cache=True)
-def weighted_terms_batch(
-    w: np.ndarray,
-    position_error: np.ndarray, orientation_error: np.ndarray, length: float,
-    parallel_margin: np.ndarray, serial_margin: np.ndarray,
-    action: np.ndarray, success: np.ndarray, failure: np.ndarray,
-) -> np.ndarray:  # fmt: skip
-    """:func:`weighted_terms` of ``N`` environments (arrays ``(N,)``, ``action`` ``(3, N)``):
-    an array ``(6, N)`` in the order of :data:`TERM_NAMES`."""
-    n = position_error.shape[0]
-    out = np.empty((6, n))
-    for j in range(n):
-        terms = weighted_terms(
-            w, position_error[j], orientation_error[j], length,
-            parallel_margin[j], serial_margin[j],
-            action[0, j], action[1, j], action[2, j], success[j], failure[j],
-        )  # fmt: skip
-        for t in range(6):
-            out[t, j] = terms[t]
-    return out
 
 
 def reward_terms(
