@@ -433,25 +433,20 @@ class Planar3PSim:
         space.iterations = self.iterations
         space.gravity = (0.0, -d.gravity) if dyn is None else dyn.gravity_vector(d.gravity)
         inertia = 1.0 if dyn is None else dyn.inertia_scale
-        x, y, th = (float(v) for v in pose)
-        c, s = math.cos(th), math.sin(th)
+        places, points = self._places(pose, rho)
         k1 = self._k[0]
         platform = pymunk.Body(d.platform_mass, inertia * d.platform_mass * k1 * k1 / 12.0)
-        platform.position = (x + 0.5 * k1 * c, y + 0.5 * k1 * s)
-        platform.angle = th
+        platform.position, platform.angle = places[0]
         space.add(platform)
         sliders, drives, servos, legs, joints = [], [], [], [], []
         for i in range(3):
-            a, L, k = self._origins[i], self._legs[i], self._k[i]
-            b = a + float(rho[i])
-            cx, cy = x + k * c, y + k * s
+            a, L = self._origins[i], self._legs[i]
             slider = pymunk.Body(d.slider_mass, math.inf)
-            slider.position = (b, 0.0)
+            slider.position = places[1 + 3 * i][0]
             drive = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-            drive.position = (b, 0.0)
+            drive.position = places[2 + 3 * i][0]
             leg = pymunk.Body(d.leg_mass, inertia * d.leg_mass * L * L / 12.0)
-            leg.position = (0.5 * (b + cx), 0.5 * cy)
-            leg.angle = math.atan2(cy, cx - b)
+            leg.position, leg.angle = places[3 + 3 * i]
             if self.projection:
                 # The groove only keeps the slider on its line; the end stops are a separate
                 # unilateral limit whose impulse is dropped whenever it is not touching.
@@ -478,8 +473,8 @@ class Planar3PSim:
             servo.max_bias = SERVO_CORRECTION_SPEED
             servo.max_force = d.max_force
             servo.error_bias = error_bias
-            pin_b = pymunk.PivotJoint(slider, leg, (b, 0.0))
-            pin_c = pymunk.PivotJoint(leg, platform, (cx, cy))
+            pin_b = pymunk.PivotJoint(slider, leg, points[2 * i])
+            pin_c = pymunk.PivotJoint(leg, platform, points[2 * i + 1])
             rail.error_bias = pin_b.error_bias = error_bias
             pin_c.error_bias = platform_error_bias
             space.add(slider, drive, leg)
@@ -640,18 +635,7 @@ class Planar3PSim:
         to_local, to_world = cp.cpBodyWorldToLocal, cp.cpBodyLocalToWorld
         set_a, set_b = cp.cpPivotJointSetAnchorA, cp.cpPivotJointSetAnchorB
         _, pivots, pins = self._move
-        x, y, th = (float(v) for v in pose)
-        c, s = math.cos(th), math.sin(th)
-        k1 = self._k[0]
-        places = [((x + 0.5 * k1 * c, y + 0.5 * k1 * s), th)]
-        points = []
-        for i in range(3):
-            b = self._origins[i] + float(rho[i])
-            k = self._k[i]
-            cx, cy = x + k * c, y + k * s
-            places += [((b, 0.0), 0.0), ((b, 0.0), 0.0)]  # slider, drive
-            places.append(((0.5 * (b + cx), 0.5 * cy), math.atan2(cy, cx - b)))  # leg
-            points += [(b, 0.0), (cx, cy)]  # pivots B_i, C_i
+        places, points = self._places(pose, rho)
         self._rest(places)
         for (ptr, a, b), point in zip(pivots, points, strict=True):  # as cpPivotJointNew
             set_a(ptr, to_local(a, point))
@@ -664,6 +648,27 @@ class Planar3PSim:
             dx, dy = p2.x - p1.x, p2.y - p1.y
             cp.cpPinJointSetDist(ptr, math.sqrt(dx * dx + dy * dy))
         return places
+
+    def _places(
+        self, pose: ArrayLike, rho: ArrayLike
+    ) -> tuple[list[tuple[tuple[float, float], float]], list[tuple[float, float]]]:
+        """Where the model of ``pose`` (m, m, rad; travels ``rho``, m) has its bodies, the one
+        definition :meth:`_build` and :meth:`_place` use: each body's ``(position (m), angle
+        (rad))`` in readout order (platform, then slider, drive and leg of each leg), and the
+        pivot points ``B_1, C_1, B_2, ...`` (m)."""
+        x, y, th = (float(v) for v in pose)
+        c, s = math.cos(th), math.sin(th)
+        k1 = self._k[0]
+        places = [((x + 0.5 * k1 * c, y + 0.5 * k1 * s), th)]
+        points = []
+        for i in range(3):
+            b = self._origins[i] + float(rho[i])
+            k = self._k[i]
+            cx, cy = x + k * c, y + k * s
+            places += [((b, 0.0), 0.0), ((b, 0.0), 0.0)]  # slider, drive
+            places.append(((0.5 * (b + cx), 0.5 * cy), math.atan2(cy, cx - b)))  # leg
+            points += [(b, 0.0), (cx, cy)]  # pivots B_i, C_i
+        return places, points
 
     def _rest(self, places: list) -> None:
         """Put each body at its place ``(position, angle)`` (readout order), at rest and free of
