@@ -292,6 +292,8 @@ def test_her_and_tqc_entries_resolve_to_sb3_classes() -> None:
         training.resolve("ppo", "Planar3PGoal-v0", 0, entry)
     with pytest.raises(ValueError, match="replay_buffer_class must be one of"):
         training.resolve("sac", "Planar3PGoal-v0", 0, {"replay_buffer_class": "os.system"})
+    with pytest.raises(ValueError, match="replay_buffer_class must be one of"):
+        training.resolve("sac", "Planar3PGoal-v0", 0, {"replay_buffer_class": ["HerReplayBuffer"]})
     with pytest.raises(ValueError, match="replay_buffer_kwargs must be a mapping"):
         training.resolve("sac", "Planar3PGoal-v0", 0, {"replay_buffer_kwargs": "[1, 2]"})
 
