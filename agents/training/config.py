@@ -86,6 +86,9 @@ _ZOO_KEYS = {
     "noise_std",
     # This project's curriculum key (planar3p_agents.training.task_schedule), not an SB3 argument.
     "task_schedule",
+    # Environment arguments a recipe needs (e.g. the observation a feature extractor reads);
+    # the command line's --env-kwargs override them entry by entry.
+    "env_kwargs",
 }
 #: Policy classes of this project a YAML entry's ``policy`` may name, besides SB3's aliases
 #: (``MlpPolicy``, ...): name -> (module, class), imported only when named.
@@ -155,7 +158,10 @@ def _literal(text: str, what: str) -> Any:
 
 _ACTIVATIONS = {"ReLU", "Tanh", "ELU", "LeakyReLU", "SiLU", "GELU"}
 #: The project's feature extractors a YAML entry may name in ``policy_kwargs`` (name -> module).
-_FEATURE_EXTRACTORS = {"GoalErrorExtractor": "planar3p_agents.policies.goal_features"}
+_FEATURE_EXTRACTORS = {
+    "GoalErrorExtractor": "planar3p_agents.policies.goal_features",
+    "GoalTravelExtractor": "planar3p_agents.policies.goal_features",
+}
 
 
 def _eval_node(node: ast.AST, what: str) -> Any:
@@ -323,6 +329,11 @@ def resolve(
         if key in kwargs:
             kwargs[key] = _schedule(kwargs[key], key)
     _resolve_replay_buffer(algo, kwargs)
+    recipe_env = entry.get("env_kwargs") or {}
+    if isinstance(recipe_env, str):
+        recipe_env = _literal(recipe_env, "env_kwargs")
+    if not isinstance(recipe_env, Mapping) or not all(isinstance(k, str) for k in recipe_env):
+        raise ValueError(f"env_kwargs must be a mapping of argument names, got {recipe_env!r}")
     noise_type = entry.get("noise_type")
     if noise_type not in (None, "normal"):
         raise ValueError(f"noise_type must be 'normal' or absent, got {noise_type!r}")
@@ -335,7 +346,7 @@ def resolve(
         policy=str(entry.get("policy", "MlpPolicy")),
         normalize=normalize,
         algo_kwargs=kwargs,
-        env_kwargs=dict(env_kwargs or {}),
+        env_kwargs={**recipe_env, **(env_kwargs or {})},
         noise_type=noise_type,
         noise_std=float(entry.get("noise_std", 0.1)),
         entry=entry,

@@ -13,6 +13,11 @@ small fraction of the cost.
 Why a subclass rather than SB3's buffer with ``copy_info_dict=False``: with empty infos the
 failure penalty of a relabelled failing transition would be lost (see
 :mod:`planar3p_gym.tasks.goal`).
+
+The kept infos are :class:`KeptInfo` dicts, which SB3's per-sample ``copy.deepcopy`` returns as
+they are instead of copying entry by entry (SB3 copies so that a ``compute_reward`` that
+writes into its ``info`` cannot change the buffer; the goal env's only reads, and the kept
+values are immutable ``bool``/``float``): one call per relabelled sample instead of seven.
 """
 
 from __future__ import annotations
@@ -24,10 +29,18 @@ from stable_baselines3 import HerReplayBuffer
 
 from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS
 
-__all__ = ["KEPT_INFO_KEYS", "CompactHerReplayBuffer"]
+__all__ = ["KEPT_INFO_KEYS", "CompactHerReplayBuffer", "KeptInfo"]
 
 #: What :class:`CompactHerReplayBuffer` keeps of each step's ``info``.
 KEPT_INFO_KEYS = (*RELABEL_INFO_KEYS, "TimeLimit.truncated")
+
+
+class KeptInfo(dict):
+    """The kept part of one step's ``info``, read-only by contract: ``copy.deepcopy`` returns
+    it unchanged (module docstring)."""
+
+    def __deepcopy__(self, memo: dict[int, Any]) -> KeptInfo:
+        return self
 
 
 class CompactHerReplayBuffer(HerReplayBuffer):
@@ -50,4 +63,6 @@ class CompactHerReplayBuffer(HerReplayBuffer):
         super().add(obs, next_obs, action, reward, done, infos)
         if self.copy_info_dict:
             for env_idx, info in enumerate(infos):
-                self.infos[pos, env_idx] = {k: info[k] for k in KEPT_INFO_KEYS if k in info}
+                self.infos[pos, env_idx] = KeptInfo(
+                    (k, info[k]) for k in KEPT_INFO_KEYS if k in info
+                )

@@ -69,9 +69,10 @@ __all__ = [
 #: The working mode used unless another is asked for: the mode of the default design with the
 #: largest well-conditioned workspace.
 DEFAULT_WORKING_MODE: tuple[int, int, int] = (1, 1, -1)
-#: Arguments of :class:`Planar3PEnv` that change what a policy observes (the shape of the
-#: observation): a model trained with them must be played with them.
-OBSERVATION_ARGUMENTS: tuple[str, ...] = ("travel_goal",)
+#: Arguments of :class:`Planar3PEnv` and its goal env
+#: (:class:`planar3p_gym.envs.goal.Planar3PGoalEnv`) that change what a policy observes (the
+#: shape of the observation): a model trained with them must be played with them.
+OBSERVATION_ARGUMENTS: tuple[str, ...] = ("travel_goal", "observe_working_mode")
 
 
 #: The action types of :class:`Planar3PEnv`: slider velocities, or the prototype's on-off

@@ -137,7 +137,8 @@ class Planar3PGoalEnv(Planar3PEnv):
     SB3's HER can sample before its default ``learning_starts`` of 100 steps is up).
 
     ## Arguments
-    ``reward_type`` (``"sparse"`` or ``"dense"``), and every argument of
+    ``reward_type`` (``"sparse"`` or ``"dense"``), ``observe_working_mode`` (bool, default
+    False: add the ``working_mode`` key above), and every argument of
     :class:`planar3p_gym.envs.core.Planar3PEnv` except ``task``.
 
     ## Version History
@@ -145,10 +146,20 @@ class Planar3PGoalEnv(Planar3PEnv):
     """
 
     def __init__(
-        self, design: Design | dict | str | None = None, *, reward_type: str = "sparse", **kwargs
+        self,
+        design: Design | dict | str | None = None,
+        *,
+        reward_type: str = "sparse",
+        observe_working_mode: bool = False,
+        **kwargs,
     ) -> None:
         if "task" in kwargs:
             raise ValueError("Planar3PGoalEnv sets its own task; do not pass task=")
+        if not isinstance(observe_working_mode, (bool, np.bool_)):
+            raise ValueError(
+                f"observe_working_mode must be True or False, got {observe_working_mode!r}"
+            )
+        self.observe_working_mode = bool(observe_working_mode)
         goal_task = GoalTask(reward_type)
         super().__init__(design, task=goal_task, **kwargs)
         self.goal_task = goal_task
@@ -157,15 +168,16 @@ class Planar3PGoalEnv(Planar3PEnv):
         assert isinstance(flat, spaces.Box)
         g_low, g_high = goal_bounds(self.design)
         self._goal_low, self._goal_high = g_low, g_high
-        self.observation_space = spaces.Dict(
-            {
-                "observation": spaces.Box(
-                    flat.low[ROBOT_INDEX], flat.high[ROBOT_INDEX], dtype=np.float32
-                ),
-                "achieved_goal": spaces.Box(g_low, g_high, dtype=np.float32),
-                "desired_goal": spaces.Box(g_low, g_high, dtype=np.float32),
-            }
-        )
+        entries = {
+            "observation": spaces.Box(
+                flat.low[ROBOT_INDEX], flat.high[ROBOT_INDEX], dtype=np.float32
+            ),
+            "achieved_goal": spaces.Box(g_low, g_high, dtype=np.float32),
+            "desired_goal": spaces.Box(g_low, g_high, dtype=np.float32),
+        }
+        if self.observe_working_mode:
+            entries["working_mode"] = spaces.Box(-1.0, 1.0, (3,), dtype=np.float32)
+        self.observation_space = spaces.Dict(entries)
 
     # ------------------------------------------------------------------ GoalEnv API
     def compute_reward(self, achieved_goal: ArrayLike, desired_goal: ArrayLike, info: Any) -> Any:
@@ -223,21 +235,25 @@ class Planar3PGoalEnv(Planar3PEnv):
             task.evaluate(info["pose"], info["rho_dot"], True)
         # The goals were evaluated once, by the task's termination test (GoalTask.evaluate):
         # the observation and the reward read that evaluation.
+        return self._observation(flat), task.step_reward(free), terminated, truncated, info
+
+    def _dict_obs(self, flat: np.ndarray, info: dict[str, Any]) -> dict[str, np.ndarray]:
+        self.goal_task.evaluate(info["pose"], info["rho_dot"], False)
+        return self._observation(flat)
+
+    def _observation(self, flat: np.ndarray) -> dict[str, np.ndarray]:
+        """The ``Dict`` observation of the flat one and the task's last goal evaluation."""
+        task = self.goal_task
         obs = {
             "observation": flat[ROBOT_INDEX],
             "achieved_goal": task.achieved.copy(),
             "desired_goal": task.desired.copy(),
         }
-        return obs, task.step_reward(free), terminated, truncated, info
-
-    def _dict_obs(self, flat: np.ndarray, info: dict[str, Any]) -> dict[str, np.ndarray]:
-        task = self.goal_task
-        task.evaluate(info["pose"], info["rho_dot"], False)
-        return {
-            "observation": flat[ROBOT_INDEX],
-            "achieved_goal": task.achieved.copy(),
-            "desired_goal": task.desired.copy(),
-        }
+        if self.observe_working_mode:
+            # sign(cos alpha_i) of the observed leg angles: the working mode (legs exactly
+            # perpendicular to their rails, a serial singularity the episode ends at, give 0).
+            obs["working_mode"] = np.sign(flat[SLICES["legs"]][0::2]).astype(np.float32)
+        return obs
 
     @property
     def goal_pose(self) -> tuple[float, float, float]:

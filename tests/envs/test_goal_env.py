@@ -46,6 +46,45 @@ def test_check_env_gymnasium_and_sb3(env_id):
         sb3_check_env(env.unwrapped, warn=False)
 
 
+def test_observe_working_mode_adds_the_mode_and_changes_nothing_else():
+    """``observe_working_mode=True`` adds ``working_mode``, the signs of ``cos alpha_i``, equal
+    to the kinematics' working mode of every state of an episode (the episode's mode: it never
+    changes along a reach); every other entry, the reward and the episode are unchanged; the
+    env still passes Gymnasium's and SB3's checks; a non-bool is refused."""
+    from gymnasium.utils.env_checker import check_env
+    from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+    from planar3p_gym.machine.kinematics import working_mode
+
+    plain = gym.make(IDS[0])
+    seen = gym.make(IDS[0], observe_working_mode=True)
+    assert "working_mode" not in plain.observation_space.spaces
+    a, _ = plain.reset(seed=11)
+    b, info = seen.reset(seed=11)
+    episode_mode = tuple(info["episode_spec"]["working_mode"])
+    rng = np.random.default_rng(2)
+    for _ in range(25):
+        assert set(b) == set(a) | {"working_mode"}
+        for key in a:
+            assert np.array_equal(a[key], b[key])
+        assert seen.observation_space.contains(b)
+        mode = working_mode(seen.unwrapped.design, info["pose"], info["rho"])
+        assert np.array_equal(b["working_mode"], mode.astype(np.float32))
+        assert tuple(mode) == episode_mode
+        action = rng.uniform(-1.0, 1.0, 3)
+        a, ra, ta, ua, _ = plain.step(action)
+        b, rb, tb, ub, info = seen.step(action)
+        assert (ra, ta, ua) == (rb, tb, ub)
+        if ta or ua:
+            break
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        check_env(seen.unwrapped, skip_render_check=True)
+        sb3_check_env(seen.unwrapped, warn=False)
+    with pytest.raises(ValueError, match="observe_working_mode must be True or False"):
+        gym.make(IDS[0], observe_working_mode="yes")
+
+
 def test_observation_has_no_goal():
     """The ``observation`` entry is the robot blocks of the flat observation: the same start
     with two different goals gives the same ``observation``, different ``desired_goal``."""

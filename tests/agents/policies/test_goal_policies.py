@@ -16,7 +16,13 @@ pytest.importorskip("stable_baselines3")
 
 import planar3p_gym
 from planar3p_agents.policies.factory import PolicyError, load_policy
-from planar3p_agents.policies.goal_features import ERROR_FEATURES, GoalErrorExtractor
+from planar3p_agents.policies.goal_features import (
+    ERROR_FEATURES,
+    TRAVEL_FEATURES,
+    GoalErrorExtractor,
+    GoalTravelExtractor,
+    travel_features,
+)
 from planar3p_agents.policies.sb3_models import load_sb3_model
 from planar3p_agents.training import config as training
 from planar3p_gym.envs.goal import flat_observation
@@ -136,7 +142,13 @@ def test_shipped_goal_hyperparameters_resolve() -> None:
     assert sac.algo_kwargs["replay_buffer_kwargs"]["copy_info_dict"] is True
     assert sac.n_envs * sac.algo_kwargs["train_freq"] / sac.algo_kwargs["gradient_steps"] == 8
     assert sac.normalize == {"norm_obs_keys": ["observation"], "norm_reward": False}
-    assert sac.algo_kwargs["policy_kwargs"]["features_extractor_class"] is GoalErrorExtractor
+    assert sac.algo_kwargs["policy_kwargs"]["features_extractor_class"] is GoalTravelExtractor
+    # The extractor reads the working mode, which the recipe's environment argument adds.
+    assert sac.env_kwargs == {"observe_working_mode": True}
+    overridden = training.resolve(
+        "sac", GOAL, 0, sac.entry, env_kwargs={"observe_working_mode": False, "max_speed": 0.2}
+    )
+    assert overridden.env_kwargs == {"observe_working_mode": False, "max_speed": 0.2}
     last = sac.task_schedule[max(sac.task_schedule)]
     own = TaskConfig()
     assert last["position_tolerance"] == own.position_tolerance
@@ -180,3 +192,52 @@ def test_yaml_names_only_known_feature_extractors() -> None:
     assert kwargs["features_extractor_class"] is GoalErrorExtractor
     with pytest.raises(ValueError, match="unsupported"):
         training._literal("dict(features_extractor_class=NatureCNN)", "t")
+
+
+def test_travel_features_are_the_slider_travels_of_both_goals() -> None:
+    """Along real episodes (relabelled goals are achieved ones) the extractor's joint-space
+    block is the machine's own travels: the achieved goal's inverse kinematics in the observed
+    working mode gives the observed ``rho`` (the loop is closed; float32 goals, so to a few
+    micrometres), and a desired goal on another state of the episode gives that state's
+    travels; the errors and their ``tanh`` follow."""
+    import torch as th
+
+    env = gym.make(GOAL, observe_working_mode=True)
+    extractor = GoalTravelExtractor(env.observation_space)
+    obs, _ = env.reset(seed=5)
+    batch, rhos = [], []
+    rng = np.random.default_rng(1)
+    for _ in range(30):
+        batch.append(obs)
+        rhos.append(obs["observation"][SLICES["rho"]])
+        obs, *_ = env.step(rng.uniform(-0.5, 0.5, 3))
+    stacked = {k: np.stack([o[k] for o in batch]) for k in obs}
+    rho = np.array(rhos, dtype=np.float64)
+    later = np.roll(np.arange(len(batch)), -7)  # each state's goal: the state 7 steps on
+    stacked["desired_goal"] = stacked["achieved_goal"][later]
+    with th.no_grad():
+        feats = extractor({k: th.as_tensor(v) for k, v in stacked.items()}).numpy()
+    base = 21 + 5 + 5 + ERROR_FEATURES
+    assert feats.shape == (len(batch), base + TRAVEL_FEATURES)
+    travel = feats[:, base:]
+    np.testing.assert_allclose(travel[:, :3], rho[later], atol=2e-5)  # target travels (m)
+    np.testing.assert_allclose(travel[:, 6:9], rho[later] - rho, atol=4e-5)  # errors (m)
+    np.testing.assert_allclose(travel[:, 3:6], np.tanh((rho[later] - rho) / 0.01), atol=4e-3)
+    assert (travel[:, 9] == 1.0).all()
+    assert set(np.unique(stacked["working_mode"])) <= {-1.0, 1.0}
+    with pytest.raises(ValueError, match="observe_working_mode=True"):
+        GoalTravelExtractor(gym.make(GOAL).observation_space)
+
+
+def test_travel_features_zero_a_goal_that_does_not_close_in_the_mode() -> None:
+    """A goal the legs cannot reach in the working mode (its IK is NaN) gives a zero block
+    and flag 0, never NaN; the other rows are unaffected."""
+    design = gym.make(GOAL).unwrapped.design
+    achieved = np.array([[0.15, 0.0, 1.0, 0.0, 0.0]] * 2)
+    desired = achieved.copy()
+    desired[1, 1] = 5.0  # far above every leg's reach
+    out = travel_features(achieved, desired, np.array([[1.0, 1.0, -1.0]] * 2), design)
+    assert np.isfinite(out).all()
+    assert out[0, -1] == 1.0 and out[1, -1] == 0.0
+    np.testing.assert_array_equal(out[1], np.zeros(TRAVEL_FEATURES))
+    np.testing.assert_allclose(out[0, 3:9], 0.0, atol=1e-7)  # at its own goal: no error

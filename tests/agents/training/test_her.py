@@ -3,6 +3,8 @@ rewards as SB3's buffer with whole info dicts."""
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 
@@ -14,7 +16,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 import planar3p_gym  # noqa: F401
 from planar3p_agents.training.config import _resolve_replay_buffer
-from planar3p_agents.training.her import KEPT_INFO_KEYS, CompactHerReplayBuffer
+from planar3p_agents.training.her import KEPT_INFO_KEYS, CompactHerReplayBuffer, KeptInfo
 from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS
 
 N_ENVS = 2
@@ -51,6 +53,9 @@ def test_compact_buffer_keeps_only_the_relabelling_keys():
             stored = compact.infos[pos, env_idx]
             assert stored == {k: info[k] for k in KEPT_INFO_KEYS if k in info}
             assert set(RELABEL_INFO_KEYS) <= set(stored)
+            assert type(stored) is KeptInfo
+            assert copy.deepcopy(stored) is stored  # SB3's per-sample copy: no work
+            assert all(type(v) in (bool, float) for v in stored.values())  # immutable values
 
 
 def test_compact_buffer_relabels_to_the_same_rewards():
