@@ -19,6 +19,8 @@ from typing import Any
 import p3docs as P
 from results_data import format_success, is_builtin, row_of, studies, study_page_name
 
+from planar3p_gym.envs.core import OBSERVATION_ARGUMENTS
+
 OUT = P.DOCS / "models"
 FIGURES = P.DOCS / "figures"
 
@@ -127,6 +129,7 @@ def model_card(record: dict[str, Any], sums: dict[str, str]) -> tuple[str, list[
     cfg = run.get("config", {})
     env_id = cfg.get("env_id", "?")
     env_kwargs = cfg.get("env_kwargs") or {}
+    algo_class = cfg.get("algo", "ppo").upper()  # SB3's class names: PPO, SAC, TD3, TQC, DQN
     kick = run.get("kickstart")
     metrics = (record.get("metrics") or {}).get("final_evaluation")
     lines = [f"# `pretrained:{name}`", ""]
@@ -182,13 +185,16 @@ def model_card(record: dict[str, Any], sums: dict[str, str]) -> tuple[str, list[
         )
     lines += [P.md_table(["", ""], facts), ""]
 
-    kwargs = "".join(f", {k}={v!r}" for k, v in env_kwargs.items() if k in ("travel_goal",))
+    kwargs = "".join(
+        f", {k}={v!r}" for k, v in env_kwargs.items() if k in OBSERVATION_ARGUMENTS
+    )
     registered = env_id in P.registered_ids()
     lines += [
         "## Use it",
         "",
         "The loader checks the files' SHA-256 sums and loads the observation statistics "
-        "(`VecNormalize`) with the model: a plain `PPO.load` of the `.zip` without them plays "
+        f"(`VecNormalize`) with the model: a plain `{algo_class}.load` of the `.zip` without "
+        "them plays "
         "badly and silently.",
         "",
         "```python",

@@ -298,6 +298,21 @@ def test_her_and_tqc_entries_resolve_to_sb3_classes() -> None:
         training.resolve("sac", "Planar3PGoal-v0", 0, {"replay_buffer_kwargs": "[1, 2]"})
 
 
+def test_an_entry_names_the_environment_arguments_of_its_recipe() -> None:
+    """``env_kwargs`` in a YAML entry (a dict string or a mapping) become the run's environment
+    arguments, the command line's override them entry by entry, and anything but a mapping of
+    names is refused before a run starts."""
+    entry = {"env_kwargs": "dict(observe_working_mode=True, max_speed=0.2)"}
+    cfg = training.resolve("sac", "Planar3PGoal-v0", 0, entry)
+    assert cfg.env_kwargs == {"observe_working_mode": True, "max_speed": 0.2}
+    cfg = training.resolve("sac", "Planar3PGoal-v0", 0, entry, env_kwargs={"max_speed": 0.25})
+    assert cfg.env_kwargs == {"observe_working_mode": True, "max_speed": 0.25}
+    assert "env_kwargs" not in cfg.algo_kwargs  # not an SB3 argument
+    for bad in ("[1, 2]", {1: 2}, 3):
+        with pytest.raises(ValueError, match="env_kwargs must be a mapping"):
+            training.resolve("sac", "Planar3PGoal-v0", 0, {"env_kwargs": bad})
+
+
 def test_her_training_on_the_goal_env_runs_and_resumes(tmp_path: Path) -> None:
     """SAC + HER through scripts/train.py on Planar3PGoal-v0, then --resume with its buffer."""
     run = tmp_path / "her"
