@@ -185,9 +185,7 @@ def model_card(record: dict[str, Any], sums: dict[str, str]) -> tuple[str, list[
         )
     lines += [P.md_table(["", ""], facts), ""]
 
-    kwargs = "".join(
-        f", {k}={v!r}" for k, v in env_kwargs.items() if k in OBSERVATION_ARGUMENTS
-    )
+    kwargs = "".join(f", {k}={v!r}" for k, v in env_kwargs.items() if k in OBSERVATION_ARGUMENTS)
     registered = env_id in P.registered_ids()
     lines += [
         "## Use it",
