@@ -110,7 +110,12 @@ class Planar3PGoalEnv(Planar3PEnv):
       margins); no goal in it;
     - ``achieved_goal``: ``Box((5,), float32)``, the gripper pose and the fastest slider's
       speed as ``(x, y, cos theta, sin theta, v)`` (m, m, 1, 1, m/s);
-    - ``desired_goal``: the target pose in the same form, with ``v = 0`` ("at rest").
+    - ``desired_goal``: the target pose in the same form, with ``v = 0`` ("at rest");
+    - ``working_mode`` (only with ``observe_working_mode=True``): ``Box(-1, 1, (3,), float32)``,
+      the signs of ``cos alpha_i`` (the episode's working mode, as
+      :func:`planar3p_gym.machine.kinematics.working_mode`), kept apart from ``observation`` so
+      that it reaches a policy unnormalised: with it a policy can put any goal, relabelled ones
+      included, into joint space (``GoalTravelExtractor`` of ``planar3p_agents``).
 
     ## Rewards
     ``compute_reward(achieved_goal, desired_goal, info)``, vectorised
@@ -142,7 +147,8 @@ class Planar3PGoalEnv(Planar3PEnv):
     :class:`planar3p_gym.envs.core.Planar3PEnv` except ``task``.
 
     ## Version History
-    - v0: initial release.
+    - v0: initial release; later the ``observe_working_mode`` argument (off by default: the
+      observation, rewards and episodes of ``v0`` are unchanged).
     """
 
     def __init__(
