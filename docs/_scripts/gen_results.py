@@ -165,12 +165,11 @@ HEADLINE: list[dict[str, str]] = [
         "task": "goal-conditioned reach, off-policy",
         "study": "goal-sac-her",
         "seeds": "seeds.md",
-        "policy": "goal-sac/model",
+        "policy": "goal-sac/rl_model_500000_steps",
         "suite": "goal",
         "metric": "success",
-        "learned": "SAC + HER + tolerance curriculum, 300k steps, 2 seeds",
-        "note": "learns where SAC + HER without the curriculum scored 0 %; below PPO and the "
-        "90 % bar; seeds 3-5 not trained",
+        "learned": "SAC + HER, goal in joint space, tolerance curriculum, 500k steps",
+        "note": "NOTE",
     },
 ]
 
