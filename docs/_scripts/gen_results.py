@@ -169,7 +169,8 @@ HEADLINE: list[dict[str, str]] = [
         "suite": "goal",
         "metric": "success",
         "learned": "SAC + HER, goal in joint space, tolerance curriculum, 500k steps",
-        "note": "NOTE",
+        "note": "4 of 5 seeds at 90 % or more (seed 4: 86 %); ahead of PPO, below the "
+        "certified planner",
     },
 ]
 
