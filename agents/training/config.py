@@ -147,6 +147,16 @@ class TrainConfig:
         }
 
 
+def _mapping(value: Any, what: str) -> dict[str, Any]:
+    """An entry the zoo writes as a ``dict(...)`` string or as a YAML mapping (``policy_kwargs``,
+    ``replay_buffer_kwargs``, ``env_kwargs``), as a dict; anything else is a ``ValueError``."""
+    if isinstance(value, str):
+        value = _literal(value, what)
+    if not isinstance(value, Mapping):
+        raise ValueError(f"{what} must be a mapping, got {value!r}")
+    return dict(value)
+
+
 def _literal(text: str, what: str) -> Any:
     """Evaluate the zoo's ``dict(...)`` strings safely (literals and ``dict``/``nn`` names)."""
     try:
@@ -321,18 +331,14 @@ def resolve(
     else:
         raise ValueError(f"normalize must be a bool or a mapping, got {norm!r}")
     kwargs = {k: v for k, v in entry.items() if k not in _ZOO_KEYS}
-    if isinstance(kwargs.get("policy_kwargs"), str):
-        kwargs["policy_kwargs"] = _literal(kwargs["policy_kwargs"], "policy_kwargs")
-    if "policy_kwargs" in kwargs and not isinstance(kwargs["policy_kwargs"], Mapping):
-        raise ValueError(f"policy_kwargs must be a mapping, got {kwargs['policy_kwargs']!r}")
+    if "policy_kwargs" in kwargs:
+        kwargs["policy_kwargs"] = _mapping(kwargs["policy_kwargs"], "policy_kwargs")
     for key in ("learning_rate", "clip_range"):
         if key in kwargs:
             kwargs[key] = _schedule(kwargs[key], key)
     _resolve_replay_buffer(algo, kwargs)
-    recipe_env = entry.get("env_kwargs") or {}
-    if isinstance(recipe_env, str):
-        recipe_env = _literal(recipe_env, "env_kwargs")
-    if not isinstance(recipe_env, Mapping) or not all(isinstance(k, str) for k in recipe_env):
+    recipe_env = _mapping(entry.get("env_kwargs") or {}, "env_kwargs")
+    if not all(isinstance(k, str) for k in recipe_env):
         raise ValueError(f"env_kwargs must be a mapping of argument names, got {recipe_env!r}")
     noise_type = entry.get("noise_type")
     if noise_type not in (None, "normal"):
@@ -368,13 +374,10 @@ def _resolve_replay_buffer(algo: str, kwargs: dict[str, Any]) -> None:
         import importlib
 
         kwargs["replay_buffer_class"] = getattr(importlib.import_module(REPLAY_BUFFERS[name]), name)
-    buffer_kwargs = kwargs.get("replay_buffer_kwargs")
-    if isinstance(buffer_kwargs, str):
-        buffer_kwargs = _literal(buffer_kwargs, "replay_buffer_kwargs")
-    if buffer_kwargs is not None:
-        if not isinstance(buffer_kwargs, Mapping):
-            raise ValueError(f"replay_buffer_kwargs must be a mapping, got {buffer_kwargs!r}")
-        kwargs["replay_buffer_kwargs"] = dict(buffer_kwargs)
+    if kwargs.get("replay_buffer_kwargs") is not None:
+        kwargs["replay_buffer_kwargs"] = _mapping(
+            kwargs["replay_buffer_kwargs"], "replay_buffer_kwargs"
+        )
 
 
 def parse_env_kwargs(items: list[str] | None) -> dict[str, Any]:
