@@ -24,6 +24,7 @@ from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
+from planar3p_gym.tasks.goal import poses_of_goals
 from planar3p_gym.tasks.observation import (
     FINE_ERROR_SCALE,
     TRAVEL_GOAL_SIZE,
@@ -149,12 +150,8 @@ def travel_features(
     (signs; 0, a leg perpendicular to its rail, counts as +1)."""
     mode = np.where(np.asarray(mode) < 0.0, -1.0, 1.0)
 
-    def travels(goal: np.ndarray) -> np.ndarray:
-        g = np.asarray(goal, dtype=np.float64)
-        pose = np.column_stack([g[:, 0], g[:, 1], np.arctan2(g[:, 3], g[:, 2])])
-        return kinematics.inverse(design, pose, mode).rho
-
-    rho, target = travels(achieved), travels(desired)
+    rho = kinematics.inverse(design, poses_of_goals(achieved), mode).rho
+    target = kinematics.inverse(design, poses_of_goals(desired), mode).rho
     valid = np.isfinite(rho).all(axis=1) & np.isfinite(target).all(axis=1)
     rho = np.where(valid[:, None], rho, 0.0)
     target = np.where(valid[:, None], target, 0.0)

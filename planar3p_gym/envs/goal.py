@@ -28,6 +28,7 @@ from planar3p_gym.tasks.goal import (
     goal_reward,
     goal_success,
     pose_of_goal,
+    poses_of_goals,
 )
 from planar3p_gym.tasks.observation import FINE_ERROR_SCALE, OBS_SIZE, SLICES
 
@@ -71,7 +72,7 @@ def flat_observation(obs: dict[str, ArrayLike], length: float) -> NDArray[np.flo
     flat[:, ROBOT_INDEX] = robot
     pos = flat[:, SLICES["position"]]
     orient = flat[:, SLICES["orientation"]]
-    t_th = np.arctan2(goal[:, 3], goal[:, 2])
+    t_th = poses_of_goals(goal)[:, 2]
     d_th = (t_th - np.arctan2(orient[:, 1], orient[:, 0]) + math.pi) % (2.0 * math.pi) - math.pi
     err = goal[:, :2] - pos
     flat[:, SLICES["target_position"]] = goal[:, :2]
@@ -112,8 +113,9 @@ class Planar3PGoalEnv(Planar3PEnv):
       speed as ``(x, y, cos theta, sin theta, v)`` (m, m, 1, 1, m/s);
     - ``desired_goal``: the target pose in the same form, with ``v = 0`` ("at rest");
     - ``working_mode`` (only with ``observe_working_mode=True``): ``Box(-1, 1, (3,), float32)``,
-      the signs of ``cos alpha_i`` (the episode's working mode, as
-      :func:`planar3p_gym.machine.kinematics.working_mode`), kept apart from ``observation`` so
+      the signs of the observed ``cos alpha_i``: the working mode of the current configuration
+      (:func:`planar3p_gym.machine.kinematics.working_mode`; the episode's unless a leg has
+      passed perpendicular to its rail), kept apart from ``observation`` so
       that it reaches a policy unnormalised: with it a policy can put any goal, relabelled ones
       included, into joint space (``GoalTravelExtractor`` of ``planar3p_agents``).
 

@@ -71,6 +71,7 @@ __all__ = [
     "goal_test",
     "goal_tests",
     "pose_of_goal",
+    "poses_of_goals",
     "write_achieved_goal",
 ]
 
@@ -101,6 +102,16 @@ def pose_of_goal(goal: ArrayLike) -> Pose:
     if g.size not in (4, GOAL_SIZE):
         raise ValueError(f"a goal has {GOAL_SIZE} entries (x, y, cos, sin, v), got {g.size}")
     return float(g[0]), float(g[1]), math.atan2(float(g[3]), float(g[2]))
+
+
+def poses_of_goals(goals: ArrayLike) -> NDArray[np.float64]:
+    """:func:`pose_of_goal` of a batch: poses ``(n, 3)`` (m, m, rad) of goal vectors ``(n, 4)``
+    or ``(n, 5)`` (numpy's ``arctan2``; the scalar function keeps ``math.atan2``, which the
+    episode specs it builds were recorded with)."""
+    g = np.asarray(goals, dtype=np.float64)
+    if g.ndim != 2 or g.shape[1] not in (4, GOAL_SIZE):
+        raise ValueError(f"goals must have shape (n, {GOAL_SIZE}), got {g.shape}")
+    return np.column_stack([g[:, 0], g[:, 1], np.arctan2(g[:, 3], g[:, 2])])
 
 
 def goal_bounds(design: Design) -> tuple[NDArray[np.float32], NDArray[np.float32]]:

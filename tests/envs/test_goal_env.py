@@ -13,7 +13,7 @@ import pytest
 import planar3p_gym
 from planar3p_agents.policies.factory import load_policy
 from planar3p_gym.envs.goal import ROBOT_INDEX, flat_observation
-from planar3p_gym.tasks.goal import goal_of_pose, pose_of_goal
+from planar3p_gym.tasks.goal import goal_of_pose, pose_of_goal, poses_of_goals
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
 IDS = (planar3p_gym.GOAL_ENV_ID, planar3p_gym.GOAL_DENSE_ENV_ID)
@@ -266,6 +266,21 @@ def test_goal_pose_round_trip():
     back = pose_of_goal(goal_of_pose(pose))
     assert back[:2] == pytest.approx(pose[:2], abs=1e-7)
     assert back[2] == pytest.approx(pose[2], abs=1e-6)
+
+
+def test_batched_poses_of_goals_are_the_scalar_ones():
+    """:func:`poses_of_goals` is :func:`pose_of_goal` row by row (angles all around the circle,
+    4- and 5-entry goals), and refuses what is not a batch of goals."""
+    rng = np.random.default_rng(4)
+    poses = np.column_stack([rng.uniform(-0.3, 0.3, (50, 2)), rng.uniform(-np.pi, np.pi, 50)])
+    goals = np.stack([goal_of_pose(p) for p in poses])
+    batched = poses_of_goals(goals)
+    for g, row in zip(goals, batched, strict=True):
+        np.testing.assert_allclose(row, pose_of_goal(g), rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(poses_of_goals(goals[:, :4]), batched)
+    for bad in (goals[0], goals[:, :3], goals[None]):
+        with pytest.raises(ValueError, match="goals must have shape"):
+            poses_of_goals(bad)
 
 
 def test_flat_observation_matches_the_flat_env():
