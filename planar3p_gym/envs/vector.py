@@ -56,9 +56,9 @@ from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
 from planar3p_gym.envs.track import Planar3PTrackEnv
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
-from planar3p_gym.sim import physics
-from planar3p_gym.sim.batch_step import BatchProjector, BatchState
-from planar3p_gym.sim.physics import SimState
+from planar3p_gym.sim import chipmunk, physics
+from planar3p_gym.sim.batch_step import BatchState
+from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, SimState
 from planar3p_gym.tasks import sampling as task_module
 from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
 from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, TOLERANCES, BatchReach
@@ -101,9 +101,6 @@ _REASONS = np.array([None, "success", "singularity_crossing", "physics_breakdown
 #: Numbers per simulation in the shared body buffer: room for twice a readout (11 bodies x 6),
 #: so pymunk's array over a row never needs to grow (move).
 _ROW = 132
-#: Buffer columns of the drives' x velocities (readout order: platform, then slider, drive,
-#: leg of each leg; 6 numbers a body).
-_DRIVE_VX = (15, 33, 51)
 
 
 class Planar3PVectorEnv(VectorEnv):
@@ -410,7 +407,8 @@ class _BatchCore:
         self.breakdown = env.breakdown_distance
         self.reach = BatchReach(env._reach_step)
         self.low, self.high = env._obs_low, env._obs_high
-        self.projector: BatchProjector | None = None  # made from the first simulation
+        #: The projection's constants (LoopProjector.constants), from the first simulation.
+        self.constants: np.ndarray | None = None
         #: Every environment's fused-step constants (their tolerances among them), one row
         #: each, shared with its ReachStep: a tolerance changed through an environment's
         #: ``set_task_config`` shows here with no loop over the environments.
@@ -434,6 +432,8 @@ class _BatchCore:
         self.get = ffi.addressof(cp, "pmSpaceBodyGetIteratorFuncBatched")
         self.set = ffi.addressof(cp, "pmSpaceBodySetIteratorFuncBatched")
         self.handles: list[tuple] = [()] * n
+        #: Each simulation's handles for the compiled step (chipmunk.HANDLE_FIELDS).
+        self.handle_rows = np.zeros((n, len(chipmunk.HANDLE_FIELDS)), dtype=np.uintp)
         self.time = np.zeros(n)
         self.target = np.zeros((3, n))
         self.target_cs = np.zeros((2, n))
@@ -455,11 +455,14 @@ class _BatchCore:
         sim = env.sim
         if sim._fast is None:
             raise RuntimeError("the batched step needs pymunk's batch API (Planar3PSim._fast)")
-        if self.projector is None:
-            self.projector = BatchProjector(sim._projector)
+        if self.constants is None:
+            self.constants = sim._projector.constants
         fast = sim._fast
         space, servos = fast[0], fast[1]
         self.handles[i] = (space, *servos, sim._commands)
+        self.handle_rows[i] = [
+            chipmunk.address(p) for p in (space, *servos, self.requests[i], self.arrays[i])
+        ]
         self.arrays[i].num = 0
         physics._cp.cpSpaceEachBody(space, self.get, self.requests[i])
         self.time[i] = sim._time
@@ -665,37 +668,21 @@ class _BatchCore:
             info[key][i] = reset_info[key]
 
     def _physics(self, a: np.ndarray, idx: list[int]) -> None:
-        """Step the simulations ``idx`` with actions ``a`` (clipped, ``(N, 3)``): write their
-        bodies (and the new servo commands), step pymunk, read them back, project."""
-        buf = self.buf
-        v = a * self.vmax
-        for k, col in enumerate(_DRIVE_VX):
-            buf[idx, col] = v[idx, k]
-        commands = v.tolist()
-        each = physics._cp.cpSpaceEachBody
-        get, put, arrays, requests = self.get, self.set, self.arrays, self.requests
-        h, substeps = self.h, self.substeps
-        fm = []
-        for i in idx:
-            space, s0, s1, s2, record = self.handles[i]
-            arr, req = arrays[i], requests[i]
-            arr.num = 0
-            each(space, put, req)
-            fm.append(physics.substep_impulses(space, (s0, s1, s2), h, substeps))
-            arr.num = 0
-            each(space, get, req)
-            record.extend(commands[i])
+        """Step the simulations ``idx`` with actions ``a`` (clipped, ``(N, 3)``): one compiled
+        call (:func:`planar3p_gym.sim.chipmunk.advance_batch`) writes their bodies (with the
+        new servo commands), steps pymunk, reads them back and projects them."""
+        v = a[idx] * self.vmax
+        forces, saturated, states, closure = chipmunk.advance_batch(
+            chipmunk.FUNCTIONS, self.handle_rows, np.array(idx, dtype=np.int64), v, self.h,
+            self.substeps, self.force_limit, self.buf, self.constants, FOLLOWING_ERROR_LIMIT,
+        )  # fmt: skip
+        for i, command in zip(idx, v.tolist(), strict=True):
+            self.handles[i][4].extend(command)
         self.venv._elapsed[idx] += 1
         self.time[idx] += self.dt
-        fm_a = np.array(fm)
-        self.forces = fm_a[:, :3] * self.scale
-        self.saturated = fm_a[:, 3:] >= self.force_limit
-        if len(idx) == len(buf):
-            self.state = self.projector.project(buf, self.saturated.T)  # type: ignore[union-attr]
-        else:
-            rows = buf[idx]
-            self.state = self.projector.project(rows, self.saturated.T)  # type: ignore[union-attr]
-            buf[idx] = rows
+        self.forces = forces[:, :3] * self.scale
+        self.saturated = saturated.T
+        self.state = BatchState.of(states, closure)
 
     def _outputs(
         self,

@@ -1,15 +1,17 @@
-"""The projection over a batch of simulations: the native vector env's path.
+"""The projection over a batch of simulations.
 
-:class:`BatchProjector` projects the readouts of ``N`` simulations with the compiled
-:func:`planar3p_gym.sim.projection.project_batch`, a loop over the one definition of the
-projection (:func:`~planar3p_gym.sim.projection.project_readout`, which a single environment
-calls through :class:`~planar3p_gym.sim.projection.LoopProjector`): the same numbers as the
-single environments, bit for bit.  The reach step's outputs over the batch are
-:class:`planar3p_gym.tasks.reach_step.BatchReach`.
+:class:`BatchState` holds the projected states of ``N`` simulations as arrays (what the reach
+step's batch outputs, :class:`planar3p_gym.tasks.reach_step.BatchReach`, read); the native
+vector env gets them from its compiled control step
+(:func:`planar3p_gym.sim.chipmunk.advance_batch`).  :class:`BatchProjector` projects readouts
+given as an array with the compiled :func:`planar3p_gym.sim.projection.project_batch`.  Both
+loop over the one definition of the projection
+(:func:`~planar3p_gym.sim.projection.project_row`, that is
+:func:`~planar3p_gym.sim.projection.project_readout`, which a single environment calls): the
+same numbers as the single environments, bit for bit.
 
 ``tests/envs/test_vector_env.py`` checks the native vector env against single environments, bit for
-bit.
-"""
+bit."""
 
 from __future__ import annotations
 
@@ -57,6 +59,27 @@ class BatchState:
         for key, value in values.items():
             setattr(self, key, value)
 
+    @classmethod
+    def of(cls, states: np.ndarray, closure: np.ndarray) -> BatchState:
+        """The batch state of projected ``states`` ``(23, N)`` (theta wrapped) and closure
+        errors ``(N,)`` (m), as :func:`~planar3p_gym.sim.projection.project_batch` and
+        :func:`~planar3p_gym.sim.chipmunk.advance_batch` return them."""
+        total = states[:15].sum(axis=0) + closure
+        return cls(
+            rho=states[0:3],
+            rho_dot=states[3:6],
+            pose=states[6:9],
+            twist=states[9:12],
+            leg_angles=states[12:15],
+            closure=closure,
+            ux=states[15:21:2],
+            uy=states[16:21:2],
+            c=states[21],
+            s=states[22],
+            finite=np.isfinite(total),
+            states=states,
+        )
+
 
 class BatchProjector:
     """:meth:`LoopProjector.project` of ``projector`` over a batch (module docstring)."""
@@ -80,18 +103,4 @@ class BatchProjector:
         )  # fmt: skip
         if not contiguous:
             buf[:, :60] = work[:, :60]
-        total = states[:15].sum(axis=0) + closure
-        return BatchState(
-            rho=states[0:3],
-            rho_dot=states[3:6],
-            pose=states[6:9],
-            twist=states[9:12],
-            leg_angles=states[12:15],
-            closure=closure,
-            ux=states[15:21:2],
-            uy=states[16:21:2],
-            c=states[21],
-            s=states[22],
-            finite=np.isfinite(total),
-            states=states,
-        )
+        return BatchState.of(states, closure)

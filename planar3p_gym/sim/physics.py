@@ -71,6 +71,7 @@ from numpy.typing import ArrayLike
 
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
+from planar3p_gym.sim import chipmunk
 from planar3p_gym.sim.dynamics import MachineDynamics
 from planar3p_gym.sim.projection import LoopProjector
 from planar3p_gym.sim.projection import wrap_angle as _wrap
@@ -89,7 +90,7 @@ try:  # Direct Chipmunk calls skip pymunk's per-call Python bookkeeping (the hot
     from pymunk._chipmunk_cffi import ffi as _ffi
     from pymunk._chipmunk_cffi import lib as _cp
 
-    _FAST = all(
+    _FAST = chipmunk.AVAILABLE and all(
         hasattr(_cp, name)
         for name in (
             "cpSpaceStep",
@@ -242,29 +243,6 @@ def _start(design: Design, pose: ArrayLike, working_mode: ArrayLike) -> tuple[np
             f"within the stroke [0, {design.stroke}] m (travels {rho})"
         )
     return p, rho
-
-
-def substep_impulses(
-    space_ptr: Any, servos: tuple[Any, Any, Any], h: float, substeps: int
-) -> tuple[float, float, float, float, float, float]:
-    """Step the chipmunk space ``space_ptr`` ``substeps`` times by ``h`` (s) and return the
-    servos' summed impulses and their largest single-substep impulse, ``(f0, f1, f2, m0, m1,
-    m2)`` (N s), read through chipmunk's C API (the hot path of every step)."""
-    cp_step, impulse = _cp.cpSpaceStep, _cp.cpConstraintGetImpulse
-    s0, s1, s2 = servos
-    f0 = f1 = f2 = m0 = m1 = m2 = 0.0
-    for _ in range(substeps):
-        cp_step(space_ptr, h)
-        j0, j1, j2 = impulse(s0), impulse(s1), impulse(s2)
-        f0, f1, f2 = f0 + j0, f1 + j1, f2 + j2
-        # (comparisons instead of max(): this loop is the hot path)
-        if j0 > m0:
-            m0 = j0
-        if j1 > m1:
-            m1 = j1
-        if j2 > m2:
-            m2 = j2
-    return f0, f1, f2, m0, m1, m2
 
 
 #: Distance along its rail of the static anchor of a slider's friction constraints (m): so far
@@ -533,14 +511,23 @@ class Planar3PSim:
         request.fields = _cp.POSITION | _cp.ANGLE | _cp.VELOCITY | _cp.ANGULAR_VELOCITY
         request.floatArray = array
         request.intArray = unused
+        fast_servos = tuple(sv._constraint for sv in servos)
         fast = (
             space._space,
-            tuple(sv._constraint for sv in servos),
+            fast_servos,
             (array, request, _ffi.addressof(_cp, "pmSpaceBodyGetIteratorFuncBatched")),
             tuple(b._body for b in drives),
             unused,
             _ffi.addressof(_cp, "pmSpaceBodySetIteratorFuncBatched"),
             memoryview(_ffi.buffer(array.arr, 8 * _BODY_FIELDS * len(self._bodies))).cast("d"),
+            # The compiled step's arguments (planar3p_gym.sim.chipmunk.HANDLE_FIELDS): the
+            # addresses, the readout as an array over the same memory, the impulses (N s).
+            np.array(
+                [chipmunk.address(p) for p in (space._space, *fast_servos, request, array)],
+                dtype=np.uintp,
+            ),
+            np.frombuffer(_ffi.buffer(array.arr, 8 * _BODY_FIELDS * len(self._bodies))),
+            np.zeros(6),
         )
         if Planar3PSim._batch_layout_ok is None:  # checked once per process
             public = self._public_values()
@@ -728,40 +715,52 @@ class Planar3PSim:
             v0 = lagged[0] = lagged[0] + f * (v0 - lagged[0])
             v1 = lagged[1] = lagged[1] + f * (v1 - lagged[1])
             v2 = lagged[2] = lagged[2] + f * (v2 - lagged[2])
-        if self._projector is None:  # (with projection, done when the state is written back)
+        fast, projector = self._fast, self._projector
+        if fast is not None and not self._viscous:  # one compiled call (sim/chipmunk.py)
+            handles, readout, impulses = fast[7], fast[8], fast[9]
+            if projector is not None:
+                st, closure = chipmunk.step_projected(
+                    chipmunk.FUNCTIONS, handles, v0, v1, v2, self._h, self.substeps,
+                    self._force_limit, readout, projector.constants, FOLLOWING_ERROR_LIMIT,
+                    impulses,
+                )  # fmt: skip
+                projector.last_state = st
+                self._account(impulses)
+                self._state = self._projected_state(st, closure, readout)
+                return self._state
             self._limit_following_error()
-        if self._fast is None:
-            for drive, v in zip(self.drives, (v0, v1, v2), strict=True):
-                drive.velocity = (v, 0.0)
-        else:
-            set_velocity = _cp.cpBodySetVelocity
-            d0, d1, d2 = self._fast[3]
-            set_velocity(d0, (v0, 0.0))
-            set_velocity(d1, (v1, 0.0))
-            set_velocity(d2, (v2, 0.0))
-        h = self._h
-        f0 = f1 = f2 = 0.0
-        m0 = m1 = m2 = 0.0
-        if self._fast is None or self._viscous:
-            servos = self.servos
-            for _ in range(self.substeps):
-                if self._viscous:
-                    self._apply_viscous()
-                self.space.step(h)
-                j0, j1, j2 = servos[0].impulse, servos[1].impulse, servos[2].impulse
-                f0, f1, f2 = f0 + j0, f1 + j1, f2 + j2
-                m0, m1, m2 = max(m0, j0), max(m1, j1), max(m2, j2)
-        else:
-            f0, f1, f2, m0, m1, m2 = substep_impulses(
-                self._fast[0], self._fast[1], h, self.substeps
+            chipmunk.step_bodies(
+                chipmunk.FUNCTIONS, handles, v0, v1, v2, self._h, self.substeps, readout, impulses
             )
-        self._time += self.dt
-        scale = self._force_scale
-        self._forces = (f0 * scale, f1 * scale, f2 * scale)
-        limit = self._force_limit
-        self._saturated = (m0 >= limit, m1 >= limit, m2 >= limit)
-        self._state = self._read() if self._projector is None else self._project()
+            self._account(impulses)
+            self._state = self._read()
+            return self._state
+        # pymunk's API: viscous friction (set before each physics step), or no Chipmunk C API.
+        if projector is None:  # (with projection, done when the state is written back)
+            self._limit_following_error()
+        for drive, v in zip(self.drives, (v0, v1, v2), strict=True):
+            drive.velocity = (v, 0.0)
+        totals, largest = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
+        for _ in range(self.substeps):
+            if self._viscous:
+                self._apply_viscous()
+            self.space.step(self._h)
+            for i, servo in enumerate(self.servos):
+                j = servo.impulse
+                totals[i] += j
+                largest[i] = max(largest[i], j)
+        self._account(np.array(totals + largest))
+        self._state = self._read() if projector is None else self._project()
         return self._state
+
+    def _account(self, impulses: np.ndarray) -> None:
+        """Advance the clock by a control period and set the mean actuator forces (N) and the
+        saturation flags from the servos' summed and largest substep ``impulses`` (N s)."""
+        f0, f1, f2, m0, m1, m2 = impulses.tolist()
+        self._time += self.dt
+        scale, limit = self._force_scale, self._force_limit
+        self._forces = (f0 * scale, f1 * scale, f2 * scale)
+        self._saturated = (m0 >= limit, m1 >= limit, m2 >= limit)
 
     def _apply_viscous(self) -> None:
         """Set the viscous friction forces of :attr:`dynamics` for the next physics step, from
@@ -783,7 +782,8 @@ class Planar3PSim:
                 platform.torque += cj * (leg.angular_velocity - platform.angular_velocity)
 
     def _project(self) -> SimState:
-        """Project the bodies onto the constraint manifold, write them back, return the state."""
+        """Project the bodies onto the constraint manifold, write them back, return the state
+        (after a physics step taken through pymunk's API)."""
         fast = self._fast
         projector = self._projector
         assert projector is not None
@@ -793,27 +793,14 @@ class Planar3PSim:
             array_, request, iterator = fast[2]
             array_.num = 0
             _cp.cpSpaceEachBody(fast[0], iterator, request)
-            view = fast[6]
+            readout = fast[8]
             sat = self._saturated
             st, closure = projector.project_in_place(
-                np.asarray(view), sat[0], sat[1], sat[2], FOLLOWING_ERROR_LIMIT
+                readout, sat[0], sat[1], sat[2], FOLLOWING_ERROR_LIMIT
             )
             array_.num = 0
             _cp.cpSpaceEachBody(fast[0], fast[5], request)
-            self._setpoints = [view[12], view[30], view[48]]
-            s = st.tolist()
-            self.geometry = (s[15], s[16], s[17], s[18], s[19], s[20], s[21], s[22])
-            return SimState(
-                self._time,
-                (s[0], s[1], s[2]),
-                (s[3], s[4], s[5]),
-                (s[6], s[7], _wrap(s[8])),
-                (s[9], s[10], s[11]),
-                (s[12], s[13], s[14]),
-                self._forces,
-                self._saturated,
-                closure,
-            )
+            return self._projected_state(st, closure, readout)
         v = self._public_values()
         # (The drives' setpoints for the next step are pulled to within
         # FOLLOWING_ERROR_LIMIT of their sliders, :meth:`_limit_following_error`.)
@@ -841,6 +828,25 @@ class Planar3PSim:
             self._forces,
             self._saturated,
             pr.closure_error,
+        )
+
+    def _projected_state(self, st: np.ndarray, closure: float, readout: np.ndarray) -> SimState:
+        """The state of a projection's state array ``st`` (23 values,
+        :func:`~planar3p_gym.sim.projection.project_readout`), with the projected bodies in
+        ``readout``: also keeps the drives' setpoints and :attr:`geometry`."""
+        self._setpoints = readout[12:49:18].tolist()
+        s = st.tolist()
+        self.geometry = (s[15], s[16], s[17], s[18], s[19], s[20], s[21], s[22])
+        return SimState(
+            self._time,
+            (s[0], s[1], s[2]),
+            (s[3], s[4], s[5]),
+            (s[6], s[7], _wrap(s[8])),
+            (s[9], s[10], s[11]),
+            (s[12], s[13], s[14]),
+            self._forces,
+            self._saturated,
+            float(closure),
         )
 
     def _limit_following_error(self) -> None:

@@ -67,8 +67,10 @@ differential-algebraic equations):
 The projection is defined once, in :func:`project_readout` (plain-float arithmetic with
 hand-written 3x3 solves, compiled by numba: it runs once per control step of every
 environment, where numpy's per-call overhead on 3x3 arrays would cost more than the work);
-:class:`LoopProjector` calls it for one simulation and :func:`project_batch` loops over the
-simulations of a native vector env with the same compiled function.
+:class:`LoopProjector` calls it for one simulation (through :func:`project_in_place`), as does
+the compiled control step of :mod:`planar3p_gym.sim.chipmunk`; :func:`project_row` is it for
+one row of a batch, which :func:`project_batch` and the native vector env's compiled step loop
+over.
 """
 
 from __future__ import annotations
@@ -92,7 +94,9 @@ __all__ = [
     "LoopProjector",
     "Projected",
     "project_batch",
+    "project_in_place",
     "project_readout",
+    "project_row",
     "wrap_angle",
 ]
 
@@ -273,7 +277,7 @@ class LoopProjector:
         the bodies to write back into ``v[:60]`` itself; returns the state array
         (:func:`project_readout`'s 23 values, also kept as :attr:`last_state`) and the
         closure error (m).  ``s0, s1, s2``: the servo saturation flags."""
-        st, closure = _project_in_place(v, s0, s1, s2, self.constants, setpoint_limit)
+        st, closure = project_in_place(v, s0, s1, s2, self.constants, setpoint_limit)
         self.last_state = st
         return st, closure
 
@@ -516,7 +520,7 @@ def project_readout(
 
 
 @njit(cache=True)
-def _project_in_place(
+def project_in_place(
     v: np.ndarray, s0: bool, s1: bool, s2: bool, consts: np.ndarray, setpoint_limit: float
 ) -> tuple[np.ndarray, float]:
     """:func:`project_readout` of ``v[:60]`` with the bodies written back into ``v[:60]``:
@@ -528,23 +532,41 @@ def _project_in_place(
 
 
 @njit(cache=True)
+def project_row(
+    readout: np.ndarray,
+    s0: bool,
+    s1: bool,
+    s2: bool,
+    consts: np.ndarray,
+    setpoint_limit: float,
+    states: np.ndarray,
+    closure: np.ndarray,
+    k: int,
+) -> None:
+    """:func:`project_readout` of ``readout[:60]`` for a batch: the bodies written back into
+    ``readout[:60]``, the state into column ``k`` of ``states`` (theta wrapped into
+    ``(-pi, pi]``, as :class:`~planar3p_gym.sim.physics.SimState` holds it) and the closure
+    error (m) into ``closure[k]``."""
+    out, state, err, _ = project_readout(readout, s0, s1, s2, consts, setpoint_limit)
+    readout[:60] = out
+    state[8] = wrap_angle(state[8])
+    states[:, k] = state
+    closure[k] = err
+
+
+@njit(cache=True)
 def project_batch(
     buf: np.ndarray, saturated: np.ndarray, consts: np.ndarray, setpoint_limit: float
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`project_readout` of every row of ``buf`` (``(N, >= 60)`` readouts, written back
-    in place) with ``saturated`` ``(3, N)``; returns the states ``(23, N)`` (theta wrapped into
-    ``(-pi, pi]``, as :class:`~planar3p_gym.sim.physics.SimState` holds it) and the closure
+    """:func:`project_row` of every row of ``buf`` (``(N, >= 60)`` readouts, written back
+    in place) with ``saturated`` ``(3, N)``; returns the states ``(23, N)`` and the closure
     errors ``(N,)`` (m)."""
     n = buf.shape[0]
     states = np.empty((23, n))
     closure = np.empty(n)
     for j in range(n):
-        out, state, err, _ = project_readout(
-            buf[j, :60].copy(), saturated[0, j], saturated[1, j], saturated[2, j], consts,
-            setpoint_limit,
+        project_row(
+            buf[j], saturated[0, j], saturated[1, j], saturated[2, j], consts, setpoint_limit,
+            states, closure, j,
         )  # fmt: skip
-        buf[j, :60] = out
-        state[8] = wrap_angle(state[8])
-        states[:, j] = state
-        closure[j] = err
     return states, closure

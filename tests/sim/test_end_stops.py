@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from projection_helpers import recorded_projections
 from script_loader import load_script
 
 import planar3p_gym
@@ -118,29 +119,19 @@ def recorded_readouts() -> tuple[object, list[list[float]], list[tuple[bool, boo
         env = make(env_id)
         for seed in seeds:
             env.reset(seed=seed)
-            sim = env.unwrapped.sim
-            projector = sim._projector
-            project, in_place = projector.project, projector.project_in_place
+            projector = env.unwrapped.sim._projector
 
-            def recording(v, saturated, *args, project=project):
-                vs.append(list(v))
-                sats.append(tuple(saturated))
-                return project(v, saturated, *args)
+            def record(before, saturated, after):
+                vs.append(before)
+                sats.append(saturated)
 
-            def recording_in_place(v, s0, s1, s2, *args, in_place=in_place):
-                vs.append(v[:60].tolist())
-                sats.append((s0, s1, s2))
-                return in_place(v, s0, s1, s2, *args)
-
-            sim._projector.project = recording  # (the simulation calls one of the two)
-            sim._projector.project_in_place = recording_in_place
             rng = np.random.default_rng(seed)
-            for n in range(250):
-                a = np.array([-1.0, 1.0, -1.0]) if seed == 9 else rng.choice([-1.0, 1.0], 3)
-                _, _, terminated, truncated, _ = env.step(a)
-                if terminated or truncated or n > 120:
-                    break
-            del sim._projector.project, sim._projector.project_in_place
+            with recorded_projections(record):
+                for n in range(250):
+                    a = np.array([-1.0, 1.0, -1.0]) if seed == 9 else rng.choice([-1.0, 1.0], 3)
+                    _, _, terminated, truncated, _ = env.step(a)
+                    if terminated or truncated or n > 120:
+                        break
         env.close()
     # And readouts with a slider just inside a stop, its servo saturated, the other bodies a
     # millimetre off: the correction with free sliders would move it past the stop.

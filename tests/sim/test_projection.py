@@ -15,6 +15,7 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+from projection_helpers import recorded_projections
 
 import planar3p_gym
 from planar3p_gym import Design
@@ -290,30 +291,18 @@ def test_projection_gains_no_energy_in_a_free_swing(max_force):
             projection=projection,
         )
         changes: list[float] = []
-        if projection:
-            project, in_place = sim._projector.project, sim._projector.project_in_place
 
-            def recording(v, saturated, *args, project=project, changes=changes):
-                out = project(v, saturated, *args)
-                changes.append(mechanical_energy(design, out.bodies) - mechanical_energy(design, v))
-                return out
+        def record(before, saturated, after, changes=changes):
+            changes.append(mechanical_energy(design, after) - mechanical_energy(design, before))
 
-            def recording_in_place(v, s0, s1, s2, *args, in_place=in_place, changes=changes):
-                before = v[:60].tolist()
-                out = in_place(v, s0, s1, s2, *args)
-                after = v[:60].tolist()
-                changes.append(mechanical_energy(design, after) - mechanical_energy(design, before))
-                return out
-
-            sim._projector.project = recording  # (the simulation calls one of the two)
-            sim._projector.project_in_place = recording_in_place
         e0 = mechanical_energy(design, body_values(sim))
         rise = 0.0
-        for n in range(100):
-            st = sim.step((0.0, 0.0, 0.0))
-            rise = max(rise, mechanical_energy(design, body_values(sim)) - e0)
-            if n == 0:
-                assert all(st.saturated)  # the servos let go from the start
+        with recorded_projections(record):
+            for n in range(100):
+                st = sim.step((0.0, 0.0, 0.0))
+                rise = max(rise, mechanical_energy(design, body_values(sim)) - e0)
+                if n == 0:
+                    assert all(st.saturated)  # the servos let go from the start
         peak[projection] = rise
         if projection:
             assert len(changes) == 100

@@ -1,0 +1,319 @@
+"""Chipmunk's C API called from compiled code: one control step of a simulation (or of a batch
+of them) as one compiled call.
+
+pymunk keeps doing the dynamics; what this module removes is the Python around it.  A step of
+the projected model writes the bodies (with the drives' new velocity commands), steps the
+space ``substeps`` times while summing the servos' impulses, reads the bodies back, projects
+them onto the constraint manifold (:func:`planar3p_gym.sim.projection.project_readout`, the one
+definition) and writes them back.  Each of those is a call into Chipmunk; through cffi each
+costs a Python call, so :func:`advance` makes them from numba instead, by address:
+
+- ``cpSpaceStep(cpSpace *, double)``, ``cpConstraintGetImpulse(cpConstraint *) -> double`` and
+  ``cpSpaceEachBody(cpSpace *, iterator, void *)`` with pymunk's batch iterators
+  (``pmSpaceBodyGetIteratorFuncBatched`` / ``...SetIteratorFuncBatched``), which read and write
+  every body's position, angle, velocity and angular velocity through a ``pmFloatArray``;
+- the function addresses come from pymunk's own cffi module (:data:`FUNCTIONS`), the object
+  addresses from the pymunk objects (:func:`address`); all are run-time arguments, so the
+  compiled code is cached on disk like the rest of the package.
+
+Why by hand: neither numba's cffi support (out-of-line modules need their C declarations
+registered, and Chipmunk passes ``cpVect`` structs by value) nor ctypes function objects
+(their addresses would be baked into the cache) fit; the four calls used here take only
+pointers and doubles, so a small ``inttoptr`` + ``call`` intrinsic each is the whole binding.
+:data:`AVAILABLE` is ``False`` when pymunk's build does not have these functions with these
+signatures; the simulation then steps through cffi (:class:`~planar3p_gym.sim.physics.Planar3PSim`).
+
+The batch iterators append to the ``pmFloatArray`` from its ``num`` field on; :func:`advance`
+sets it to 0 before each pass (:func:`_store_int32` at the array's address: ``num`` is its
+first field, checked at import).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
+
+from planar3p_gym.sim.projection import project_in_place, project_row
+
+__all__ = [
+    "AVAILABLE",
+    "FUNCTIONS",
+    "HANDLE_FIELDS",
+    "address",
+    "advance",
+    "advance_batch",
+    "read_bodies",
+    "step_bodies",
+    "step_projected",
+    "write_bodies",
+]
+
+#: The C signatures :data:`FUNCTIONS` are called with (as cffi spells them).
+_SIGNATURES = {
+    "cpSpaceStep": "void(*)(struct cpSpace *, double)",
+    "cpConstraintGetImpulse": "double(*)(struct cpConstraint *)",
+    "cpSpaceEachBody": "void(*)(struct cpSpace *, void(*)(struct cpBody *, void *), void *)",
+    "pmSpaceBodyGetIteratorFuncBatched": "void(*)(struct cpBody *, void *)",
+    "pmSpaceBodySetIteratorFuncBatched": "void(*)(struct cpBody *, void *)",
+}
+
+try:
+    from pymunk._chipmunk_cffi import ffi as _ffi
+    from pymunk._chipmunk_cffi import lib as _cp
+
+    AVAILABLE = (
+        all(
+            hasattr(_cp, name) and _ffi.getctype(_ffi.typeof(getattr(_cp, name))) == signature
+            for name, signature in _SIGNATURES.items()
+        )
+        and _ffi.offsetof("pmFloatArray", "num") == 0
+        and _ffi.sizeof(_ffi.typeof("pmFloatArray").fields[0][1].type) == 4
+    )
+except (ImportError, AttributeError, TypeError):  # pragma: no cover - other pymunk builds
+    AVAILABLE = False
+
+
+def address(pointer: Any) -> int:
+    """The address of a cffi pointer (a pymunk object's ``_space``, ``_constraint``, ... or a
+    ``pmFloatArray *``), as :func:`advance` takes it."""
+    return int(_ffi.cast("uintptr_t", pointer))
+
+
+#: Addresses of ``cpSpaceStep``, ``cpConstraintGetImpulse``, ``cpSpaceEachBody`` and the get
+#: and set batch iterators, in that order (empty when not :data:`AVAILABLE`).
+FUNCTIONS = (
+    np.array([address(_ffi.addressof(_cp, name)) for name in _SIGNATURES], dtype=np.uintp)
+    if AVAILABLE
+    else np.zeros(0, dtype=np.uintp)
+)
+FUNCTIONS.flags.writeable = False
+
+#: A simulation's row of handles for :func:`advance`: the addresses of its ``cpSpace``, its
+#: three servos' ``cpConstraint``, its ``pmBatchedData`` request and that request's
+#: ``pmFloatArray``.
+HANDLE_FIELDS = ("space", "servo_1", "servo_2", "servo_3", "request", "array")
+
+_VOID_P = ir.IntType(8).as_pointer()
+
+
+def _pointer(builder: ir.IRBuilder, value: ir.Value) -> ir.Value:
+    return builder.inttoptr(value, _VOID_P)
+
+
+@intrinsic
+def _space_step(typingctx: Any, fn: Any, space: Any, h: Any) -> Any:
+    """``fn(space, h)``: ``void (*)(void *, double)`` at address ``fn``."""
+    sig = types.void(types.uintp, types.uintp, types.float64)
+
+    def codegen(context: Any, builder: ir.IRBuilder, signature: Any, args: Any) -> Any:
+        f, s, step = args
+        fnty = ir.FunctionType(ir.VoidType(), [_VOID_P, ir.DoubleType()])
+        builder.call(builder.inttoptr(f, fnty.as_pointer()), [_pointer(builder, s), step])
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@intrinsic
+def _get_double(typingctx: Any, fn: Any, obj: Any) -> Any:
+    """``fn(obj)``: ``double (*)(void *)`` at address ``fn``."""
+    sig = types.float64(types.uintp, types.uintp)
+
+    def codegen(context: Any, builder: ir.IRBuilder, signature: Any, args: Any) -> Any:
+        f, o = args
+        fnty = ir.FunctionType(ir.DoubleType(), [_VOID_P])
+        return builder.call(builder.inttoptr(f, fnty.as_pointer()), [_pointer(builder, o)])
+
+    return sig, codegen
+
+
+@intrinsic
+def _each_body(typingctx: Any, fn: Any, space: Any, iterator: Any, data: Any) -> Any:
+    """``fn(space, iterator, data)``: ``void (*)(void *, void *, void *)`` at address ``fn``."""
+    sig = types.void(types.uintp, types.uintp, types.uintp, types.uintp)
+
+    def codegen(context: Any, builder: ir.IRBuilder, signature: Any, args: Any) -> Any:
+        f, s, it, d = args
+        fnty = ir.FunctionType(ir.VoidType(), [_VOID_P, _VOID_P, _VOID_P])
+        pointers = [_pointer(builder, s), _pointer(builder, it), _pointer(builder, d)]
+        builder.call(builder.inttoptr(f, fnty.as_pointer()), pointers)
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@intrinsic
+def _store_int32(typingctx: Any, where: Any, value: Any) -> Any:
+    """``*(int32_t *) where = value``."""
+    sig = types.void(types.uintp, types.int32)
+
+    def codegen(context: Any, builder: ir.IRBuilder, signature: Any, args: Any) -> Any:
+        w, v = args
+        builder.store(v, builder.inttoptr(w, ir.IntType(32).as_pointer()))
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+#: Columns of a readout row (``x, y, angle, vx, vy, w`` of the bodies in readout order:
+#: platform, then slider, drive and leg of each leg) that hold the drives' ``vx``.
+DRIVE_VX = (15, 33, 51)
+
+
+@njit(cache=True)
+def _pass(fns: np.ndarray, handles: np.ndarray, which: int) -> None:
+    """One pass of a batch iterator (``which``: 3 get, 4 set) over the bodies of ``handles``'
+    space, from the start of its array."""
+    _store_int32(handles[5], np.int32(0))
+    _each_body(fns[2], handles[0], fns[which], handles[4])
+
+
+@njit(cache=True)
+def read_bodies(fns: np.ndarray, handles: np.ndarray) -> None:
+    """Read every body of the simulation of ``handles`` into its batch array (readout order:
+    ``x, y, angle, vx, vy, w`` of each)."""
+    _pass(fns, handles, 3)
+
+
+@njit(cache=True)
+def write_bodies(fns: np.ndarray, handles: np.ndarray) -> None:
+    """Write every body of the simulation of ``handles`` from its batch array."""
+    _pass(fns, handles, 4)
+
+
+@njit(cache=True)
+def advance(
+    fns: np.ndarray,
+    handles: np.ndarray,
+    v0: float,
+    v1: float,
+    v2: float,
+    h: float,
+    substeps: int,
+    readout: np.ndarray,
+    forces: np.ndarray,
+) -> None:
+    """Hold the drive velocities ``v0, v1, v2`` (m/s) for ``substeps`` physics steps of ``h``
+    (s) on the simulation of ``handles`` (:data:`HANDLE_FIELDS`) whose batch array is
+    ``readout`` (its first 60 numbers): write every body (from ``readout``, with the new drive
+    velocities), step, read every body back into ``readout``.  ``forces`` (6) receives the
+    servos' summed impulses and their largest single-substep impulse (N s)."""
+    readout[DRIVE_VX[0]] = v0
+    readout[DRIVE_VX[1]] = v1
+    readout[DRIVE_VX[2]] = v2
+    write_bodies(fns, handles)
+    f0 = f1 = f2 = m0 = m1 = m2 = 0.0
+    for _ in range(substeps):
+        _space_step(fns[0], handles[0], h)
+        j0 = _get_double(fns[1], handles[1])
+        j1 = _get_double(fns[1], handles[2])
+        j2 = _get_double(fns[1], handles[3])
+        f0 += j0
+        f1 += j1
+        f2 += j2
+        if j0 > m0:  # (not max(): a NaN impulse leaves the largest as it was)
+            m0 = j0
+        if j1 > m1:
+            m1 = j1
+        if j2 > m2:
+            m2 = j2
+    read_bodies(fns, handles)
+    forces[0], forces[1], forces[2] = f0, f1, f2
+    forces[3], forces[4], forces[5] = m0, m1, m2
+
+
+@njit(cache=True)
+def step_bodies(
+    fns: np.ndarray,
+    handles: np.ndarray,
+    v0: float,
+    v1: float,
+    v2: float,
+    h: float,
+    substeps: int,
+    readout: np.ndarray,
+    forces: np.ndarray,
+) -> None:
+    """One control step of a single simulation without projection: read the bodies into
+    ``readout`` (they may have been moved since the last step), then :func:`advance`."""
+    read_bodies(fns, handles)
+    advance(fns, handles, v0, v1, v2, h, substeps, readout, forces)
+
+
+@njit(cache=True)
+def step_projected(
+    fns: np.ndarray,
+    handles: np.ndarray,
+    v0: float,
+    v1: float,
+    v2: float,
+    h: float,
+    substeps: int,
+    force_limit: float,
+    readout: np.ndarray,
+    consts: np.ndarray,
+    setpoint_limit: float,
+    forces: np.ndarray,
+) -> tuple[np.ndarray, float]:
+    """One control step of a single projected simulation: read the bodies into ``readout``
+    (they may have been moved since the last step), :func:`advance`, project the readout
+    (:func:`~planar3p_gym.sim.projection.project_readout` with the projector's ``consts``; a
+    servo is saturated when its largest substep impulse reaches ``force_limit``, N s) and
+    write the projected bodies back.  Returns ``(state, closure_error)`` as
+    :func:`~planar3p_gym.sim.projection.project_readout` does (theta not wrapped)."""
+    read_bodies(fns, handles)
+    advance(fns, handles, v0, v1, v2, h, substeps, readout, forces)
+    state, closure = project_in_place(
+        readout, forces[3] >= force_limit, forces[4] >= force_limit, forces[5] >= force_limit,
+        consts, setpoint_limit,
+    )  # fmt: skip
+    write_bodies(fns, handles)
+    return state, closure
+
+
+@njit(cache=True)
+def advance_batch(
+    fns: np.ndarray,
+    handles: np.ndarray,
+    rows: np.ndarray,
+    velocities: np.ndarray,
+    h: float,
+    substeps: int,
+    force_limit: float,
+    readouts: np.ndarray,
+    consts: np.ndarray,
+    setpoint_limit: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`advance` and the projection of the simulations ``rows`` of a batch (the native
+    vector env's step): ``handles`` ``(N, 6)``, ``readouts`` ``(N, >= 60)`` (each row its
+    simulation's batch array, authoritative: the bodies are written from it), ``velocities``
+    ``(len(rows), 3)`` drive commands (m/s).
+
+    Returns ``(forces (len(rows), 6), saturated (3, len(rows)), states (23, len(rows)),
+    closure (len(rows),))``: the summed and largest impulses (N s), the saturation flags, the
+    projected states (theta wrapped into ``(-pi, pi]``, as
+    :class:`~planar3p_gym.sim.physics.SimState` holds it) and the closure errors (m); the
+    projected bodies are left in ``readouts`` (and written at the next step)."""
+    n = rows.shape[0]
+    forces = np.empty((n, 6))
+    saturated = np.empty((3, n), dtype=np.bool_)
+    states = np.empty((23, n))
+    closure = np.empty(n)
+    for k in range(n):
+        i = rows[k]
+        readout = readouts[i]
+        advance(
+            fns, handles[i], velocities[k, 0], velocities[k, 1], velocities[k, 2], h, substeps,
+            readout, forces[k],
+        )  # fmt: skip
+        for d in range(3):
+            saturated[d, k] = forces[k, 3 + d] >= force_limit
+        project_row(
+            readout, saturated[0, k], saturated[1, k], saturated[2, k], consts, setpoint_limit,
+            states, closure, k,
+        )  # fmt: skip
+    return forces, saturated, states, closure

@@ -1,0 +1,54 @@
+"""Recording what the projection does inside a simulation's compiled control step.
+
+:func:`planar3p_gym.sim.chipmunk.step_projected` reads, steps, projects and writes the bodies in
+one compiled call, so a test cannot wrap the projector's Python methods to see the readouts.
+:func:`recorded_projections` swaps it for the same sequence of its compiled parts, called from
+Python with a hook between them (``tests/sim/test_chipmunk.py`` checks that the two give the
+same simulation, bit for bit).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+
+import numpy as np
+
+from planar3p_gym.sim import chipmunk
+from planar3p_gym.sim.projection import project_in_place
+
+#: ``record(before, saturated, after)``: the 60 readout numbers before and after the projection
+#: and the servos' saturation flags.
+Recorder = Callable[[list[float], tuple[bool, bool, bool], list[float]], None]
+
+
+def step_in_parts(record: Recorder | None = None) -> Callable[..., tuple[np.ndarray, float]]:
+    """:func:`~planar3p_gym.sim.chipmunk.step_projected` made of its compiled parts, calling
+    ``record`` between the physics and the write-back."""
+
+    def step(
+        fns, handles, v0, v1, v2, h, substeps, force_limit, readout, consts, limit, forces
+    ) -> tuple[np.ndarray, float]:
+        chipmunk.read_bodies(fns, handles)
+        chipmunk.advance(fns, handles, v0, v1, v2, h, substeps, readout, forces)
+        saturated = tuple(bool(m >= force_limit) for m in forces[3:].tolist())
+        before = readout[:60].tolist()
+        state, closure = project_in_place(readout, *saturated, consts, limit)
+        if record is not None:
+            record(before, saturated, readout[:60].tolist())
+        chipmunk.write_bodies(fns, handles)
+        return state, closure
+
+    return step
+
+
+@contextmanager
+def recorded_projections(record: Recorder) -> Iterator[None]:
+    """Within the block, every projected control step of a simulation stepping through
+    Chipmunk's C API calls ``record`` (:data:`Recorder`)."""
+    original = chipmunk.step_projected
+    chipmunk.step_projected = step_in_parts(record)
+    try:
+        yield
+    finally:
+        chipmunk.step_projected = original

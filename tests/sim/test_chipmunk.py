@@ -1,0 +1,113 @@
+"""The compiled control step (planar3p_gym.sim.chipmunk): the same simulation as its parts called
+one by one, for one simulation and for a batch, bit for bit."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from projection_helpers import step_in_parts
+
+from planar3p_gym import Design
+from planar3p_gym.sim import chipmunk
+from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, Planar3PSim
+from planar3p_gym.tasks import sampling as task
+
+DESIGN = Design.fig8()
+MODE = (1, 1, -1)
+
+
+def starts(n: int, seed: int = 5) -> np.ndarray:
+    poses, _ = task.sample_poses(DESIGN, MODE, np.random.default_rng(seed), task.TaskConfig())
+    return poses[:n]
+
+
+def projected(pose: np.ndarray) -> Planar3PSim:
+    return Planar3PSim(DESIGN, pose, MODE, substeps=1, iterations=10, projection=True)
+
+
+def commands(n: int, seed: int) -> np.ndarray:
+    """Bang-bang slider commands at full speed (m/s): the servos saturate and the sliders reach
+    their end stops."""
+    rng = np.random.default_rng(seed)
+    return DESIGN.max_speed * rng.choice([-1.0, 1.0], size=(n, 3))
+
+
+def test_chipmunk_calls_are_compiled_on_the_pinned_pymunk():
+    assert chipmunk.AVAILABLE
+    assert len(chipmunk.FUNCTIONS) == 5 and all(chipmunk.FUNCTIONS)
+    sim = projected(starts(1)[0])
+    assert sim._fast is not None
+    assert sim._fast[7].tolist()[0] == chipmunk.address(sim.space._space)
+
+
+def test_the_compiled_step_is_its_parts_bit_for_bit(monkeypatch):
+    """:func:`chipmunk.step_projected` against read, advance, project and write called from
+    Python (what ``tests/projection_helpers.py`` records with): the same states and bodies."""
+    pose = starts(1)[0]
+    runs = []
+    for parts in (False, True):
+        if parts:
+            monkeypatch.setattr(chipmunk, "step_projected", step_in_parts())
+        sim = projected(pose)
+        runs.append([(sim.step(c), sim._public_values()) for c in commands(150, 7)])
+    assert [s for s, _ in runs[0]] == [s for s, _ in runs[1]]
+    assert [b for _, b in runs[0]] == [b for _, b in runs[1]]  # pymunk's own bodies
+    assert any(any(s.saturated) for s, _ in runs[0])
+
+
+def test_write_then_read_leaves_every_body_as_it_was():
+    sim = projected(starts(1)[0])
+    for c in commands(20, 2):
+        sim.step(c)
+    fns, handles, readout = chipmunk.FUNCTIONS, sim._fast[7], sim._fast[8]
+    chipmunk.read_bodies(fns, handles)
+    before = readout[:60].copy()
+    for _ in range(3):
+        chipmunk.write_bodies(fns, handles)
+        readout[:60] = np.nan
+        chipmunk.read_bodies(fns, handles)
+        assert readout[:60].tobytes() == before.tobytes()
+
+
+@pytest.mark.parametrize("rows", [[0, 1, 2, 3], [2, 0]])
+def test_the_batch_step_is_each_simulations_step_bit_for_bit(rows):
+    """:func:`chipmunk.advance_batch` over simulations whose readouts live in one array, against
+    the same simulations stepped one by one (:meth:`Planar3PSim.step`); rows not stepped are
+    left alone."""
+    poses, n = starts(4), 4
+    singles = [projected(p) for p in poses]
+    batch = [projected(p) for p in poses]
+    readouts = np.zeros((n, 132))
+    handles = np.zeros((n, 6), dtype=np.uintp)
+    keep = []
+    for i, sim in enumerate(batch):
+        # Each batch simulation's array over a row of the shared readouts (as the vector env).
+        array = chipmunk._ffi.new("pmFloatArray *")
+        array.num, array.max = 0, 132
+        array.arr = chipmunk._ffi.cast("double *", readouts.ctypes.data) + 132 * i
+        request = chipmunk._ffi.new("pmBatchedData *")
+        request.fields, request.floatArray = sim._fast[2][1].fields, array
+        request.intArray = sim._fast[2][1].intArray
+        keep += [array, request]
+        handles[i] = sim._fast[7]
+        handles[i, 4:] = [chipmunk.address(request), chipmunk.address(array)]
+        chipmunk.read_bodies(chipmunk.FUNCTIONS, handles[i])
+    sim0, initial = batch[0], readouts.copy()
+    for c in commands(60, 11).reshape(20, 3, 3):
+        v = np.array([c[k % 3] for k in range(len(rows))])
+        forces, saturated, states, closure = chipmunk.advance_batch(
+            chipmunk.FUNCTIONS, handles, np.array(rows), v, sim0._h, sim0.substeps,
+            sim0._force_limit, readouts, sim0._projector.constants, FOLLOWING_ERROR_LIMIT,
+        )  # fmt: skip
+        for k, i in enumerate(rows):
+            s = singles[i].step(v[k])
+            assert states[:3, k].tolist() == list(s.rho)
+            assert states[3:6, k].tolist() == list(s.rho_dot)
+            assert states[6:9, k].tolist() == list(s.pose)
+            assert states[9:15, k].tolist() == [*s.twist, *s.leg_angles]
+            assert closure[k] == s.closure_error
+            assert tuple(saturated[:, k].tolist()) == s.saturated
+            assert (forces[k, :3] * sim0._force_scale).tolist() == list(s.actuator_forces)
+            assert readouts[i, :60].tolist() == singles[i]._fast[8].tolist()
+    for i in set(range(n)) - set(rows):
+        assert readouts[i].tolist() == initial[i].tolist()  # not stepped: left alone
