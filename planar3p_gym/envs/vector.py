@@ -550,7 +550,7 @@ class _BatchCore:
         a = np.minimum(a, 1.0)  # (a new array: the caller's actions are left alone)
         np.maximum(a, -1.0, out=a)
         resetting = venv._autoreset.tolist()
-        idx = [i for i in range(n) if not resetting[i]]
+        idx = np.flatnonzero(~venv._autoreset)  # the environments stepped
         rewards = np.zeros(n)
         terminated = np.zeros(n, dtype=np.bool_)
         truncated = np.zeros(n, dtype=np.bool_)
@@ -558,11 +558,11 @@ class _BatchCore:
             key: np.zeros(n, dtype=_DTYPES.get(key, np.float64)) for key in INFO_KEYS
         }
         info["termination_reason"][:] = None
-        if idx and self.numpy:
+        if idx.size and self.numpy:
             self._physics(a, idx)
             self._outputs(a, idx, rewards, terminated, info)
-        elif idx:
-            self._scalar(a, idx, rewards, terminated, info)
+        elif idx.size:
+            self._scalar(a, idx.tolist(), rewards, terminated, info)
         limit = venv.max_episode_steps if venv.max_episode_steps is not None else -1
         if limit > 0:
             truncated[idx] = venv._elapsed[idx] >= limit
@@ -667,16 +667,16 @@ class _BatchCore:
         for key in INFO_KEYS:
             info[key][i] = reset_info[key]
 
-    def _physics(self, a: np.ndarray, idx: list[int]) -> None:
+    def _physics(self, a: np.ndarray, idx: np.ndarray) -> None:
         """Step the simulations ``idx`` with actions ``a`` (clipped, ``(N, 3)``): one compiled
         call (:func:`planar3p_gym.sim.chipmunk.advance_batch`) writes their bodies (with the
         new servo commands), steps pymunk, reads them back and projects them."""
         v = a[idx] * self.vmax
         forces, saturated, states, closure = chipmunk.advance_batch(
-            chipmunk.FUNCTIONS, self.handle_rows, np.array(idx, dtype=np.int64), v, self.h,
+            chipmunk.FUNCTIONS, self.handle_rows, idx, v, self.h,
             self.substeps, self.force_limit, self.buf, self.constants, FOLLOWING_ERROR_LIMIT,
         )  # fmt: skip
-        for i, command in zip(idx, v.tolist(), strict=True):
+        for i, command in zip(idx.tolist(), v.tolist(), strict=True):
             self.handles[i][4].extend(command)
         self.venv._elapsed[idx] += 1
         self.time[idx] += self.dt
@@ -687,7 +687,7 @@ class _BatchCore:
     def _outputs(
         self,
         a: np.ndarray,
-        idx: list[int],
+        idx: np.ndarray,
         rewards: np.ndarray,
         terminated: np.ndarray,
         info: dict[str, Any],
@@ -704,10 +704,10 @@ class _BatchCore:
             )
         reward = o["reward"]  # (the terms' sum, as the single env adds them)
         bad = ~st.finite | (st.closure > self.breakdown)
-        bad_rows = np.nonzero(bad)[0].tolist()
+        bad_rows = np.flatnonzero(bad).tolist()
         if bad_rows and self.last is not None:  # bring those envs to their previous step
             for j in bad_rows:
-                i = idx[j]
+                i = int(idx[j])
                 if self.pending[i]:
                     venv._elapsed[i] -= 1
                     self.sync(i, bodies=False)
@@ -729,17 +729,17 @@ class _BatchCore:
         info["assembly_mode"][idx] = o["sign"]
         info["closure_error"][idx] = st.closure
         self.last = {
-            "row": {i: j for j, i in enumerate(idx)},
+            "row": {i: j for j, i in enumerate(idx.tolist())},
             "state": st,
             "outputs": o,
             "forces": self.forces,
             "saturated": self.saturated,
             "time": self.time[idx],
         }
-        for i in idx:
+        for i in idx.tolist():
             self.pending[i] = True
         for j in bad_rows:  # the single env's general step, on the state just computed
-            i = idx[j]
+            i = int(idx[j])
             env = venv._envs[i]
             state = self._sim_state(self.last, j, i)
             self._set_sim(env, state, self.last, j, i)

@@ -27,6 +27,7 @@ from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym.machine.design import Design
@@ -312,15 +313,13 @@ _BOUND_SLACK = 1e-8
 #: ... and only where ``|cof A_bar|_F > _BOUND_TRUST |A_bar|_F^2`` (``s_2 / s_1`` not tiny), so
 #: that rounding in ``det`` and the cofactors cannot make the bounds wrong by more than ~1e-11.
 _BOUND_TRUST = 1e-4
-_CYCLIC = np.array([0, 1, 2, 0, 1])
 
 
-def _margin_tests(
-    x: FloatArray, threshold: float
-) -> tuple[NDArray[np.bool_], NDArray[np.bool_], FloatArray]:
-    """What closed-form bounds prove about the inverse condition numbers of 3x3 matrices
-    ``x[:, :, j]`` (shape (3, 3, m)) against ``threshold``: ``(above, below, det)``, where
-    ``above`` (``below``) means the SVD's ratio is certainly ``>=`` (``<``) the threshold.
+@njit(cache=True)
+def _bound_test(x: FloatArray, threshold: float) -> tuple[bool, bool, float]:
+    """What closed-form bounds prove about the inverse condition number of the 3x3 matrix
+    ``x`` against ``threshold``: ``(above, below, det)``, where ``above`` (``below``) means the
+    SVD's ratio is certainly ``>=`` (``<``) the threshold.
 
     With singular values ``s1 >= s2 >= s3``: ``|det| = s1 s2 s3``, the squared cofactors sum to
     ``s1^2 s2^2 + s1^2 s3^2 + s2^2 s3^2`` (between ``s1^2 s2^2`` and ``3 s1^2 s2^2``) and
@@ -329,18 +328,45 @@ def _margin_tests(
     ``|cof|_F > _BOUND_TRUST |x|_F^2``, and only when they clear the threshold by
     ``_BOUND_SLACK``, far more than their rounding error and the SVD's.
     """
-    e = x[_CYCLIC][:, _CYCLIC]  # cyclic extension: rows and columns i, i + 1, i + 2
-    nxt, prv = e[1:4], e[2:5]
-    cof = nxt[:, 1:4] * prv[:, 2:5] - nxt[:, 2:5] * prv[:, 1:4]
-    det = (x[0] * cof[0]).sum(axis=0)
-    f2 = (x * x).sum(axis=(0, 1))
-    g2 = (cof * cof).sum(axis=(0, 1))
-    gf = np.sqrt(g2 * f2)
-    ad = np.abs(det)
+    det = 0.0
+    f2 = 0.0
+    g2 = 0.0
+    for i in range(3):
+        i1, i2 = (i + 1) % 3, (i + 2) % 3
+        for j in range(3):
+            j1, j2 = (j + 1) % 3, (j + 2) % 3
+            cof = x[i1, j1] * x[i2, j2] - x[i1, j2] * x[i2, j1]
+            if i == 0:
+                det += x[0, j] * cof
+            f2 += x[i, j] * x[i, j]
+            g2 += cof * cof
+    gf = math.sqrt(g2 * f2)
+    ad = abs(det)
     trusted = g2 > _BOUND_TRUST**2 * (f2 * f2)
-    above = trusted & (ad >= (threshold + _BOUND_SLACK) * gf)
-    below = trusted & (3.0 * ad <= (threshold - _BOUND_SLACK) * gf)
+    above = trusted and ad >= (threshold + _BOUND_SLACK) * gf
+    below = trusted and 3.0 * ad <= (threshold - _BOUND_SLACK) * gf
     return above, below, det
+
+
+@njit(cache=True)
+def _margin_tests_compiled(
+    x: FloatArray, threshold: float
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_], FloatArray]:
+    m = x.shape[2]
+    above = np.empty(m, dtype=np.bool_)
+    below = np.empty(m, dtype=np.bool_)
+    det = np.empty(m)
+    for n in range(m):
+        above[n], below[n], det[n] = _bound_test(np.ascontiguousarray(x[:, :, n]), threshold)
+    return above, below, det
+
+
+def _margin_tests(
+    x: FloatArray, threshold: float
+) -> tuple[NDArray[np.bool_], NDArray[np.bool_], FloatArray]:
+    """:func:`_bound_test` of the 3x3 matrices ``x[:, :, j]`` (shape (3, 3, m)):
+    ``(above, below, det)``, each of shape (m,)."""
+    return _margin_tests_compiled(np.ascontiguousarray(x, dtype=np.float64), float(threshold))
 
 
 class Screening(NamedTuple):
@@ -369,64 +395,116 @@ def _screen(
 ) -> tuple[NDArray[np.bool_], FloatArray, NDArray[np.int8]]:
     """Screen poses ``p`` (M, 3) in modes ``sigma`` ((3,) or (M, 3)), grouped in rows of ``row``
     consecutive poses: per-pose ``ok`` (M,), False on the whole of a row as soon as one pose of
-    it fails (the rest of a failed row is not examined), travels (3, M) (legs first) and
-    assembly modes (M,) (0 where not ok).
+    it fails (the rest of a failed row is not examined), travels (3, M) (legs first; NaN where
+    not examined) and assembly modes (M,) (0 where not ok).
 
     Every decision is the one :func:`inverse` and :func:`margins` lead to: the values compared
-    are computed by the same floating-point operations (laid out legs first, so that the
-    elementwise loops run along the poses), and the parallel margin's SVD is skipped only where
-    rigorous bounds (:func:`_margin_tests`) clear the threshold by ``_BOUND_SLACK``.  The tests
-    run cheapest first, each on the poses still in play.
+    are computed by the same floating-point operations, and the parallel margin's SVD is
+    skipped only where rigorous bounds (:func:`_bound_test`) clear the threshold by
+    ``_BOUND_SLACK``.  The tests run cheapest first, pose by pose, in one compiled loop
+    (:func:`_screen_rows`); the SVD of the poses the bounds leave undecided is numpy's, as in
+    :func:`margins`.
     """
     lo, hi = (0.0, c.stroke) if travel is None else (float(travel[0]), float(travel[1]))
-    sig = sigma[:, None] if sigma.ndim == 1 else sigma.T
-    k, origins = c.k[:, None], c.origins[:, None]
-    # inverse, legs first
-    th = p[:, 2]
-    cos, sin = np.cos(th), np.sin(th)
-    cx = p[:, 0] + k * cos
-    cy = p[:, 1] + k * sin
-    disc = (c.legs**2)[:, None] - cy**2
-    closable = disc >= 0.0
-    w = np.sqrt(np.where(closable, disc, np.nan))
-    w *= sig
-    rho = cx - origins
-    rho -= w
-    ok = np.all((rho >= lo) & (rho <= hi), axis=0)  # NaN compares False
-    rows = ok.reshape(-1, row) if ok.size else ok.reshape(0, 1)
-    rows &= rows.all(axis=1, keepdims=True)
-    asm = np.zeros(ok.shape, dtype=np.int8)
-    idx = np.flatnonzero(ok)
-    if not idx.size:
+    m = p.shape[0]
+    ok = np.zeros(m, dtype=np.bool_)
+    rho = np.full((3, m), np.nan)
+    asm = np.zeros(m, dtype=np.int8)
+    pending = np.zeros(m, dtype=np.bool_)
+    if m == 0:
         return ok, rho, asm
-    # leg vectors and A as _leg_vectors and _jacobian_A compute them, legs first
-    ux = cx[:, idx] - (origins + rho[:, idx])
-    uy = cy[:, idx]
-    serial = np.min(np.abs(ux) / np.hypot(ux, uy), axis=0)
-    third = k * (uy * cos[idx] - ux * sin[idx])
-    X = np.stack([ux, uy, third])  # A transposed, (3, 3, m)
-    X_bar = X / c.legs[:, None]
-    X_bar[2] /= c.ref
-    A, A_bar = X.transpose(2, 1, 0), X_bar.transpose(2, 1, 0)  # (m, 3, 3)
-    sure, below, det = _margin_tests(X_bar, min_parallel)
-    # where the bound clears _BOUND_SLACK, |det| is far above its rounding error: sign exact
-    sign = np.sign(det).astype(np.int8)
-    fail = ~(serial >= min_serial) | below
-    if assembly is not None:
-        fail |= sure & (sign != assembly)
-    ok[idx] = ~fail
-    rows &= rows.all(axis=1, keepdims=True)
-    todo = ~sure & ok[idx]  # undecided poses of rows still in play
-    if todo.any():
-        sv = np.linalg.svd(A_bar[todo], compute_uv=False)
-        sign[todo] = np.sign(np.linalg.det(A[todo])).astype(np.int8)
+    a = np.empty((m, 3, 3))
+    a_bar = np.empty((m, 3, 3))
+    _screen_rows(
+        np.ascontiguousarray(p, dtype=np.float64),
+        np.ascontiguousarray(sigma.reshape(-1, 3), dtype=np.float64),
+        row, lo, hi, c.k, c.legs, c.origins, c.ref, float(min_parallel), float(min_serial),
+        0.0 if assembly is None else float(assembly), assembly is not None,
+        ok, rho, asm, pending, a, a_bar,
+    )  # fmt: skip
+    todo = np.flatnonzero(pending)
+    if todo.size:
+        sv = np.linalg.svd(a_bar[todo], compute_uv=False)
+        sign = np.sign(np.linalg.det(a[todo])).astype(np.int8)
         good = sv[..., -1] / sv[..., 0] >= min_parallel
         if assembly is not None:
-            good &= sign[todo] == assembly
-        ok[idx[todo]] = good
-        rows &= rows.all(axis=1, keepdims=True)
-    asm[idx] = np.where(ok[idx], sign, 0)
+            good &= sign == assembly
+        asm[todo] = np.where(good, sign, 0)
+        failed = np.unique(todo[~good] // row)
+        if failed.size:
+            ok.reshape(-1, row)[failed] = False
+            asm.reshape(-1, row)[failed] = 0
     return ok, rho, asm
+
+
+@njit(cache=True)
+def _screen_rows(
+    p: FloatArray, sigma: FloatArray, row: int, lo: float, hi: float, k: FloatArray,
+    legs: FloatArray, origins: FloatArray, ref: float, min_parallel: float, min_serial: float,
+    assembly: float, check_assembly: bool, ok: NDArray[np.bool_], rho: FloatArray,
+    asm: NDArray[np.int8], pending: NDArray[np.bool_], a: FloatArray, a_bar: FloatArray,
+) -> None:  # fmt: skip
+    """The compiled loop of :func:`_screen`: for each row of poses, each pose in turn (inverse,
+    travels, serial margin, the parallel margin's bounds and the assembly mode) until one
+    fails.  Writes ``ok`` (True for every pose of a row that did not fail), ``rho`` (3, M),
+    ``asm`` (where the bounds decided), and ``pending``, with ``a`` and ``a_bar`` (``A`` and
+    ``A_bar``, (M, 3, 3)), for the poses whose parallel margin the bounds leave undecided."""
+    m = p.shape[0]
+    per_pose = sigma.shape[0] > 1
+    ux = np.empty(3)
+    uy = np.empty(3)
+    x_bar = np.empty((3, 3))  # A_bar transposed: components by legs
+    for first in range(0, m, row):
+        alive = True
+        for j in range(first, first + row):
+            s = sigma[j] if per_pose else sigma[0]
+            th = p[j, 2]
+            cos, sin = math.cos(th), math.sin(th)
+            inside = True
+            for i in range(3):  # inverse, as :func:`inverse` computes it
+                cx = p[j, 0] + k[i] * cos
+                cy = p[j, 1] + k[i] * sin
+                disc = legs[i] * legs[i] - cy * cy
+                w = math.sqrt(disc) * s[i] if disc >= 0.0 else math.nan
+                r = cx - origins[i]
+                r -= w
+                rho[i, j] = r
+                if not (r >= lo and r <= hi):  # (NaN compares False)
+                    inside = False
+                ux[i] = cx - (origins[i] + r)
+                uy[i] = cy
+            if not inside:
+                alive = False
+                break
+            fail = False
+            for i in range(3):  # serial margin: min |cos alpha_i| (NaN fails)
+                if not (abs(ux[i]) / math.hypot(ux[i], uy[i]) >= min_serial):
+                    fail = True
+            for i in range(3):  # A_bar's rows (u_ix, u_iy, k_i (u_iy cos - u_ix sin) / ref) / L_i
+                third = k[i] * (uy[i] * cos - ux[i] * sin)
+                x_bar[0, i] = ux[i] / legs[i]
+                x_bar[1, i] = uy[i] / legs[i]
+                x_bar[2, i] = third / legs[i] / ref
+                a[j, i, 0], a[j, i, 1], a[j, i, 2] = ux[i], uy[i], third
+            above, below, det = _bound_test(x_bar, min_parallel)
+            sign = 1 if det > 0.0 else (-1 if det < 0.0 else 0)
+            if below or (check_assembly and above and sign != assembly):
+                fail = True
+            if fail:
+                alive = False
+                break
+            if above:  # |det| far above its rounding error: the sign is exact
+                asm[j] = sign
+            else:
+                pending[j] = True
+                for i in range(3):
+                    for q in range(3):
+                        a_bar[j, i, q] = x_bar[q, i]
+        for j in range(first, first + row):
+            ok[j] = alive
+            if not alive:
+                pending[j] = False
+                asm[j] = 0
 
 
 def screen_poses(
