@@ -166,16 +166,52 @@ def inverse(design: Design, pose: ArrayLike, mode: ArrayLike = (1, 1, 1)) -> IKR
     p = _as_triples("pose", pose)
     sigma = _as_modes(mode)
     _check_broadcast("pose", p, "mode", sigma)
-    # NB: planar3p_gym.analysis.workspace and _screen (legs first) reproduce this floating-point
-    # expression bit for bit (``((x + k cos) - a) - sigma w``); keep the order of the operations.
-    th = p[..., 2:3]
-    cx = p[..., 0:1] + c.k * np.cos(th)
-    cy = p[..., 1:2] + c.k * np.sin(th)
-    disc = c.legs**2 - cy**2
-    closable = disc >= 0.0
-    rho = cx - c.origins - sigma * np.sqrt(np.where(closable, disc, np.nan))
-    inside = (rho >= 0.0) & (rho <= c.stroke)  # NaN compares False
-    return IKResult(rho, inside.all(axis=-1))
+    shape = np.broadcast_shapes(p.shape, sigma.shape)
+    rho, inside = _inverse_rows(
+        np.ascontiguousarray(np.broadcast_to(p, shape).reshape(-1, 3)),
+        np.ascontiguousarray(np.broadcast_to(sigma, shape).reshape(-1, 3)),
+        c.k, c.legs, c.origins, c.stroke,
+    )  # fmt: skip
+    reachable = inside.reshape(shape[:-1])
+    return IKResult(rho.reshape(shape), reachable if reachable.ndim else reachable[()])
+
+
+@njit(cache=True)
+def _leg_travel(
+    x: float, y: float, cos: float, sin: float, k: float, leg: float, origin: float, sigma: float
+) -> tuple[float, float, float]:
+    """The inverse kinematics of one leg, defined once (:func:`inverse` and :func:`_screen_rows`
+    call it): ``(rho_i, C_ix, C_iy)`` (m) of the pose ``(x, y)`` with ``cos theta, sin theta``,
+    ``rho_i = ((x + k_i cos) - a_i) - sigma_i sqrt(L_i^2 - C_iy^2)`` (NaN where the leg cannot
+    close).  (``planar3p_gym.analysis.workspace`` evaluates the same expression on its grids.)"""
+    cx = x + k * cos
+    cy = y + k * sin
+    disc = leg * leg - cy * cy
+    if disc < 0.0:
+        return math.nan, cx, cy
+    return cx - origin - sigma * math.sqrt(disc), cx, cy
+
+
+@njit(cache=True)
+def _inverse_rows(
+    p: FloatArray, sigma: FloatArray, k: FloatArray, legs: FloatArray, origins: FloatArray,
+    stroke: float,
+) -> tuple[FloatArray, NDArray[np.bool_]]:  # fmt: skip
+    """:func:`_leg_travel` of poses ``p`` (M, 3) in modes ``sigma`` (M, 3): the travels (M, 3)
+    (m) and whether all three are within ``[0, stroke]`` (M,)."""
+    m = p.shape[0]
+    rho = np.empty((m, 3))
+    inside = np.empty(m, dtype=np.bool_)
+    for j in range(m):
+        cos, sin = math.cos(p[j, 2]), math.sin(p[j, 2])
+        ok = True
+        for i in range(3):
+            r = _leg_travel(p[j, 0], p[j, 1], cos, sin, k[i], legs[i], origins[i], sigma[j, i])[0]
+            rho[j, i] = r
+            if not (r >= 0.0 and r <= stroke):  # (NaN compares False)
+                ok = False
+        inside[j] = ok
+    return rho, inside
 
 
 def leg_vectors(design: Design, pose: ArrayLike, rho: ArrayLike) -> FloatArray:
@@ -461,13 +497,8 @@ def _screen_rows(
             th = p[j, 2]
             cos, sin = math.cos(th), math.sin(th)
             inside = True
-            for i in range(3):  # inverse, as :func:`inverse` computes it
-                cx = p[j, 0] + k[i] * cos
-                cy = p[j, 1] + k[i] * sin
-                disc = legs[i] * legs[i] - cy * cy
-                w = math.sqrt(disc) * s[i] if disc >= 0.0 else math.nan
-                r = cx - origins[i]
-                r -= w
+            for i in range(3):  # inverse
+                r, cx, cy = _leg_travel(p[j, 0], p[j, 1], cos, sin, k[i], legs[i], origins[i], s[i])
                 rho[i, j] = r
                 if not (r >= lo and r <= hi):  # (NaN compares False)
                     inside = False

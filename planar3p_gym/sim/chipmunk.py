@@ -47,6 +47,7 @@ __all__ = [
     "advance",
     "advance_batch",
     "read_bodies",
+    "settle",
     "step_bodies",
     "step_projected",
     "write_bodies",
@@ -59,6 +60,8 @@ _SIGNATURES = {
     "cpSpaceEachBody": "void(*)(struct cpSpace *, void(*)(struct cpBody *, void *), void *)",
     "pmSpaceBodyGetIteratorFuncBatched": "void(*)(struct cpBody *, void *)",
     "pmSpaceBodySetIteratorFuncBatched": "void(*)(struct cpBody *, void *)",
+    "cpConstraintSetMaxForce": "void(*)(struct cpConstraint *, double)",
+    "cpSpaceSetIterations": "void(*)(struct cpSpace *, int)",
 }
 
 try:
@@ -83,8 +86,9 @@ def address(pointer: Any) -> int:
     return int(_ffi.cast("uintptr_t", pointer))
 
 
-#: Addresses of ``cpSpaceStep``, ``cpConstraintGetImpulse``, ``cpSpaceEachBody`` and the get
-#: and set batch iterators, in that order (empty when not :data:`AVAILABLE`).
+#: Addresses of ``cpSpaceStep``, ``cpConstraintGetImpulse``, ``cpSpaceEachBody``, the get and
+#: set batch iterators, ``cpConstraintSetMaxForce`` and ``cpSpaceSetIterations``, in that order
+#: (empty when not :data:`AVAILABLE`).
 FUNCTIONS = (
     np.array([address(_ffi.addressof(_cp, name)) for name in _SIGNATURES], dtype=np.uintp)
     if AVAILABLE
@@ -105,8 +109,8 @@ def _pointer(builder: ir.IRBuilder, value: ir.Value) -> ir.Value:
 
 
 @intrinsic
-def _space_step(typingctx: Any, fn: Any, space: Any, h: Any) -> Any:
-    """``fn(space, h)``: ``void (*)(void *, double)`` at address ``fn``."""
+def _call_pd(typingctx: Any, fn: Any, obj: Any, value: Any) -> Any:
+    """``fn(obj, value)``: ``void (*)(void *, double)`` at address ``fn``."""
     sig = types.void(types.uintp, types.uintp, types.float64)
 
     def codegen(context: Any, builder: ir.IRBuilder, signature: Any, args: Any) -> Any:
@@ -141,6 +145,20 @@ def _each_body(typingctx: Any, fn: Any, space: Any, iterator: Any, data: Any) ->
         fnty = ir.FunctionType(ir.VoidType(), [_VOID_P, _VOID_P, _VOID_P])
         pointers = [_pointer(builder, s), _pointer(builder, it), _pointer(builder, d)]
         builder.call(builder.inttoptr(f, fnty.as_pointer()), pointers)
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@intrinsic
+def _call_pi(typingctx: Any, fn: Any, obj: Any, value: Any) -> Any:
+    """``fn(obj, value)``: ``void (*)(void *, int)`` at address ``fn``."""
+    sig = types.void(types.uintp, types.uintp, types.int32)
+
+    def codegen(context: Any, builder: ir.IRBuilder, signature: Any, args: Any) -> Any:
+        f, o, v = args
+        fnty = ir.FunctionType(ir.VoidType(), [_VOID_P, ir.IntType(32)])
+        builder.call(builder.inttoptr(f, fnty.as_pointer()), [_pointer(builder, o), v])
         return context.get_dummy_value()
 
     return sig, codegen
@@ -208,7 +226,7 @@ def advance(
     write_bodies(fns, handles)
     f0 = f1 = f2 = m0 = m1 = m2 = 0.0
     for _ in range(substeps):
-        _space_step(fns[0], handles[0], h)
+        _call_pd(fns[0], handles[0], h)
         j0 = _get_double(fns[1], handles[1])
         j1 = _get_double(fns[1], handles[2])
         j2 = _get_double(fns[1], handles[3])
@@ -224,6 +242,36 @@ def advance(
     read_bodies(fns, handles)
     forces[0], forces[1], forces[2] = f0, f1, f2
     forces[3], forces[4], forces[5] = m0, m1, m2
+
+
+@njit(cache=True)
+def settle(
+    fns: np.ndarray,
+    handles: np.ndarray,
+    constraints: np.ndarray,
+    limits: np.ndarray,
+    h: float,
+    warm_iterations: int,
+    iterations: int,
+) -> None:
+    """The end of a reset that moves the bodies (:meth:`Planar3PSim.reset`), with the bodies
+    placed at rest from the batch array (which still holds them): clear every constraint's
+    accumulated impulse by one solver step with every force limit at zero (the clamp leaves
+    exactly zero), restore the limits (``limits``, N, of ``constraints``, their addresses),
+    put the bodies back, solve the resting joint loads with ``warm_iterations`` solver
+    iterations in one step of ``h`` (s), put the bodies back again, and leave the solver at
+    ``iterations``."""
+    for c in constraints:
+        _call_pd(fns[5], c, 0.0)
+    _call_pi(fns[6], handles[0], np.int32(1))
+    _call_pd(fns[0], handles[0], h)
+    for n in range(constraints.shape[0]):
+        _call_pd(fns[5], constraints[n], limits[n])
+    write_bodies(fns, handles)
+    _call_pi(fns[6], handles[0], np.int32(warm_iterations))
+    _call_pd(fns[0], handles[0], h)
+    write_bodies(fns, handles)
+    _call_pi(fns[6], handles[0], np.int32(iterations))
 
 
 @njit(cache=True)

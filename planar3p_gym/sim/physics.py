@@ -476,7 +476,15 @@ class Planar3PSim:
             *servos,
             *(c for c in space.constraints if isinstance(c, pymunk.PinJoint) and c not in servos),
         )
-        self._constraint_ptrs = tuple(c._constraint for c in space.constraints)
+        #: Every constraint's address and force limit (N), for :meth:`reset` (moving bodies).
+        self._limits = (
+            (
+                np.array([chipmunk.address(c._constraint) for c in space.constraints], np.uintp),
+                np.array([c.max_force for c in space.constraints]),
+            )
+            if _MOVE
+            else None
+        )
         self.platform = platform
         self.sliders = tuple(sliders)
         self.drives = tuple(drives)
@@ -583,20 +591,12 @@ class Planar3PSim:
             self.close()
             self.__dict__.update(fresh.__dict__)
             return self._state
-        space_ptr, h = self._fast[0], self._h
-        limits = [_cp.cpConstraintGetMaxForce(c) for c in self._constraint_ptrs]
-        for c in self._constraint_ptrs:
-            _cp.cpConstraintSetMaxForce(c, 0.0)
-        places = self._place(p, rho)
-        _cp.cpSpaceSetIterations(space_ptr, 1)
-        _cp.cpSpaceStep(space_ptr, h)  # every accumulated impulse clamped to [-0, 0]
-        for c, limit in zip(self._constraint_ptrs, limits, strict=True):
-            _cp.cpConstraintSetMaxForce(c, limit)
-        self._rest(places)  # (the anchors stay: a step does not move them)
-        _cp.cpSpaceSetIterations(space_ptr, WARM_START_ITERATIONS)  # as _warm_start
-        _cp.cpSpaceStep(space_ptr, h)
-        self._rest(places)
-        _cp.cpSpaceSetIterations(space_ptr, self.iterations)
+        self._place(p, rho)
+        constraints, limits = self._limits  # type: ignore[misc]
+        chipmunk.settle(  # (the anchors stay: a step does not move them)
+            chipmunk.FUNCTIONS, self._fast[7], constraints, limits, self._h,
+            WARM_START_ITERATIONS, self.iterations,
+        )  # fmt: skip
         self._time = 0.0
         self._forces = (0.0, 0.0, 0.0)
         self._saturated = (False, False, False)
@@ -658,19 +658,16 @@ class Planar3PSim:
         return places, points
 
     def _rest(self, places: list) -> None:
-        """Put each body at its place ``(position, angle)`` (readout order), at rest and free of
-        forces."""
-        cp, zero = _cp, (0.0, 0.0)
-        set_position, set_angle = cp.cpBodySetPosition, cp.cpBodySetAngle
-        set_velocity, set_rate = cp.cpBodySetVelocity, cp.cpBodySetAngularVelocity
-        set_force, set_torque = cp.cpBodySetForce, cp.cpBodySetTorque
-        for ptr, (position, angle) in zip(self._move[0], places, strict=True):
-            set_position(ptr, position)
-            set_angle(ptr, angle)
-            set_velocity(ptr, zero)
-            set_rate(ptr, 0.0)
-            set_force(ptr, zero)
-            set_torque(ptr, 0.0)
+        """Put each body at its place ``(position, angle)`` (readout order), at rest: one
+        compiled write of every body (:func:`planar3p_gym.sim.chipmunk.write_bodies`, which
+        sets position, angle, velocity and angular velocity as the C API's setters do).
+
+        Body forces need no clearing: Chipmunk zeroes a dynamic body's force and torque in
+        every step, nothing here sets them between steps, and a kinematic body (a drive) has
+        none."""
+        readout = self._fast[8]
+        readout[:] = [v for (x, y), angle in places for v in (x, y, angle, 0.0, 0.0, 0.0)]
+        chipmunk.write_bodies(chipmunk.FUNCTIONS, self._fast[7])
 
     def _move_handles(self) -> tuple:
         """Chipmunk handles of :meth:`_place`: the bodies in readout order; each pivot's joint

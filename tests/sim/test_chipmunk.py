@@ -34,7 +34,7 @@ def commands(n: int, seed: int) -> np.ndarray:
 
 def test_chipmunk_calls_are_compiled_on_the_pinned_pymunk():
     assert chipmunk.AVAILABLE
-    assert len(chipmunk.FUNCTIONS) == 5 and all(chipmunk.FUNCTIONS)
+    assert len(chipmunk.FUNCTIONS) == 7 and all(chipmunk.FUNCTIONS)
     sim = projected(starts(1)[0])
     assert sim._fast is not None
     assert sim._fast[7].tolist()[0] == chipmunk.address(sim.space._space)
