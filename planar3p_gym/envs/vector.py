@@ -440,7 +440,7 @@ class _BatchCore:
         self.travel_goal = env.travel_goal
         self.target_rho = np.zeros((n, 3))  # each target's slider travels (m), travel_goal
         self.assembly = np.zeros(n, dtype=np.int64)
-        self.pending = [False] * n
+        self.pending = np.zeros(n, dtype=np.bool_)
         #: Scalar mode: the arguments of ``env._info`` of each pending environment's last step.
         self.pending_info: list[tuple | None] = [None] * n
         self.last: dict[str, Any] | None = None  # the last batched step's arrays
@@ -474,9 +474,8 @@ class _BatchCore:
 
     def sync_all(self) -> None:
         """Bring every pending environment up to date (:meth:`sync`)."""
-        for i, pending in enumerate(self.pending):
-            if pending:
-                self.sync(i)
+        for i in np.flatnonzero(self.pending).tolist():
+            self.sync(i)
 
     def sync(self, i: int, bodies: bool = True) -> None:
         """Write the last batched step's results into environment ``i`` (its simulation's
@@ -494,7 +493,7 @@ class _BatchCore:
             return
         last = self.last
         assert last is not None
-        j = last["row"][i]
+        j = int(last["row"][i])
         state = self._sim_state(last, j, i)
         self._set_sim(env, state, last, j, i)
         o = last["outputs"]
@@ -684,6 +683,12 @@ class _BatchCore:
         self.saturated = saturated.T
         self.state = BatchState.of(states, closure)
 
+    def _rows(self, idx: np.ndarray) -> np.ndarray:
+        """Each environment's row among the stepped ``idx`` (-1 where not stepped)."""
+        rows = np.full(len(self.pending), -1, dtype=np.int64)
+        rows[idx] = np.arange(len(idx))
+        return rows
+
     def _outputs(
         self,
         a: np.ndarray,
@@ -729,15 +734,14 @@ class _BatchCore:
         info["assembly_mode"][idx] = o["sign"]
         info["closure_error"][idx] = st.closure
         self.last = {
-            "row": {i: j for j, i in enumerate(idx.tolist())},
+            "row": self._rows(idx),
             "state": st,
             "outputs": o,
             "forces": self.forces,
             "saturated": self.saturated,
             "time": self.time[idx],
         }
-        for i in idx.tolist():
-            self.pending[i] = True
+        self.pending[idx] = True
         for j in bad_rows:  # the single env's general step, on the state just computed
             i = int(idx[j])
             env = venv._envs[i]

@@ -121,6 +121,20 @@ def _as_triples(name: str, value: ArrayLike) -> FloatArray:
 
 
 def _as_modes(mode: ArrayLike) -> FloatArray:
+    if type(mode) is tuple and len(mode) == 3 and all(type(m) is int for m in mode):
+        return _mode_of_tuple(mode)  # the usual case: a working mode's tuple of ints
+    return _modes_array(mode)
+
+
+@lru_cache(maxsize=64)
+def _mode_of_tuple(mode: tuple) -> FloatArray:
+    """:func:`_modes_array` of a tuple, kept (read-only): a reset validates a few a step."""
+    arr = _modes_array(mode)
+    arr.setflags(write=False)
+    return arr
+
+
+def _modes_array(mode: ArrayLike) -> FloatArray:
     try:
         arr = np.asarray(mode)
     except (TypeError, ValueError) as exc:  # pragma: no cover - numpy accepts nearly anything
@@ -134,6 +148,8 @@ def _as_modes(mode: ArrayLike) -> FloatArray:
 
 def _check_broadcast(name_a: str, a: NDArray, name_b: str, b: NDArray) -> None:
     """ValueError naming both arguments when their shapes do not broadcast."""
+    if a.shape == b.shape or (b.ndim == 1 and a.shape[-1:] == b.shape):
+        return
     try:
         np.broadcast_shapes(a.shape, b.shape)
     except ValueError:
@@ -166,10 +182,13 @@ def inverse(design: Design, pose: ArrayLike, mode: ArrayLike = (1, 1, 1)) -> IKR
     p = _as_triples("pose", pose)
     sigma = _as_modes(mode)
     _check_broadcast("pose", p, "mode", sigma)
-    shape = np.broadcast_shapes(p.shape, sigma.shape)
+    shape = p.shape if p.shape == sigma.shape else np.broadcast_shapes(p.shape, sigma.shape)
+    if p.shape != shape:
+        p = np.broadcast_to(p, shape)
+    if sigma.shape != shape:
+        sigma = np.broadcast_to(sigma, shape)
     rho, inside = _inverse_rows(
-        np.ascontiguousarray(np.broadcast_to(p, shape).reshape(-1, 3)),
-        np.ascontiguousarray(np.broadcast_to(sigma, shape).reshape(-1, 3)),
+        np.ascontiguousarray(p.reshape(-1, 3)), np.ascontiguousarray(sigma.reshape(-1, 3)),
         c.k, c.legs, c.origins, c.stroke,
     )  # fmt: skip
     reachable = inside.reshape(shape[:-1])
