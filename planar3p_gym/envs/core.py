@@ -40,6 +40,7 @@ from planar3p_gym.sim.randomization import DynamicsRandomization, SampledMachine
 from planar3p_gym.sim.sensors import Encoders, SensorConfig
 from planar3p_gym.tasks import ReachTask, Task
 from planar3p_gym.tasks import sampling as task_module
+from planar3p_gym.tasks.base import copy_spec
 from planar3p_gym.tasks.observation import (
     bounds,
     build_observation,
@@ -495,7 +496,7 @@ class Planar3PEnv(gym.Env):
     def episode_spec(self) -> dict[str, Any]:
         """The JSON-serialisable spec of the current episode (``reset(options=spec)``
         replays it; see :mod:`planar3p_gym.tasks.base`)."""
-        return copy.deepcopy(self._spec)
+        return copy_spec(self._spec)
 
     @property
     def working_mode(self) -> tuple[int, int, int]:
@@ -568,7 +569,7 @@ class Planar3PEnv(gym.Env):
         errors = self._errors(state.pose)
         info = self._info(state, self._measures, None, {}, False, errors)
         info.update(self.task.step_info(0, state, errors))
-        info["episode_spec"] = copy.deepcopy(spec)
+        info["episode_spec"] = copy_spec(spec)
         if self.randomization is not None:
             info["machine"] = machine.to_dict()
         if self.latency is not None:

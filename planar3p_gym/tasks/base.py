@@ -56,6 +56,7 @@ Contract every task must meet (the fixed benchmark suites and the tests rely on 
 
 from __future__ import annotations
 
+import copy
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 import numpy as np
@@ -77,6 +78,7 @@ __all__ = [
     "Pose",
     "Task",
     "TaskEnv",
+    "copy_spec",
     "count_option",
     "finite_numbers",
     "mode_option",
@@ -87,6 +89,21 @@ __all__ = [
 Pose = tuple[float, float, float]
 #: A working mode: ``sign cos alpha_i`` of the three legs (+1 or -1 each).
 ModeTriple = tuple[int, int, int]
+
+
+def copy_spec(value: Any) -> Any:
+    """A copy of an episode spec (plain JSON data: dicts, lists, strings, numbers), as
+    ``copy.deepcopy`` makes it; other values are deep-copied.  Why by hand: deepcopy's general
+    machinery (its memo, the dispatch per object) costs a reset more than the rest of its
+    bookkeeping, and a spec is copied at every reset."""
+    kind = type(value)
+    if kind is dict:
+        return {k: copy_spec(v) for k, v in value.items()}
+    if kind is list:
+        return [copy_spec(v) for v in value]
+    if kind in (str, int, float, bool) or value is None:
+        return value
+    return copy.deepcopy(value)
 
 
 def pose_list(pose: Any) -> list[float]:
