@@ -52,6 +52,7 @@ from gymnasium.vector.utils import batch_space
 
 from planar3p_gym import checks
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
+from planar3p_gym.envs.batch_kernel import reach_batch_step
 from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
 from planar3p_gym.envs.track import Planar3PTrackEnv
@@ -61,7 +62,7 @@ from planar3p_gym.sim.batch_step import BatchState
 from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, SimState
 from planar3p_gym.tasks import sampling as task_module
 from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
-from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, TOLERANCES, BatchReach
+from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, BatchReach
 from planar3p_gym.tasks.rewards import TERM_NAMES
 from planar3p_gym.tasks.sampling import TaskConfig
 
@@ -435,8 +436,9 @@ class _BatchCore:
         #: Each simulation's handles for the compiled step (chipmunk.HANDLE_FIELDS).
         self.handle_rows = np.zeros((n, len(chipmunk.HANDLE_FIELDS)), dtype=np.uintp)
         self.time = np.zeros(n)
-        self.target = np.zeros((3, n))
-        self.target_cs = np.zeros((2, n))
+        #: Each target's ``x, y, theta, cos theta, sin theta`` (m, m, rad, 1, 1), a column each.
+        self.targets = np.zeros((5, n))
+        self.target, self.target_cs = self.targets[:3], self.targets[3:]
         self.travel_goal = env.travel_goal
         self.target_rho = np.zeros((n, 3))  # each target's slider travels (m), travel_goal
         self.assembly = np.zeros(n, dtype=np.int64)
@@ -558,8 +560,7 @@ class _BatchCore:
         }
         info["termination_reason"][:] = None
         if idx.size and self.numpy:
-            self._physics(a, idx)
-            self._outputs(a, idx, rewards, terminated, info)
+            self._outputs(a, idx, rewards, terminated, info, self._physics(a, idx))
         elif idx.size:
             self._scalar(a, idx.tolist(), rewards, terminated, info)
         limit = venv.max_episode_steps if venv.max_episode_steps is not None else -1
@@ -666,22 +667,27 @@ class _BatchCore:
         for key in INFO_KEYS:
             info[key][i] = reset_info[key]
 
-    def _physics(self, a: np.ndarray, idx: np.ndarray) -> None:
-        """Step the simulations ``idx`` with actions ``a`` (clipped, ``(N, 3)``): one compiled
-        call (:func:`planar3p_gym.sim.chipmunk.advance_batch`) writes their bodies (with the
-        new servo commands), steps pymunk, reads them back and projects them."""
-        v = a[idx] * self.vmax
-        forces, saturated, states, closure = chipmunk.advance_batch(
-            chipmunk.FUNCTIONS, self.handle_rows, idx, v, self.h,
-            self.substeps, self.force_limit, self.buf, self.constants, FOLLOWING_ERROR_LIMIT,
+    def _physics(self, a: np.ndarray, idx: np.ndarray) -> dict[str, Any]:
+        """Step the simulations ``idx`` with actions ``a`` (clipped, ``(N, 3)``) and compute
+        their reach outputs, in one compiled call
+        (:func:`planar3p_gym.envs.batch_kernel.reach_batch_step`: write the bodies with the new
+        servo commands, step pymunk, read them back, project, the outputs); returns the
+        outputs (:meth:`~planar3p_gym.tasks.reach_step.BatchReach.results`)."""
+        reach = self.reach
+        commands, forces, saturated, states, closure, obs, res = reach_batch_step(
+            chipmunk.FUNCTIONS, self.handle_rows, idx, a, self.vmax, self.h, self.substeps,
+            self.force_limit, self.buf, self.constants, FOLLOWING_ERROR_LIMIT, self.targets,
+            self.assembly, self.consts, reach.consts, reach.weights.as_array(), reach.low,
+            reach.high,
         )  # fmt: skip
-        for i, command in zip(idx.tolist(), v.tolist(), strict=True):
+        for i, command in zip(idx.tolist(), commands.tolist(), strict=True):
             self.handles[i][4].extend(command)
         self.venv._elapsed[idx] += 1
         self.time[idx] += self.dt
         self.forces = forces[:, :3] * self.scale
         self.saturated = saturated.T
         self.state = BatchState.of(states, closure)
+        return BatchReach.results(obs, res)
 
     def _rows(self, idx: np.ndarray) -> np.ndarray:
         """Each environment's row among the stepped ``idx`` (-1 where not stepped)."""
@@ -696,17 +702,11 @@ class _BatchCore:
         rewards: np.ndarray,
         terminated: np.ndarray,
         info: dict[str, Any],
+        o: dict[str, Any],
     ) -> None:
+        """The step's results of the environments ``idx`` from their outputs ``o`` (a
+        broken-down state's NaN outputs are replaced by the single env's general step)."""
         venv, st = self.venv, self.state
-        with np.errstate(all="ignore"):  # (a broken-down state's NaN: handled below)
-            o = self.reach.outputs(
-                st,
-                self.target[:, idx],
-                self.target_cs[:, idx],
-                self.assembly[idx],
-                a[idx].T,
-                self.consts[idx, TOLERANCES].T,
-            )
         reward = o["reward"]  # (the terms' sum, as the single env adds them)
         bad = ~st.finite | (st.closure > self.breakdown)
         bad_rows = np.flatnonzero(bad).tolist()

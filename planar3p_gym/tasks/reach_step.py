@@ -326,6 +326,12 @@ class BatchReach:
             np.ascontiguousarray(tolerances, dtype=np.float64),
             self.consts, self.weights.as_array(), self.low, self.high, rows, obs, res,
         )  # fmt: skip
+        return self.results(obs, res)
+
+    @staticmethod
+    def results(obs: np.ndarray, res: np.ndarray) -> dict[str, Any]:
+        """The outputs of :meth:`outputs` from :func:`reach_outputs_batch`'s ``obs`` and
+        ``res``."""
         return {
             "obs": obs,
             "reward": res[0],

@@ -1,0 +1,74 @@
+"""The native vector env's step of the reach task in one compiled call.
+
+:func:`reach_batch_step` runs, for the stepped environments of a batch, the compiled control
+step (:func:`planar3p_gym.sim.chipmunk.advance_batch`: pymunk's step through Chipmunk's C API
+and the projection) and then the reach step's outputs
+(:func:`planar3p_gym.tasks.reach_step.reach_outputs_batch`), the same definitions a single
+environment runs, so that a step of the whole batch crosses from Python into compiled code
+once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from planar3p_gym.sim.chipmunk import advance_batch
+from planar3p_gym.tasks.observation import OBS_SIZE
+from planar3p_gym.tasks.reach_step import RESULT_FIELDS, TOLERANCES, reach_outputs_batch
+
+__all__ = ["reach_batch_step"]
+
+_RESULTS = len(RESULT_FIELDS)
+_TOLERANCE_START = TOLERANCES.start
+
+
+@njit(cache=True)
+def reach_batch_step(
+    fns: np.ndarray, handles: np.ndarray, rows: np.ndarray, actions: np.ndarray, vmax: float,
+    h: float, substeps: int, force_limit: float, readouts: np.ndarray, projection: np.ndarray,
+    setpoint_limit: float, targets: np.ndarray, assembly: np.ndarray, env_consts: np.ndarray,
+    reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """One step of the environments ``rows`` (int64) of a batch of ``N``.
+
+    ``actions``: ``(N, 3)`` clipped actions (the drive commands are ``vmax`` m/s times them);
+    ``handles``, ``readouts``, ``h`` (s), ``substeps``, ``force_limit`` (N s),
+    ``projection`` (the projector's constants) and ``setpoint_limit`` (m): as
+    :func:`~planar3p_gym.sim.chipmunk.advance_batch` takes them, over all ``N``;
+    ``targets`` ``(5, N)`` (``x, y, theta, cos theta, sin theta`` of each target),
+    ``assembly`` ``(N,)``, ``env_consts`` ``(N, >= 10)`` (each environment's reach constants,
+    its tolerances among them), then the reach outputs' constants, reward weights and
+    observation bounds as :func:`~planar3p_gym.tasks.reach_step.reach_outputs_batch` takes them.
+
+    Returns ``(commands, forces, saturated, states, closure, obs, res)`` over the stepped
+    environments: the drive commands (m/s), then
+    :func:`~planar3p_gym.sim.chipmunk.advance_batch`'s outputs, then the observations
+    (float32) and :data:`~planar3p_gym.tasks.reach_step.RESULT_FIELDS` (one column each).
+    """
+    n = rows.shape[0]
+    commands = np.empty((n, 3))
+    act = np.empty((3, n))
+    target = np.empty((5, n))
+    asm = np.empty(n, dtype=np.int64)
+    tolerances = np.empty((3, n))
+    for k in range(n):
+        i = rows[k]
+        for d in range(3):
+            commands[k, d] = actions[i, d] * vmax
+            act[d, k] = actions[i, d]
+            tolerances[d, k] = env_consts[i, _TOLERANCE_START + d]
+        for d in range(5):
+            target[d, k] = targets[d, i]
+        asm[k] = assembly[i]
+    forces, saturated, states, closure = advance_batch(
+        fns, handles, rows, commands, h, substeps, force_limit, readouts, projection,
+        setpoint_limit,
+    )  # fmt: skip
+    obs_rows = np.empty((n, OBS_SIZE))
+    obs = np.empty((n, OBS_SIZE), dtype=np.float32)
+    res = np.empty((_RESULTS, n))
+    reach_outputs_batch(
+        states, target, asm, act, tolerances, reach_consts, weights, low, high, obs_rows, obs, res
+    )
+    return commands, forces, saturated, states, closure, obs, res
