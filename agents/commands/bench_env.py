@@ -5,7 +5,8 @@ configuration once per round, the order rotated; ratios are medians of per-round
 the reference measured in the same round):
 
   single    steps/s of each id and Reacher-v5 made with gym.make (Gymnasium's benchmark_step:
-            random actions, resets included)
+            random actions, resets included), and of an env that does nothing with
+            Planar3P-v0's spaces (the ceiling of any env's ratio there)
   vector    total env steps/s of each id's vector env (native where the id has one, else
             SyncVectorEnv) at each of --sizes envs, against Reacher-v5 single and in
             SyncVectorEnv and CartPole-v1's native vector env of as many envs
@@ -188,7 +189,7 @@ def _table(
 def single_section(args: argparse.Namespace, refs: list[str]) -> dict[str, Any]:
     from planar3p_agents.evaluation import throughput
 
-    ids = args.ids + refs
+    ids = args.ids + refs + ([throughput.NOOP] if REACHER in refs else [])
     print(
         f"\nsingle env: steps/s (gym.make, benchmark_step, resets included), "
         f"{args.duration:g} s x {args.rounds} rounds"
@@ -197,6 +198,8 @@ def single_section(args: argparse.Namespace, refs: list[str]) -> dict[str, Any]:
     ratio = _ratios(rates, REACHER)
     rows = [[e, f"{_median(rates[e]):,.0f}", _x(ratio.get(e))] for e in ids]
     _table(["id", "steps/s", f"x {REACHER}"], rows, [26, 10, 13])
+    if throughput.NOOP in ids:
+        print(f"  ({throughput.NOOP}: an env that does nothing; its ratio is the ceiling here)")
     return {"rates": rates, "median": {e: _median(rates[e]) for e in ids}, "x_reacher": ratio}
 
 

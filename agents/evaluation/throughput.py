@@ -8,7 +8,9 @@ all alike; ratios are taken per round against the reference measured in the same
 * :func:`interleave`: the rounds of a section (any measurement functions).
 * :func:`single_env_rates`: steps/s of single envs made with ``gym.make`` (their registered
   wrappers included), each measured by Gymnasium's own
-  :func:`gymnasium.utils.performance.benchmark_step` (random actions, resets included).
+  :func:`gymnasium.utils.performance.benchmark_step` (random actions, resets included);
+  :data:`NOOP`, an env that does nothing with ``Planar3P-v0``'s spaces and time limit, shows
+  the ceiling of any env's ratio there (the action sampling and the wrappers are left).
 * :func:`make_vector_env`, :func:`vector_rate`, :func:`single_rate`: total env steps/s of a
   vector env (the id's native one, ``SyncVectorEnv`` where it has none) or of a single env
   with pre-sampled actions, for a fixed duration.
@@ -43,12 +45,14 @@ import numpy as np
 from gymnasium.utils.performance import benchmark_step
 
 from planar3p_gym.atomic_files import write_atomic
-from planar3p_gym.envs.registry import ENV_SPECS
+from planar3p_gym.envs.registry import ENV_ID, ENV_SPECS
 
 __all__ = [
     "CARTPOLE",
+    "NOOP",
     "REACHER",
     "FullCollections",
+    "NoOpEnv",
     "interleave",
     "make_env",
     "make_vector_env",
@@ -69,11 +73,44 @@ __all__ = [
 #: The references: MuJoCo's ``Reacher-v5`` (single and ``SyncVectorEnv``) and CartPole's
 #: native vector env.
 REACHER, CARTPOLE = "Reacher-v5", "CartPole-v1"
+#: The id of :class:`NoOpEnv` (registered by :func:`make_env` when first asked for).
+NOOP = "planar3p-bench/NoOp-v0"
 _NATIVE = {row.id: row.vector_entry_point is not None for row in ENV_SPECS}
 
 
+class NoOpEnv(gym.Env):
+    """An environment that does no work, with ``Planar3P-v0``'s action and observation spaces:
+    ``step`` returns the same observation, reward 0 and never ends (the time limit, which
+    :data:`NOOP`'s registration takes from ``Planar3P-v0``, ends its episodes).  Under
+    ``benchmark_step`` what it costs is the action sampling, the registered wrappers and the
+    loop: its ratio to ``Reacher-v5`` is the most any environment can reach there."""
+
+    metadata: dict[str, Any] = {"render_modes": []}
+
+    def __init__(self) -> None:
+        from planar3p_gym.envs.core import Planar3PEnv
+
+        env = Planar3PEnv()
+        self.action_space, self.observation_space = env.action_space, env.observation_space
+        env.close()
+        self._obs = np.zeros(self.observation_space.shape, dtype=self.observation_space.dtype)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        return self._obs.copy(), {}
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        return self._obs.copy(), 0.0, False, False, {}
+
+
 def make_env(env_id: str, **kwargs: Any) -> gym.Env:
-    """``gym.make`` without Gymnasium's warnings (e.g. that v0 has a newer version)."""
+    """``gym.make`` without Gymnasium's warnings (e.g. that v0 has a newer version); makes
+    :data:`NOOP` too."""
+    if env_id == NOOP and NOOP not in gym.registry:
+        limit = next(row for row in ENV_SPECS if row.id == ENV_ID).max_episode_steps
+        gym.register(NOOP, entry_point=NoOpEnv, max_episode_steps=limit)
     with warnings.catch_warnings():  # e.g. "Planar3P-v0 is out of date"
         warnings.simplefilter("ignore")
         return gym.make(env_id, **kwargs)

@@ -89,7 +89,7 @@ def test_one_run_reports_every_id_and_size_and_the_targets(tmp_path, capsys, mon
     assert got["config"]["ids"] == ids and got["config"]["sizes"] == [1, 2]
     reacher = mod.mujoco_available()
     refs = ["Reacher-v5"] if reacher else []
-    assert set(got["single"]["rates"]) == set(ids + refs)
+    assert set(got["single"]["rates"]) == set(ids + refs + ([throughput.NOOP] if reacher else []))
     assert all(len(v) == 2 and min(v) > 0 for v in got["single"]["rates"].values())
     assert set(got["vector"]) == {"1", "2"}
     for size in got["vector"].values():
@@ -160,6 +160,21 @@ def test_write_json_atomic_replaces_whole_files_only(tmp_path):
         throughput.write_json_atomic(target, {"a": object()})  # not serialisable
     assert json.loads(target.read_text()) == {"a": 1}  # the old file survives
     assert [p.name for p in tmp_path.iterdir()] == ["out.json"]  # no temporary left
+
+
+def test_the_no_op_env_has_v0s_spaces_and_time_limit_and_does_nothing():
+    env = throughput.make_env(throughput.NOOP)
+    v0 = throughput.make_env("Planar3P-v0")
+    assert env.action_space == v0.action_space
+    assert env.observation_space == v0.observation_space
+    assert env.spec.max_episode_steps == v0.spec.max_episode_steps
+    obs, _ = env.reset(seed=0)
+    for _ in range(env.spec.max_episode_steps):
+        step = env.step(env.action_space.sample())
+        assert step[1:3] == (0.0, False) and np.array_equal(step[0], obs)
+    assert step[3]  # truncated by the time limit
+    env.close()
+    v0.close()
 
 
 def test_interleave_rotates_the_order_each_round():
