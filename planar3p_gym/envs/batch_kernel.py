@@ -29,6 +29,7 @@ def reach_batch_step(
     h: float, substeps: int, force_limit: float, readouts: np.ndarray, projection: np.ndarray,
     setpoint_limit: float, targets: np.ndarray, assembly: np.ndarray, env_consts: np.ndarray,
     reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
+    log: np.ndarray, logged: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """One step of the environments ``rows`` (int64) of a batch of ``N``.
 
@@ -39,7 +40,10 @@ def reach_batch_step(
     ``targets`` ``(5, N)`` (``x, y, theta, cos theta, sin theta`` of each target),
     ``assembly`` ``(N,)``, ``env_consts`` ``(N, >= 10)`` (each environment's reach constants,
     its tolerances among them), then the reach outputs' constants, reward weights and
-    observation bounds as :func:`~planar3p_gym.tasks.reach_step.reach_outputs_batch` takes them.
+    observation bounds as :func:`~planar3p_gym.tasks.reach_step.reach_outputs_batch` takes them;
+    ``log`` ``(N, capacity, 3)`` and ``logged`` ``(N,)``: each environment's drive commands
+    (m/s) not yet in its simulation's record, appended here (the caller keeps
+    ``logged < capacity``).
 
     Returns ``(commands, forces, saturated, states, closure, obs, res)`` over the stepped
     environments: the drive commands (m/s), then
@@ -56,8 +60,10 @@ def reach_batch_step(
         i = rows[k]
         for d in range(3):
             commands[k, d] = actions[i, d] * vmax
+            log[i, logged[i], d] = commands[k, d]
             act[d, k] = actions[i, d]
             tolerances[d, k] = env_consts[i, _TOLERANCE_START + d]
+        logged[i] += 1
         for d in range(5):
             target[d, k] = targets[d, i]
         asm[k] = assembly[i]

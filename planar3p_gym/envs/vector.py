@@ -99,6 +99,9 @@ _DTYPES = {"is_success": np.bool_, "termination_reason": object, "assembly_mode"
 _RESULT_KEYS = INFO_KEYS[1:]
 #: ``termination_reason`` codes of the batched step.
 _REASONS = np.array([None, "success", "singularity_crossing", "physics_breakdown"], dtype=object)
+#: Batched steps of drive commands a native vector env keeps per environment before it appends
+#: them to the simulations' records.
+COMMAND_LOG = 256
 #: Numbers per simulation in the shared body buffer: room for twice a readout (11 bodies x 6),
 #: so pymunk's array over a row never needs to grow (move).
 _ROW = 132
@@ -433,6 +436,12 @@ class _BatchCore:
         self.get = ffi.addressof(cp, "pmSpaceBodyGetIteratorFuncBatched")
         self.set = ffi.addressof(cp, "pmSpaceBodySetIteratorFuncBatched")
         self.handles: list[tuple] = [()] * n
+        #: The drive commands (m/s) of each environment's last batched steps, not yet appended
+        #: to its simulation's record (``Planar3PSim.get_state``): :meth:`sync` appends them,
+        #: and all are appended when :data:`COMMAND_LOG` steps have piled up.
+        self.log = np.empty((n, COMMAND_LOG, 3))
+        self.logged = np.zeros(n, dtype=np.int64)
+        self.log_steps = 0  # batched steps since every log was last emptied
         #: Each simulation's handles for the compiled step (chipmunk.HANDLE_FIELDS).
         self.handle_rows = np.zeros((n, len(chipmunk.HANDLE_FIELDS)), dtype=np.uintp)
         self.time = np.zeros(n)
@@ -462,6 +471,7 @@ class _BatchCore:
         fast = sim._fast
         space, servos = fast[0], fast[1]
         self.handles[i] = (space, *servos, sim._commands)
+        self.logged[i] = 0  # (the record was just cleared or restored)
         self.handle_rows[i] = [
             chipmunk.address(p) for p in (space, *servos, self.requests[i], self.arrays[i])
         ]
@@ -493,6 +503,7 @@ class _BatchCore:
             env._last_info = env._info(state, measures, reason, terms, reason == "success", errors)
             self.pending[i] = False
             return
+        self._append_commands(i)
         last = self.last
         assert last is not None
         j = int(last["row"][i])
@@ -513,6 +524,13 @@ class _BatchCore:
             self.arrays[i].num = 0
             physics._cp.cpSpaceEachBody(self.handles[i][0], self.set, self.requests[i])
         self.pending[i] = False
+
+    def _append_commands(self, i: int) -> None:
+        """Append environment ``i``'s logged commands to its simulation's record."""
+        count = int(self.logged[i])
+        if count:
+            self.handles[i][4].extend(self.log[i, :count].ravel().tolist())
+            self.logged[i] = 0
 
     def _sim_state(self, last: dict[str, Any], j: int, i: int) -> SimState:
         st: BatchState = last["state"]
@@ -674,14 +692,17 @@ class _BatchCore:
         servo commands, step pymunk, read them back, project, the outputs); returns the
         outputs (:meth:`~planar3p_gym.tasks.reach_step.BatchReach.results`)."""
         reach = self.reach
-        commands, forces, saturated, states, closure, obs, res = reach_batch_step(
+        if self.log_steps == COMMAND_LOG:  # (every log has room for the step after this)
+            for i in np.flatnonzero(self.logged).tolist():
+                self._append_commands(i)
+            self.log_steps = 0
+        self.log_steps += 1
+        _, forces, saturated, states, closure, obs, res = reach_batch_step(
             chipmunk.FUNCTIONS, self.handle_rows, idx, a, self.vmax, self.h, self.substeps,
             self.force_limit, self.buf, self.constants, FOLLOWING_ERROR_LIMIT, self.targets,
             self.assembly, self.consts, reach.consts, reach.weights.as_array(), reach.low,
-            reach.high,
+            reach.high, self.log, self.logged,
         )  # fmt: skip
-        for i, command in zip(idx.tolist(), commands.tolist(), strict=True):
-            self.handles[i][4].extend(command)
         self.venv._elapsed[idx] += 1
         self.time[idx] += self.dt
         self.forces = forces[:, :3] * self.scale

@@ -9,7 +9,7 @@ import pytest
 from gymnasium.vector import AutoresetMode
 
 import planar3p_gym
-from planar3p_gym.envs.vector import INFO_KEYS, NUMPY_BATCH_MIN, Planar3PVectorEnv
+from planar3p_gym.envs.vector import COMMAND_LOG, INFO_KEYS, NUMPY_BATCH_MIN, Planar3PVectorEnv
 
 
 @pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v0"])
@@ -79,11 +79,41 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, ba
     # The single envs' own attributes are brought up to date on access.
     for env, single in zip(venv.envs, singles, strict=True):
         assert env.sim.state == single.unwrapped.sim.state
+        assert env.sim.get_state() == single.unwrapped.sim.get_state()  # commands included
         np.testing.assert_array_equal(env._obs, single.unwrapped._obs)
         assert env._last_info.keys() == single.unwrapped._last_info.keys()
         for key, value in single.unwrapped._last_info.items():
             if key != "reward_terms":
                 assert env._last_info[key] == value, key
+    venv.close()
+
+
+def test_batched_commands_reach_the_simulations_records_across_the_log():
+    """The batched step logs each env's drive commands and appends them to its simulation's
+    record on access (and when :data:`COMMAND_LOG` steps have piled up): every snapshot equals
+    the single env's, before and after the log wraps, with episodes ending in between."""
+    n, limit = 4, 200
+    venv = Planar3PVectorEnv(num_envs=n, max_episode_steps=limit, batch="numpy")
+    singles = [gym.make("Planar3P-v0", max_episode_steps=limit) for _ in range(n)]
+    venv.reset(seed=5)
+    for i, env in enumerate(singles):
+        env.reset(seed=5 + i)
+    rng = np.random.default_rng(3)
+    done = [False] * n
+    for step in range(COMMAND_LOG + 80):
+        a = rng.uniform(-0.3, 0.3, (n, 3))
+        _, _, terminated, truncated, _ = venv.step(a)
+        for i, env in enumerate(singles):
+            if done[i]:
+                env.reset()
+                done[i] = False
+            else:
+                _, _, te, tr, _ = env.step(a[i])
+                done[i] = te or tr
+        assert [bool(x) for x in terminated | truncated] == done
+        if step in (100, COMMAND_LOG + 79):
+            for env, single in zip(venv.envs, singles, strict=True):
+                assert env.sim.get_state() == single.unwrapped.sim.get_state()
     venv.close()
 
 
