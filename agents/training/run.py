@@ -43,6 +43,7 @@ from planar3p_agents.training.config import (
     to_jsonable,
     versions,
 )
+from planar3p_gym.atomic_files import write_atomic
 
 __all__ = [
     "VEC_ENVS",
@@ -342,6 +343,17 @@ def plan_run(
     return RunPlan(cfg, run_dir, options, resume_from, command, task_schedule=schedule)
 
 
+def _record_resume(path: Path, total: int, done: int, command: str) -> None:
+    """Record a resume in the run's ``config.json``: the new total of timesteps becomes the
+    run's ``n_timesteps`` (what the shipped model's rl-zoo3 files give), and ``resumes`` lists
+    each resume's starting step, total and command."""
+    record = json.loads(path.read_text())
+    record["config"]["n_timesteps"] = int(total)
+    resume = {"from_step": int(done), "n_timesteps": int(total), "command": command}
+    record["resumes"] = [*record.get("resumes", []), resume]
+    write_atomic(path, json.dumps(record, indent=2))
+
+
 def _make_envs(cfg: TrainConfig, vec_env: str, stats: Path | None) -> tuple[Any, Any]:
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
@@ -487,6 +499,7 @@ def execute(plan: RunPlan) -> dict[str, Any]:
         buffer = run_dir / checkpoint_path(done_steps, "replay_buffer")
         if off_policy and buffer.exists():
             model.load_replay_buffer(str(buffer))
+        _record_resume(run_dir / "config.json", cfg.n_timesteps, done_steps, plan.command)
     else:
         model = algo_cls(
             policy_class(cfg.policy),

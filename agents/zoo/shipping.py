@@ -75,6 +75,8 @@ def _zoo_files(model: ShippedModel, record: dict[str, Any]) -> None:
         "shipped_name": model.name,
         "command": run.get("command", ""),
     }
+    if run.get("resumes"):  # (training continued from checkpoints: each resume's command)
+        args["resumes"] = [r.get("command", "") for r in run["resumes"]]
     _write(model.zoo_args, yaml.safe_dump(args, sort_keys=True))
 
 

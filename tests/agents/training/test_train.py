@@ -127,6 +127,11 @@ def test_resume_continues_from_last_checkpoint(tmp_path: Path) -> None:
     assert metrics["resumed_from"] == 256
     assert metrics["timesteps"] >= 512
     assert metrics["previous_sessions"]["timesteps"] >= 256
+    record = json.loads((run / "config.json").read_text())  # the run's total is the new one
+    assert record["config"]["n_timesteps"] == 512
+    (resume,) = record["resumes"]
+    assert resume["from_step"] == 256 and resume["n_timesteps"] == 512
+    assert "--resume" in resume["command"] and "--timesteps 256" in record["command"]
 
 
 @pytest.mark.parametrize(
