@@ -568,7 +568,7 @@ class _BatchCore:
         n = venv.num_envs
         a = np.minimum(a, 1.0)  # (a new array: the caller's actions are left alone)
         np.maximum(a, -1.0, out=a)
-        resetting = venv._autoreset.tolist()
+        resetting = np.flatnonzero(venv._autoreset).tolist()  # the environments reset now
         idx = np.flatnonzero(~venv._autoreset)  # the environments stepped
         rewards = np.zeros(n)
         terminated = np.zeros(n, dtype=np.bool_)
@@ -584,9 +584,8 @@ class _BatchCore:
         limit = venv.max_episode_steps if venv.max_episode_steps is not None else -1
         if limit > 0:
             truncated[idx] = venv._elapsed[idx] >= limit
-        for i in range(n):
-            if resetting[i]:  # next-step autoreset
-                self._reset(i, info)
+        for i in resetting:  # next-step autoreset
+            self._reset(i, info)
         done = terminated | truncated
         out: dict[str, Any] = {}
         mask = np.ones(n, dtype=np.bool_)
@@ -742,18 +741,19 @@ class _BatchCore:
         if self.travel_goal:  # (kept in the outputs: sync gives each env its full row)
             goal = travel_goal_entries(obs[:, :3], self.target_rho[idx])
             obs = o["obs"] = np.concatenate([obs, goal], axis=1)
-        venv._obs[idx] = obs
-        rewards[idx] = reward
+        sel = slice(None) if len(idx) == len(rewards) else idx  # (every env: no gather)
+        venv._obs[sel] = obs
+        rewards[sel] = reward
         reason = o["reason"]
-        terminated[idx] = reason > 0
-        info["is_success"][idx] = reason == 1
-        info["termination_reason"][idx] = _REASONS[reason]
-        info["position_error"][idx] = o["position_error"]
-        info["orientation_error"][idx] = o["orientation_error"]
-        info["parallel_margin"][idx] = o["parallel"]
-        info["serial_margin"][idx] = o["serial"]
-        info["assembly_mode"][idx] = o["sign"]
-        info["closure_error"][idx] = st.closure
+        terminated[sel] = reason > 0
+        info["is_success"][sel] = reason == 1
+        info["termination_reason"][sel] = _REASONS[reason]
+        info["position_error"][sel] = o["position_error"]
+        info["orientation_error"][sel] = o["orientation_error"]
+        info["parallel_margin"][sel] = o["parallel"]
+        info["serial_margin"][sel] = o["serial"]
+        info["assembly_mode"][sel] = o["sign"]
+        info["closure_error"][sel] = st.closure
         self.last = {
             "row": self._rows(idx),
             "state": st,
@@ -762,7 +762,7 @@ class _BatchCore:
             "saturated": self.saturated,
             "time": self.time[idx],
         }
-        self.pending[idx] = True
+        self.pending[sel] = True
         for j in bad_rows:  # the single env's general step, on the state just computed
             i = int(idx[j])
             env = venv._envs[i]
