@@ -48,7 +48,6 @@ __all__ = [
     "advance_batch",
     "read_bodies",
     "settle",
-    "step_bodies",
     "step_projected",
     "write_bodies",
 ]
@@ -108,60 +107,44 @@ def _pointer(builder: ir.IRBuilder, value: ir.Value) -> ir.Value:
     return builder.inttoptr(value, _VOID_P)
 
 
-@intrinsic
-def _call_pd(typingctx: Any, fn: Any, obj: Any, value: Any) -> Any:
-    """``fn(obj, value)``: ``void (*)(void *, double)`` at address ``fn``."""
-    sig = types.void(types.uintp, types.uintp, types.float64)
-
-    def codegen(context: Any, builder: ir.IRBuilder, signature: Any, args: Any) -> Any:
-        f, s, step = args
-        fnty = ir.FunctionType(ir.VoidType(), [_VOID_P, ir.DoubleType()])
-        builder.call(builder.inttoptr(f, fnty.as_pointer()), [_pointer(builder, s), step])
-        return context.get_dummy_value()
-
-    return sig, codegen
+#: C types of :func:`_c_function`'s signatures: a pointer (passed as its address), a double, an
+#: int, nothing.
+_LLVM_TYPES = {"p": _VOID_P, "d": ir.DoubleType(), "i": ir.IntType(32), "v": ir.VoidType()}
+_NUMBA_TYPES = {"p": types.uintp, "d": types.float64, "i": types.int32, "v": types.void}
 
 
-@intrinsic
-def _get_double(typingctx: Any, fn: Any, obj: Any) -> Any:
-    """``fn(obj)``: ``double (*)(void *)`` at address ``fn``."""
-    sig = types.float64(types.uintp, types.uintp)
+def _c_function(signature: str) -> Any:
+    """An intrinsic ``call(fn, *args)`` that calls the C function at address ``fn`` with the
+    C signature ``signature``, written ``result(parameters)`` in the letters of
+    :data:`_LLVM_TYPES` (``"d(p)"``: ``double f(void *)``)."""
+    result, parameters = signature[0], signature[2:-1]
+    sig = _NUMBA_TYPES[result](types.uintp, *(_NUMBA_TYPES[k] for k in parameters))
+    fnty = ir.FunctionType(_LLVM_TYPES[result], [_LLVM_TYPES[k] for k in parameters])
 
-    def codegen(context: Any, builder: ir.IRBuilder, signature: Any, args: Any) -> Any:
-        f, o = args
-        fnty = ir.FunctionType(ir.DoubleType(), [_VOID_P])
-        return builder.call(builder.inttoptr(f, fnty.as_pointer()), [_pointer(builder, o)])
+    def codegen(context: Any, builder: ir.IRBuilder, signature: Any, values: Any) -> Any:
+        f, *rest = values
+        args = [
+            _pointer(builder, v) if k == "p" else v for k, v in zip(parameters, rest, strict=True)
+        ]
+        out = builder.call(builder.inttoptr(f, fnty.as_pointer()), args)
+        return context.get_dummy_value() if result == "v" else out
 
-    return sig, codegen
-
-
-@intrinsic
-def _each_body(typingctx: Any, fn: Any, space: Any, iterator: Any, data: Any) -> Any:
-    """``fn(space, iterator, data)``: ``void (*)(void *, void *, void *)`` at address ``fn``."""
-    sig = types.void(types.uintp, types.uintp, types.uintp, types.uintp)
-
-    def codegen(context: Any, builder: ir.IRBuilder, signature: Any, args: Any) -> Any:
-        f, s, it, d = args
-        fnty = ir.FunctionType(ir.VoidType(), [_VOID_P, _VOID_P, _VOID_P])
-        pointers = [_pointer(builder, s), _pointer(builder, it), _pointer(builder, d)]
-        builder.call(builder.inttoptr(f, fnty.as_pointer()), pointers)
-        return context.get_dummy_value()
-
-    return sig, codegen
+    # (numba types an intrinsic by its typing function's own parameters: one per argument)
+    typer = _TYPERS[len(parameters)](lambda: (sig, codegen))
+    return intrinsic(typer)
 
 
-@intrinsic
-def _call_pi(typingctx: Any, fn: Any, obj: Any, value: Any) -> Any:
-    """``fn(obj, value)``: ``void (*)(void *, int)`` at address ``fn``."""
-    sig = types.void(types.uintp, types.uintp, types.int32)
+_TYPERS = {
+    1: lambda typed: lambda typingctx, fn, a: typed(),
+    2: lambda typed: lambda typingctx, fn, a, b: typed(),
+    3: lambda typed: lambda typingctx, fn, a, b, c: typed(),
+}
 
-    def codegen(context: Any, builder: ir.IRBuilder, signature: Any, args: Any) -> Any:
-        f, o, v = args
-        fnty = ir.FunctionType(ir.VoidType(), [_VOID_P, ir.IntType(32)])
-        builder.call(builder.inttoptr(f, fnty.as_pointer()), [_pointer(builder, o), v])
-        return context.get_dummy_value()
 
-    return sig, codegen
+_call_pd = _c_function("v(pd)")  # cpSpaceStep, cpConstraintSetMaxForce
+_get_double = _c_function("d(p)")  # cpConstraintGetImpulse
+_each_body = _c_function("v(ppp)")  # cpSpaceEachBody
+_call_pi = _c_function("v(pi)")  # cpSpaceSetIterations
 
 
 @intrinsic
@@ -272,24 +255,6 @@ def settle(
     _call_pd(fns[0], handles[0], h)
     write_bodies(fns, handles)
     _call_pi(fns[6], handles[0], np.int32(iterations))
-
-
-@njit(cache=True)
-def step_bodies(
-    fns: np.ndarray,
-    handles: np.ndarray,
-    v0: float,
-    v1: float,
-    v2: float,
-    h: float,
-    substeps: int,
-    readout: np.ndarray,
-    forces: np.ndarray,
-) -> None:
-    """One control step of a single simulation without projection: read the bodies into
-    ``readout`` (they may have been moved since the last step), then :func:`advance`."""
-    read_bodies(fns, handles)
-    advance(fns, handles, v0, v1, v2, h, substeps, readout, forces)
 
 
 @njit(cache=True)

@@ -726,7 +726,8 @@ class Planar3PSim:
                 self._state = self._projected_state(st, closure, readout)
                 return self._state
             self._limit_following_error()
-            chipmunk.step_bodies(
+            chipmunk.read_bodies(chipmunk.FUNCTIONS, handles)  # (moved by the line above)
+            chipmunk.advance(
                 chipmunk.FUNCTIONS, handles, v0, v1, v2, self._h, self.substeps, readout, impulses
             )
             self._account(impulses)
