@@ -337,7 +337,7 @@ def _pymunk_floor(sim: Any) -> Callable[[], int]:
 
     h, substeps, clock = sim._h, sim.substeps, time.perf_counter_ns
     if sim._fast is not None:
-        cp_step, space = physics._cp.cpSpaceStep, sim._fast[0]
+        cp_step, space = physics._cp.cpSpaceStep, sim._fast.space
     else:  # pragma: no cover - pymunk builds without the batch API
         cp_step, space = (lambda _s, dt: sim.space.step(dt)), None
 

@@ -469,7 +469,7 @@ class _BatchCore:
         if self.constants is None:
             self.constants = sim._projector.constants
         fast = sim._fast
-        space, servos = fast[0], fast[1]
+        space, servos = fast.space, fast.servos
         self.handles[i] = (space, *servos, sim._commands)
         self.logged[i] = 0  # (the record was just cleared or restored)
         self.handle_rows[i] = [

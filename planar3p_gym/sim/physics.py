@@ -81,6 +81,7 @@ __all__ = [
     "DEFAULT_SUBSTEPS",
     "PROJECTED_ITERATIONS",
     "PROJECTED_SUBSTEPS",
+    "FastPath",
     "Planar3PSim",
     "SimSnapshot",
     "SimState",
@@ -279,6 +280,21 @@ def _friction(
                 motor.max_force = dyn.joint_coulomb
                 out.append(motor)
     return out
+
+
+class FastPath(NamedTuple):
+    """A simulation's handles for calling Chipmunk directly (:meth:`Planar3PSim._fast_path`):
+    cffi pointers for the Python calls, addresses and arrays for the compiled step
+    (:mod:`planar3p_gym.sim.chipmunk`)."""
+
+    space: Any  #: the ``cpSpace *``
+    servos: tuple  #: the three servos' ``cpConstraint *``
+    read: tuple  #: ``(pmFloatArray *, pmBatchedData *, the batch get iterator)``
+    ints: Any  #: the (empty) ``pmIntArray *`` the request names (kept alive here)
+    write_iterator: Any  #: the batch set iterator
+    handles: np.ndarray  #: :data:`planar3p_gym.sim.chipmunk.HANDLE_FIELDS`, addresses (uintp)
+    readout: np.ndarray  #: the bodies' batch array (float64 over the C array: 60 numbers)
+    impulses: np.ndarray  #: the last step's summed and largest servo impulses (N s, 6)
 
 
 class Planar3PSim:
@@ -494,16 +510,11 @@ class Planar3PSim:
         # which the bodies were added, which is the order Chipmunk iterates them in).
         self._bodies = (platform, *(b for i in range(3) for b in (sliders[i], drives[i], legs[i])))
         self._warm_start(space, (platform, *sliders, *legs))
-        self._fast = self._fast_path(space, drives, servos) if self.use_fast_path else None
+        self._fast = self._fast_path(space, servos) if self.use_fast_path else None
         self._move = self._move_handles() if _MOVE and self._fast is not None else None
         self._state = self._read()
 
-    def _fast_path(
-        self,
-        space: pymunk.Space,
-        drives: list[pymunk.Body],
-        servos: list[pymunk.PinJoint],
-    ) -> tuple | None:
+    def _fast_path(self, space: pymunk.Space, servos: list[pymunk.PinJoint]) -> FastPath | None:
         """Handles for calling Chipmunk directly: one call reads every body (pymunk's batch
         iterator into a reused array); ``None`` if unavailable or if its layout does not match
         the public API's readout here."""
@@ -520,22 +531,18 @@ class Planar3PSim:
         request.floatArray = array
         request.intArray = unused
         fast_servos = tuple(sv._constraint for sv in servos)
-        fast = (
-            space._space,
-            fast_servos,
-            (array, request, _ffi.addressof(_cp, "pmSpaceBodyGetIteratorFuncBatched")),
-            tuple(b._body for b in drives),
-            unused,
-            _ffi.addressof(_cp, "pmSpaceBodySetIteratorFuncBatched"),
-            memoryview(_ffi.buffer(array.arr, 8 * _BODY_FIELDS * len(self._bodies))).cast("d"),
-            # The compiled step's arguments (planar3p_gym.sim.chipmunk.HANDLE_FIELDS): the
-            # addresses, the readout as an array over the same memory, the impulses (N s).
-            np.array(
+        fast = FastPath(
+            space=space._space,
+            servos=fast_servos,
+            read=(array, request, _ffi.addressof(_cp, "pmSpaceBodyGetIteratorFuncBatched")),
+            ints=unused,
+            write_iterator=_ffi.addressof(_cp, "pmSpaceBodySetIteratorFuncBatched"),
+            handles=np.array(
                 [chipmunk.address(p) for p in (space._space, *fast_servos, request, array)],
                 dtype=np.uintp,
             ),
-            np.frombuffer(_ffi.buffer(array.arr, 8 * _BODY_FIELDS * len(self._bodies))),
-            np.zeros(6),
+            readout=np.frombuffer(_ffi.buffer(array.arr, 8 * _BODY_FIELDS * len(self._bodies))),
+            impulses=np.zeros(6),
         )
         if Planar3PSim._batch_layout_ok is None:  # checked once per process
             public = self._public_values()
@@ -594,7 +601,7 @@ class Planar3PSim:
         self._place(p, rho)
         constraints, limits = self._limits  # type: ignore[misc]
         chipmunk.settle(  # (the anchors stay: a step does not move them)
-            chipmunk.FUNCTIONS, self._fast[7], constraints, limits, self._h,
+            chipmunk.FUNCTIONS, self._fast.handles, constraints, limits, self._h,
             WARM_START_ITERATIONS, self.iterations,
         )  # fmt: skip
         self._time = 0.0
@@ -665,9 +672,9 @@ class Planar3PSim:
         Body forces need no clearing: Chipmunk zeroes a dynamic body's force and torque in
         every step, nothing here sets them between steps, and a kinematic body (a drive) has
         none."""
-        readout = self._fast[8]
+        readout = self._fast.readout
         readout[:] = [v for (x, y), angle in places for v in (x, y, angle, 0.0, 0.0, 0.0)]
-        chipmunk.write_bodies(chipmunk.FUNCTIONS, self._fast[7])
+        chipmunk.write_bodies(chipmunk.FUNCTIONS, self._fast.handles)
 
     def _move_handles(self) -> tuple:
         """Chipmunk handles of :meth:`_place`: the bodies in readout order; each pivot's joint
@@ -714,7 +721,7 @@ class Planar3PSim:
             v2 = lagged[2] = lagged[2] + f * (v2 - lagged[2])
         fast, projector = self._fast, self._projector
         if fast is not None and not self._viscous:  # one compiled call (sim/chipmunk.py)
-            handles, readout, impulses = fast[7], fast[8], fast[9]
+            handles, readout, impulses = fast.handles, fast.readout, fast.impulses
             if projector is not None:
                 st, closure = chipmunk.step_projected(
                     chipmunk.FUNCTIONS, handles, v0, v1, v2, self._h, self.substeps,
@@ -788,16 +795,16 @@ class Planar3PSim:
         if fast is not None:
             # Read the bodies into pymunk's array, project them in place there (one compiled
             # call on a view of it) and write them back from it.
-            array_, request, iterator = fast[2]
+            array_, request, iterator = fast.read
             array_.num = 0
-            _cp.cpSpaceEachBody(fast[0], iterator, request)
-            readout = fast[8]
+            _cp.cpSpaceEachBody(fast.space, iterator, request)
+            readout = fast.readout
             sat = self._saturated
             st, closure = projector.project_in_place(
                 readout, sat[0], sat[1], sat[2], FOLLOWING_ERROR_LIMIT
             )
             array_.num = 0
-            _cp.cpSpaceEachBody(fast[0], fast[5], request)
+            _cp.cpSpaceEachBody(fast.space, fast.write_iterator, request)
             return self._projected_state(st, closure, readout)
         v = self._public_values()
         # (The drives' setpoints for the next step are pulled to within
@@ -946,11 +953,11 @@ class Planar3PSim:
         return out
 
     @staticmethod
-    def _batch_values(fast: tuple) -> list[float]:
+    def _batch_values(fast: FastPath) -> list[float]:
         """The same numbers as :meth:`_public_values`, read by one Chipmunk call."""
-        array, request, iterator = fast[2]
+        array, request, iterator = fast.read
         array.num = 0
-        _cp.cpSpaceEachBody(fast[0], iterator, request)
+        _cp.cpSpaceEachBody(fast.space, iterator, request)
         return _ffi.unpack(array.arr, array.num)
 
     def _read(self) -> SimState:

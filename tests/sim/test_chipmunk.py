@@ -37,7 +37,7 @@ def test_chipmunk_calls_are_compiled_on_the_pinned_pymunk():
     assert len(chipmunk.FUNCTIONS) == 7 and all(chipmunk.FUNCTIONS)
     sim = projected(starts(1)[0])
     assert sim._fast is not None
-    assert sim._fast[7].tolist()[0] == chipmunk.address(sim.space._space)
+    assert sim._fast.handles.tolist()[0] == chipmunk.address(sim.space._space)
 
 
 def test_the_compiled_step_is_its_parts_bit_for_bit(monkeypatch):
@@ -59,7 +59,7 @@ def test_write_then_read_leaves_every_body_as_it_was():
     sim = projected(starts(1)[0])
     for c in commands(20, 2):
         sim.step(c)
-    fns, handles, readout = chipmunk.FUNCTIONS, sim._fast[7], sim._fast[8]
+    fns, handles, readout = chipmunk.FUNCTIONS, sim._fast.handles, sim._fast.readout
     chipmunk.read_bodies(fns, handles)
     before = readout[:60].copy()
     for _ in range(3):
@@ -86,10 +86,10 @@ def test_the_batch_step_is_each_simulations_step_bit_for_bit(rows):
         array.num, array.max = 0, 132
         array.arr = chipmunk._ffi.cast("double *", readouts.ctypes.data) + 132 * i
         request = chipmunk._ffi.new("pmBatchedData *")
-        request.fields, request.floatArray = sim._fast[2][1].fields, array
-        request.intArray = sim._fast[2][1].intArray
+        request.fields, request.floatArray = sim._fast.read[1].fields, array
+        request.intArray = sim._fast.read[1].intArray
         keep += [array, request]
-        handles[i] = sim._fast[7]
+        handles[i] = sim._fast.handles
         handles[i, 4:] = [chipmunk.address(request), chipmunk.address(array)]
         chipmunk.read_bodies(chipmunk.FUNCTIONS, handles[i])
     sim0, initial = batch[0], readouts.copy()
@@ -108,6 +108,6 @@ def test_the_batch_step_is_each_simulations_step_bit_for_bit(rows):
             assert closure[k] == s.closure_error
             assert tuple(saturated[:, k].tolist()) == s.saturated
             assert (forces[k, :3] * sim0._force_scale).tolist() == list(s.actuator_forces)
-            assert readouts[i, :60].tolist() == singles[i]._fast[8].tolist()
+            assert readouts[i, :60].tolist() == singles[i]._fast.readout.tolist()
     for i in set(range(n)) - set(rows):
         assert readouts[i].tolist() == initial[i].tolist()  # not stepped: left alone

@@ -240,7 +240,7 @@ def test_pymunk_floor_calls_cp_space_step_substeps_times(monkeypatch):
     monkeypatch.setattr(physics, "_cp", Lib())
     run = throughput._pymunk_floor(sim)
     assert run() >= 0
-    assert calls == [(sim._fast[0], sim._h)] * sim.substeps
+    assert calls == [(sim._fast.space, sim._h)] * sim.substeps
     env.close()
 
 
