@@ -12,16 +12,19 @@ costs a Python call, so :func:`advance` makes them from numba instead, by addres
   ``cpSpaceEachBody(cpSpace *, iterator, void *)`` with pymunk's batch iterators
   (``pmSpaceBodyGetIteratorFuncBatched`` / ``...SetIteratorFuncBatched``), which read and write
   every body's position, angle, velocity and angular velocity through a ``pmFloatArray``;
+  ``cpConstraintSetMaxForce`` and ``cpSpaceSetIterations`` for a moving reset's settling
+  (:func:`settle`);
 - the function addresses come from pymunk's own cffi module (:data:`FUNCTIONS`), the object
   addresses from the pymunk objects (:func:`address`); all are run-time arguments, so the
   compiled code is cached on disk like the rest of the package.
 
 Why by hand: neither numba's cffi support (out-of-line modules need their C declarations
 registered, and Chipmunk passes ``cpVect`` structs by value) nor ctypes function objects
-(their addresses would be baked into the cache) fit; the four calls used here take only
-pointers and doubles, so a small ``inttoptr`` + ``call`` intrinsic each is the whole binding.
-:data:`AVAILABLE` is ``False`` when pymunk's build does not have these functions with these
-signatures; the simulation then steps through cffi (:class:`~planar3p_gym.sim.physics.Planar3PSim`).
+(their addresses would be baked into the cache) fit; the calls used here take only pointers,
+doubles and ints, so one ``inttoptr`` + ``call`` intrinsic per C signature
+(``_c_function``) is the whole binding.  :data:`AVAILABLE` is ``False`` when pymunk's
+build does not have these functions with these signatures; the simulation then steps through
+cffi (:class:`~planar3p_gym.sim.physics.Planar3PSim`).
 
 The batch iterators append to the ``pmFloatArray`` from its ``num`` field on; :func:`advance`
 sets it to 0 before each pass (:func:`_store_int32` at the array's address: ``num`` is its
