@@ -433,8 +433,6 @@ class _BatchCore:
             req.intArray = self._unused
             self.arrays.append(arr)
             self.requests.append(req)
-        self.get = ffi.addressof(cp, "pmSpaceBodyGetIteratorFuncBatched")
-        self.set = ffi.addressof(cp, "pmSpaceBodySetIteratorFuncBatched")
         self.handles: list[tuple] = [()] * n
         #: The drive commands (m/s) of each environment's last batched steps, not yet appended
         #: to its simulation's record (``Planar3PSim.get_state``): :meth:`sync` appends them,
@@ -475,8 +473,7 @@ class _BatchCore:
         self.handle_rows[i] = [
             chipmunk.address(p) for p in (space, *servos, self.requests[i], self.arrays[i])
         ]
-        self.arrays[i].num = 0
-        physics._cp.cpSpaceEachBody(space, self.get, self.requests[i])
+        chipmunk.read_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
         self.time[i] = sim._time
         self.target[:, i] = env._target
         self.target_cs[:, i] = env._target_cs
@@ -521,8 +518,7 @@ class _BatchCore:
         errors = (float(o["position_error"][j]), float(o["orientation_error"][j]))
         env._last_info = env._info(state, measures, reason, terms, reason == "success", errors)
         if bodies:
-            self.arrays[i].num = 0
-            physics._cp.cpSpaceEachBody(self.handles[i][0], self.set, self.requests[i])
+            chipmunk.write_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
         self.pending[i] = False
 
     def _append_commands(self, i: int) -> None:
@@ -776,8 +772,7 @@ class _BatchCore:
             terminated[i] = term
             for key in INFO_KEYS:
                 info[key][i] = inf[key]
-            self.arrays[i].num = 0
-            physics._cp.cpSpaceEachBody(self.handles[i][0], self.set, self.requests[i])
+            chipmunk.write_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
             self.pending[i] = False
 
 

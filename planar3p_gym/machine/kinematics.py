@@ -403,27 +403,6 @@ def _bound_test(x: FloatArray, threshold: float) -> tuple[bool, bool, float]:
     return above, below, det
 
 
-@njit(cache=True)
-def _margin_tests_compiled(
-    x: FloatArray, threshold: float
-) -> tuple[NDArray[np.bool_], NDArray[np.bool_], FloatArray]:
-    m = x.shape[2]
-    above = np.empty(m, dtype=np.bool_)
-    below = np.empty(m, dtype=np.bool_)
-    det = np.empty(m)
-    for n in range(m):
-        above[n], below[n], det[n] = _bound_test(np.ascontiguousarray(x[:, :, n]), threshold)
-    return above, below, det
-
-
-def _margin_tests(
-    x: FloatArray, threshold: float
-) -> tuple[NDArray[np.bool_], NDArray[np.bool_], FloatArray]:
-    """:func:`_bound_test` of the 3x3 matrices ``x[:, :, j]`` (shape (3, 3, m)):
-    ``(above, below, det)``, each of shape (m,)."""
-    return _margin_tests_compiled(np.ascontiguousarray(x, dtype=np.float64), float(threshold))
-
-
 class Screening(NamedTuple):
     """Result of :func:`screen_poses`.
 

@@ -289,9 +289,8 @@ class FastPath(NamedTuple):
 
     space: Any  #: the ``cpSpace *``
     servos: tuple  #: the three servos' ``cpConstraint *``
-    read: tuple  #: ``(pmFloatArray *, pmBatchedData *, the batch get iterator)``
+    read: tuple  #: ``(pmFloatArray *, pmBatchedData *)``, kept alive for :attr:`handles`
     ints: Any  #: the (empty) ``pmIntArray *`` the request names (kept alive here)
-    write_iterator: Any  #: the batch set iterator
     handles: np.ndarray  #: :data:`planar3p_gym.sim.chipmunk.HANDLE_FIELDS`, addresses (uintp)
     readout: np.ndarray  #: the bodies' batch array (float64 over the C array: 60 numbers)
     impulses: np.ndarray  #: the last step's summed and largest servo impulses (N s, 6)
@@ -534,9 +533,8 @@ class Planar3PSim:
         fast = FastPath(
             space=space._space,
             servos=fast_servos,
-            read=(array, request, _ffi.addressof(_cp, "pmSpaceBodyGetIteratorFuncBatched")),
+            read=(array, request),
             ints=unused,
-            write_iterator=_ffi.addressof(_cp, "pmSpaceBodySetIteratorFuncBatched"),
             handles=np.array(
                 [chipmunk.address(p) for p in (space._space, *fast_servos, request, array)],
                 dtype=np.uintp,
@@ -795,16 +793,13 @@ class Planar3PSim:
         if fast is not None:
             # Read the bodies into pymunk's array, project them in place there (one compiled
             # call on a view of it) and write them back from it.
-            array_, request, iterator = fast.read
-            array_.num = 0
-            _cp.cpSpaceEachBody(fast.space, iterator, request)
+            chipmunk.read_bodies(chipmunk.FUNCTIONS, fast.handles)
             readout = fast.readout
             sat = self._saturated
             st, closure = projector.project_in_place(
                 readout, sat[0], sat[1], sat[2], FOLLOWING_ERROR_LIMIT
             )
-            array_.num = 0
-            _cp.cpSpaceEachBody(fast.space, fast.write_iterator, request)
+            chipmunk.write_bodies(chipmunk.FUNCTIONS, fast.handles)
             return self._projected_state(st, closure, readout)
         v = self._public_values()
         # (The drives' setpoints for the next step are pulled to within
@@ -954,10 +949,10 @@ class Planar3PSim:
 
     @staticmethod
     def _batch_values(fast: FastPath) -> list[float]:
-        """The same numbers as :meth:`_public_values`, read by one Chipmunk call."""
-        array, request, iterator = fast.read
-        array.num = 0
-        _cp.cpSpaceEachBody(fast.space, iterator, request)
+        """The same numbers as :meth:`_public_values` (then those of any other body of the
+        space), read by one compiled pass."""
+        chipmunk.read_bodies(chipmunk.FUNCTIONS, fast.handles)
+        array = fast.read[0]
         return _ffi.unpack(array.arr, array.num)
 
     def _read(self) -> SimState:

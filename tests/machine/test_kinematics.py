@@ -1020,14 +1020,13 @@ def test_margin_tests_never_contradict_the_svd(seed, log_s2, log_s3, scale, rel)
     sv = np.linalg.svd(m, compute_uv=False)
     pm = sv[-1] / sv[0]
     for thr in {pm * (1.0 + rel), pm + rel * 1e-8, max(pm + rel, 0.0), 0.0}:
-        # the (3, 3, m) layout: x[:, :, j] is a matrix (or its transpose: same tests)
-        above, below, det = kinematics._margin_tests(m[:, :, None], thr)
-        assert not (above[0] and below[0])
-        if above[0]:
+        above, below, det = kinematics._bound_test(m, float(thr))
+        assert not (above and below)
+        if above:
             assert pm >= thr
-            assert np.sign(det[0]) == np.sign(np.linalg.det(m))
-        if below[0]:
+            assert np.sign(det) == np.sign(np.linalg.det(m))
+        if below:
             assert pm < thr
     if s[2] >= 1e-3 and rel in (-0.8, 3.0):
-        above, below, _ = kinematics._margin_tests(m[:, :, None], pm * (1.0 + rel))
-        assert above[0] == (rel < 0) and below[0] == (rel > 0)
+        above, below, _ = kinematics._bound_test(m, float(pm * (1.0 + rel)))
+        assert above == (rel < 0) and below == (rel > 0)
