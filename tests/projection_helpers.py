@@ -1,4 +1,5 @@
-"""Recording what the projection does inside a simulation's compiled control step.
+"""Recording what the projection does inside a simulation's compiled control step, and the
+projection of a batch of readouts row by row.
 
 :func:`planar3p_gym.sim.chipmunk.step_projected` reads, steps, projects and writes the bodies in
 one compiled call, so a test cannot wrap the projector's Python methods to see the readouts.
@@ -15,7 +16,9 @@ from contextlib import contextmanager
 import numpy as np
 
 from planar3p_gym.sim import chipmunk
-from planar3p_gym.sim.projection import project_in_place
+from planar3p_gym.sim.batch_step import BatchState
+from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT
+from planar3p_gym.sim.projection import project_in_place, project_row
 
 #: ``record(before, saturated, after)``: the 60 readout numbers before and after the projection
 #: and the servos' saturation flags.
@@ -52,3 +55,16 @@ def recorded_projections(record: Recorder) -> Iterator[None]:
         yield
     finally:
         chipmunk.step_projected = original
+
+
+def project_rows(buf: np.ndarray, saturated: np.ndarray, consts: np.ndarray) -> BatchState:
+    """:func:`~planar3p_gym.sim.projection.project_row` of every row of ``buf`` (``(N, >= 60)``
+    readouts, written back in place, drive setpoints limited as a simulation limits them),
+    with ``saturated`` ``(3, N)``: what the native vector env's compiled step
+    (:func:`~planar3p_gym.sim.chipmunk.advance_batch`) does between its physics and write-back."""
+    n = buf.shape[0]
+    states, closure = np.empty((23, n)), np.empty(n)
+    for j in range(n):
+        s0, s1, s2 = (bool(x) for x in saturated[:, j])
+        project_row(buf[j], s0, s1, s2, consts, FOLLOWING_ERROR_LIMIT, states, closure, j)
+    return BatchState.of(states, closure)

@@ -419,20 +419,9 @@ class _BatchCore:
         self.consts = np.zeros((n, 10))
         for i, e in enumerate(venv._envs):
             e._reach_step.share_constants(self.consts[i])  # type: ignore[union-attr]
-        ffi, cp = physics._ffi, physics._cp
         self.buf = np.zeros((n, _ROW))
-        base = ffi.cast("double *", self.buf.ctypes.data)
-        self._unused = ffi.gc(cp.pmIntArrayNew(0), cp.pmIntArrayFree)
-        self.arrays, self.requests = [], []
-        for i in range(n):
-            arr = ffi.new("pmFloatArray *")
-            arr.num, arr.max, arr.arr = 0, _ROW, base + i * _ROW
-            req = ffi.new("pmBatchedData *")
-            req.fields = cp.POSITION | cp.ANGLE | cp.VELOCITY | cp.ANGULAR_VELOCITY
-            req.floatArray = arr
-            req.intArray = self._unused
-            self.arrays.append(arr)
-            self.requests.append(req)
+        #: Each environment's batch request over its row of :attr:`buf`.
+        self.reads = [chipmunk.body_readout(row) for row in self.buf]
         self.handles: list[tuple] = [()] * n
         #: The drive commands (m/s) of each environment's last batched steps, not yet appended
         #: to its simulation's record (``Planar3PSim.get_state``): :meth:`sync` appends them,
@@ -470,8 +459,9 @@ class _BatchCore:
         space, servos = fast.space, fast.servos
         self.handles[i] = (space, *servos, sim._commands)
         self.logged[i] = 0  # (the record was just cleared or restored)
+        read = self.reads[i]
         self.handle_rows[i] = [
-            chipmunk.address(p) for p in (space, *servos, self.requests[i], self.arrays[i])
+            chipmunk.address(p) for p in (space, *servos, read.request, read.array)
         ]
         chipmunk.read_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
         self.time[i] = sim._time

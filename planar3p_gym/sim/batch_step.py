@@ -1,12 +1,9 @@
-"""The projection over a batch of simulations.
+"""The projected states of a batch of simulations.
 
-:class:`BatchState` holds the projected states of ``N`` simulations as arrays (what the reach
-step's batch outputs, :class:`planar3p_gym.tasks.reach_step.BatchReach`, read); the native
+:class:`BatchState` holds the projected states of ``N`` simulations as arrays; the native
 vector env gets them from its compiled control step
-(:func:`planar3p_gym.sim.chipmunk.advance_batch`).  :class:`BatchProjector` projects readouts
-given as an array with the compiled :func:`planar3p_gym.sim.projection.project_batch`.  Both
-loop over the one definition of the projection
-(:func:`~planar3p_gym.sim.projection.project_row`, that is
+(:func:`planar3p_gym.sim.chipmunk.advance_batch`), which loops over the one definition of the
+projection (:func:`~planar3p_gym.sim.projection.project_row`, that is
 :func:`~planar3p_gym.sim.projection.project_readout`, which a single environment calls): the
 same numbers as the single environments, bit for bit.
 
@@ -17,10 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT
-from planar3p_gym.sim.projection import LoopProjector, project_batch
-
-__all__ = ["BatchProjector", "BatchState"]
+__all__ = ["BatchState"]
 
 
 class BatchState:
@@ -36,7 +30,7 @@ class BatchState:
             ``cos, sin theta``.
         finite: ``(N,)`` whether every number of the state is finite.
         states: ``(23, N)`` all of them as rows (the layout of
-            :func:`~planar3p_gym.sim.projection.project_batch`; the arrays above are views
+            :func:`~planar3p_gym.sim.chipmunk.advance_batch`; the arrays above are views
             of it), what the compiled reach outputs read.
     """
 
@@ -62,8 +56,7 @@ class BatchState:
     @classmethod
     def of(cls, states: np.ndarray, closure: np.ndarray) -> BatchState:
         """The batch state of projected ``states`` ``(23, N)`` (theta wrapped) and closure
-        errors ``(N,)`` (m), as :func:`~planar3p_gym.sim.projection.project_batch` and
-        :func:`~planar3p_gym.sim.chipmunk.advance_batch` return them."""
+        errors ``(N,)`` (m), as :func:`~planar3p_gym.sim.chipmunk.advance_batch` returns them."""
         total = states[:15].sum(axis=0) + closure
         return cls(
             rho=states[0:3],
@@ -79,28 +72,3 @@ class BatchState:
             finite=np.isfinite(total),
             states=states,
         )
-
-
-class BatchProjector:
-    """:meth:`LoopProjector.project` of ``projector`` over a batch (module docstring)."""
-
-    def __init__(self, projector: LoopProjector) -> None:
-        self.scalar = projector
-        self.constants = projector.constants
-
-    def project(self, buf: np.ndarray, saturated: np.ndarray) -> BatchState:
-        """Project the readouts in ``buf`` (shape ``(N, >= 60)``: ``x, y, angle, vx, vy, w``
-        of the bodies in readout order, one simulation a row) onto the manifold, write the
-        bodies to write back into ``buf[:, :60]`` (drive setpoints pulled to within
-        :data:`~planar3p_gym.sim.physics.FOLLOWING_ERROR_LIMIT` of their sliders, as
-        :meth:`Planar3PSim._project` does), and return the states.  ``saturated``: ``(3, N)``
-        booleans."""
-        contiguous = buf.flags.c_contiguous and buf.dtype == np.float64
-        work = buf if contiguous else np.ascontiguousarray(buf, dtype=np.float64)
-        states, closure = project_batch(
-            work, np.ascontiguousarray(saturated, dtype=np.bool_), self.constants,
-            FOLLOWING_ERROR_LIMIT,
-        )  # fmt: skip
-        if not contiguous:
-            buf[:, :60] = work[:, :60]
-        return BatchState.of(states, closure)

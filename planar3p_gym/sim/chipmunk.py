@@ -33,7 +33,7 @@ first field, checked at import).
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from llvmlite import ir
@@ -46,9 +46,11 @@ __all__ = [
     "AVAILABLE",
     "FUNCTIONS",
     "HANDLE_FIELDS",
+    "BodyReadout",
     "address",
     "advance",
     "advance_batch",
+    "body_readout",
     "read_bodies",
     "settle",
     "step_projected",
@@ -86,6 +88,36 @@ def address(pointer: Any) -> int:
     """The address of a cffi pointer (a pymunk object's ``_space``, ``_constraint``, ... or a
     ``pmFloatArray *``), as :func:`advance` takes it."""
     return int(_ffi.cast("uintptr_t", pointer))
+
+
+class BodyReadout(NamedTuple):
+    """pymunk's batch request for every body's position, angle, velocity and angular velocity
+    of a space, and the array it reads into and writes from (:func:`body_readout`).  The
+    handles keep the C structs and the memory alive."""
+
+    memory: np.ndarray  #: the readout (float64): 6 numbers per body, in the space's body order
+    array: Any  #: the ``pmFloatArray *`` over :attr:`memory`
+    request: Any  #: the ``pmBatchedData *`` naming :attr:`array`
+    ints: Any  #: the (empty) ``pmIntArray *`` the request also names
+
+
+def body_readout(memory: np.ndarray) -> BodyReadout:
+    """A batch request whose array is ``memory`` (a C-contiguous 1-D float64 array).
+
+    Its length is the array's room (``max``): pymunk grows a full array with ``realloc``,
+    which memory numpy owns must never see, so it has to hold six numbers for every body of
+    the space, its own static body included.
+    """
+    if memory.dtype != np.float64 or memory.ndim != 1 or not memory.flags.c_contiguous:
+        raise ValueError("a body readout's memory must be a C-contiguous 1-D float64 array")
+    array = _ffi.new("pmFloatArray *")
+    array.num, array.max = 0, memory.size
+    array.arr = _ffi.cast("double *", memory.ctypes.data)
+    ints = _ffi.gc(_cp.pmIntArrayNew(0), _cp.pmIntArrayFree)
+    request = _ffi.new("pmBatchedData *")
+    request.fields = _cp.POSITION | _cp.ANGLE | _cp.VELOCITY | _cp.ANGULAR_VELOCITY
+    request.floatArray, request.intArray = array, ints
+    return BodyReadout(memory, array, request, ints)
 
 
 #: Addresses of ``cpSpaceStep``, ``cpConstraintGetImpulse``, ``cpSpaceEachBody``, the get and

@@ -99,7 +99,6 @@ try:  # Direct Chipmunk calls skip pymunk's per-call Python bookkeeping (the hot
             "cpConstraintGetImpulse",
             "cpBodySetVelocity",
             "pmSpaceBodyGetIteratorFuncBatched",
-            "pmFloatArrayNew",
             "pmIntArrayNew",
         )
     )
@@ -289,8 +288,7 @@ class FastPath(NamedTuple):
 
     space: Any  #: the ``cpSpace *``
     servos: tuple  #: the three servos' ``cpConstraint *``
-    read: tuple  #: ``(pmFloatArray *, pmBatchedData *)``, kept alive for :attr:`handles`
-    ints: Any  #: the (empty) ``pmIntArray *`` the request names (kept alive here)
+    read: chipmunk.BodyReadout  #: the bodies' batch request, kept alive for :attr:`handles`
     handles: np.ndarray  #: :data:`planar3p_gym.sim.chipmunk.HANDLE_FIELDS`, addresses (uintp)
     readout: np.ndarray  #: the bodies' batch array (float64 over the C array: 60 numbers)
     impulses: np.ndarray  #: the last step's summed and largest servo impulses (N s, 6)
@@ -519,27 +517,21 @@ class Planar3PSim:
         the public API's readout here."""
         if not _FAST:
             return None
-        # The C arrays are freed when these handles are garbage collected.  Twice the room a
-        # readout needs: the array then never grows (moves), so a view of it stays valid.
-        array = _ffi.gc(
-            _cp.pmFloatArrayNew(2 * _BODY_FIELDS * (len(self._bodies) + 1)), _cp.pmFloatArrayFree
-        )
-        unused = _ffi.gc(_cp.pmIntArrayNew(0), _cp.pmIntArrayFree)
-        request = _ffi.new("pmBatchedData *")
-        request.fields = _cp.POSITION | _cp.ANGLE | _cp.VELOCITY | _cp.ANGULAR_VELOCITY
-        request.floatArray = array
-        request.intArray = unused
+        # Twice the room a readout needs (the array never grows).
+        read = chipmunk.body_readout(np.zeros(2 * _BODY_FIELDS * (len(self._bodies) + 1)))
         fast_servos = tuple(sv._constraint for sv in servos)
         fast = FastPath(
             space=space._space,
             servos=fast_servos,
-            read=(array, request),
-            ints=unused,
+            read=read,
             handles=np.array(
-                [chipmunk.address(p) for p in (space._space, *fast_servos, request, array)],
+                [
+                    chipmunk.address(p)
+                    for p in (space._space, *fast_servos, read.request, read.array)
+                ],
                 dtype=np.uintp,
             ),
-            readout=np.frombuffer(_ffi.buffer(array.arr, 8 * _BODY_FIELDS * len(self._bodies))),
+            readout=read.memory[: _BODY_FIELDS * len(self._bodies)],
             impulses=np.zeros(6),
         )
         if Planar3PSim._batch_layout_ok is None:  # checked once per process
@@ -952,8 +944,7 @@ class Planar3PSim:
         """The same numbers as :meth:`_public_values` (then those of any other body of the
         space), read by one compiled pass."""
         chipmunk.read_bodies(chipmunk.FUNCTIONS, fast.handles)
-        array = fast.read[0]
-        return _ffi.unpack(array.arr, array.num)
+        return fast.read.memory[: fast.read.array.num].tolist()
 
     def _read(self) -> SimState:
         k, legs_len, origins = self._k, self._legs, self._origins

@@ -69,8 +69,8 @@ hand-written 3x3 solves, compiled by numba: it runs once per control step of eve
 environment, where numpy's per-call overhead on 3x3 arrays would cost more than the work);
 :class:`LoopProjector` calls it for one simulation (through :func:`project_in_place`), as does
 the compiled control step of :mod:`planar3p_gym.sim.chipmunk`; :func:`project_row` is it for
-one row of a batch, which :func:`project_batch` and the native vector env's compiled step loop
-over.
+one row of a batch, which the native vector env's compiled step
+(:func:`planar3p_gym.sim.chipmunk.advance_batch`) loops over.
 """
 
 from __future__ import annotations
@@ -93,7 +93,6 @@ __all__ = [
     "STOP_CONTACT",
     "LoopProjector",
     "Projected",
-    "project_batch",
     "project_in_place",
     "project_readout",
     "project_row",
@@ -552,21 +551,3 @@ def project_row(
     state[8] = wrap_angle(state[8])
     states[:, k] = state
     closure[k] = err
-
-
-@njit(cache=True)
-def project_batch(
-    buf: np.ndarray, saturated: np.ndarray, consts: np.ndarray, setpoint_limit: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`project_row` of every row of ``buf`` (``(N, >= 60)`` readouts, written back
-    in place) with ``saturated`` ``(3, N)``; returns the states ``(23, N)`` and the closure
-    errors ``(N,)`` (m)."""
-    n = buf.shape[0]
-    states = np.empty((23, n))
-    closure = np.empty(n)
-    for j in range(n):
-        project_row(
-            buf[j], saturated[0, j], saturated[1, j], saturated[2, j], consts, setpoint_limit,
-            states, closure, j,
-        )  # fmt: skip
-    return states, closure

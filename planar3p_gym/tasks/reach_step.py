@@ -19,23 +19,22 @@ formula (:func:`~planar3p_gym.machine.margins.leg_margins`,
 :func:`~planar3p_gym.tasks.observation.write_reach_values`,
 :func:`~planar3p_gym.tasks.observation.within_tolerances`,
 :func:`~planar3p_gym.tasks.rewards.weighted_terms`).  The single env's fused step and the
-native vector env's scalar batch call it through :meth:`ReachStep.compute`; the numpy batch
-through :func:`reach_outputs_batch`, the same function in a compiled loop over the batch's
-projected states (:mod:`planar3p_gym.sim.batch_step`), so all three give the same numbers bit
-for bit.
+native vector env's scalar batch call it through :meth:`ReachStep.compute`; the vector env's
+compiled step (:func:`planar3p_gym.envs.batch_kernel.reach_batch_step`) through
+:func:`reach_outputs_batch`, the same function in a compiled loop over the batch's projected
+states, so all three give the same numbers bit for bit.
 """
 
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from numba import njit
 
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.margins import leg_margins
-from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.tasks import rewards
 from planar3p_gym.tasks.observation import (
     OBS_SIZE,
@@ -44,10 +43,6 @@ from planar3p_gym.tasks.observation import (
     write_reach_values,
 )
 from planar3p_gym.tasks.rewards import TERM_NAMES, weighted_terms
-
-if TYPE_CHECKING:
-    from planar3p_gym.sim.batch_step import BatchState
-    from planar3p_gym.sim.physics import SimState
 
 __all__ = [
     "REASONS",
@@ -229,30 +224,6 @@ class ReachStep:
         )  # fmt: skip
         return self.res
 
-    def outputs(
-        self,
-        state: SimState,
-        geometry: tuple[float, ...],
-        target: tuple[float, float, float],
-        target_cs: tuple[float, float],
-        assembly: int,
-        action: tuple[float, float, float],
-    ) -> tuple[np.ndarray, ConfigurationMeasures, str | None, dict[str, float], float, float]:
-        """``(observation, measures, termination reason, reward terms, position error (m),
-        orientation error (rad))`` of a finite state after a step with ``action``."""
-        st = np.array(
-            (*state.rho, *state.rho_dot, *state.pose, *state.twist, *state.leg_angles, *geometry)
-        )
-        res = self.compute(st, state.pose[2], target, target_cs, assembly, action).tolist()
-        return (
-            self.obs.copy(),
-            ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles),
-            REASONS[int(res[1])],
-            dict(zip(TERM_NAMES, res[TERMS_START:], strict=True)),
-            res[2],
-            res[3],
-        )
-
 
 @njit(cache=True)
 def reach_outputs_batch(
@@ -261,7 +232,7 @@ def reach_outputs_batch(
     high: np.ndarray, rows: np.ndarray, obs: np.ndarray, res: np.ndarray,
 ) -> None:  # fmt: skip
     """:func:`reach_outputs` of ``N`` environments, in one compiled loop: ``states``
-    ``(23, N)`` (:func:`~planar3p_gym.sim.projection.project_batch`'s, theta wrapped),
+    ``(23, N)`` (:func:`~planar3p_gym.sim.chipmunk.advance_batch`'s, theta wrapped),
     ``target`` ``(5, N)``, ``assembly`` ``(N,)``, ``action`` ``(3, N)``, ``tolerances``
     ``(3, N)`` (each environment's; they replace those of ``consts``); writes ``rows``
     ``(N, 31)``, ``obs`` ``(N, 31)`` float32 and ``res`` ``(len(RESULT_FIELDS), N)``."""
@@ -299,39 +270,12 @@ class BatchReach:
         self.weights = reach.weights
         self.consts = reach._consts.copy()
 
-    def outputs(
-        self,
-        st: BatchState,
-        target: np.ndarray,
-        target_cs: np.ndarray,
-        assembly: np.ndarray,
-        action: np.ndarray,
-        tolerances: np.ndarray,
-    ) -> dict[str, Any]:
-        """Observations ``(N, 31)`` float32, margins, sign, termination (``reason``: 0 none,
-        1 success, 2 singularity crossing), reward terms, their sum (``reward``) and errors;
-        ``target`` ``(3, N)``, ``target_cs`` ``(2, N)``, ``assembly`` ``(N,)``, ``action``
-        ``(3, N)`` clipped, ``tolerances`` ``(3, N)``: each environment's position (m),
-        orientation (rad) and rest-speed (m/s) tolerances (``ReachStep.tolerances``)."""
-        states = st.states if getattr(st, "states", None) is not None else _state_rows(st)
-        n = states.shape[1]
-        rows = np.empty((n, OBS_SIZE))
-        obs = np.empty((n, OBS_SIZE), dtype=np.float32)
-        res = np.empty((len(RESULT_FIELDS), n))
-        reach_outputs_batch(
-            np.ascontiguousarray(states, dtype=np.float64),
-            np.ascontiguousarray(np.concatenate([target, target_cs]), dtype=np.float64),
-            np.ascontiguousarray(assembly, dtype=np.int64),
-            np.ascontiguousarray(action, dtype=np.float64),
-            np.ascontiguousarray(tolerances, dtype=np.float64),
-            self.consts, self.weights.as_array(), self.low, self.high, rows, obs, res,
-        )  # fmt: skip
-        return self.results(obs, res)
-
     @staticmethod
     def results(obs: np.ndarray, res: np.ndarray) -> dict[str, Any]:
-        """The outputs of :meth:`outputs` from :func:`reach_outputs_batch`'s ``obs`` and
-        ``res``."""
+        """The batch's outputs from :func:`reach_outputs_batch`'s ``obs`` and ``res``:
+        observations ``(N, 31)`` float32, margins, sign, termination (``reason``: 0 none,
+        1 success, 2 singularity crossing), reward terms, their sum (``reward``) and the
+        position (m) and orientation (rad) errors, one entry per environment."""
         return {
             "obs": obs,
             "reward": res[0],
@@ -343,23 +287,3 @@ class BatchReach:
             "position_error": res[2],
             "orientation_error": res[3],
         }
-
-
-def _state_rows(st: BatchState) -> np.ndarray:
-    """The ``(23, N)`` state rows of :func:`reach_outputs_batch` from a
-    :class:`~planar3p_gym.sim.batch_step.BatchState` without them (leg angles, which the
-    outputs do not read, as zeros when absent)."""
-    n = st.c.shape[0]
-    legs = getattr(st, "leg_angles", None)
-    geometry = np.empty((8, n))
-    geometry[0:6:2], geometry[1:6:2], geometry[6], geometry[7] = st.ux, st.uy, st.c, st.s
-    return np.concatenate(
-        [
-            st.rho,
-            st.rho_dot,
-            st.pose,
-            st.twist,
-            np.zeros((3, n)) if legs is None else legs,
-            geometry,
-        ]
-    )

@@ -1,5 +1,6 @@
-"""The numpy batch (planar3p_gym.sim.batch_step) gives the scalar code's numbers bit for bit, and
-the fused reach step (planar3p_gym.tasks.reach_step) the general step's to float64 rounding."""
+"""The batch's projection rows (planar3p_gym.sim.projection.project_row) and reach outputs
+(planar3p_gym.tasks.reach_step.reach_outputs_batch) give the scalar code's numbers bit for bit,
+and the fused reach step the general step's to float64 rounding."""
 
 from __future__ import annotations
 
@@ -7,11 +8,12 @@ import math
 
 import gymnasium as gym
 import numpy as np
+from projection_helpers import project_rows
 
 import planar3p_gym  # noqa: F401  (registers the ids)
-from planar3p_gym.sim.batch_step import BatchProjector
 from planar3p_gym.sim.physics import _wrap
-from planar3p_gym.tasks.reach_step import BatchReach
+from planar3p_gym.tasks.observation import OBS_SIZE
+from planar3p_gym.tasks.reach_step import RESULT_FIELDS, BatchReach, reach_outputs_batch
 
 
 def readouts(seed: int, n: int) -> tuple[object, list[list[float]], np.ndarray]:
@@ -42,10 +44,9 @@ def test_batch_projection_is_the_scalar_projection_bit_for_bit():
     for seed in range(3):
         sim, vs, sat = readouts(seed, 64)
         scalar = sim._projector
-        batch = BatchProjector(scalar)
         buf = np.zeros((len(vs), 132))
         buf[:, :66] = vs
-        st = batch.project(buf, sat.T)
+        st = project_rows(buf, sat.T, scalar.constants)
         for j, v in enumerate(vs):
             pr = scalar.project(v, tuple(bool(b) for b in sat[j]))
             restarts += pr.newton_steps > 4
@@ -72,52 +73,42 @@ def test_batch_projection_is_the_scalar_projection_bit_for_bit():
 
 
 def test_batch_reach_outputs_are_the_fused_outputs_bit_for_bit():
+    """:func:`reach_outputs_batch` (the native vector env's outputs) against the single
+    environment's :meth:`ReachStep.compute`, state by state, with both termination branches."""
     env = gym.make("Planar3P-v0", working_mode="random").unwrapped
     rng = np.random.default_rng(5)
-    states, geos, targets, actions, assemblies = [], [], [], [], []
+    rows, targets, actions, assemblies = [], [], [], []
     for episode in range(4):
         env.reset(seed=40 + episode)
         for a in rng.uniform(-1, 1, (30, 3)):
             a = tuple(float(x) for x in np.clip(a * 1.3, -1, 1))
-            state = env.sim.step_unchecked(*(x * env.design.max_speed for x in a))
-            states.append(state)
-            geos.append(env.sim.geometry)
+            s = env.sim.step_unchecked(*(x * env.design.max_speed for x in a))
+            rows.append((*s.rho, *s.rho_dot, *s.pose, *s.twist, *s.leg_angles, *env.sim.geometry))
             targets.append(env._target)
             actions.append(a)
             assemblies.append(int(rng.choice((-1, 1))))  # both termination branches
     reach = env._reach_step
     batch = BatchReach(reach)
-
-    class State:  # the BatchState fields outputs() reads
-        pass
-
-    st = State()
-    st.rho = np.array([s.rho for s in states]).T
-    st.rho_dot = np.array([s.rho_dot for s in states]).T
-    st.pose = np.array([s.pose for s in states]).T
-    st.twist = np.array([s.twist for s in states]).T
-    g = np.array(geos).T
-    st.ux, st.uy, st.c, st.s = g[0:6:2], g[1:6:2], g[6], g[7]
-    target = np.array(targets).T
-    target_cs = np.array([(math.cos(t[2]), math.sin(t[2])) for t in targets]).T
-    tolerances = np.tile(np.array(reach.tolerances)[:, None], (1, len(states)))
-    out = batch.outputs(
-        st, target, target_cs, np.array(assemblies), np.array(actions).T, tolerances
-    )
-    codes = {None: 0, "success": 1, "singularity_crossing": 2}
-    for j, state in enumerate(states):
-        obs, measures, reason, terms, pe, ae = reach.outputs(
-            state, geos[j], targets[j], tuple(target_cs[:, j]), assemblies[j], actions[j]
-        )
-        np.testing.assert_array_equal(out["obs"][j], obs)
-        assert out["parallel"][j] == measures.parallel_margin
-        assert out["serial"][j] == measures.serial_margin
-        assert out["sign"][j] == measures.det_sign
-        assert out["reason"][j] == codes[reason]
-        assert out["position_error"][j] == pe and out["orientation_error"][j] == ae
-        for key, value in terms.items():
-            assert out["terms"][key][j] == value, key
-    assert set(out["reason"].tolist()) >= {0, 2}
+    n = len(rows)
+    states = np.array(rows).T.copy()  # (23, N)
+    target = np.array([(*t, math.cos(t[2]), math.sin(t[2])) for t in targets]).T.copy()
+    tolerances = np.tile(np.array(reach.tolerances)[:, None], (1, n))
+    obs_rows, obs = np.empty((n, OBS_SIZE)), np.empty((n, OBS_SIZE), dtype=np.float32)
+    res = np.empty((len(RESULT_FIELDS), n))
+    reach_outputs_batch(
+        states, target, np.array(assemblies), np.array(actions).T.copy(), tolerances,
+        batch.consts, batch.weights.as_array(), batch.low, batch.high, obs_rows, obs, res,
+    )  # fmt: skip
+    for j in range(n):
+        single = reach.compute(
+            np.array(rows[j]), rows[j][8], targets[j], tuple(target[3:, j]), assemblies[j],
+            actions[j],
+        )  # fmt: skip
+        assert res[:, j].tolist() == single.tolist()
+        np.testing.assert_array_equal(obs[j], reach.obs)
+    out = BatchReach.results(obs, res)
+    assert set(out["reason"].tolist()) >= {0, 2}  # steps going on and singularity crossings
+    assert out["reward"].tolist() == res[0].tolist()
 
 
 def test_fused_reach_step_agrees_with_the_general_step():

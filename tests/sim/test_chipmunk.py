@@ -81,16 +81,11 @@ def test_the_batch_step_is_each_simulations_step_bit_for_bit(rows):
     handles = np.zeros((n, 6), dtype=np.uintp)
     keep = []
     for i, sim in enumerate(batch):
-        # Each batch simulation's array over a row of the shared readouts (as the vector env).
-        array = chipmunk._ffi.new("pmFloatArray *")
-        array.num, array.max = 0, 132
-        array.arr = chipmunk._ffi.cast("double *", readouts.ctypes.data) + 132 * i
-        request = chipmunk._ffi.new("pmBatchedData *")
-        request.fields, request.floatArray = sim._fast.read[1].fields, array
-        request.intArray = sim._fast.read[1].intArray
-        keep += [array, request]
+        # Each batch simulation's request over a row of the shared readouts (as the vector env).
+        read = chipmunk.body_readout(readouts[i])
+        keep.append(read)
         handles[i] = sim._fast.handles
-        handles[i, 4:] = [chipmunk.address(request), chipmunk.address(array)]
+        handles[i, 4:] = [chipmunk.address(read.request), chipmunk.address(read.array)]
         chipmunk.read_bodies(chipmunk.FUNCTIONS, handles[i])
     sim0, initial = batch[0], readouts.copy()
     for c in commands(60, 11).reshape(20, 3, 3):
@@ -111,3 +106,27 @@ def test_the_batch_step_is_each_simulations_step_bit_for_bit(rows):
             assert readouts[i, :60].tolist() == singles[i]._fast.readout.tolist()
     for i in set(range(n)) - set(rows):
         assert readouts[i].tolist() == initial[i].tolist()  # not stepped: left alone
+
+
+@pytest.mark.parametrize(
+    "memory",
+    [np.zeros(60, dtype=np.float32), np.zeros((2, 60)), np.zeros(120)[::2]],
+    ids=["float32", "2-d", "strided"],
+)
+def test_a_body_readout_refuses_memory_pymunk_cannot_fill(memory):
+    """pymunk writes doubles through one pointer: only a contiguous 1-D float64 array will do."""
+    with pytest.raises(ValueError, match="C-contiguous 1-D float64"):
+        chipmunk.body_readout(memory)
+
+
+def test_a_body_readout_reads_every_body_into_its_memory():
+    """A request over numpy memory reads the same numbers as the simulation's own."""
+    sim = projected(starts(1)[0])
+    read = chipmunk.body_readout(np.full(132, np.nan))
+    handles = sim._fast.handles.copy()
+    handles[4:] = [chipmunk.address(read.request), chipmunk.address(read.array)]
+    chipmunk.read_bodies(chipmunk.FUNCTIONS, handles)
+    n = read.array.num
+    assert n == 6 * (len(sim.space.bodies) + 1)  # six per body, and the space's static body
+    assert read.memory[:n].tolist() == sim._batch_values(sim._fast)
+    assert np.isnan(read.memory[n:]).all()  # nothing past the bodies' numbers

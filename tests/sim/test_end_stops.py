@@ -20,11 +20,10 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from projection_helpers import recorded_projections
+from projection_helpers import project_rows, recorded_projections
 from script_loader import load_script
 
 import planar3p_gym
-from planar3p_gym.sim.batch_step import BatchProjector
 from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, _wrap
 from planar3p_gym.sim.projection import STOP_CONTACT
 
@@ -152,10 +151,9 @@ def recorded_readouts() -> tuple[object, list[list[float]], list[tuple[bool, boo
 
 def test_batch_projection_follows_the_new_paths_bit_for_bit():
     projector, vs, sats = recorded_readouts()
-    batch = BatchProjector(projector)
     buf = np.zeros((len(vs), 132))
     buf[:, :60] = vs
-    st_ = batch.project(buf, np.array(sats, dtype=bool).T)
+    st_ = project_rows(buf, np.array(sats, dtype=bool).T, projector.constants)
     failed = limited = stopped = 0
     for j, v in enumerate(vs):
         pr = projector.project(v, sats[j], FOLLOWING_ERROR_LIMIT)  # as Planar3PSim._project
