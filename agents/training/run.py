@@ -27,7 +27,12 @@ from typing import Any
 
 import numpy as np
 
-from planar3p_agents.training.checkpoints import CHECKPOINT_DIR, checkpoint_path, run_checkpoints
+from planar3p_agents.training.checkpoints import (
+    CHECKPOINT_DIR,
+    checkpoint_path,
+    prune_replay_buffers,
+    run_checkpoints,
+)
 from planar3p_agents.training.config import (
     ALGORITHMS,
     HYPERPARAMS_DIR,
@@ -125,6 +130,21 @@ def latest_checkpoint(run_dir: Path) -> tuple[Path, int]:
         raise ValueError(f"--resume: no checkpoint in {run_dir / CHECKPOINT_DIR}")
     steps = max(found)
     return found[steps], steps
+
+
+def _checkpoint_callback(base: type) -> type:
+    """SB3's ``CheckpointCallback`` (``base``, imported lazily with SB3) that keeps only the
+    newest replay buffer (:func:`~planar3p_agents.training.checkpoints.prune_replay_buffers`),
+    after the new one is written."""
+
+    class KeepNewestReplayBuffer(base):  # type: ignore[misc, valid-type]
+        def _on_step(self) -> bool:
+            out = super()._on_step()
+            if self.save_replay_buffer and self.n_calls % self.save_freq == 0:
+                prune_replay_buffers(Path(self.save_path).parent)
+            return out
+
+    return KeepNewestReplayBuffer
 
 
 def _algo_class(algo: str) -> Any:
@@ -535,7 +555,7 @@ def execute(plan: RunPlan) -> dict[str, Any]:
         _restore_learning_curve(evaluator, run_dir / "evaluations.npz", done_steps)
     callback_list = [
         evaluator,
-        CheckpointCallback(
+        _checkpoint_callback(CheckpointCallback)(
             save_freq=max(1, opt.checkpoint_freq // per_env),
             save_path=str(run_dir / CHECKPOINT_DIR),
             save_replay_buffer=off_policy,

@@ -13,6 +13,7 @@ pytest.importorskip("stable_baselines3")
 from script_loader import command
 
 from planar3p_agents.training import config as training
+from planar3p_agents.training.checkpoints import prune_replay_buffers
 
 train_script = command("train")
 
@@ -340,10 +341,39 @@ def test_her_training_on_the_goal_env_runs_and_resumes(tmp_path: Path) -> None:
     assert train_script.main(args(300)) == 0
     config = json.loads((run / "config.json").read_text())
     assert "HerReplayBuffer" in json.dumps(config["config"]["algo_kwargs"])
-    assert (run / "checkpoints" / "rl_model_replay_buffer_300_steps.pkl").is_file()
+    checkpoints = run / "checkpoints"
+    # every checkpoint's model, only the newest replay buffer (what a resume loads)
+    assert {p.name for p in checkpoints.glob("rl_model_replay_buffer_*")} == {
+        "rl_model_replay_buffer_300_steps.pkl"
+    }
+    assert (checkpoints / "rl_model_150_steps.zip").is_file()
     assert train_script.main([*args(450), "--resume"]) == 0
     metrics = json.loads((run / "metrics.json").read_text())
     assert metrics["resumed_from"] == 300 and metrics["timesteps"] >= 450
+    assert {p.name for p in checkpoints.glob("rl_model_replay_buffer_*")} == {
+        "rl_model_replay_buffer_450_steps.pkl"
+    }
+
+
+def test_pruning_keeps_the_newest_replay_buffer_and_every_model(tmp_path: Path) -> None:
+    """Buffers are ordered by step count (not by name: 1000 after 150), other files stay."""
+    folder = tmp_path / "checkpoints"
+    folder.mkdir()
+    names = [
+        "rl_model_replay_buffer_150_steps.pkl",
+        "rl_model_replay_buffer_1000_steps.pkl",
+        "rl_model_replay_buffer_300_steps.pkl",
+        "rl_model_150_steps.zip",
+        "rl_model_vecnormalize_150_steps.pkl",
+        "rl_model_replay_buffer_old.pkl",  # not a checkpoint's: left alone
+    ]
+    for name in names:
+        (folder / name).write_bytes(b"x")
+    deleted = prune_replay_buffers(tmp_path)
+    assert sorted(p.name for p in deleted) == [names[0], names[2]]
+    assert sorted(p.name for p in folder.iterdir()) == sorted(names[1:2] + names[3:])
+    assert prune_replay_buffers(tmp_path) == []  # nothing left to prune
+    assert prune_replay_buffers(tmp_path / "no-run") == []
 
 
 def test_zoo_strings_are_parsed_safely() -> None:
