@@ -28,8 +28,6 @@ KINDS = {
     "vecnormalize": "rl_model_vecnormalize_{n}_steps.pkl",
     "replay_buffer": "rl_model_replay_buffer_{n}_steps.pkl",
 }
-_MODEL = re.compile(r"rl_model_(\d+)_steps\.zip")
-_BUFFER = re.compile(r"rl_model_replay_buffer_(\d+)_steps\.pkl")
 
 
 def checkpoint_path(steps: int, kind: str = "model") -> str:
@@ -38,11 +36,14 @@ def checkpoint_path(steps: int, kind: str = "model") -> str:
     return f"{CHECKPOINT_DIR}/{KINDS[kind].format(n=int(steps))}"
 
 
-def run_checkpoints(run_dir: str | Path) -> dict[int, Path]:
-    """The model files of a run's checkpoints by step count (empty if it has none)."""
+def run_checkpoints(run_dir: str | Path, kind: str = "model") -> dict[int, Path]:
+    """The ``kind`` files (a key of :data:`KINDS`; default the models) of a run's
+    checkpoints by step count (empty if it has none)."""
+    head, tail = KINDS[kind].split("{n}")
+    pattern = re.compile(re.escape(head) + r"(\d+)" + re.escape(tail))
     out = {}
-    for path in (Path(run_dir) / CHECKPOINT_DIR).glob("rl_model_*_steps.zip"):
-        m = _MODEL.fullmatch(path.name)
+    for path in (Path(run_dir) / CHECKPOINT_DIR).glob(f"{head}*{tail}"):
+        m = pattern.fullmatch(path.name)
         if m:
             out[int(m.group(1))] = path
     return out
@@ -52,11 +53,7 @@ def prune_replay_buffers(run_dir: str | Path) -> list[Path]:
     """Delete every replay buffer of a run's checkpoints but the one of the most steps (what
     a resume loads, :func:`planar3p_agents.training.run.latest_checkpoint`); returns the
     deleted files.  Models and statistics are kept."""
-    found = {}
-    for path in (Path(run_dir) / CHECKPOINT_DIR).glob("rl_model_replay_buffer_*_steps.pkl"):
-        m = _BUFFER.fullmatch(path.name)
-        if m:
-            found[int(m.group(1))] = path
+    found = run_checkpoints(run_dir, "replay_buffer")
     stale = [found[n] for n in sorted(found)[:-1]]
     for path in stale:
         path.unlink()

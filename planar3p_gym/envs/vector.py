@@ -459,10 +459,7 @@ class _BatchCore:
         space, servos = fast.space, fast.servos
         self.handles[i] = (space, *servos, sim._commands)
         self.logged[i] = 0  # (the record was just cleared or restored)
-        read = self.reads[i]
-        self.handle_rows[i] = [
-            chipmunk.address(p) for p in (space, *servos, read.request, read.array)
-        ]
+        self.handle_rows[i] = chipmunk.handle_row(space, servos, self.reads[i])
         chipmunk.read_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
         self.time[i] = sim._time
         self.target[:, i] = env._target

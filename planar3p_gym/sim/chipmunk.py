@@ -51,6 +51,7 @@ __all__ = [
     "advance",
     "advance_batch",
     "body_readout",
+    "handle_row",
     "read_bodies",
     "settle",
     "step_projected",
@@ -118,6 +119,14 @@ def body_readout(memory: np.ndarray) -> BodyReadout:
     request.fields = _cp.POSITION | _cp.ANGLE | _cp.VELOCITY | _cp.ANGULAR_VELOCITY
     request.floatArray, request.intArray = array, ints
     return BodyReadout(memory, array, request, ints)
+
+
+def handle_row(space: Any, servos: tuple, read: BodyReadout) -> np.ndarray:
+    """A simulation's row of :data:`HANDLE_FIELDS` (addresses, uintp): its ``cpSpace *``, its
+    three servos' ``cpConstraint *`` and the request and array of ``read``."""
+    return np.array(
+        [address(p) for p in (space, *servos, read.request, read.array)], dtype=np.uintp
+    )
 
 
 #: Addresses of ``cpSpaceStep``, ``cpConstraintGetImpulse``, ``cpSpaceEachBody``, the get and

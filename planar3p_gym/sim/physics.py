@@ -290,7 +290,7 @@ class FastPath(NamedTuple):
     servos: tuple  #: the three servos' ``cpConstraint *``
     read: chipmunk.BodyReadout  #: the bodies' batch request, kept alive for :attr:`handles`
     handles: np.ndarray  #: :data:`planar3p_gym.sim.chipmunk.HANDLE_FIELDS`, addresses (uintp)
-    readout: np.ndarray  #: the bodies' batch array (float64 over the C array: 60 numbers)
+    readout: np.ndarray  #: the bodies' numbers in :attr:`read`'s memory (float64, 60)
     impulses: np.ndarray  #: the last step's summed and largest servo impulses (N s, 6)
 
 
@@ -524,13 +524,7 @@ class Planar3PSim:
             space=space._space,
             servos=fast_servos,
             read=read,
-            handles=np.array(
-                [
-                    chipmunk.address(p)
-                    for p in (space._space, *fast_servos, read.request, read.array)
-                ],
-                dtype=np.uintp,
-            ),
+            handles=chipmunk.handle_row(space._space, fast_servos, read),
             readout=read.memory[: _BODY_FIELDS * len(self._bodies)],
             impulses=np.zeros(6),
         )

@@ -38,6 +38,11 @@ def test_chipmunk_calls_are_compiled_on_the_pinned_pymunk():
     sim = projected(starts(1)[0])
     assert sim._fast is not None
     assert sim._fast.handles.tolist()[0] == chipmunk.address(sim.space._space)
+    fast = sim._fast  # the row in HANDLE_FIELDS order
+    assert sim._fast.handles.tolist() == [
+        chipmunk.address(p) for p in (fast.space, *fast.servos, fast.read.request, fast.read.array)
+    ]
+    assert len(fast.handles) == len(chipmunk.HANDLE_FIELDS)
 
 
 def test_the_compiled_step_is_its_parts_bit_for_bit(monkeypatch):
@@ -84,8 +89,7 @@ def test_the_batch_step_is_each_simulations_step_bit_for_bit(rows):
         # Each batch simulation's request over a row of the shared readouts (as the vector env).
         read = chipmunk.body_readout(readouts[i])
         keep.append(read)
-        handles[i] = sim._fast.handles
-        handles[i, 4:] = [chipmunk.address(read.request), chipmunk.address(read.array)]
+        handles[i] = chipmunk.handle_row(sim._fast.space, sim._fast.servos, read)
         chipmunk.read_bodies(chipmunk.FUNCTIONS, handles[i])
     sim0, initial = batch[0], readouts.copy()
     for c in commands(60, 11).reshape(20, 3, 3):
@@ -123,8 +127,7 @@ def test_a_body_readout_reads_every_body_into_its_memory():
     """A request over numpy memory reads the same numbers as the simulation's own."""
     sim = projected(starts(1)[0])
     read = chipmunk.body_readout(np.full(132, np.nan))
-    handles = sim._fast.handles.copy()
-    handles[4:] = [chipmunk.address(read.request), chipmunk.address(read.array)]
+    handles = chipmunk.handle_row(sim._fast.space, sim._fast.servos, read)
     chipmunk.read_bodies(chipmunk.FUNCTIONS, handles)
     n = read.array.num
     assert n == 6 * (len(sim.space.bodies) + 1)  # six per body, and the space's static body
