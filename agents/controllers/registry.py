@@ -19,6 +19,8 @@ analytic-tuned          simultaneous simple motions, gain tuned per suite       
 analytic-feedforward-   the feed-forward controller, gain tuned per suite       tracking
 tuned
 certified               slider line / simple motions / detour, as certified     reach, goal, real
+certified-line          slider line (servo lag predicted) where certified from   reach, goal, real
+                        the current state, else simple motions, at every step
 planner                 certified travel-space path, then simple motions        mode change
 crossing                dynamic crossing demonstration, then simple motions     assembly change
 random                  uniformly random actions (seeded)                       all
@@ -190,6 +192,15 @@ def _certified(ctx: BaselineContext) -> Any:
     )
 
 
+def _certified_line(ctx: BaselineContext) -> Any:
+    from planar3p_agents.controllers.certified_line import CertifiedLineController
+
+    base = getattr(ctx.env, "unwrapped", None)
+    return CertifiedLineController(
+        ctx.design, dt=float(getattr(base, "dt", 0.02)), observation_size=ctx.layout.size
+    )
+
+
 def _planner(ctx: BaselineContext) -> Any:
     from planar3p_agents.controllers.planner import JointPathPlanner
 
@@ -278,6 +289,13 @@ BASELINES: dict[str, Baseline] = {
             "slider line where certified, else simple motions on a clear path, else a detour",
             REACH_IDS,
             _certified,
+        ),
+        Baseline(
+            "certified-line",
+            "slider line, servo lag predicted, where certified from the current state, else "
+            "simple motions",
+            REACH_IDS,
+            _certified_line,
         ),
         Baseline(
             "analytic-on-off",

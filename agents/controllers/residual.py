@@ -14,7 +14,11 @@ with ``base`` an analytic controller evaluated on the raw observation (actions a
 * :class:`ResidualReachPolicy` (``Planar3P-v0``/``-v1``): ``base`` is the benchmark's
   ``analytic-simultaneous`` controller
   (:class:`planar3p_agents.controllers.analytic.AnalyticController` with its default gains),
-  the controller the learned policy is compared with.
+  the controller the learned policy is compared with;
+* :class:`ResidualLinePolicy` (``Planar3P-v0``/``-v1``): ``base`` is the ``certified-line``
+  baseline (:class:`planar3p_agents.controllers.certified_line.CertifiedLineController`: the
+  slider line, with the servo's lag predicted, wherever it is certified from the current state,
+  else the simple motions), the fastest of the reach baselines.
 
 The head's output layer starts at zero, so the untrained policy's mean *is* the base controller,
 and the correction can never exceed ``residual_scale`` of the slider speed limit per slider.
@@ -47,17 +51,22 @@ from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
 from torch import nn
 
 from planar3p_agents.controllers.analytic import AnalyticController
+from planar3p_agents.controllers.base import BatchPolicy
+from planar3p_agents.controllers.certified_line import CertifiedLineController
 from planar3p_agents.controllers.tracking import TRACK_OBS_SIZE, TrackingController
 from planar3p_gym.checks import design_from
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
 __all__ = [
+    "BASE_CACHE_ROWS",
     "ERROR_SCALE",
     "FEATURE_CLIP",
     "REACH_ERROR_SCALE",
     "RESIDUAL_SCALE",
+    "LineFeatures",
     "ReachFeatures",
+    "ResidualLinePolicy",
     "ResidualReachPolicy",
     "ResidualTrackPolicy",
     "TrackFeatures",
@@ -74,6 +83,8 @@ REACH_ERROR_SCALE = 1e-2
 FEATURE_CLIP = 10.0
 #: Default largest correction per slider, as a fraction of ``max_speed``.
 RESIDUAL_SCALE = 0.1
+#: Observations whose base action :class:`LineFeatures` keeps (a few PPO rollouts' worth).
+BASE_CACHE_ROWS = 1 << 16
 
 
 def feature_scaling(
@@ -111,18 +122,18 @@ class ControllerFeatures(BaseFeaturesExtractor):
 
     Args:
         observation_space: ``Box((controller.obs_size,))``.
-        controller: the base controller (an :class:`AnalyticController`; its design sets the
-            feature scales).
+        controller: the base controller (a :class:`BatchPolicy` with a ``design``, which sets
+            the feature scales, and an ``obs_size``).
         error_scale: pose error (m) that maps to a feature of 1.
     """
 
     def __init__(
         self,
         observation_space: gym.spaces.Box,
-        controller: AnalyticController,
+        controller: BatchPolicy,
         error_scale: float,
     ) -> None:
-        size = controller.obs_size
+        size = int(controller.obs_size or 0)
         if observation_space.shape != (size,):
             raise ValueError(
                 f"{type(self).__name__} needs an observation of shape ({size},), got "
@@ -181,6 +192,44 @@ class ReachFeatures(ControllerFeatures):
     ) -> None:
         controller = AnalyticController(design_from(design), "simultaneous")
         super().__init__(observation_space, controller, REACH_ERROR_SCALE)
+
+
+class LineFeatures(ControllerFeatures):
+    """:class:`ControllerFeatures` of the reach observation (31 entries, errors per
+    :data:`REACH_ERROR_SCALE`) with the ``certified-line`` baseline as base: ``34`` features.
+
+    The base certifies a slider line per observation (about 0.2 ms each), and PPO evaluates
+    the features of every rollout observation once per epoch: the base actions of the last
+    :data:`BASE_CACHE_ROWS` distinct observations are kept, keyed by their float32 bytes.  The
+    base is a fixed function of the observation, so a kept action is the one it would compute.
+
+    Args:
+        observation_space: ``Box((31,))`` of ``Planar3P-v0``/``-v1``.
+        design: the machine (a :class:`Design`, its dict, or ``None`` for ``Design.fig8()``).
+        gain: the base's slider-line gain (1/s); ``None``: its default, deadbeat.
+    """
+
+    def __init__(
+        self,
+        observation_space: gym.spaces.Box,
+        design: Design | dict[str, Any] | None = None,
+        gain: float | None = None,
+    ) -> None:
+        controller = CertifiedLineController(design_from(design), gain=gain)
+        super().__init__(observation_space, controller, REACH_ERROR_SCALE)
+        self._cache: dict[bytes, np.ndarray] = {}
+
+    def base_action(self, obs: th.Tensor) -> th.Tensor:
+        raw = obs.detach().cpu().numpy().astype(np.float32)
+        keys = [row.tobytes() for row in raw]
+        missing = [i for i, key in enumerate(keys) if key not in self._cache]
+        if missing:
+            if len(self._cache) + len(missing) > BASE_CACHE_ROWS:
+                self._cache.clear()
+            computed = self.base.predict(raw[missing].astype(np.float64))[0]
+            self._cache.update(zip([keys[i] for i in missing], computed, strict=True))
+        action = np.stack([self._cache[key] for key in keys]) if keys else np.zeros((0, 3))
+        return th.as_tensor(action, dtype=obs.dtype, device=obs.device)
 
 
 class ResidualPolicy(ActorCriticPolicy):
@@ -315,3 +364,22 @@ class ResidualReachPolicy(ResidualPolicy):
     (``Planar3P-v0``/``-v1``); arguments as for :class:`ResidualPolicy`."""
 
     features_class = ReachFeatures
+
+
+class ResidualLinePolicy(ResidualPolicy):
+    """:class:`ResidualPolicy` on the ``certified-line`` baseline (``Planar3P-v0``/``-v1``).
+
+    Args:
+        observation_space, action_space, lr_schedule, residual_scale, design, **kwargs: as
+            for :class:`ResidualPolicy`.
+        gain: the base's slider-line gain (1/s); ``None``: its default, deadbeat.
+    """
+
+    features_class = LineFeatures
+
+    def __init__(self, *args: Any, gain: float | None = None, **kwargs: Any) -> None:
+        self.gain = None if gain is None else float(gain)
+        super().__init__(*args, **kwargs)
+
+    def _base_kwargs(self) -> dict[str, Any]:
+        return {"gain": self.gain}

@@ -60,6 +60,7 @@ REACH_BASELINES: tuple[str, ...] = (
     "analytic-tuned",
     "slider-line",
     "certified",
+    "certified-line",
     "random",
     "zero",
 )

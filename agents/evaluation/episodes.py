@@ -12,7 +12,7 @@ SI units unless a name says otherwise.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -26,6 +26,7 @@ from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.observation import SLICES
 
 __all__ = [
+    "BOUNDED_TASKS",
     "FAILURE_CAUSES",
     "EpisodeResult",
     "episode_bound",
@@ -61,8 +62,9 @@ class EpisodeResult:
     ``task_metrics`` holds the metrics a task reports at the end of an episode (e.g. tracking
     errors, m or rad as named); empty for the reach task.  ``success_defined`` is false for a
     task without a success test (tracking).  ``speed_bound`` (s) is :func:`speed_bound` of the
-    episode (NaN for a task whose target is not in the start's working mode, or without one)
-    and ``time_over_bound`` the time to success divided by it (NaN unless successful).
+    episode on its own machine (:func:`episode_bound`; NaN for a task whose target is not in
+    the start's working mode, or without one) and ``time_over_bound`` the time to success
+    divided by it (NaN unless successful).
     """
 
     policy: str
@@ -119,6 +121,10 @@ def episode_seed(seed: int, suite: str, index: int) -> np.random.SeedSequence:
     return np.random.SeedSequence([int(seed), 0xE915, suite_id(suite), int(index)])
 
 
+#: Tasks whose target is in the start's working mode: :func:`episode_bound` applies.
+BOUNDED_TASKS = ("reach", "goal")
+
+
 def speed_bound(design: Design, start: Any, target: Any, mode: Any) -> float:
     """The physical limit of a reach episode (s): ``max_i |rho_i(target) - rho_i(start)| /
     max_speed``, the travels by inverse kinematics in working mode ``mode`` (no slider can move
@@ -131,13 +137,19 @@ def speed_bound(design: Design, start: Any, target: Any, mode: Any) -> float:
     return bound if math.isfinite(bound) else math.nan
 
 
-def episode_bound(design: Design, spec: EpisodeSpec) -> float:
+def episode_bound(
+    design: Design, spec: EpisodeSpec, machine: Mapping[str, Any] | None = None
+) -> float:
     """:func:`speed_bound` of ``spec`` if its target is in its start's working mode (a reach
-    suite, or the goal task), else NaN."""
+    suite, or a task of :data:`BOUNDED_TASKS`), else NaN.  ``machine`` is the episode's drawn
+    machine as a randomised environment reports it at reset (``info["machine"]``): the bound
+    is then that machine's (its travels and speed limit), not the nominal ``design``'s."""
     if spec.target is None:
         return math.nan
-    if spec.options is not None and spec.options.get("task") != "goal":
+    if spec.options is not None and spec.options.get("task") not in BOUNDED_TASKS:
         return math.nan
+    if machine is not None:
+        design = Design.from_dict(dict(machine["design"]))
     return speed_bound(design, spec.start, spec.target, spec.working_mode)
 
 
@@ -185,6 +197,7 @@ def run_episode(
     stroke = design.stroke
     _reset_policy(policy, episode_seed(seed, spec.suite, spec.index))
     obs, info = reset_episode(env, spec, seed)
+    machine = info.get("machine")
     state: Any = None
     start = np.ones(1, dtype=bool)
     total = 0.0
@@ -238,7 +251,7 @@ def run_episode(
         cause = _diagnose(info, design, base.task_config) if can_succeed else "completed"
     else:
         cause = reason
-    bound = episode_bound(design, spec)
+    bound = episode_bound(design, spec, machine)
     return EpisodeResult(
         policy=policy_name,
         suite=spec.suite,

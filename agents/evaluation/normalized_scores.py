@@ -14,7 +14,8 @@ Three per-suite values of a policy (from a benchmark's ``episodes.csv`` or its r
 the reference values of :data:`REFERENCE_FILE` (``reference_scores.json`` beside this module):
 per suite and metric, the random policy's value and the best value among the suite's strongest
 baselines (:func:`best_baselines`: on the reach suites, the goal-conditioned ones and the built
-machine's reach, :data:`BEST_BASELINES` = ``slider-line``, ``analytic-tuned``, ``certified``;
+machine's reach, :data:`BEST_BASELINES` = ``slider-line``, ``analytic-tuned``, ``certified``,
+``certified-line``;
 elsewhere the task's own, :data:`TASK_BEST_BASELINES`), measured by the benchmark on its suites
 of seed 0.  A metric a suite cannot rank (tracking has no success test and no speed bound) has
 no reference there.  Regenerate the file from the benchmarks that played them::
@@ -31,6 +32,10 @@ profiles (``scores_profiles.png``) and the probability of improvement of every p
 best baseline (``scores_improvement.png``)::
 
     python -m planar3p_agents.evaluation.normalized_scores matrix RUN/episodes.csv --out RUN
+
+When ``RUN`` holds the benchmark's ``report.md``, ``matrix`` also replaces the report's
+normalized-scores section (:func:`replace_report_section`): after the reference file changes,
+the reports follow it without their episodes being played again.
 """
 
 from __future__ import annotations
@@ -49,6 +54,7 @@ from typing import Any
 import numpy as np
 
 from planar3p_agents.evaluation.seed_statistics import group_label, stratified_bootstrap_iqm
+from planar3p_gym import atomic_files
 
 __all__ = [
     "BEST_BASELINES",
@@ -63,6 +69,7 @@ __all__ = [
     "make_references",
     "probability_of_improvement",
     "read_rows",
+    "replace_report_section",
     "score_matrix",
     "scores_markdown",
     "suite_values",
@@ -75,7 +82,12 @@ SCORE_METRICS: tuple[str, ...] = ("success", "time", "return")
 RANDOM_POLICY = "random"
 #: The baselines whose best value scores 100 on the reaching suites (item 1 of issue 25: the
 #: strongest baselines).
-BEST_BASELINES: tuple[str, ...] = ("slider-line", "analytic-tuned", "certified")
+BEST_BASELINES: tuple[str, ...] = (
+    "slider-line",
+    "analytic-tuned",
+    "certified",
+    "certified-line",
+)
 #: The suites where other baselines are the strongest: the task's own (the certified planner of
 #: the working-mode change, the crossing demonstration and the simple motions of the
 #: assembly-mode change, the tuned feed-forward tracker, the bang-bang law of the on-off motors).
@@ -462,6 +474,25 @@ def write_scores(
     return "\n".join(parts) + "\n"
 
 
+def replace_report_section(report: Path, section: str) -> bool:
+    """Replace the ``## Normalized scores`` section of a benchmark's ``report.md`` (up to the
+    next ``## `` heading) by ``section``, so that a report follows the reference file after it
+    changes without playing its episodes again; False (nothing written) if the report or the
+    section is missing."""
+    if not report.is_file():
+        return False
+    lines = report.read_text().splitlines(keepends=True)
+    heading = section.splitlines()[0]
+    starts = [i for i, line in enumerate(lines) if line.rstrip("\n") == heading]
+    if not starts:
+        return False
+    start = starts[0]
+    end = next((i for i in range(start + 1, len(lines)) if lines[i].startswith("## ")), len(lines))
+    text = "".join(lines[:start]) + section + "\n" + "".join(lines[end:])
+    atomic_files.write_atomic(report, text)
+    return True
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description="Normalized scores of a benchmark run.")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -493,6 +524,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             if not text:
                 raise ValueError("no suite of this run has reference scores")
             (Path(args.out) / "scores.md").write_text(text)
+            if replace_report_section(Path(args.out) / "report.md", text):
+                print(f"updated the normalized scores of {Path(args.out) / 'report.md'}")
             print(text)
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -36,6 +36,7 @@ METRICS: dict[str, tuple[str, str, float]] = {
     "success": ("success", "%", 100.0),
     "episode_return": ("median return", "", 1.0),
     "time_to_success": ("median time to success", "s", 1.0),
+    "time_over_bound": ("median time to success over the speed bound", "x", 1.0),
     "tracking_rms_error": ("median tracking RMS error", "mm", 1000.0),
     "tracking_max_error": ("median tracking max error", "mm", 1000.0),
     "tracking_rms_position_error": ("median tracking RMS position error", "mm", 1000.0),
@@ -177,7 +178,7 @@ def markdown(rows: list[dict[str, Any]], metric: str = "success") -> str:
     _check_metric(metric)
     name, unit, factor = METRICS[metric]
     what = f"{name} {unit}".strip()
-    digits = {"%": (0, 1), "mm": (3, 3), "deg": (3, 3), "s": (2, 3)}.get(unit, (1, 1))
+    digits = {"%": (0, 1), "mm": (3, 3), "deg": (3, 3), "s": (2, 3), "x": (3, 3)}.get(unit, (1, 1))
     lines = [
         f"| policy (seeds pooled) | suite | training seeds | {what} per seed "
         f"| IQM {what} [95 % stratified-bootstrap CI] |",

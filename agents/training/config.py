@@ -95,6 +95,7 @@ _ZOO_KEYS = {
 PROJECT_POLICIES: dict[str, tuple[str, str]] = {
     "ResidualTrackPolicy": ("planar3p_agents.controllers.residual", "ResidualTrackPolicy"),
     "ResidualReachPolicy": ("planar3p_agents.controllers.residual", "ResidualReachPolicy"),
+    "ResidualLinePolicy": ("planar3p_agents.controllers.residual", "ResidualLinePolicy"),
 }
 
 

@@ -32,6 +32,7 @@ __all__ = [
     "JointPath",
     "PathLimits",
     "certify_joint_path",
+    "certify_lines",
     "closing_travels",
     "find_joint_path",
     "first_straight_path",
@@ -280,6 +281,32 @@ def certify_joint_path(
     if _pose_gap(design, pose, np.asarray(end, dtype=np.float64)) > _END_TOLERANCE:
         return None, "end_pose"
     return JointPath(w, np.array(waypoint_poses), min_margin, max_force), "ok"
+
+
+def certify_lines(
+    design: Design,
+    rho_start: ArrayLike,
+    rho_end: ArrayLike,
+    pose_start: ArrayLike,
+    pose_end: ArrayLike,
+    limits: PathLimits,
+) -> NDArray[np.bool_]:
+    """:func:`certify_joint_path` of ``N`` straight travel lines at once: mask ``(N,)``, True
+    where the line from travels ``rho_start`` (m, on the pose ``pose_start``) to ``rho_end``
+    stays in the stroke of ``limits``, keeps its branch unambiguous, its parallel margin and
+    holding forces, and arrives at the pose ``pose_end`` (m, m, rad).  Rows of ``(N, 3)``
+    arrays, or one ``(3,)`` row shared by every line; False where a travel is not finite."""
+    arrays = [np.asarray(a, dtype=np.float64) for a in (rho_start, rho_end, pose_start, pose_end)]
+    shape = np.broadcast_shapes(*(a.shape for a in arrays))
+    rows = [np.broadcast_to(a, shape).reshape(-1, 3) for a in arrays]
+    ok = np.zeros(rows[0].shape[0], dtype=np.bool_)
+    finite = np.isfinite(rows[0]).all(axis=1) & np.isfinite(rows[1]).all(axis=1)
+    cand = np.flatnonzero(
+        finite & _in_stroke(design, rows[0], limits) & _in_stroke(design, rows[1], limits)
+    )
+    if cand.size:
+        ok[cand] = _certify_segments(design, *(r[cand] for r in rows), limits)[0]
+    return ok
 
 
 def _certify_segments(

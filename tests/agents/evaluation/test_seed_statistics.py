@@ -171,3 +171,18 @@ def test_time_to_success_is_the_median_over_the_successful_episodes():
     table = ss.markdown(ss.seed_table(groups, n_resamples=10), "time_to_success")
     assert "median time to success s per seed" in table
     assert "| 0.64 | 0.640 [0.640, 0.640] |" in table
+
+
+def test_time_over_the_speed_bound_per_seed():
+    """``time_over_bound``: each seed's median over its successful episodes, in units of the
+    speed bound (``x``), three decimals."""
+    rows = [
+        {"policy": "runs/l-s2/model", "training_seed": 2, "suite": "hard", "success": ok,
+         "time_over_bound": t}
+        for ok, t in ((True, "1.05"), (True, "1.2"), (False, "nan"), (True, "1.1"))
+    ]  # fmt: skip
+    groups = ss.read_seed_scores(rows, "time_over_bound")
+    assert groups["runs/l/model"]["hard"] == {2: pytest.approx(1.1)}
+    table = ss.markdown(ss.seed_table(groups, n_resamples=10), "time_over_bound")
+    assert "median time to success over the speed bound x per seed" in table
+    assert "| 1.100 | 1.100 [1.100, 1.100] |" in table

@@ -145,6 +145,25 @@ def test_speed_bound_is_the_largest_travel_over_the_speed_limit():
     assert math.isnan(speed_bound(design, STANDARD.start, (5.0, 5.0, 0.0), MODE))
 
 
+def test_speed_bound_of_the_built_machine_is_its_drawn_machine_s(tmp_path):
+    """On the machine as built the bound is the drawn machine's (its travels and speed limit,
+    from ``info["machine"]`` at reset), not the nominal design's; on the nominal id it is the
+    nominal one's."""
+    from planar3p_agents.evaluation.benchmark import build_suites
+    from planar3p_gym.machine.design import Design
+
+    real = gym.make(planar3p_gym.REAL_ENV_ID)
+    spec = build_suites(["real-reach"], 1, 0, real.unwrapped.design)["real-reach"].episodes[0]
+    _, info = real.reset(seed=spec.index, options=spec.reset_options())
+    drawn = Design.from_dict(info["machine"]["design"])
+    assert drawn != real.unwrapped.design
+    res = run_episode(real, load_policy("analytic-simultaneous", real), spec, policy_name="a")
+    expected = speed_bound(drawn, spec.start, spec.target, spec.working_mode)
+    nominal = speed_bound(real.unwrapped.design, spec.start, spec.target, spec.working_mode)
+    assert res.speed_bound == expected and abs(expected - nominal) > 1e-6
+    real.close()
+
+
 def _rows():
     rows = []
     for policy, seed, ok, t in (
@@ -247,3 +266,18 @@ def test_reference_file_covers_the_reach_and_task_suites():
     assert ns.get_normalized_score("standard", refs["suites"]["standard"]["success"]["best"]) == (
         pytest.approx(100.0)
     )
+
+
+def test_report_section_follows_the_reference_file(tmp_path):
+    """``replace_report_section`` swaps the normalized-scores section of a report for a new one
+    and leaves the sections around it; without the report or the section it writes nothing."""
+    report = tmp_path / "report.md"
+    assert not ns.replace_report_section(report, "## Normalized scores\n\nnew\n")
+    head, tail = "# Run\n\n## Results\n\nrows\n\n", "## Definitions\n\nterms\n"
+    report.write_text(head + "## Normalized scores\n\nold table\n\n![fig](a.png)\n\n" + tail)
+    assert ns.replace_report_section(report, "## Normalized scores\n\nnew table\n")
+    assert report.read_text() == head + "## Normalized scores\n\nnew table\n\n" + tail
+    plain = tmp_path / "plain.md"
+    plain.write_text(head + tail)
+    assert not ns.replace_report_section(plain, "## Normalized scores\n\nnew\n")
+    assert plain.read_text() == head + tail

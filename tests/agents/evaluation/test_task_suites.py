@@ -103,6 +103,7 @@ def test_script_on_task_suites_and_replay(tmp_path, bench, capsys):
         ("analytic-tuned", "goal"),  # issue 25: the strongest reach baselines on the goal ids
         ("slider-line", "goal"),
         ("certified", "goal"),
+        ("certified-line", "goal"),
         ("random", "goal"),
         ("random", "track-segments"),
         ("analytic-simultaneous", "track-segments"),
