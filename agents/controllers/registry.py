@@ -72,11 +72,21 @@ __all__ = [
     "CONTINUOUS_IDS",
     "ON_OFF_IDS",
     "REACH_IDS",
+    "STRONGEST_REACH_BASELINES",
     "Baseline",
     "BaselineContext",
     "baselines_for",
 ]
 
+#: The strongest reach baselines (issue 25, item 1), in report order: what a reviewer would try
+#: before believing that a learned reach policy is fast.  The benchmark plays them on the reach,
+#: goal and built-machine reach suites, and the best of them scores 100 in the normalized scores.
+STRONGEST_REACH_BASELINES: tuple[str, ...] = (
+    "analytic-tuned",
+    "slider-line",
+    "certified",
+    "certified-line",
+)
 #: The ids whose task is reaching a target pose in the start's working mode (slider rates).
 REACH_IDS: tuple[str, ...] = (ENV_ID, GOAL_ENV_ID, GOAL_DENSE_ENV_ID, REAL_ENV_ID)
 #: The ids whose actions are slider rates (a ``Box``): every id but the on-off ones.

@@ -26,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 from planar3p_agents.controllers.layout import env_id_of
-from planar3p_agents.controllers.registry import BASELINES
+from planar3p_agents.controllers.registry import BASELINES, STRONGEST_REACH_BASELINES
 from planar3p_agents.evaluation.episodes import EpisodeResult, evaluate
 from planar3p_agents.evaluation.intervals import summarize
 from planar3p_agents.evaluation.normalized_scores import write_scores
@@ -57,10 +57,7 @@ from planar3p_gym.machine.design import Design
 REACH_BASELINES: tuple[str, ...] = (
     "analytic-simultaneous",
     "analytic-sequential",
-    "analytic-tuned",
-    "slider-line",
-    "certified",
-    "certified-line",
+    *STRONGEST_REACH_BASELINES,
     "random",
     "zero",
 )

@@ -14,8 +14,8 @@ Three per-suite values of a policy (from a benchmark's ``episodes.csv`` or its r
 the reference values of :data:`REFERENCE_FILE` (``reference_scores.json`` beside this module):
 per suite and metric, the random policy's value and the best value among the suite's strongest
 baselines (:func:`best_baselines`: on the reach suites, the goal-conditioned ones and the built
-machine's reach, :data:`BEST_BASELINES` = ``slider-line``, ``analytic-tuned``, ``certified``,
-``certified-line``;
+machine's reach, :data:`BEST_BASELINES` = ``analytic-tuned``, ``slider-line``, ``certified``,
+``certified-line`` (the registry's ``STRONGEST_REACH_BASELINES``);
 elsewhere the task's own, :data:`TASK_BEST_BASELINES`), measured by the benchmark on its suites
 of seed 0.  A metric a suite cannot rank (tracking has no success test and no speed bound) has
 no reference there.  Regenerate the file from the benchmarks that played them::
@@ -53,6 +53,7 @@ from typing import Any
 
 import numpy as np
 
+from planar3p_agents.controllers.registry import STRONGEST_REACH_BASELINES
 from planar3p_agents.evaluation.seed_statistics import group_label, stratified_bootstrap_iqm
 from planar3p_gym import atomic_files
 
@@ -82,12 +83,7 @@ SCORE_METRICS: tuple[str, ...] = ("success", "time", "return")
 RANDOM_POLICY = "random"
 #: The baselines whose best value scores 100 on the reaching suites (item 1 of issue 25: the
 #: strongest baselines).
-BEST_BASELINES: tuple[str, ...] = (
-    "slider-line",
-    "analytic-tuned",
-    "certified",
-    "certified-line",
-)
+BEST_BASELINES: tuple[str, ...] = STRONGEST_REACH_BASELINES
 #: The suites where other baselines are the strongest: the task's own (the certified planner of
 #: the working-mode change, the crossing demonstration and the simple motions of the
 #: assembly-mode change, the tuned feed-forward tracker, the bang-bang law of the on-off motors).

@@ -38,6 +38,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from planar3p_agents.controllers.registry import STRONGEST_REACH_BASELINES
 from planar3p_agents.evaluation.reach_suites import EpisodeSpec, Suite, triple
 from planar3p_gym.envs.latency import REALISTIC_LATENCY
 from planar3p_gym.sim.randomization import REALISTIC_RANDOMIZATION
@@ -75,14 +76,7 @@ class TaskSuiteDef:
 #: The goal-conditioned suites' baselines: the analytic controller as shipped, the strongest
 #: baselines of the reach (tuned gain, slider line, certified planner, certified line; issue 25,
 #: item 1) and the random policy (the 0 of the normalized scores), through the goal adapter.
-GOAL_BASELINES = (
-    "analytic-simultaneous",
-    "analytic-tuned",
-    "slider-line",
-    "certified",
-    "certified-line",
-    "random",
-)
+GOAL_BASELINES = ("analytic-simultaneous", *STRONGEST_REACH_BASELINES, "random")
 #: The task suites, in report order.
 TASK_SUITES: dict[str, TaskSuiteDef] = {
     "goal": TaskSuiteDef(
@@ -142,15 +136,7 @@ TASK_SUITES: dict[str, TaskSuiteDef] = {
     "real-reach": TaskSuiteDef(
         "Planar3PReal-v0",
         {},
-        (
-            "analytic-simultaneous",
-            "analytic-tuned",
-            "slider-line",
-            "certified",
-            "certified-line",
-            "random",
-            "zero",
-        ),
+        ("analytic-simultaneous", *STRONGEST_REACH_BASELINES, "random", "zero"),
         "reach on the machine as built (randomised machine per episode, encoder readings through "
         "the nominal model, one step of action delay)",
         7,
@@ -158,13 +144,7 @@ TASK_SUITES: dict[str, TaskSuiteDef] = {
     "real-reach-true-state": TaskSuiteDef(
         "Planar3PReal-v0",
         {"sensors": None},
-        (
-            "analytic-simultaneous",
-            "analytic-tuned",
-            "slider-line",
-            "certified",
-            "certified-line",
-        ),
+        ("analytic-simultaneous", *STRONGEST_REACH_BASELINES),
         "the same machines, observed without sensors (the true state): is the task solvable on "
         "the randomised machine?",
         8,
@@ -172,13 +152,7 @@ TASK_SUITES: dict[str, TaskSuiteDef] = {
     "real-reach-nominal": TaskSuiteDef(
         "Planar3PReal-v0",
         {"randomization": {}, "sensors": None, "latency": {}},
-        (
-            "analytic-simultaneous",
-            "analytic-tuned",
-            "slider-line",
-            "certified",
-            "certified-line",
-        ),
+        ("analytic-simultaneous", *STRONGEST_REACH_BASELINES),
         "the same episodes on the nominal machine (no randomisation, true state, no delay): the "
         "reference the built machine is compared with",
         10,

@@ -9,6 +9,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 import pytest
+from reach_helpers import HARD, STANDARD
 
 pytest.importorskip("stable_baselines3")
 
@@ -29,29 +30,11 @@ from planar3p_agents.controllers.certified_line import CertifiedLineController
 from planar3p_agents.controllers.residual import LineFeatures, ResidualLinePolicy
 from planar3p_agents.controllers.slider_line import line_rates
 from planar3p_agents.evaluation.episodes import run_episode
-from planar3p_agents.evaluation.reach_suites import EpisodeSpec
 from planar3p_agents.policies.factory import load_policy
 from planar3p_agents.training import config as training
 from planar3p_gym.tasks.observation import SLICES
 
 ID = planar3p_gym.ENV_ID
-MODE = (1, 1, -1)
-#: Episode 0 of the ``standard`` suite of seed 0: the slider line solves it.
-STANDARD = EpisodeSpec(
-    "standard",
-    0,
-    (-0.014130103980426634, 0.08874557796781271, 0.21442711562825648),
-    (0.061531177825434324, 0.18644608444136282, -0.23570030702573236),
-    MODE,
-)
-#: Episode 0 of the ``hard`` suite of seed 0: the slider line from the start is not safe.
-HARD = EpisodeSpec(
-    "hard",
-    0,
-    (-0.006128449623607257, 0.029483208287819057, 0.28866444721929224),
-    (0.019764311544887725, 0.01222494475140368, -0.5759581934985943),
-    MODE,
-)
 
 
 @pytest.fixture(scope="module")

@@ -11,6 +11,7 @@ from types import SimpleNamespace
 import gymnasium as gym
 import numpy as np
 import pytest
+from reach_helpers import HARD, MODE, STANDARD
 
 import planar3p_gym
 from planar3p_agents.controllers.certified import CertifiedPlanner
@@ -19,29 +20,9 @@ from planar3p_agents.controllers.slider_line import SliderLineController, line_r
 from planar3p_agents.evaluation import normalized_scores as ns
 from planar3p_agents.evaluation import tuning
 from planar3p_agents.evaluation.episodes import run_episode, speed_bound
-from planar3p_agents.evaluation.reach_suites import EpisodeSpec
 from planar3p_agents.policies.factory import load_policy
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.slider_line import slider_line_reaches
-
-MODE = (1, 1, -1)
-#: Episode 0 of the ``standard`` suite of seed 0: the slider line solves it.
-STANDARD = EpisodeSpec(
-    "standard",
-    0,
-    (-0.014130103980426634, 0.08874557796781271, 0.21442711562825648),
-    (0.061531177825434324, 0.18644608444136282, -0.23570030702573236),
-    MODE,
-)
-#: Episode 0 of the ``hard`` suite of seed 0: neither the slider line nor the straight pose
-#: path is safe (it passes within 0.01 of a parallel singularity).
-HARD = EpisodeSpec(
-    "hard",
-    0,
-    (-0.006128449623607257, 0.029483208287819057, 0.28866444721929224),
-    (0.019764311544887725, 0.01222494475140368, -0.5759581934985943),
-    MODE,
-)
 
 
 @pytest.fixture(scope="module")
