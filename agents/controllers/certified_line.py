@@ -24,9 +24,9 @@ on ``standard`` (docs/_notes/studies/residual-line.md).
 Unlike the planner, which decides once per episode, it decides again at every step from the
 observation alone: it keeps no state, so it serves as the base of a residual policy
 (:class:`planar3p_agents.controllers.residual.ResidualLinePolicy`), whose features are a
-function of the observation only.  Near a singularity, a pair the planner sends on the simple
-motions from start to end switches here to the line as soon as the line is certified, which is
-what makes it faster on the ``hard`` suite.
+function of the observation only.  Where the planner commits to the simple motions or to a
+detour for the whole episode, this controller takes the line as soon as the line from the
+current state is certified, which is what makes it faster on the ``hard`` suite.
 
 The line is checked at :data:`DEFAULT_POINTS` points (the planner's episode plan at 100): it
 is certified again at every step from closer by, and a batch of 512 observations costs about
@@ -44,26 +44,22 @@ from numpy.typing import NDArray
 from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.base import BatchPolicy
 from planar3p_agents.controllers.certified import DEFAULT_CARTESIAN_GAIN, DEFAULT_LIMITS
-from planar3p_agents.controllers.slider_line import line_rates, observed_modes, target_travels
+from planar3p_agents.controllers.slider_line import (
+    line_rates,
+    observed_modes,
+    observed_poses,
+    target_travels,
+)
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.joint_paths import PathLimits, certify_lines
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
-__all__ = ["DEFAULT_POINTS", "CertifiedLineController", "observed_poses"]
+__all__ = ["DEFAULT_POINTS", "CertifiedLineController"]
 
 #: Points at which the line from the current state is checked (see the module docstring).
 DEFAULT_POINTS = 32
 
 FloatArray = NDArray[np.float64]
-
-
-def observed_poses(obs: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """Gripper poses and target poses ``(n, 3)`` (m, m, rad) of flat observations ``(n, d)``."""
-    pos, ori = obs[:, SLICES["position"]], obs[:, SLICES["orientation"]]
-    tpos, tori = obs[:, SLICES["target_position"]], obs[:, SLICES["target_orientation"]]
-    pose = np.column_stack([pos, np.arctan2(ori[:, 1], ori[:, 0])])
-    target = np.column_stack([tpos, np.arctan2(tori[:, 1], tori[:, 0])])
-    return pose, target
 
 
 class CertifiedLineController(BatchPolicy):

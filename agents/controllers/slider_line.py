@@ -27,7 +27,13 @@ from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
-__all__ = ["DEFAULT_TRAVEL_GAIN", "SliderLineController", "observed_modes", "target_travels"]
+__all__ = [
+    "DEFAULT_TRAVEL_GAIN",
+    "SliderLineController",
+    "observed_modes",
+    "observed_poses",
+    "target_travels",
+]
 
 #: Proportional gain on the travel error near the end of the line (1/s).
 DEFAULT_TRAVEL_GAIN = 15.0
@@ -41,12 +47,19 @@ def observed_modes(obs: FloatArray) -> FloatArray:
     return np.where(cos_a >= 0.0, 1.0, -1.0)
 
 
+def observed_poses(obs: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Gripper poses and target poses ``(n, 3)`` (m, m, rad) of flat observations ``(n, d)``."""
+    pos, ori = obs[:, SLICES["position"]], obs[:, SLICES["orientation"]]
+    tpos, tori = obs[:, SLICES["target_position"]], obs[:, SLICES["target_orientation"]]
+    pose = np.column_stack([pos, np.arctan2(ori[:, 1], ori[:, 0])])
+    target = np.column_stack([tpos, np.arctan2(tori[:, 1], tori[:, 0])])
+    return pose, target
+
+
 def target_travels(design: Design, obs: FloatArray, modes: FloatArray) -> FloatArray:
     """Travels ``(n, 3)`` (m) of the observed target poses in working modes ``modes`` (NaN
     where a leg cannot close)."""
-    tpos, tori = obs[:, SLICES["target_position"]], obs[:, SLICES["target_orientation"]]
-    target = np.column_stack([tpos, np.arctan2(tori[:, 1], tori[:, 0])])
-    return kinematics.inverse(design, target, modes).rho
+    return kinematics.inverse(design, observed_poses(obs)[1], modes).rho
 
 
 def line_rates(error: FloatArray, gain: float, max_speed: float) -> FloatArray:
