@@ -173,17 +173,7 @@ class AnalyticController(BatchPolicy):
         self.rotation_reenter = float(rotation_reenter)
         self.vertical_done = float(vertical_done)
         self.vertical_reenter = float(vertical_reenter)
-        if observation_size is not None:
-            if not (
-                isinstance(observation_size, (int, np.integer))
-                and not isinstance(observation_size, bool)
-                and observation_size >= type(self).obs_size
-            ):
-                raise ValueError(
-                    f"observation_size must be an int >= {type(self).obs_size}, "
-                    f"got {observation_size!r}"
-                )
-            self.obs_size = int(observation_size)
+        self._use_observation_size(observation_size)
         self._phase: NDArray[np.int64] | None = None
 
     #: Default length of the observations :meth:`predict` accepts (``observation_size``

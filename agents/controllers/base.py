@@ -75,6 +75,23 @@ class BatchPolicy:
     obs_exact: bool = True
     obs_expected: str = ""
 
+    def _use_observation_size(self, observation_size: Any) -> None:
+        """Accept observations of ``observation_size`` entries instead of the class's
+        ``obs_size`` (``None``: keep it); ``ValueError`` unless it is an int (not a bool) of at
+        least the class's ``obs_size``, the entries the policy reads."""
+        if observation_size is None:
+            return
+        least = int(type(self).obs_size or 0)
+        if not (
+            isinstance(observation_size, (int, np.integer))
+            and not isinstance(observation_size, bool)
+            and observation_size >= least
+        ):
+            raise ValueError(
+                f"observation_size must be an int >= {least}, got {observation_size!r}"
+            )
+        self.obs_size = int(observation_size)
+
     def predict(
         self,
         observation: ArrayLike,

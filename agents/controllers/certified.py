@@ -118,10 +118,7 @@ class CertifiedPlanner(BatchPolicy):
         self.task_config = task_config or sampling.TaskConfig()
         self.detour_config = replace(self.task_config, path_parallel_margin=detour_margin)
         self.candidates, self.pool_size, self.seed = int(candidates), int(pool_size), int(seed)
-        if observation_size is not None:
-            if not (isinstance(observation_size, (int, np.integer)) and observation_size >= 31):
-                raise ValueError(f"observation_size must be an int >= 31, got {observation_size!r}")
-            self.obs_size = int(observation_size)
+        self._use_observation_size(observation_size)
         self.cartesian = AnalyticController(
             self.design, position_gain=cartesian_gain, orientation_gain=cartesian_gain
         )

@@ -104,10 +104,7 @@ class CertifiedLineController(BatchPolicy):
                 raise ValueError(f"{name} must be finite and > 0 (1/s), got {value!r}")
         if limits is not None and not isinstance(limits, PathLimits):
             raise ValueError(f"limits must be a PathLimits, got {type(limits).__name__}")
-        if observation_size is not None:
-            if not (isinstance(observation_size, (int, np.integer)) and observation_size >= 31):
-                raise ValueError(f"observation_size must be an int >= 31, got {observation_size!r}")
-            self.obs_size = int(observation_size)
+        self._use_observation_size(observation_size)
         self.dt = float(dt)
         self.gain = float(gain)
         self.cartesian_gain = float(cartesian_gain)

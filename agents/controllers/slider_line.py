@@ -104,10 +104,7 @@ class SliderLineController(BatchPolicy):
             raise ValueError(f"speed_fraction must be in (0, 1], got {speed_fraction!r}")
         self.gain = float(gain)
         self.speed_fraction = float(speed_fraction)
-        if observation_size is not None:
-            if not (isinstance(observation_size, (int, np.integer)) and observation_size >= 31):
-                raise ValueError(f"observation_size must be an int >= 31, got {observation_size!r}")
-            self.obs_size = int(observation_size)
+        self._use_observation_size(observation_size)
         self._modes: FloatArray | None = None
 
     def reset(self, seed: Any = None) -> None:

@@ -25,10 +25,10 @@ from stable_baselines3 import PPO
 import planar3p_gym
 from planar3p_agents.controllers import residual
 from planar3p_agents.controllers.analytic import AnalyticController
-from planar3p_agents.controllers.certified import DEFAULT_CARTESIAN_GAIN
+from planar3p_agents.controllers.certified import DEFAULT_CARTESIAN_GAIN, CertifiedPlanner
 from planar3p_agents.controllers.certified_line import CertifiedLineController
 from planar3p_agents.controllers.residual import LineFeatures, ResidualLinePolicy
-from planar3p_agents.controllers.slider_line import line_rates
+from planar3p_agents.controllers.slider_line import SliderLineController, line_rates
 from planar3p_agents.evaluation.episodes import run_episode
 from planar3p_agents.policies.factory import load_policy
 from planar3p_agents.training import config as training
@@ -187,3 +187,17 @@ def test_train_script_trains_the_recipe(tmp_path: Path):
     loaded = load_policy(f"{run / 'model.zip'}:stats={run / 'vecnormalize.pkl'}", env=gym.make(ID))
     assert isinstance(loaded.model.policy, ResidualLinePolicy)
     assert not loaded.vecnormalize.norm_obs
+
+
+@pytest.mark.parametrize(
+    "controller",
+    [AnalyticController, SliderLineController, CertifiedPlanner, CertifiedLineController],
+)
+def test_observation_size_is_checked_alike(controller):
+    """One check for every flat-observation controller: an int of at least the 31 entries
+    read (not a bool, not a float); a rejected size raises before anything is built."""
+    for bad in (30, True, 31.0, "31"):
+        with pytest.raises(ValueError, match=r"observation_size must be an int >= 31, got"):
+            controller(observation_size=bad)
+    assert controller().obs_size == 31
+    assert controller(observation_size=np.int64(40)).obs_size == 40
