@@ -295,8 +295,14 @@ def certify_lines(
     where the line from travels ``rho_start`` (m, on the pose ``pose_start``) to ``rho_end``
     stays in the stroke of ``limits``, keeps its branch unambiguous, its parallel margin and
     holding forces, and arrives at the pose ``pose_end`` (m, m, rad).  Rows of ``(N, 3)``
-    arrays, or one ``(3,)`` row shared by every line; False where a travel is not finite."""
+    arrays, or one ``(3,)`` row shared by every line; False where a travel is not finite.
+    ``ValueError`` unless every argument is ``(3,)`` or ``(N, 3)`` with one ``N``."""
+    names = ("rho_start", "rho_end", "pose_start", "pose_end")
     arrays = [np.asarray(a, dtype=np.float64) for a in (rho_start, rho_end, pose_start, pose_end)]
+    rows_of = {a.shape[0] for a in arrays if a.ndim == 2}
+    if any(a.ndim not in (1, 2) or a.shape[-1] != 3 for a in arrays) or len(rows_of) > 1:
+        shapes = ", ".join(f"{n} {a.shape}" for n, a in zip(names, arrays, strict=True))
+        raise ValueError(f"certify_lines needs (3,) or (N, 3) arrays with one N, got {shapes}")
     shape = np.broadcast_shapes(*(a.shape for a in arrays))
     rows = [np.broadcast_to(a, shape).reshape(-1, 3) for a in arrays]
     ok = np.zeros(rows[0].shape[0], dtype=np.bool_)

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -60,3 +61,12 @@ def test_a_line_ending_elsewhere_is_not_certified():
     rho = kinematics.inverse(DESIGN, poses, MODE).rho
     wrong_end = poses[1] + np.array([0.01, 0.0, 0.0])
     assert not certify_lines(DESIGN, rho[0], rho[1], poses[0], wrong_end, LIMITS)[0]
+
+
+def test_bad_shapes_are_refused_by_name():
+    poses = _poses(3, 2)
+    rho = kinematics.inverse(DESIGN, poses, MODE).rho
+    with pytest.raises(ValueError, match=r"rho_end \(6,\)"):
+        certify_lines(DESIGN, rho[0], rho.reshape(-1), poses[0], poses[1], LIMITS)
+    with pytest.raises(ValueError, match=r"\(3,\) or \(N, 3\) arrays with one N"):
+        certify_lines(DESIGN, rho, rho[:1], poses, poses, LIMITS)
