@@ -37,6 +37,7 @@ COMMANDS: dict[str, str] = {
     "goal-track-baselines": "goal_track_baselines",
     "track-gains": "track_gains",
     "track-curves": "track_curves",
+    "detours": "detours",
     "bench-env": "bench_env",
     "bench-kinematics": "bench_kinematics",
     "bench-resets": "bench_resets",

@@ -361,14 +361,18 @@ def _figures(
     import matplotlib.pyplot as plt
 
     written = []
-    metrics = ("success", "time")
-    runs = {m: _runs(matrix, m) for m in metrics}
+    runs = {m: _runs(matrix, m) for m in ("success", "time")}
+    # (suites without a speed bound, such as the mode change, have no time score)
+    metrics = [m for m in ("success", "time") if runs[m]]
     groups = [g for g in dict.fromkeys(r["group"] for r in matrix) if g in runs["success"]]
     if not groups:
         return written
     # 1. IQM with stratified-bootstrap intervals
-    fig, axes = plt.subplots(1, 2, figsize=(10, 0.45 * len(groups) + 1.5), sharey=True)
-    for ax, m in zip(axes, metrics, strict=True):
+    fig, axes = plt.subplots(
+        1, len(metrics), figsize=(5 * len(metrics), 0.45 * len(groups) + 1.5), sharey=True,
+        squeeze=False,
+    )  # fmt: skip
+    for ax, m in zip(axes[0], metrics, strict=True):
         for i, g in enumerate(groups):
             x = runs[m].get(g)
             if x is None:
@@ -384,8 +388,10 @@ def _figures(
     plt.close(fig)
     written.append("scores_iqm.png")
     # 2. performance profiles: fraction of run-suite scores above tau
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
-    for ax, m in zip(axes, metrics, strict=True):
+    fig, axes = plt.subplots(
+        1, len(metrics), figsize=(5 * len(metrics), 4), sharey=True, squeeze=False
+    )
+    for ax, m in zip(axes[0], metrics, strict=True):
         every = np.concatenate([v.ravel() for v in runs[m].values()])
         taus = np.linspace(min(0.0, every.min()), max(110.0, every.max()), 200)
         for i, g in enumerate(groups):
@@ -398,31 +404,31 @@ def _figures(
         ax.set_xlabel(f"normalized {m} score tau")
         ax.set_ylabel("fraction of runs x suites with score > tau")
         ax.grid(alpha=0.3)
-    axes[-1].legend(fontsize=7, loc="lower left")
+    axes[0, -1].legend(fontsize=7, loc="lower left")
     fig.tight_layout()
     fig.savefig(out / "scores_profiles.png", dpi=120)
     plt.close(fig)
     written.append("scores_profiles.png")
-    # 3. probability of improvement over the best baseline (by IQM time score)
+    # 3. probability of improvement over the best baseline (by the IQM time score; by the
+    # success score on suites without one)
+    m = metrics[-1]
     every_best = {b for s in dict.fromkeys(r["suite"] for r in matrix) for b in best_baselines(s)}
-    base = [g for g in groups if g in every_best and g in runs["time"]]
+    base = [g for g in groups if g in every_best and g in runs[m]]
     if base:
         ref = max(
             base,
-            key=lambda g: stratified_bootstrap_iqm(runs["time"][g], n_resamples=10, seed=seed)[0],
+            key=lambda g: stratified_bootstrap_iqm(runs[m][g], n_resamples=10, seed=seed)[0],
         )
-        others = [g for g in groups if g != ref and g in runs["time"]]
+        others = [g for g in groups if g != ref and g in runs[m]]
         fig, ax = plt.subplots(figsize=(6, 0.45 * len(others) + 1.5))
         for i, g in enumerate(others):
-            p, lo, hi = probability_of_improvement(
-                runs["time"][g], runs["time"][ref], n_resamples, seed
-            )
+            p, lo, hi = probability_of_improvement(runs[m][g], runs[m][ref], n_resamples, seed)
             ax.plot([lo, hi], [i, i], lw=6, alpha=0.5, color=f"C{i % 10}")
             ax.plot([p], [i], "|", ms=14, color="k")
         ax.axvline(0.5, ls="--", color="grey")
         ax.set_xlim(-0.03, 1.03)
         ax.set_yticks(range(len(others)), others)
-        ax.set_xlabel(f"P(policy > {ref}) on the normalized time score")
+        ax.set_xlabel(f"P(policy > {ref}) on the normalized {m} score")
         fig.tight_layout()
         fig.savefig(out / "scores_improvement.png", dpi=120)
         plt.close(fig)

@@ -97,8 +97,8 @@ HEADLINE: list[dict[str, str]] = [
         "suite": "hard",
         "metric": "success",
         "learned": "residual PPO on the certified line, 800k steps",
-        "note": "100 %, 7 % faster than its base; 3.1x the bound (target 1.10x missed: the "
-        "straight travel line reaches none of these targets)",
+        "note": "100 %, 7 % faster than its base; 3.1x the bound (target 1.10x missed: no "
+        "certified slider path surveyed comes within 2x of the bound, `planar3p detours`)",
     },
     {
         "task": "working-mode change",

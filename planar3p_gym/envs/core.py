@@ -786,9 +786,17 @@ class Planar3PEnv(gym.Env):
         return self._renderer.render(frame)
 
     def close(self) -> None:
+        """Close the renderer and free the simulation now (:meth:`Planar3PSim.close`), and
+        the task's own simulations (its ``close``, if it has one); a later :meth:`reset`
+        builds a new simulation."""
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+        if self._sim is not None:
+            self._sim.close()
+        close_task = getattr(self.task, "close", None)
+        if close_task is not None:
+            close_task()
 
     # ------------------------------------------------------------------ snapshots
     #: Per-episode attributes a snapshot carries (besides the simulation, the random

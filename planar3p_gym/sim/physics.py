@@ -81,6 +81,7 @@ __all__ = [
     "DEFAULT_SUBSTEPS",
     "PROJECTED_ITERATIONS",
     "PROJECTED_SUBSTEPS",
+    "CompiledStep",
     "FastPath",
     "Planar3PSim",
     "SimSnapshot",
@@ -292,6 +293,21 @@ class FastPath(NamedTuple):
     handles: np.ndarray  #: :data:`planar3p_gym.sim.chipmunk.HANDLE_FIELDS`, addresses (uintp)
     readout: np.ndarray  #: the bodies' numbers in :attr:`read`'s memory (float64, 60)
     impulses: np.ndarray  #: the last step's summed and largest servo impulses (N s, 6)
+
+
+class CompiledStep(NamedTuple):
+    """:meth:`Planar3PSim.compiled_step`: the arguments of
+    :func:`planar3p_gym.sim.chipmunk.step_projected` after the three drive commands."""
+
+    fns: np.ndarray  #: :data:`planar3p_gym.sim.chipmunk.FUNCTIONS`
+    handles: np.ndarray  #: the simulation's Chipmunk addresses
+    h: float  #: the physics step (s)
+    substeps: int  #: physics steps per control period
+    force_limit: float  #: the servo impulse counted as saturated (N s)
+    readout: np.ndarray  #: the bodies' batch array (60)
+    consts: np.ndarray  #: the projector's constants
+    setpoint_limit: float  #: :data:`FOLLOWING_ERROR_LIMIT` (m)
+    impulses: np.ndarray  #: receives the servos' summed and largest impulses (N s, 6)
 
 
 class Planar3PSim:
@@ -741,6 +757,40 @@ class Planar3PSim:
         self._account(np.array(totals + largest))
         self._state = self._read() if projector is None else self._project()
         return self._state
+
+    def compiled_step(self) -> CompiledStep | None:
+        """The arguments of :func:`planar3p_gym.sim.chipmunk.step_projected` (all but the three
+        drive commands) when one control step of this simulation is exactly that compiled call
+        (:meth:`step_unchecked`'s fast path: projection on, Chipmunk's C API, no servo lag, no
+        viscous friction), else ``None``.  For compiled loops that take many closed-loop steps
+        at once; they then hand their commands to :meth:`record_compiled_steps`."""
+        fast, projector = self._fast, self._projector
+        if self._closed or fast is None or projector is None or self._viscous or self._lag != 1.0:
+            return None
+        return CompiledStep(
+            chipmunk.FUNCTIONS, fast.handles, self._h, self.substeps, self._force_limit,
+            fast.readout, projector.constants, FOLLOWING_ERROR_LIMIT, fast.impulses,
+        )  # fmt: skip
+
+    def record_compiled_steps(
+        self, commands: np.ndarray, state: np.ndarray, closure: float
+    ) -> None:
+        """Bring the simulation's record up to date after compiled code took ``len(commands)``
+        control steps through :meth:`compiled_step`'s arguments, with the drive ``commands``
+        ``(n, 3)`` (m/s) and the last step's projected ``state`` (23 values) and ``closure``
+        error (m): the command log, the clock, the last step's forces and saturation (from the
+        impulses the call left), the state.  Afterwards the simulation is, bit for bit, the one
+        :meth:`step_unchecked` would have left with the same commands."""
+        n = len(commands)
+        if not n:
+            return
+        self._commands.extend(np.asarray(commands, dtype=np.float64).ravel().tolist())
+        for _ in range(n - 1):  # the clock is a sum of periods, as step by step
+            self._time += self.dt
+        self._projector.last_state = state  # type: ignore[union-attr]
+        self._account(self._fast.impulses)  # type: ignore[union-attr]
+        readout = self._fast.readout  # type: ignore[union-attr]
+        self._state = self._projected_state(state, closure, readout)
 
     def _account(self, impulses: np.ndarray) -> None:
         """Advance the clock by a control period and set the mean actuator forces (N) and the

@@ -67,6 +67,7 @@ This module holds the task; the feasibility checks are in
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import asdict
 from typing import Any, ClassVar
 
@@ -117,6 +118,12 @@ GIVEN_ROUNDS = 25
 _MODE_PROBLEMS: dict[tuple[Any, ...], str | None] = {}
 #: The verdict on a working mode without acceptable poses of both assembly modes.
 _ONE_ASSEMBLY = "it has acceptable poses of one assembly mode only"
+
+
+#: Each assembly-change task's check simulation (:meth:`AssemblyChangeTask._check_sim`).
+_CHECK_SIMS: weakref.WeakKeyDictionary[AssemblyChangeTask, Planar3PSim] = (
+    weakref.WeakKeyDictionary()
+)
 
 
 class AssemblyChangeTask(TravelShaping, Task):
@@ -243,6 +250,23 @@ class AssemblyChangeTask(TravelShaping, Task):
                 hits += bool(len(t)) and bool(self.feasible(s, t[0], mode)[0])
         return hits / (BIND_SEEDS * (BIND_TRIES // BIND_SEEDS))
 
+    def _check_sim(self, pose: np.ndarray, mode: tuple[int, int, int]) -> Planar3PSim:
+        """The task's check simulation (:meth:`make_sim`, built on first use and kept: each
+        check moves it, :func:`verify_crossing` with ``sim``).  Kept in
+        :data:`_CHECK_SIMS`, not as an attribute: the environment snapshots the task's
+        attributes by deep copy (``get_state``, a rejected reset), and the simulation is a
+        cache, not state (a moved simulation is bit for bit a new one)."""
+        sim = _CHECK_SIMS.get(self)
+        if sim is None or sim.closed:
+            sim = _CHECK_SIMS[self] = self.make_sim(pose, mode)
+        return sim
+
+    def close(self) -> None:
+        """Free the check simulation now (the environment's ``close`` calls this)."""
+        sim = _CHECK_SIMS.pop(self, None)
+        if sim is not None:
+            sim.close()
+
     def make_sim(self, pose: np.ndarray, mode: tuple[int, int, int]) -> Planar3PSim:
         """A simulation with the environment's settings (what an episode runs on)."""
         env = self.env
@@ -296,8 +320,9 @@ class AssemblyChangeTask(TravelShaping, Task):
                 target,
                 mode,
                 self.limits,
-                self.make_sim,
+                None,
                 self.env.breakdown_distance,
+                sim=self._check_sim(start, mode),
             )
             if not ok:
                 return False, (

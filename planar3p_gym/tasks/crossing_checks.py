@@ -10,13 +10,16 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike
 
 from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.scalar_kinematics import ScalarKinematics
+from planar3p_gym.sim.chipmunk import step_projected
 from planar3p_gym.sim.physics import Planar3PSim
+from planar3p_gym.sim.projection import wrap_angle
 from planar3p_gym.tasks.base import ModeTriple
 from planar3p_gym.tasks.motions import minimum_jerk
 from planar3p_gym.tasks.travel_motion import TravelCurve, demonstration_travels, straight_pose_path
@@ -100,31 +103,69 @@ def crossing_path(
     return True, "ok"
 
 
-def _commands(
-    curve: TravelCurve, dt: float, gain: float, vmax: float
-) -> Callable[[int, tuple[float, float, float]], tuple[float, float, float]]:
-    """:meth:`TravelCurve.command` at step ``k`` (time ``(k + 1) dt``) for measured travels,
-    in plain floats: the same operations in the same order on the same numbers, so the same
-    commands to the bit, at a tenth of the cost of the array version (the demonstration runs a
-    few hundred steps per sampled pair)."""
-    travels, slopes = curve.travels.tolist(), curve.slopes.tolist()
-    last, duration = len(travels) - 2, curve.duration
+def _references(curve: TravelCurve, dt: float, steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """The reference travels and rates of :meth:`TravelCurve.command` at the times ``(k + 1)
+    dt`` of the steps ``k < steps``: ``(references (steps, 3) (m), rates (steps, 3) (m/s))``,
+    with the same operations in the same order on the same numbers (the time law in Python
+    floats, the interpolation elementwise), so :func:`travel_command` on them gives that
+    method's commands to the bit."""
+    n = len(curve.travels)
+    duration = curve.duration
+    law = np.array([minimum_jerk((k + 1) * dt, duration) for k in range(steps)]).reshape(-1, 2)
+    x = law[:, 0] * (n - 1)
+    j = np.minimum(x.astype(np.intp), n - 2)  # int() of a number >= 0: truncation
+    w = (x - j)[:, None]
+    u = 1.0 - w
+    references = u * curve.travels[j] + w * curve.travels[j + 1]
+    rates = law[:, 1:] * (u * curve.slopes[j] + w * curve.slopes[j + 1])
+    return references, rates
 
-    def command(k: int, rho: tuple[float, float, float]) -> tuple[float, float, float]:
-        s, s_dot = minimum_jerk((k + 1) * dt, duration)
-        x = s * (last + 1)
-        j = min(int(x), last)
-        w = x - j
-        u = 1.0 - w
-        a, b, sa, sb = travels[j], travels[j + 1], slopes[j], slopes[j + 1]
-        out = []
-        for i in range(3):
-            ref = u * a[i] + w * b[i]
-            v = s_dot * (u * sa[i] + w * sb[i]) + gain * (ref - rho[i])
-            out.append(-vmax if v < -vmax else (vmax if v > vmax else v))
-        return out[0], out[1], out[2]
 
-    return command
+@njit(cache=True)
+def travel_command(rate: float, reference: float, rho: float, gain: float, vmax: float) -> float:
+    """The demonstration's drive command of one slider (m/s): the reference ``rate`` plus
+    ``gain`` (1/s) times the travel error ``reference - rho`` (m), clipped to ``vmax``."""
+    v = rate + gain * (reference - rho)
+    return -vmax if v < -vmax else (vmax if v > vmax else v)
+
+
+@njit(cache=True)
+def _demonstrate(
+    rho: np.ndarray, references: np.ndarray, rates: np.ndarray, gain: float, vmax: float,
+    breakdown: float, fns: np.ndarray, handles: np.ndarray, h: float, substeps: int,
+    force_limit: float, readout: np.ndarray, consts: np.ndarray, setpoint_limit: float,
+    impulses: np.ndarray, commands: np.ndarray,
+) -> tuple[int, float, np.ndarray, float]:  # fmt: skip
+    """The demonstration's steps as one compiled loop on a simulation's
+    :meth:`~planar3p_gym.sim.physics.Planar3PSim.compiled_step` (its arguments after
+    ``breakdown``): from the travels ``rho`` (3,), the commands of :func:`travel_command` on
+    the last state's travels, one :func:`~planar3p_gym.sim.chipmunk.step_projected` each, until
+    a state is not finite (:attr:`SimState.finite`'s sum, in its order) or its closure error
+    exceeds ``breakdown`` (m).  Writes the commands into ``commands`` and returns ``(steps
+    taken, largest closure error of the steps that passed, the last state (23 values), its
+    closure error)``."""
+    r0, r1, r2 = rho[0], rho[1], rho[2]
+    worst = 0.0
+    state = np.zeros(23)
+    closure = 0.0
+    for k in range(references.shape[0]):
+        v0 = travel_command(rates[k, 0], references[k, 0], r0, gain, vmax)
+        v1 = travel_command(rates[k, 1], references[k, 1], r1, gain, vmax)
+        v2 = travel_command(rates[k, 2], references[k, 2], r2, gain, vmax)
+        commands[k, 0], commands[k, 1], commands[k, 2] = v0, v1, v2
+        state, closure = step_projected(
+            fns, handles, v0, v1, v2, h, substeps, force_limit, readout, consts,
+            setpoint_limit, impulses,
+        )  # fmt: skip
+        total = state[0] + state[1] + state[2] + state[3] + state[4] + state[5] + state[6]
+        total = total + state[7] + wrap_angle(state[8]) + state[9] + state[10] + state[11]
+        total = total + state[12] + state[13] + state[14] + closure
+        if not math.isfinite(total) or closure > breakdown:
+            return k + 1, worst, state, closure
+        if closure > worst:
+            worst = closure
+        r0, r1, r2 = state[0], state[1], state[2]
+    return references.shape[0], worst, state, closure
 
 
 def verify_crossing(
@@ -133,22 +174,33 @@ def verify_crossing(
     target: ArrayLike,
     mode: ModeTriple,
     limits: CrossingLimits,
-    make_sim: SimFactory,
+    make_sim: SimFactory | None,
     breakdown_distance: float,
+    *,
+    sim: Planar3PSim | None = None,
 ) -> tuple[bool, dict[str, float]]:
     """Run the demonstration motion from ``start`` in a simulation built by ``make_sim`` and
     report whether it ends in the target's assembly mode within ``limits.verify_tolerance``
     (m) of the target without the closure error exceeding ``breakdown_distance`` (m).
 
+    With ``sim``, the demonstration runs on that simulation instead, moved to ``start``
+    (:meth:`Planar3PSim.reset`: bit for bit the simulation a new build gives, at a fraction of
+    its cost) and left open for the next check; ``make_sim`` is then not used.
+
     Returns ``(ok, figures)`` with ``figures``: ``end_distance`` (m), ``end_assembly``,
     ``max_closure_error`` (m), ``steps``."""
     s = np.asarray(start, dtype=np.float64)
     t = np.asarray(target, dtype=np.float64)
-    sim = make_sim(s, mode)
-    try:
+    if sim is not None:
+        sim.reset(s, mode)
         return _run_demonstration(design, sim, s, t, mode, limits, breakdown_distance)
+    if make_sim is None:
+        raise ValueError("verify_crossing needs make_sim or sim")
+    built = make_sim(s, mode)
+    try:
+        return _run_demonstration(design, built, s, t, mode, limits, breakdown_distance)
     finally:
-        sim.close()  # freed now, not left to the garbage collector (Planar3PSim.close)
+        built.close()  # freed now, not left to the garbage collector (Planar3PSim.close)
 
 
 def _run_demonstration(
@@ -169,19 +221,38 @@ def _run_demonstration(
         limits.speed_fraction * design.max_speed,
     )
     steps = int(math.ceil(curve.duration / sim.dt)) + 1
-    worst = 0.0
-    command = _commands(curve, sim.dt, limits.travel_gain, design.max_speed)
-    for k in range(steps):
-        v0, v1, v2 = command(k, state.rho)
-        state = sim.step_unchecked(v0, v1, v2)
-        if not state.finite or state.closure_error > breakdown_distance:
-            return False, {
-                "end_distance": math.inf,
-                "end_assembly": 0,
-                "max_closure_error": math.inf,
-                "steps": k + 1,
-            }
-        worst = max(worst, state.closure_error)
+    references, rates = _references(curve, sim.dt, steps)
+    gain, vmax = limits.travel_gain, design.max_speed
+    fast = sim.compiled_step()
+    if fast is not None:  # one compiled loop, the same steps (tests/tasks/test_crossing_checks)
+        commands = np.empty((steps, 3))
+        taken, worst, last, closure = _demonstrate(
+            np.array(state.rho), references, rates, gain, vmax, breakdown_distance, *fast,
+            commands,
+        )  # fmt: skip
+        sim.record_compiled_steps(commands[:taken], last, closure)
+        state = sim.state
+        broke = taken < steps or not state.finite or state.closure_error > breakdown_distance
+    else:  # servo lag, viscous friction or no Chipmunk C API: step by step
+        worst, broke, taken = 0.0, False, 0
+        ref, rate = references.tolist(), rates.tolist()
+        for k in range(steps):
+            rho = state.rho
+            state = sim.step_unchecked(
+                *(travel_command(rate[k][i], ref[k][i], rho[i], gain, vmax) for i in range(3))
+            )
+            taken = k + 1
+            if not state.finite or state.closure_error > breakdown_distance:
+                broke = True
+                break
+            worst = max(worst, state.closure_error)
+    if broke:
+        return False, {
+            "end_distance": math.inf,
+            "end_assembly": 0,
+            "max_closure_error": math.inf,
+            "steps": taken,
+        }
     asm = kin.measures(state.pose, state.rho).det_sign
     d = np.asarray(state.pose) - t
     d[2] = ((d[2] + math.pi) % (2.0 * math.pi) - math.pi) * design.characteristic_length

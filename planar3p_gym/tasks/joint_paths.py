@@ -225,22 +225,12 @@ def _segment_figures(
 ) -> tuple[FloatArray, FloatArray]:
     """Smallest parallel margin and largest holding force (N) along each of the followed
     segments ``rows`` (every point of a segment; margins and forces per pose are independent
-    of the batch they are computed in)."""
+    of the batch they are computed in).  A pose exactly at a parallel singularity has no
+    holding forces: its segment's force is NaN or infinite, which the force limit rejects."""
     poses, rho = tracked.poses[rows], tracked.rho[rows]
     margin = kinematics.parallel_margin(design, poses, rho).min(axis=-1)
-    try:
-        force = np.abs(holding_forces_at(design, poses, rho)).max(axis=(-2, -1))
-    except np.linalg.LinAlgError:  # a pose exactly at a parallel singularity: per segment
-        force = np.array([_holding_force(design, p, r) for p, r in zip(poses, rho, strict=True)])
+    force = np.abs(holding_forces_at(design, poses, rho)).max(axis=(-2, -1))
     return margin, force
-
-
-def _holding_force(design: Design, poses: FloatArray, rho: FloatArray) -> float:
-    """Largest holding force along one segment (inf if a pose cannot be held at all)."""
-    try:
-        return float(np.abs(holding_forces_at(design, poses, rho)).max())
-    except np.linalg.LinAlgError:
-        return math.inf
 
 
 def _in_stroke(design: Design, travels: FloatArray, limits: PathLimits) -> NDArray[np.bool_]:

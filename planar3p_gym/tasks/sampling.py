@@ -28,7 +28,7 @@ from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.kinematics import pose_distance
 from planar3p_gym.machine.slider_line import slider_line_reaches
-from planar3p_gym.machine.statics import holding_forces_at
+from planar3p_gym.machine.statics import holding_forces_of_rows
 
 __all__ = [
     "SCHEDULABLE_FIELDS",
@@ -193,7 +193,7 @@ def _acceptable(
     )
     det = asm.astype(np.float64)
     if ok.any():
-        forces = holding_forces_at(design, poses[ok], rho[ok])
+        forces = holding_forces_of_rows(design, poses[ok], rho[ok])
         ok[ok] = np.abs(forces).max(axis=-1) <= cfg.max_holding_force * design.max_force
     return ok, det
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import json
+from pathlib import Path
 
 import gymnasium as gym
 import imageio.v2 as imageio
@@ -12,6 +13,7 @@ from script_loader import command
 
 from planar3p_agents.commands import demo
 from planar3p_agents.controllers.floor import ZeroPolicy
+from planar3p_agents.controllers.registry import STRONGEST_REACH_BASELINES
 from planar3p_agents.evaluation.episode_gif import GIF_SIZE, record_gif
 from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_suite
 from planar3p_agents.policies.factory import load_policy
@@ -108,3 +110,11 @@ def test_demo_default_policies_are_named_and_fit_their_ids():
         obs, _ = env.reset(seed=0)
         action, _ = policy.predict(obs, deterministic=True)
         assert env.action_space.contains(action.astype(env.action_space.dtype))
+
+
+def test_demo_compares_the_reach_policy_with_the_strongest_baseline_and_the_paper():
+    """The reach part plays the learned policy, the strongest reach baseline (one of the
+    benchmark's) and the paper's controller; the GIFs show the first two."""
+    assert demo.REACH_BASELINE in STRONGEST_REACH_BASELINES
+    reach = demo.parts(Path("out"), demo.REACH_POLICY, demo.MODE_CHANGE_POLICY, 0)[0]
+    assert reach.policies == [demo.REACH_POLICY, demo.REACH_BASELINE, demo.ANALYTIC]

@@ -22,9 +22,8 @@ import planar3p_gym
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.statics import holding_forces_at
-from planar3p_gym.tasks import crossing_checks, joint_paths, sampling
+from planar3p_gym.tasks import joint_paths, sampling
 from planar3p_gym.tasks import mode_change as mode_change_task
-from planar3p_gym.tasks.travel_motion import TravelCurve
 
 DESIGN = Design.fig8()
 CFG = sampling.TaskConfig()
@@ -468,26 +467,6 @@ def test_pose_pools_hand_out_what_the_list_pool_did(mode, ops):
     assert rng_new.bit_generator.state == rng_old.bit_generator.state
 
 
-@settings(derandomize=True, deadline=None, max_examples=100)
-@given(
-    seed=st.integers(0, 2**32 - 1),
-    k=st.integers(0, 600),
-    gain=st.floats(0.1, 50.0),
-    peak=st.floats(0.01, 0.5),
-)
-def test_demonstration_commands_in_floats_are_the_array_commands(seed, k, gain, peak):
-    """Item 3: ``verify_crossing`` computes the demonstration's commands in plain floats; they
-    are :meth:`TravelCurve.command`'s to the bit."""
-    rng = np.random.default_rng(seed)
-    travels = np.cumsum(rng.normal(0.0, 0.003, (50, 3)), axis=0) + 0.15
-    curve = TravelCurve(travels, peak)
-    rho = tuple(rng.uniform(0.0, 0.3, 3).tolist())
-    dt = 0.02
-    got = crossing_checks._commands(curve, dt, gain, 0.2)(k, rho)
-    want = curve.command((k + 1) * dt, rho, gain, 0.2).tolist()
-    assert list(got) == want
-
-
 # ------------------------------------------------------------------ the benchmark script
 @pytest.mark.parametrize(
     ("argv", "flag"),
@@ -557,18 +536,41 @@ def test_resets_and_steps_leave_no_cyclic_garbage(env_id):
 
     env = gym.make(env_id)
     env.action_space.seed(0)
-    env.reset(seed=0)
-    env.step(env.action_space.sample())
-    gc.collect()
-    gc.disable()
-    try:
-        for seed in range(1, 5):
+
+    def cycle(seeds):
+        for seed in seeds:
             env.reset(seed=seed)
             for _ in range(3):
                 env.step(env.action_space.sample())
-        state = env.unwrapped.get_state()
-        env.unwrapped.set_state(state)
+        env.unwrapped.set_state(env.unwrapped.get_state())
+
+    # The same calls once before: what is made once per process (compiled code loaded from
+    # numba's cache, types made on first use) is not per-reset garbage, and which test runs
+    # first in a process must not decide the outcome.
+    cycle(range(0, 4))
+    while gc.collect():  # (what one collection frees can leave more: weakref callbacks)
+        pass
+    gc.disable()
+    try:
+        cycle(range(4, 8))
         assert gc.collect() == 0
     finally:
         gc.enable()
         env.close()
+
+
+def test_closing_an_environment_frees_its_simulations_and_a_reset_builds_anew():
+    """``close`` frees the episode's simulation and the assembly change's kept check
+    simulation at once (not left to the garbage collector); a later reset builds a new one."""
+    from planar3p_gym.tasks.assembly_change import _CHECK_SIMS
+
+    env = gym.make("Planar3PAssemblyChange-v0")
+    env.reset(seed=0)
+    sim, check = env.unwrapped.sim, _CHECK_SIMS[env.unwrapped.task]
+    env.close()
+    assert sim.closed and check.closed
+    assert env.unwrapped.task not in _CHECK_SIMS
+    env.reset(seed=1)
+    assert env.unwrapped.sim is not sim and not env.unwrapped.sim.closed
+    env.step(np.zeros(3, dtype=np.float32))
+    env.close()

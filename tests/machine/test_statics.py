@@ -124,3 +124,61 @@ def test_weak_actuators_leave_no_pose_to_sample():
         task.sample_poses(
             weak, (1, 1, -1), np.random.default_rng(0), task.TaskConfig(), max_batches=3
         )
+
+
+def reference_holding_forces(design: Design, poses: np.ndarray, rho: np.ndarray) -> np.ndarray:
+    """``F = g B A^-T c`` with numpy's LAPACK solve (the formula as it was before it was
+    compiled)."""
+    A, B = kinematics.jacobians(design, poses, rho)
+    k = np.asarray(design.joint_offsets)
+    c = np.zeros(poses.shape)
+    c[..., 1] = design.platform_mass + 1.5 * design.leg_mass
+    c[..., 2] = (0.5 * design.platform_mass * k[0] + 0.5 * design.leg_mass * k.sum()) * np.cos(
+        poses[..., 2]
+    )
+    z = np.linalg.solve(np.swapaxes(A, -1, -2), c[..., None])[..., 0]
+    return design.gravity * np.diagonal(B, axis1=-2, axis2=-1) * z
+
+
+@settings(max_examples=40, deadline=None)
+@given(mode=st.sampled_from(ALL_MODES), seed=st.integers(0, 2**32 - 1))
+def test_compiled_holding_forces_solve_the_same_system_as_lapack(mode, seed):
+    """The compiled elimination and LAPACK's solve are both backward stable: they agree to a
+    small multiple of ``eps * cond(A)`` relative to the largest force."""
+    poses = holdable_poses(mode, 8, seed)
+    rho = kinematics.inverse(DESIGN, poses, mode).rho
+    got = holding_forces_at(DESIGN, poses, rho)
+    want = reference_holding_forces(DESIGN, poses, rho)
+    A, _ = kinematics.jacobians(DESIGN, poses, rho)
+    bound = 64 * np.finfo(float).eps * np.linalg.cond(A) * np.abs(want).max(axis=-1)
+    assert (np.abs(got - want).max(axis=-1) <= bound).all()
+
+
+def test_holding_forces_at_broadcasts_and_checks_its_arguments():
+    mode = (1, 1, -1)
+    poses = holdable_poses(mode, 3)
+    rho = kinematics.inverse(DESIGN, poses, mode).rho
+    one = holding_forces_at(DESIGN, poses[0], rho)  # one pose against three travels
+    assert one.shape == (3, 3)
+    np.testing.assert_array_equal(one[0], holding_forces_at(DESIGN, poses[0], rho[0]))
+    nan_row = rho.copy()
+    nan_row[1, 2] = np.nan
+    forces = holding_forces_at(DESIGN, poses, nan_row)
+    assert np.isnan(forces[1]).all() and np.isfinite(forces[[0, 2]]).all()
+    with pytest.raises(ValueError, match="rho contains infinite"):
+        holding_forces_at(DESIGN, poses, np.full((3, 3), np.inf))
+    with pytest.raises(ValueError, match=r"rho must have shape \(\.\.\., 3\)"):
+        holding_forces_at(DESIGN, poses, rho[:, :2])
+    with pytest.raises(ValueError, match="do not broadcast"):
+        holding_forces_at(DESIGN, poses, rho[:2])
+    with pytest.raises(ValueError, match="poses contains NaN"):
+        holding_forces_at(DESIGN, np.full(3, np.nan), rho[0])
+
+
+def test_an_exactly_singular_configuration_gives_nan_forces_not_an_error():
+    """Every leg vertical (``u_ix = 0`` exactly, the rails at the origin): ``A``'s first column
+    is zero, so ``A^T z = c`` has no solution; the forces are NaN, which thresholds reject."""
+    assert DESIGN.rail_origins == (0.0, 0.0, 0.0)
+    pose = np.array([0.2, 0.1, 0.3])
+    rho = pose[0] + np.asarray(DESIGN.joint_offsets) * math.cos(pose[2])
+    assert not np.isfinite(holding_forces_at(DESIGN, pose, rho)).any()

@@ -231,6 +231,33 @@ def test_task_suites_score_against_their_own_best_baseline():
     )
 
 
+def test_scores_of_suites_without_a_time_score_are_written_with_their_figures(tmp_path):
+    """A benchmark of the mode-change suite alone (no speed bound, so no time score: the
+    demo's second part) writes its scores and figures; the figures used to fail on the empty
+    time metric ("need at least one array to concatenate") and the report lost its section."""
+    rows = [
+        {
+            "policy": policy,
+            "training_seed": "",
+            "suite": "mode-change",
+            "success": ok,
+            "time_to_success": 1.0 if ok else "",
+            "speed_bound": "",
+            "episode_return": ret,
+        }
+        for policy, ok, ret in (
+            ("random", False, -300.0),
+            ("planner", True, -20.0),
+            ("zero", False, -50.0),
+        )
+    ]
+    text = ns.write_scores(tmp_path, rows, references=ns.make_references(rows), n_resamples=50)
+    assert text.startswith("## Normalized scores")
+    assert "| planner | 1 |" in text
+    for name in ns.SCORE_FILES:
+        assert (tmp_path / name).is_file()
+
+
 def test_probability_of_improvement():
     a, b = np.array([[2.0, 2.0]]), np.array([[1.0, 1.0]])
     assert ns.probability_of_improvement(a, b)[0] == 1.0

@@ -241,6 +241,7 @@ def test_pymunk_floor_calls_cp_space_step_substeps_times(monkeypatch):
     run = throughput._pymunk_floor(sim)
     assert run() >= 0
     assert calls == [(sim._fast.space, sim._h)] * sim.substeps
+    monkeypatch.undo()  # (closing frees the simulation through Chipmunk's C API)
     env.close()
 
 
