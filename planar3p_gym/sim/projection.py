@@ -282,6 +282,20 @@ class LoopProjector:
 
 
 @njit(cache=True)
+def _leg_rows(
+    qx: float, qy: float, c: float, s: float, r: float, a: float, p: float, ll: float
+) -> tuple[float, float, float, float, float, float]:
+    """One leg's terms of :func:`project_readout`'s Newton step, from the reference point
+    ``(qx, qy)`` and ``(cos, sin)`` of theta, the joint's offset ``r`` and rail origin ``a``,
+    the travel ``p`` and the squared leg length ``ll``: the leg vector ``(x, y)``, ``x^2``,
+    ``|u|^2``, the residual ``|u|^2 - L^2`` and ``t = r (y cos - x sin)``."""
+    x, y = qx + r * c - a - p, qy + r * s
+    xx = x * x
+    n = xx + y * y
+    return x, y, xx, n, n - ll, r * (y * c - x * s)
+
+
+@njit(cache=True)
 def project_readout(
     v: np.ndarray, s0: bool, s1: bool, s2: bool, consts: np.ndarray, setpoint_limit: float
 ) -> tuple[np.ndarray, np.ndarray, float, int]:
@@ -339,15 +353,11 @@ def project_readout(
     steps = 0
     failed = False
     while True:
-        # Leg vectors u_i = C_i - B_i and the loop residuals f_i = |u_i|^2 - L_i^2.
-        x1, y1 = qx + r1 * c - a1 - p1, qy + r1 * s
-        x2, y2 = qx + r2 * c - a2 - p2, qy + r2 * s
-        x3, y3 = qx + r3 * c - a3 - p3, qy + r3 * s
-        xx1, xx2, xx3 = x1 * x1, x2 * x2, x3 * x3
-        n1, n2, n3 = xx1 + y1 * y1, xx2 + y2 * y2, xx3 + y3 * y3  # |u_i|^2
-        f1, f2, f3 = n1 - ll1, n2 - ll2, n3 - ll3
-        # Row i of J: -x_i at rho_i, then (x_i, y_i, t_i); G = J W^-1 J^T (symmetric).
-        t1, t2, t3 = r1 * (y1 * c - x1 * s), r2 * (y2 * c - x2 * s), r3 * (y3 * c - x3 * s)
+        # Leg vectors u_i = C_i - B_i, |u_i|^2 and the loop residuals f_i = |u_i|^2 - L_i^2;
+        # row i of J: -x_i at rho_i, then (x_i, y_i, t_i); G = J W^-1 J^T (symmetric).
+        x1, y1, xx1, n1, f1, t1 = _leg_rows(qx, qy, c, s, r1, a1, p1, ll1)
+        x2, y2, xx2, n2, f2, t2 = _leg_rows(qx, qy, c, s, r2, a2, p2, ll2)
+        x3, y3, xx3, n3, f3, t3 = _leg_rows(qx, qy, c, s, r3, a3, p3, ll3)
         if held3:  # every slider held (the usual case): x_i^2 i_i = 0 drops out exactly
             g11 = n1 * ip + t1 * t1 * ii
             g22 = n2 * ip + t2 * t2 * ii
@@ -448,10 +458,9 @@ def project_readout(
             p2, d2, i2 = _at_stop(p2, d2, v[30] - a2, stroke)
         if not 0.0 <= p3 <= stroke:
             p3, d3, i3 = _at_stop(p3, d3, v[48] - a3, stroke)
-        x1, y1 = qx + r1 * c - a1 - p1, qy + r1 * s
-        x2, y2 = qx + r2 * c - a2 - p2, qy + r2 * s
-        x3, y3 = qx + r3 * c - a3 - p3, qy + r3 * s
-        n1, n2, n3 = x1 * x1 + y1 * y1, x2 * x2 + y2 * y2, x3 * x3 + y3 * y3
+        x1, y1, _, n1, _, _ = _leg_rows(qx, qy, c, s, r1, a1, p1, ll1)
+        x2, y2, _, n2, _, _ = _leg_rows(qx, qy, c, s, r2, a2, p2, ll2)
+        x3, y3, _, n3, _, _ = _leg_rows(qx, qy, c, s, r3, a3, p3, ll3)
     else:
         # Velocities: q_dot' = q_dot - W^-1 J^T G^-1 J q_dot, with J at the projected q.
         h22 = g11 * g33 - g13 * g13
@@ -489,33 +498,48 @@ def project_readout(
     c2x, c2y = qvx - r2 * ws, qvy + r2 * wc
     c3x, c3y = qvx - r3 * ws, qvy + r3 * wc
     al1, al2, al3 = math.atan2(y1, x1), math.atan2(y2, x2), math.atan2(y3, x3)
-    out = np.array([
-        qx + dc * c, qy + dc * s, th, qvx - dc * ws, qvy + dc * wc, w,
-        b1, 0.0, v[8], d1, 0.0, 0.0,
-        v[12], v[13], v[14], v[15], v[16], v[17],
-        b1 + 0.5 * x1, 0.5 * y1, al1, 0.5 * (d1 + c1x), 0.5 * c1y,
-        (x1 * c1y - y1 * (c1x - d1)) / n1,
-        b2, 0.0, v[26], d2, 0.0, 0.0,
-        v[30], v[31], v[32], v[33], v[34], v[35],
-        b2 + 0.5 * x2, 0.5 * y2, al2, 0.5 * (d2 + c2x), 0.5 * c2y,
-        (x2 * c2y - y2 * (c2x - d2)) / n2,
-        b3, 0.0, v[44], d3, 0.0, 0.0,
-        v[48], v[49], v[50], v[51], v[52], v[53],
-        b3 + 0.5 * x3, 0.5 * y3, al3, 0.5 * (d3 + c3x), 0.5 * c3y,
-        (x3 * c3y - y3 * (c3x - d3)) / n3,
-    ])  # fmt: skip
+    # (Element by element, not one 60-entry array literal: the same numbers, and numba
+    # compiles it in a fraction of the time.)
+    out = np.empty(60)
+    out[0], out[1], out[2] = qx + dc * c, qy + dc * s, th
+    out[3], out[4], out[5] = qvx - dc * ws, qvy + dc * wc, w
+    _leg_bodies(out, 6, v, b1, d1, x1, y1, al1, c1x, c1y, n1)
+    _leg_bodies(out, 24, v, b2, d2, x2, y2, al2, c2x, c2y, n2)
+    _leg_bodies(out, 42, v, b3, d3, x3, y3, al3, c3x, c3y, n3)
     # Drive setpoints (x at 12, 30, 48) within ``setpoint_limit`` of their sliders (6 before).
     for o in (12, 30, 48):
         if out[o] - out[o - 6] > setpoint_limit:
             out[o] = out[o - 6] + setpoint_limit
         elif out[o - 6] - out[o] > setpoint_limit:
             out[o] = out[o - 6] - setpoint_limit
-    state = np.array([
-        p1, p2, p3, d1, d2, d3, qx - kq * c, qy - kq * s, th,
-        qvx + kq * ws, qvy - kq * wc, w, al1, al2, al3,
-        x1, y1, x2, y2, x3, y3, c, s,
-    ])  # fmt: skip
+    state = np.empty(23)
+    state[0], state[1], state[2], state[3], state[4], state[5] = p1, p2, p3, d1, d2, d3
+    state[6], state[7], state[8] = qx - kq * c, qy - kq * s, th
+    state[9], state[10], state[11] = qvx + kq * ws, qvy - kq * wc, w
+    state[12], state[13], state[14] = al1, al2, al3
+    state[15], state[16], state[17], state[18], state[19], state[20] = x1, y1, x2, y2, x3, y3
+    state[21], state[22] = c, s
     return out, state, closure, steps
+
+
+@njit(cache=True)
+def _leg_bodies(
+    out: np.ndarray, o: int, v: np.ndarray, b: float, d: float, x: float, y: float,
+    al: float, cx: float, cy: float, n: float,
+) -> None:  # fmt: skip
+    """A leg's 18 body values of :func:`project_readout` into ``out[o:o + 18]``: its slider
+    at ``(b, 0)`` moving at ``d`` (m, m/s; the angle as read), its drive as read from ``v``,
+    and its leg: the midpoint of ``B_i C_i`` (leg vector ``(x, y)``, angle ``al``, squared
+    length ``n``), the mean of its ends' velocities (``C_i`` at ``(cx, cy)``) and its angular
+    velocity."""
+    out[o], out[o + 1], out[o + 2], out[o + 3], out[o + 4], out[o + 5] = (
+        b, 0.0, v[o + 2], d, 0.0, 0.0
+    )  # fmt: skip
+    for q in range(o + 6, o + 12):
+        out[q] = v[q]
+    out[o + 12], out[o + 13], out[o + 14] = b + 0.5 * x, 0.5 * y, al
+    out[o + 15], out[o + 16] = 0.5 * (d + cx), 0.5 * cy
+    out[o + 17] = (x * cy - y * (cx - d)) / n
 
 
 @njit(cache=True)
