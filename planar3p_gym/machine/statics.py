@@ -40,16 +40,14 @@ def holding_forces(design: Design, poses: ArrayLike, mode: ArrayLike) -> FloatAr
 
 def holding_forces_at(design: Design, poses: ArrayLike, rho: ArrayLike) -> FloatArray:
     """:func:`holding_forces` of configurations given by their poses ``(..., 3)`` and slider
-    travels ``rho`` (m, ``(..., 3)``, broadcast against the poses; rows with a NaN travel, as
-    :func:`kinematics.inverse` gives for unreachable poses, give NaN forces, and so do exactly
-    singular configurations).  ``ValueError`` for poses that are not finite, infinite travels
+    travels ``rho`` (m, ``(..., 3)``, broadcast against the poses; rows with a travel that is
+    not finite, as :func:`kinematics.inverse` gives NaN for unreachable poses, give NaN forces,
+    and so do exactly singular configurations).  ``ValueError`` for poses that are not finite
     or shapes that do not broadcast."""
     p = kinematics._as_triples("poses", poses)
     r = kinematics._as_float("rho", rho)
     if r.ndim == 0 or r.shape[-1] != 3:
         raise ValueError(f"rho must have shape (..., 3), got shape {r.shape}")
-    if np.isinf(r).any():
-        raise ValueError("rho contains infinite values")
     kinematics._check_broadcast("poses", p, "rho", r)
     shape = np.broadcast_shapes(p.shape, r.shape)
     flat_p = np.broadcast_to(p, shape).reshape(-1, 3)
@@ -95,7 +93,7 @@ def _holding_row(
 ) -> None:  # fmt: skip
     """The holding forces of one configuration (pose ``p``, travels ``rho``) into ``out`` (N):
     ``F_i = g u_ix z_i`` with ``A^T z = c``, ``c = (0, lift, turn cos theta)``; NaN if a travel
-    is NaN.
+    is not finite.
 
     Row ``i`` of ``A`` is ``(u_ix, u_iy, L_iG (u_iy cos theta - u_ix sin theta))``, as in
     :func:`kinematics.jacobians`.  The 3 x 3 system is solved by Gaussian elimination with
@@ -103,7 +101,7 @@ def _holding_row(
     run time and allocates per call, for a system this small.  An exactly singular ``A`` gives
     infinite or NaN forces (numpy's error model: no exception), which every threshold rejects.
     """
-    if not (rho[0] == rho[0] and rho[1] == rho[1] and rho[2] == rho[2]):  # (NaN != NaN)
+    if not (math.isfinite(rho[0]) and math.isfinite(rho[1]) and math.isfinite(rho[2])):
         out[0] = out[1] = out[2] = math.nan
         return
     th = p[2]
