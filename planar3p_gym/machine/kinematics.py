@@ -49,6 +49,7 @@ __all__ = [
     "leg_vectors",
     "loop_residual",
     "margins",
+    "min_parallel_margin",
     "normalised_A",
     "parallel_margin",
     "pose_distance",
@@ -316,6 +317,53 @@ def parallel_margin(design: Design, pose: ArrayLike, rho: ArrayLike) -> FloatArr
     (0 at a parallel singularity), shape ``(...)``."""
     sv = np.linalg.svd(normalised_A(design, pose, rho), compute_uv=False)
     return sv[..., -1] / sv[..., 0]
+
+
+def min_parallel_margin(design: Design, poses: ArrayLike, rho: ArrayLike) -> FloatArray:
+    """The smallest :func:`parallel_margin` along each path of poses and travels ``(..., P,
+    3)``, shape ``(...)``: ``parallel_margin(design, poses, rho).min(axis=-1)`` bit for bit,
+    with the SVD only where it can matter.
+
+    Per path, the SVD of the pose with the smallest ``|det A_bar| / |A_bar|_F^3`` gives a
+    margin ``m``; the closed-form bounds of the screen (:func:`_bound_test`) then prove most
+    other poses' margins at least ``m`` (they cannot be the minimum), and the SVD runs on the
+    rest.  Each pose's margin is the SVD of the same matrix as :func:`parallel_margin` takes
+    (numpy's SVD works matrix by matrix), so the minimum is the same number; on the mode
+    change's certified paths about a third of the poses need the SVD.
+    """
+    c = _consts(_check_design(design))
+    p, r = _as_triples("poses", poses), _as_triples("rho", rho)
+    if p.ndim < 2:
+        raise ValueError(f"poses must have shape (..., P, 3), got shape {p.shape}")
+    if not p.shape[-2]:
+        raise ValueError("min_parallel_margin needs at least one pose per path (P >= 1)")
+    a_bar = _normalised_A(c, p, _leg_vectors(c, p, r))
+    shape, points = a_bar.shape[:-3], a_bar.shape[-3]
+    flat = np.ascontiguousarray(a_bar.reshape(-1, points, 3, 3))
+    n = flat.shape[0]
+    if not n:
+        return np.empty(shape)
+    proxy = np.abs(np.linalg.det(flat)) / np.sqrt((flat * flat).sum(axis=(-2, -1))) ** 3
+    first = np.argmin(proxy, axis=1)
+    sv = np.linalg.svd(flat[np.arange(n), first], compute_uv=False)
+    best = sv[:, -1] / sv[:, 0]
+    rows, cols = np.nonzero(_not_above(flat, best))
+    if rows.size:
+        sv = np.linalg.svd(flat[rows, cols], compute_uv=False)
+        np.minimum.at(best, rows, sv[:, -1] / sv[:, 0])
+    return best.reshape(shape)
+
+
+@njit(cache=True)
+def _not_above(a_bar: FloatArray, floor: FloatArray) -> NDArray[np.bool_]:
+    """``(n, P)``: the poses of paths ``a_bar`` ``(n, P, 3, 3)`` whose parallel margin the
+    bounds (:func:`_bound_test`) do not prove at least ``floor[i]`` of their path."""
+    out = np.empty(a_bar.shape[:2], dtype=np.bool_)
+    for i in range(a_bar.shape[0]):
+        for j in range(a_bar.shape[1]):
+            above, _, _ = _bound_test(a_bar[i, j], floor[i])
+            out[i, j] = not above
+    return out
 
 
 def serial_margin(design: Design, pose: ArrayLike, rho: ArrayLike) -> FloatArray:

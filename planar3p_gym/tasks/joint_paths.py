@@ -228,7 +228,7 @@ def _segment_figures(
     of the batch they are computed in).  A pose exactly at a parallel singularity has no
     holding forces: its segment's force is NaN or infinite, which the force limit rejects."""
     poses, rho = tracked.poses[rows], tracked.rho[rows]
-    margin = kinematics.parallel_margin(design, poses, rho).min(axis=-1)
+    margin = kinematics.min_parallel_margin(design, poses, rho)
     force = np.abs(holding_forces_at(design, poses, rho)).max(axis=(-2, -1))
     return margin, force
 

@@ -1030,3 +1030,43 @@ def test_margin_tests_never_contradict_the_svd(seed, log_s2, log_s3, scale, rel)
     if s[2] >= 1e-3 and rel in (-0.8, 3.0):
         above, below, _ = kinematics._bound_test(m, float(pm * (1.0 + rel)))
         assert above == (rel < 0) and below == (rel > 0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    name=st.sampled_from(["fig8", "generic"]),
+    mode=st.sampled_from([tuple(int(v) for v in m) for m in ALL_MODES]),
+    seed=st.integers(0, 2**32 - 1),
+    points=st.integers(1, 60),
+)
+def test_min_parallel_margin_is_the_minimum_of_the_margins_bit_for_bit(name, mode, seed, points):
+    """The bounds only skip poses that cannot be the minimum: the result is the full SVD's
+    minimum to the bit, on straight pose paths between acceptable poses (some pass near a
+    parallel singularity)."""
+    from planar3p_gym.tasks import sampling
+
+    design = DESIGNS[name]
+    rng = np.random.default_rng(seed)
+    try:
+        poses, _ = sampling.sample_poses(design, mode, rng, sampling.TaskConfig(), max_batches=5)
+    except ValueError:  # a working mode of this design with no acceptable pose
+        assume(False)
+    a, b = poses[rng.integers(len(poses), size=(2, 6))]
+    paths = sampling.interpolate(a, b, points)  # (6, points, 3)
+    rho = kinematics.inverse(design, paths, mode).rho
+    keep = np.isfinite(rho).all(axis=(-2, -1))
+    assume(keep.any())
+    paths, rho = paths[keep], rho[keep]
+    want = kinematics.parallel_margin(design, paths, rho).min(axis=-1)
+    np.testing.assert_array_equal(kinematics.min_parallel_margin(design, paths, rho), want)
+
+
+def test_min_parallel_margin_checks_its_arguments():
+    pose = np.array([0.3, 0.12, 0.1])
+    rho = np.array([0.1, 0.15, 0.2])
+    with pytest.raises(ValueError, match=r"shape \(\.\.\., P, 3\)"):
+        kinematics.min_parallel_margin(FIG8, pose, rho)
+    with pytest.raises(ValueError, match="at least one pose"):
+        kinematics.min_parallel_margin(FIG8, np.zeros((2, 0, 3)), np.zeros((2, 0, 3)))
+    empty = kinematics.min_parallel_margin(FIG8, np.zeros((0, 4, 3)), np.zeros((0, 4, 3)))
+    assert empty.shape == (0,)
