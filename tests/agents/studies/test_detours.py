@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import csv
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from script_loader import command
 
 from planar3p_agents.evaluation import reach_suites as su
 from planar3p_agents.studies.detours import (
@@ -92,3 +95,19 @@ def test_suite_summary_counts():
     assert (s["pairs"], s["straight"], s["other_solution"], s["reachable"]) == (4, 1, 2, 3)
     assert s["ratio_median"] == 2.0
     assert math.isnan(suite_summary(rows[2:3])["ratio_median"])
+
+
+def test_the_detours_command_prints_a_row_per_suite_and_writes_a_row_per_pair(tmp_path, capsys):
+    """``planar3p detours`` end to end on the committed suite file: one summary row per suite
+    and, with --csv, one row per pair (here the first pair of each suite, on a 2-value grid)."""
+    out = tmp_path / "out" / "pairs.csv"
+    suites = Path(__file__).parents[3] / "docs" / "benchmark" / "strongest-baselines"
+    argv = ["--suite-file", str(suites / "suites.json"), "--episodes", "1", "--fractions", "0,1"]
+    argv += ["--csv", str(out)]
+    assert command("detours").main(argv) == 0
+    text = capsys.readouterr().out
+    assert "| standard | 1 | 1 | 0 | 1 | 1.00 / 1.00 / 1.00 |" in text
+    assert "| hard | 1 | 0 | 1 |" in text
+    rows = list(csv.DictReader(out.open()))
+    assert [(r["suite"], r["straight"]) for r in rows] == [("standard", "ok"), ("hard", "end_pose")]
+    assert float(rows[1]["end_gap"]) > 0.05 and int(rows[1]["tried"]) > 0
