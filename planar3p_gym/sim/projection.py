@@ -503,9 +503,13 @@ def project_readout(
     out = np.empty(60)
     out[0], out[1], out[2] = qx + dc * c, qy + dc * s, th
     out[3], out[4], out[5] = qvx - dc * ws, qvy + dc * wc, w
-    _leg_bodies(out, 6, v, b1, d1, x1, y1, al1, c1x, c1y, n1)
-    _leg_bodies(out, 24, v, b2, d2, x2, y2, al2, c2x, c2y, n2)
-    _leg_bodies(out, 42, v, b3, d3, x3, y3, al3, c3x, c3y, n3)
+    bs, ds, xs, ys, als = (b1, b2, b3), (d1, d2, d3), (x1, x2, x3), (y1, y2, y3), (al1, al2, al3)
+    cxs, cys, ns = (c1x, c2x, c3x), (c1y, c2y, c3y), (n1, n2, n3)
+    for leg in range(3):  # (offsets computed, not literals: one compiled _leg_bodies, not three)
+        _leg_bodies(
+            out, 6 + 18 * leg, v, bs[leg], ds[leg], xs[leg], ys[leg], als[leg], cxs[leg],
+            cys[leg], ns[leg],
+        )  # fmt: skip
     # Drive setpoints (x at 12, 30, 48) within ``setpoint_limit`` of their sliders (6 before).
     for o in (12, 30, 48):
         if out[o] - out[o - 6] > setpoint_limit:
