@@ -138,9 +138,7 @@ class AnalyticController(BatchPolicy):
     ) -> None:
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
-        self.design = design if design is not None else Design.fig8()
-        if not isinstance(self.design, Design):
-            raise ValueError(f"design must be a planar3p_gym.Design, got {type(design).__name__}")
+        self._use_design(design)
         for name, value in (
             ("position_gain", position_gain),
             ("orientation_gain", orientation_gain),

@@ -19,6 +19,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planar3p_gym.machine.design import Design
+
 __all__ = ["BatchPolicy", "PolicyAdapter", "episode_starts", "observation_batch"]
 
 
@@ -74,6 +76,15 @@ class BatchPolicy:
     obs_size: int | None = None
     obs_exact: bool = True
     obs_expected: str = ""
+
+    def _use_design(self, design: Any) -> None:
+        """Set :attr:`design`: ``design``, or ``Design.fig8()`` for ``None``; ``ValueError``
+        unless it is a :class:`~planar3p_gym.machine.design.Design`."""
+        if design is None:
+            design = Design.fig8()
+        if not isinstance(design, Design):
+            raise ValueError(f"design must be a planar3p_gym.Design, got {type(design).__name__}")
+        self.design = design
 
     def _use_observation_size(self, observation_size: Any) -> None:
         """Accept observations of ``observation_size`` entries instead of the class's

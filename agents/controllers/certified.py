@@ -103,9 +103,7 @@ class CertifiedPlanner(BatchPolicy):
         seed: int = 0,
         observation_size: int | None = None,
     ) -> None:
-        self.design = design if design is not None else Design.fig8()
-        if not isinstance(self.design, Design):
-            raise ValueError(f"design must be a planar3p_gym.Design, got {type(design).__name__}")
+        self._use_design(design)
         for name, value in (("dt", dt), ("gain", gain), ("cartesian_gain", cartesian_gain)):
             if not (np.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {value!r}")

@@ -92,9 +92,7 @@ class CertifiedLineController(BatchPolicy):
         limits: PathLimits | None = None,
         observation_size: int | None = None,
     ) -> None:
-        self.design = design if design is not None else Design.fig8()
-        if not isinstance(self.design, Design):
-            raise ValueError(f"design must be a planar3p_gym.Design, got {type(design).__name__}")
+        self._use_design(design)
         if not (np.isfinite(dt) and dt > 0):
             raise ValueError(f"dt must be finite and > 0 (s), got {dt!r}")
         if gain is None:

@@ -95,9 +95,7 @@ class SliderLineController(BatchPolicy):
         speed_fraction: float = 1.0,
         observation_size: int | None = None,
     ) -> None:
-        self.design = design if design is not None else Design.fig8()
-        if not isinstance(self.design, Design):
-            raise ValueError(f"design must be a planar3p_gym.Design, got {type(design).__name__}")
+        self._use_design(design)
         if not (np.isfinite(gain) and gain > 0):
             raise ValueError(f"gain must be finite and > 0 (1/s), got {gain!r}")
         if not 0 < speed_fraction <= 1:

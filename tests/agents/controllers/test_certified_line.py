@@ -32,6 +32,7 @@ from planar3p_agents.controllers.slider_line import SliderLineController, line_r
 from planar3p_agents.evaluation.episodes import run_episode
 from planar3p_agents.policies.factory import load_policy
 from planar3p_agents.training import config as training
+from planar3p_gym import Design
 from planar3p_gym.tasks.observation import SLICES
 
 ID = planar3p_gym.ENV_ID
@@ -201,3 +202,17 @@ def test_observation_size_is_checked_alike(controller):
             controller(observation_size=bad)
     assert controller().obs_size == 31
     assert controller(observation_size=np.int64(40)).obs_size == 40
+
+
+@pytest.mark.parametrize(
+    "controller",
+    [AnalyticController, SliderLineController, CertifiedPlanner, CertifiedLineController],
+)
+def test_design_is_checked_alike(controller):
+    """One check for every flat-observation controller: a Design, the paper's by default."""
+    for bad in ("fig8", {"stroke": 0.3}, 1):
+        with pytest.raises(ValueError, match=r"design must be a planar3p_gym.Design, got"):
+            controller(bad)
+    assert controller().design == Design.fig8()
+    short = Design.fig8(stroke=0.2)
+    assert controller(short).design is short
