@@ -315,7 +315,15 @@ def _normalised_A(c: _Consts, p: FloatArray, u: FloatArray) -> FloatArray:
 def parallel_margin(design: Design, pose: ArrayLike, rho: ArrayLike) -> FloatArray:
     """Inverse condition number ``sigma_min / sigma_max`` of ``A_bar``, in ``[0, 1]``
     (0 at a parallel singularity), shape ``(...)``."""
-    sv = np.linalg.svd(normalised_A(design, pose, rho), compute_uv=False)
+    return _svd_margin(normalised_A(design, pose, rho))
+
+
+def _svd_margin(a_bar: FloatArray) -> FloatArray:
+    """``sigma_min / sigma_max`` of matrices ``(..., 3, 3)`` by numpy's SVD, which works
+    matrix by matrix (so a matrix's margin does not depend on the batch it is in): the one
+    definition behind :func:`parallel_margin`, :func:`margins`, :func:`min_parallel_margin`
+    and the screen's undecided poses."""
+    sv = np.linalg.svd(a_bar, compute_uv=False)
     return sv[..., -1] / sv[..., 0]
 
 
@@ -345,12 +353,10 @@ def min_parallel_margin(design: Design, poses: ArrayLike, rho: ArrayLike) -> Flo
         return np.empty(shape)
     proxy = np.abs(np.linalg.det(flat)) / np.sqrt((flat * flat).sum(axis=(-2, -1))) ** 3
     first = np.argmin(proxy, axis=1)
-    sv = np.linalg.svd(flat[np.arange(n), first], compute_uv=False)
-    best = sv[:, -1] / sv[:, 0]
+    best = _svd_margin(flat[np.arange(n), first])
     rows, cols = np.nonzero(_not_above(flat, best))
     if rows.size:
-        sv = np.linalg.svd(flat[rows, cols], compute_uv=False)
-        np.minimum.at(best, rows, sv[:, -1] / sv[:, 0])
+        np.minimum.at(best, rows, _svd_margin(flat[rows, cols]))
     return best.reshape(shape)
 
 
@@ -404,9 +410,8 @@ def margins(design: Design, pose: ArrayLike, rho: ArrayLike) -> Margins:
     A = _jacobian_A(c, p, u)
     A_bar = A / c.legs[:, None]
     A_bar[..., 2] /= c.ref
-    sv = np.linalg.svd(A_bar, compute_uv=False)
     serial = np.min(np.abs(u[..., 0]) / np.hypot(u[..., 0], u[..., 1]), axis=-1)
-    return Margins(sv[..., -1] / sv[..., 0], serial, np.sign(np.linalg.det(A)).astype(np.int8))
+    return Margins(_svd_margin(A_bar), serial, np.sign(np.linalg.det(A)).astype(np.int8))
 
 
 # ---------------------------------------------------------------------------- screening
@@ -506,9 +511,8 @@ def _screen(
     )  # fmt: skip
     todo = np.flatnonzero(pending)
     if todo.size:
-        sv = np.linalg.svd(a_bar[todo], compute_uv=False)
         sign = np.sign(np.linalg.det(a[todo])).astype(np.int8)
-        good = sv[..., -1] / sv[..., 0] >= min_parallel
+        good = _svd_margin(a_bar[todo]) >= min_parallel
         if assembly is not None:
             good &= sign == assembly
         asm[todo] = np.where(good, sign, 0)
