@@ -90,7 +90,7 @@ def crossing_path(
     ``"serial_margin"`` or ``"crossings"`` (``sign det A`` does not change exactly once)."""
     path = straight_pose_path(start, target, limits.points)
     m = np.asarray(mode, dtype=np.float64)
-    lo, hi = limits.travel_margin * design.stroke, (1.0 - limits.travel_margin) * design.stroke
+    lo, hi = design.travel_band(limits.travel_margin)
     rho = kinematics.inverse(design, path, m).rho
     if not (np.isfinite(rho).all() and (rho >= lo).all() and (rho <= hi).all()):
         return False, "stroke"

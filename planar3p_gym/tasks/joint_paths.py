@@ -235,7 +235,7 @@ def _segment_figures(
 
 def _in_stroke(design: Design, travels: FloatArray, limits: PathLimits) -> NDArray[np.bool_]:
     """Whether travels ``(..., 3)`` keep ``limits.travel_margin`` of the stroke free (per row)."""
-    lo, hi = limits.travel_margin * design.stroke, (1.0 - limits.travel_margin) * design.stroke
+    lo, hi = design.travel_band(limits.travel_margin)
     return ((travels >= lo - 1e-12) & (travels <= hi + 1e-12)).all(axis=-1)
 
 

@@ -182,12 +182,11 @@ def _acceptable(
     design: Design, poses: np.ndarray, mode: np.ndarray, cfg: TaskConfig
 ) -> tuple[np.ndarray, np.ndarray]:
     """Mask of acceptable poses ``(N,)`` and their assembly modes (0 where not acceptable)."""
-    lo, hi = cfg.travel_margin * design.stroke, (1.0 - cfg.travel_margin) * design.stroke
     ok, rho, asm = kinematics.screen_poses(
         design,
         poses,
         mode,
-        travel=(lo, hi),
+        travel=design.travel_band(cfg.travel_margin),
         min_parallel=cfg.min_parallel_margin,
         min_serial=cfg.min_serial_margin,
     )

@@ -315,7 +315,7 @@ class TrackTask(Task):
     def _screen(self, paths: np.ndarray, mode: Any, assembly: float | None) -> np.ndarray:
         cfg = self.env.task_config
         design = self.env.design
-        lo, hi = cfg.travel_margin * design.stroke, (1.0 - cfg.travel_margin) * design.stroke
+        lo, hi = design.travel_band(cfg.travel_margin)
         return kinematics.screen_paths(
             design,
             paths,

@@ -57,8 +57,12 @@ def test_holding_forces_are_the_gradient_of_the_potential_energy(mode, seed):
     pose = holdable_poses(mode, 1, seed)[0]
     analytic = holding_forces(DESIGN, pose, mode)
     numeric = numerical_holding_forces(DESIGN, pose, mode)
-    # Central differences: truncation O(eps^2) and round-off O(1e-16 / eps) relative.
-    np.testing.assert_allclose(analytic, numeric, rtol=1e-6, atol=1e-8)
+    # Central differences: truncation O(eps^2) and round-off O(1e-16 / eps), relative to the
+    # largest force (the solve through drho/dp mixes the components, so a small component
+    # carries the error of the large ones: 2.7e-8 N on a 0.01 N component beside 2 N ones),
+    # amplified by the conditioning of drho/dp (serial margin >= 0.2 on these poses).
+    scale = float(np.abs(numeric).max())
+    np.testing.assert_allclose(analytic, numeric, rtol=0.0, atol=1e-6 * scale + 1e-10)
 
 
 def test_holding_forces_broadcast_and_mark_unreachable_poses():
