@@ -543,11 +543,14 @@ class Planar3PEnv(gym.Env):
             self._target_rho = kinematics.inverse(self.design, self._target, mode).rho
         machine = self._draw_machine(start, mode) if self.randomization else self._machine
         previous = self._sim
-        if previous is not None and self.randomization is None and not previous.closed:
-            # The same machine every episode: the bodies are moved, bit for bit the model a
-            # new build would give (Planar3PSim.reset).
-            previous.reset(start, mode)
-        else:  # a new machine (randomised dynamics): built anew
+        if previous is not None and not previous.closed:
+            # The bodies are moved (and, for a machine drawn per episode, the model given its
+            # numbers): bit for bit the model a new build would give (Planar3PSim.reset).
+            if self.randomization is None:
+                previous.reset(start, mode)
+            else:
+                previous.reset(start, mode, design=machine.design, dynamics=machine.dynamics)
+        else:
             self._sim = Planar3PSim(
                 machine.design,
                 start,

@@ -246,6 +246,62 @@ def _start(design: Design, pose: ArrayLike, working_mode: ArrayLike) -> tuple[np
     return p, rho
 
 
+def _check_viscous(design: Design, dyn: MachineDynamics, h: float) -> None:
+    """``ValueError`` unless the explicit viscous forces of ``dyn`` are stable on ``design`` at
+    the physics step ``h`` (s)."""
+    if not (dyn.slider_viscous > 0.0 or dyn.joint_viscous > 0.0):
+        return
+    leg_inertia = dyn.inertia_scale * design.leg_mass * min(design.leg_lengths) ** 2 / 12
+    # Explicit viscous forces are stable for c h / m < 2; half that is asked for.
+    if dyn.slider_viscous * h >= design.slider_mass:
+        raise ValueError(
+            f"dynamics.slider_viscous ({dyn.slider_viscous} N s/m) times the physics "
+            f"step ({h} s) must stay below the slider mass ({design.slider_mass} kg)"
+        )
+    if dyn.joint_viscous * h >= leg_inertia:
+        raise ValueError(
+            f"dynamics.joint_viscous ({dyn.joint_viscous} N m s/rad) times the physics "
+            f"step ({h} s) must stay below a leg's moment of inertia ({leg_inertia} kg m^2)"
+        )
+
+
+def _constraint_kinds(dyn: MachineDynamics | None) -> tuple[bool, bool]:
+    """Which friction constraints a model of ``dyn`` has (:func:`_friction`): the sliders'
+    and the revolute joints'.  Two machines with the same kinds have models of the same
+    bodies and constraints, in the same order, and differ only in their numbers."""
+    if dyn is None:
+        return False, False
+    return dyn.slider_coulomb > 0.0, dyn.joint_coulomb > 0.0
+
+
+class ModelNumbers(NamedTuple):
+    """The numbers of a pymunk model that depend on the machine (:meth:`Planar3PSim._numbers`),
+    defined once for the build (constructors) and for a reset onto another machine (setters).
+
+    Attributes:
+        gravity: ``(gx, gy)`` (m/s^2).
+        platform: the platform's mass (kg) and moment of inertia about its centre (kg m^2).
+        slider_mass: each slider's mass (kg); sliders do not rotate (infinite moment).
+        legs: per leg, its mass (kg) and moment of inertia (kg m^2).
+        grooves: per rail, the ends of the slider's groove (m).
+        stops: per rail, the end stops' anchor on the ground (m) and half stroke (m) (the
+            projected model's unilateral limit).
+        servo_force: the servos' force limit (N).
+        slider_coulomb: the sliders' dry friction force (N); 0 without.
+        joint_coulomb: the revolute joints' dry friction torque (N m); 0 without.
+    """
+
+    gravity: tuple[float, float]
+    platform: tuple[float, float]
+    slider_mass: float
+    legs: tuple[tuple[float, float], ...]
+    grooves: tuple[tuple[tuple[float, float], tuple[float, float]], ...]
+    stops: tuple[tuple[tuple[float, float], float], ...]
+    servo_force: float
+    slider_coulomb: float
+    joint_coulomb: float
+
+
 #: Distance along its rail of the static anchor of a slider's friction constraints (m): so far
 #: that the constraint's direction is the rail's (as the servo's long arm).
 FRICTION_ARM = 1000.0
@@ -370,44 +426,24 @@ class Planar3PSim:
         if not isinstance(projection, (bool, np.bool_)):
             raise ValueError(f"projection must be True or False, got {projection!r}")
         dyn = MachineDynamics.from_value(dynamics, "dynamics")
+        _check_viscous(design, dyn, float(dt) / int(substeps))
         p, rho = _start(design, pose, working_mode)
-        self.design = design
         self.dt = float(dt)
         self.substeps = int(substeps)
         self.iterations = int(iterations)
         self._h = self.dt / self.substeps
         self._force_scale = 1.0 / (self.substeps * self._h)  # impulse sum -> mean force (1/s)
-        self._force_limit = 0.999 * design.max_force * self._h  # saturated impulse (N s)
-        self._k = design.joint_offsets
-        self._legs = design.leg_lengths
-        self._origins = design.rail_origins
         self._time = 0.0
         self._forces = (0.0, 0.0, 0.0)
         self._saturated = (False, False, False)
         self.projection = bool(projection)
+        #: The machine's design (:meth:`reset` may give a new one).
+        self.design = design
         #: The machine's imperfections; ``None`` for the ideal machine (the default model).
-        self.dynamics: MachineDynamics | None = None if dyn.is_ideal else dyn
-        self._viscous = dyn.slider_viscous > 0.0 or dyn.joint_viscous > 0.0
-        if self._viscous:
-            h = self.dt / self.substeps
-            leg_inertia = dyn.inertia_scale * design.leg_mass * min(design.leg_lengths) ** 2 / 12
-            # Explicit viscous forces are stable for c h / m < 2; half that is asked for.
-            if dyn.slider_viscous * h >= design.slider_mass:
-                raise ValueError(
-                    f"dynamics.slider_viscous ({dyn.slider_viscous} N s/m) times the physics "
-                    f"step ({h} s) must stay below the slider mass ({design.slider_mass} kg)"
-                )
-            if dyn.joint_viscous * h >= leg_inertia:
-                raise ValueError(
-                    f"dynamics.joint_viscous ({dyn.joint_viscous} N m s/rad) times the physics "
-                    f"step ({h} s) must stay below a leg's moment of inertia ({leg_inertia} kg m^2)"
-                )
+        self.dynamics: MachineDynamics | None = None
+        self._use_machine(design, dyn)
         #: Servo setpoint velocities after the servo lag (m/s), with a lag only.
         self._lagged = [0.0, 0.0, 0.0]
-        self._lag = 1.0 if self.dynamics is None else self.dynamics.lag_factor(self.dt)
-        self._projector = (
-            LoopProjector(design, self.dt, FOLLOWING_ERROR_LIMIT) if self.projection else None
-        )
         self._origin = (
             (float(p[0]), float(p[1]), float(p[2])),
             tuple(int(m) for m in working_mode),
@@ -431,54 +467,101 @@ class Planar3PSim:
         self._build(p, rho, error_bias, platform_error_bias)
 
     # ------------------------------------------------------------------ construction
+    def _use_machine(self, design: Design, dyn: MachineDynamics) -> None:
+        """Take ``design`` and ``dyn`` (validated) as the machine: every number derived from
+        them, except the pymunk model's own (:meth:`_numbers`)."""
+        self.design = design
+        self._force_limit = 0.999 * design.max_force * self._h  # saturated impulse (N s)
+        self._k = design.joint_offsets
+        self._legs = design.leg_lengths
+        self._origins = design.rail_origins
+        self.dynamics = None if dyn.is_ideal else dyn
+        self._viscous = dyn.slider_viscous > 0.0 or dyn.joint_viscous > 0.0
+        self._lag = 1.0 if self.dynamics is None else self.dynamics.lag_factor(self.dt)
+        self._projector = (
+            LoopProjector(design, self.dt, FOLLOWING_ERROR_LIMIT) if self.projection else None
+        )
+
+    def _numbers(self) -> ModelNumbers:
+        """The pymunk model's numbers for this machine (:class:`ModelNumbers`)."""
+        d, dyn = self.design, self.dynamics
+        inertia = 1.0 if dyn is None else dyn.inertia_scale
+        k1 = self._k[0]
+        grooves: list = []
+        stops: list = []
+        for a in self._origins:
+            if self.projection:
+                ends = (a - PROJECTED_RAIL_OVERRUN, a + d.stroke + PROJECTED_RAIL_OVERRUN)
+                grooves.append(((ends[0], 0.0), (ends[1], 0.0)))
+                half = 0.5 * d.stroke
+                stops.append(((a + half, 0.0), half))
+            else:  # the groove's ends are the stops
+                grooves.append(((a, 0.0), (a + d.stroke, 0.0)))
+        return ModelNumbers(
+            gravity=(0.0, -d.gravity) if dyn is None else dyn.gravity_vector(d.gravity),
+            platform=(d.platform_mass, inertia * d.platform_mass * k1 * k1 / 12.0),
+            slider_mass=d.slider_mass,
+            legs=tuple((d.leg_mass, inertia * d.leg_mass * L * L / 12.0) for L in self._legs),
+            grooves=tuple(grooves),
+            stops=tuple(stops),
+            servo_force=d.max_force,
+            slider_coulomb=0.0 if dyn is None else dyn.slider_coulomb,
+            joint_coulomb=0.0 if dyn is None else dyn.joint_coulomb,
+        )
+
+    def _set_numbers(self, n: ModelNumbers) -> None:
+        """Give the kept model the numbers ``n`` through pymunk's setters (Chipmunk's, which
+        store what its constructors store): the model :meth:`_build` makes with them, for a
+        machine with the same kinds of constraints (:func:`_constraint_kinds`)."""
+        self.space.gravity = n.gravity
+        self.platform.mass, self.platform.moment = n.platform
+        for i in range(3):
+            self.sliders[i].mass = n.slider_mass
+            self.legs[i].mass, self.legs[i].moment = n.legs[i]
+            self._rails[i].groove_a, self._rails[i].groove_b = n.grooves[i]
+            if self.projection:
+                self._stops[i].anchor_a, self._stops[i].max = n.stops[i]
+            self.servos[i].max_force = n.servo_force
+        for c in self._frictions:  # (_friction: a slider's pin, a joint's motor)
+            c.max_force = n.slider_coulomb if isinstance(c, pymunk.PinJoint) else n.joint_coulomb
+        if self._limits is not None:
+            limits = np.array([c.max_force for c in self.space.constraints])
+            self._limits = (self._limits[0], limits)
+
     def _build(
         self, pose: np.ndarray, rho: np.ndarray, error_bias: float, platform_error_bias: float
     ) -> None:
-        d = self.design
         dyn = self.dynamics
+        n = self._numbers()
         space = pymunk.Space()
         space.iterations = self.iterations
-        space.gravity = (0.0, -d.gravity) if dyn is None else dyn.gravity_vector(d.gravity)
-        inertia = 1.0 if dyn is None else dyn.inertia_scale
+        space.gravity = n.gravity
         places, points = self._places(pose, rho)
-        k1 = self._k[0]
-        platform = pymunk.Body(d.platform_mass, inertia * d.platform_mass * k1 * k1 / 12.0)
+        platform = pymunk.Body(*n.platform)
         platform.position, platform.angle = places[0]
         space.add(platform)
         sliders, drives, servos, legs, joints = [], [], [], [], []
         for i in range(3):
-            a, L = self._origins[i], self._legs[i]
-            slider = pymunk.Body(d.slider_mass, math.inf)
+            slider = pymunk.Body(n.slider_mass, math.inf)
             slider.position = places[1 + 3 * i][0]
             drive = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
             drive.position = places[2 + 3 * i][0]
-            leg = pymunk.Body(d.leg_mass, inertia * d.leg_mass * L * L / 12.0)
+            leg = pymunk.Body(*n.legs[i])
             leg.position, leg.angle = places[3 + 3 * i]
+            rail = pymunk.GrooveJoint(space.static_body, slider, *n.grooves[i], (0, 0))
             if self.projection:
                 # The groove only keeps the slider on its line; the end stops are a separate
                 # unilateral limit whose impulse is dropped whenever it is not touching.
-                rail = pymunk.GrooveJoint(
-                    space.static_body,
-                    slider,
-                    (a - PROJECTED_RAIL_OVERRUN, 0.0),
-                    (a + d.stroke + PROJECTED_RAIL_OVERRUN, 0.0),
-                    (0, 0),
-                )
-                half = 0.5 * d.stroke
-                stop = pymunk.SlideJoint(
-                    space.static_body, slider, (a + half, 0.0), (0.0, 0.0), 0.0, half
-                )
+                anchor, half = n.stops[i]
+                stop = pymunk.SlideJoint(space.static_body, slider, anchor, (0.0, 0.0), 0.0, half)
                 stop.error_bias = error_bias
                 extra: tuple = (stop,)
             else:
-                rail = pymunk.GrooveJoint(
-                    space.static_body, slider, (a, 0.0), (a + d.stroke, 0.0), (0, 0)
-                )
                 extra = ()
             arm = PROJECTED_SERVO_ARM if self.projection else SERVO_ARM
             servo = pymunk.PinJoint(drive, slider, (-arm, 0.0), (0.0, 0.0))
             servo.max_bias = SERVO_CORRECTION_SPEED
-            servo.max_force = d.max_force
+            servo.max_force = n.servo_force
             servo.error_bias = error_bias
             pin_b = pymunk.PivotJoint(slider, leg, points[2 * i])
             pin_c = pymunk.PivotJoint(leg, platform, points[2 * i + 1])
@@ -495,11 +578,16 @@ class Planar3PSim:
         # commanded velocity.
         for group in joints:
             space.add(*group)
-        if dyn is not None:
-            space.add(*_friction(dyn, space.static_body, sliders, legs, platform))
+        ground = space.static_body
+        frictions = [] if dyn is None else _friction(dyn, ground, sliders, legs, platform)
+        space.add(*frictions)
         space.add(*servos)
         self.space = space
         self._pivots = tuple((group[-2], group[-1]) for group in joints)
+        # The constraints whose numbers depend on the machine (_set_numbers).
+        self._rails = tuple(group[0] for group in joints)
+        self._stops = tuple(group[1] for group in joints) if self.projection else ()
+        self._frictions = tuple(frictions)
         # The pin joints whose length their constructor measures: servos, sliders' friction.
         self._pins = (
             *servos,
@@ -575,29 +663,60 @@ class Planar3PSim:
         return self._closed
 
     # ------------------------------------------------------------------ moving
-    def reset(self, pose: ArrayLike, working_mode: ArrayLike = (1, 1, -1)) -> SimState:
+    def reset(
+        self,
+        pose: ArrayLike,
+        working_mode: ArrayLike = (1, 1, -1),
+        *,
+        design: Design | None = None,
+        dynamics: MachineDynamics | dict | None = None,
+    ) -> SimState:
         """Start a new episode at rest at ``pose`` (m, m, rad) in ``working_mode``: afterwards
         the simulation is, bit for bit, the one ``Planar3PSim(design, pose, working_mode,
-        **settings)`` builds with this one's design, dynamics and settings (its state, its next
-        steps and :meth:`get_state`), whatever it went through before.  Returns the state.
+        **settings)`` builds with this one's settings (its state, its next steps and
+        :meth:`get_state`), whatever it went through before.  Returns the state.
+
+        ``design`` and ``dynamics`` give the machine of the new episode (a machine drawn per
+        episode, ``Planar3PReal-v0``'s; ``dynamics`` ``None``: the ideal machine); without
+        ``design``, the machine stays (``dynamics`` must then be ``None``).
 
         The pymunk space is kept and its bodies moved (Chipmunk's C API, :meth:`_place`): every
         constraint's accumulated impulse, which the solver warm-starts from, is first cleared
-        by one solver step with every force limit at zero (the clamp leaves exactly zero); the
-        bodies are then placed, anchored and warm-started as :meth:`_build` does.  Without
-        Chipmunk's C API (``use_fast_path`` False, other pymunk builds) the model is rebuilt;
-        :attr:`moved` tells which.  ``ValueError`` (nothing changed) if the pose is not
-        reachable in ``working_mode`` within the stroke, or the simulation was closed.
+        by one solver step with every force limit at zero (the clamp leaves exactly zero); a
+        new machine's numbers are set (:meth:`_set_numbers`); the bodies are then placed,
+        anchored and warm-started as :meth:`_build` does.  The model is rebuilt instead without
+        Chipmunk's C API (``use_fast_path`` False, other pymunk builds) and for a machine with
+        other kinds of friction constraints (:func:`_constraint_kinds`); :attr:`moved` tells
+        which.  ``ValueError`` (nothing changed) if the pose is not reachable in
+        ``working_mode`` within the stroke, the machine is not valid, or the simulation was
+        closed.
         """
         if self._closed:
             raise ValueError("this simulation was closed (Planar3PSim.close); build a new one")
-        p, rho = _start(self.design, pose, working_mode)
-        settings = self._origin[2]
-        if self._move is None:
-            fresh = Planar3PSim(self.design, p, working_mode, **settings)
+        if design is None:
+            if dynamics is not None:
+                raise ValueError("dynamics is given only with a design (the new machine)")
+            new_design = self.design
+            dyn = MachineDynamics() if self.dynamics is None else self.dynamics
+        else:
+            if not isinstance(design, Design):
+                raise ValueError(f"design must be a Design, got {type(design).__name__}")
+            new_design = design
+            dyn = MachineDynamics.from_value(dynamics, "dynamics")
+            _check_viscous(design, dyn, self._h)
+        p, rho = _start(new_design, pose, working_mode)
+        new_dyn = None if dyn.is_ideal else dyn
+        settings = {k: v for k, v in self._origin[2].items() if k != "dynamics"}
+        if new_dyn is not None:
+            settings["dynamics"] = new_dyn.to_dict()
+        if self._move is None or _constraint_kinds(new_dyn) != _constraint_kinds(self.dynamics):
+            fresh = Planar3PSim(new_design, p, working_mode, **settings)
             self.close()
             self.__dict__.update(fresh.__dict__)
             return self._state
+        if new_design is not self.design or new_dyn != self.dynamics:
+            self._use_machine(new_design, dyn)
+            self._set_numbers(self._numbers())
         self._place(p, rho)
         constraints, limits = self._limits  # type: ignore[misc]
         chipmunk.settle(  # (the anchors stay: a step does not move them)

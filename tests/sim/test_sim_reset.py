@@ -1,5 +1,6 @@
-"""Issue 24, item 2: :meth:`Planar3PSim.reset` moves the bodies of the kept pymunk space and is
-then, bit for bit, the simulation a new build at that pose gives, whatever came before."""
+"""Issue 24, item 2: :meth:`Planar3PSim.reset` moves the bodies of the kept pymunk space (and
+gives it a new machine's numbers) and is then, bit for bit, the simulation a new build at that
+pose gives, whatever came before."""
 
 from __future__ import annotations
 
@@ -8,9 +9,11 @@ import math
 import numpy as np
 import pytest
 
+from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.sim import physics
 from planar3p_gym.sim.physics import Planar3PSim
+from planar3p_gym.sim.randomization import REALISTIC_RANDOMIZATION, DynamicsRandomization
 from planar3p_gym.tasks import sampling
 
 DESIGN = Design.fig8()
@@ -117,3 +120,65 @@ def test_a_closed_simulation_cannot_be_reset():
     assert sim.closed
     with pytest.raises(ValueError, match="closed"):
         sim.reset(poses[1], MODE)
+
+
+# ------------------------------------------------------------ a reset onto another machine
+def machines(n: int, randomization: DynamicsRandomization) -> list:
+    """``n`` machines drawn around ``DESIGN`` (fixed seed) that reach the test's starts."""
+    rng = np.random.default_rng(11)
+    out = []
+    while len(out) < n:
+        m = randomization.sample(DESIGN, rng)
+        if all(kinematics.inverse(m.design, p, MODE).reachable for p in starts(n)):
+            out.append(m)
+    return out
+
+
+@pytest.mark.parametrize("model", ["projected", "unprojected"])
+def test_a_reset_onto_another_machine_is_its_new_build_bit_for_bit(model):
+    """A machine drawn per episode (``Planar3PReal-v0``'s ranges: geometry, masses, force
+    limit, friction, lag, tilt) is set on the kept model, not rebuilt; the result is the new
+    build of that machine, bit for bit, whatever the model went through before."""
+    kwargs = {k: v for k, v in MODELS[model].items() if k != "dynamics"}
+    poses = starts(5)
+    drawn = machines(len(poses), REALISTIC_RANDOMIZATION)
+    rng = np.random.default_rng(5)
+    sim = Planar3PSim(drawn[0].design, poses[0], MODE, dynamics=drawn[0].dynamics, **kwargs)
+    for k, (pose, m) in enumerate(zip(poses[1:], drawn[1:], strict=True)):
+        for c in rng.uniform(-1.0, 1.0, (25, 3)) * DESIGN.max_speed:
+            sim.step(c)
+        # Then one slider into an end stop (the grooves' and stops' numbers count only there).
+        push = np.zeros((80, 3))
+        push[:, k % 3] = (-1.0) ** k * DESIGN.max_speed
+        commands = np.concatenate([rng.uniform(-0.5, 0.5, (20, 3)) * DESIGN.max_speed, push])
+        sim.reset(pose, MODE, design=m.design, dynamics=m.dynamics)
+        assert sim.moved and sim.design is m.design
+        fresh = Planar3PSim(m.design, pose, MODE, dynamics=m.dynamics, **kwargs)
+        assert sim.get_state() == fresh.get_state()
+        assert trace(sim, commands) == trace(fresh, commands)
+    # and back to the nominal, ideal machine (no friction: other constraints, rebuilt)
+    sim.reset(poses[0], MODE, design=DESIGN)
+    assert not sim.moved and sim.dynamics is None
+    fresh = Planar3PSim(DESIGN, poses[0], MODE, **kwargs)
+    commands = np.full((10, 3), 0.01)
+    assert trace(sim, commands) == trace(fresh, commands)
+
+
+def test_a_rejected_machine_changes_nothing():
+    poses = starts(2)
+    sim = Planar3PSim(DESIGN, poses[0], MODE, **MODELS["imperfect"])
+    sim.step((0.01, 0.0, -0.01))
+    before = (sim.state, sim.get_state(), sim._public_values(), sim.design, sim.dynamics)
+    unstable = {"slider_viscous": 1e6}  # explicit viscous force unstable at this step
+    for kwargs, match in (
+        ({"dynamics": {"slider_coulomb": 0.1}}, "only with a design"),
+        ({"design": "fig8"}, "design must be a Design"),
+        ({"design": DESIGN, "dynamics": unstable}, "slider_viscous"),
+        ({"design": DESIGN, "dynamics": {"bogus": 1.0}}, "bogus"),
+        ({"design": DESIGN.with_(rail_origins=(1.0, 1.0, 1.0))}, "not reachable"),  # moved away
+    ):
+        with pytest.raises(ValueError, match=match):
+            sim.reset(poses[1], MODE, **kwargs)
+        assert (sim.state, sim.get_state(), sim._public_values(), sim.design, sim.dynamics) == (
+            before
+        )
