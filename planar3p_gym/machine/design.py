@@ -12,6 +12,7 @@ from functools import lru_cache
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 __all__ = ["Design", "closing_pose"]
 
@@ -240,22 +241,114 @@ class Design:
 _MODES = np.array([[s1, s2, s3] for s1 in (1.0, -1.0) for s2 in (1.0, -1.0) for s3 in (1.0, -1.0)])
 
 
-def _spreads(
-    L: np.ndarray, k: np.ndarray, a: np.ndarray, th: np.ndarray, u: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Spread of the ``v_i`` per working mode ``(..., 8)`` at ``theta`` and the parameter
-    ``u in [0, 1]`` of the interval of ``y`` where all three legs reach the rail line (inf
-    where that interval is empty); also ``y`` and the ``v_i`` ``(..., 8, 3)``.  ``y`` runs
-    over the interval as ``(1 - cos(pi u)) / 2``, so that the ``w_i``, which behave like the
-    square root of the distance to the interval's ends, vary smoothly with ``u`` there."""
-    s, c = np.sin(th)[..., None], np.cos(th)[..., None]
-    lo, hi = (-L - k * s).max(axis=-1), (L - k * s).min(axis=-1)
-    y = lo + 0.5 * (1.0 - np.cos(np.pi * np.clip(u, 0.0, 1.0))) * (hi - lo)
-    cy = y[..., None] + k * s
-    w = np.sqrt(np.maximum(L * L - cy * cy, 0.0))
-    v = (a - k * c)[..., None, :] + _MODES * w[..., None, :]
-    spread = v.max(axis=-1) - v.min(axis=-1)
-    return np.where((hi >= lo)[..., None], spread, np.inf), y, v
+@njit(cache=True)
+def _reach(
+    L: np.ndarray, k: np.ndarray, a: np.ndarray, s: float, c: float, u: float
+) -> tuple[bool, float, tuple[float, float, float], tuple[float, float, float]]:
+    """At ``sin theta = s``, ``cos theta = c`` and the parameter ``u in [0, 1]`` of the interval
+    of ``y`` where all three legs reach the rail line: whether that interval is non-empty,
+    ``y`` (m), and per leg ``a_i - k_i cos theta`` and ``w_i`` (m), so that ``v_i = a_i - k_i
+    cos theta + sigma_i w_i`` (:func:`_mode_spread`).  ``y`` runs over the interval as
+    ``(1 - cos(pi u)) / 2``, so that the ``w_i``, which behave like the square root of the
+    distance to the interval's ends, vary smoothly with ``u`` there.  Compiled, as every
+    search below (a design drawn per episode, ``Planar3PReal-v0``'s, is checked at every
+    reset)."""
+    lo = max(-L[0] - k[0] * s, max(-L[1] - k[1] * s, -L[2] - k[2] * s))
+    hi = min(L[0] - k[0] * s, min(L[1] - k[1] * s, L[2] - k[2] * s))
+    if not hi >= lo:
+        return False, math.nan, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+    y = lo + 0.5 * (1.0 - math.cos(math.pi * min(max(u, 0.0), 1.0))) * (hi - lo)
+    w0 = math.sqrt(max(L[0] * L[0] - (y + k[0] * s) ** 2, 0.0))
+    w1 = math.sqrt(max(L[1] * L[1] - (y + k[1] * s) ** 2, 0.0))
+    w2 = math.sqrt(max(L[2] * L[2] - (y + k[2] * s) ** 2, 0.0))
+    return True, y, (a[0] - k[0] * c, a[1] - k[1] * c, a[2] - k[2] * c), (w0, w1, w2)
+
+
+@njit(cache=True)
+def _mode_spread(
+    base: tuple[float, float, float], w: tuple[float, float, float], im: int
+) -> tuple[float, float, float]:
+    """``max_i v_i - min_i v_i``, ``min_i v_i`` and ``max_i v_i`` (m) of working mode
+    ``_MODES[im]`` from :func:`_reach`'s ``a_i - k_i cos theta`` and ``w_i``."""
+    v0 = base[0] + _MODES[im, 0] * w[0]
+    v1 = base[1] + _MODES[im, 1] * w[1]
+    v2 = base[2] + _MODES[im, 2] * w[2]
+    v_min, v_max = min(v0, min(v1, v2)), max(v0, max(v1, v2))
+    return v_max - v_min, v_min, v_max
+
+
+@njit(cache=True)
+def _spread(L: np.ndarray, k: np.ndarray, a: np.ndarray, theta: float, u: float, im: int) -> float:
+    """The spread (m) of working mode ``_MODES[im]`` at ``(theta, u)``; inf where the legs
+    cannot all reach the rail line."""
+    ok, _, base, w = _reach(L, k, a, math.sin(theta), math.cos(theta), u)
+    return _mode_spread(base, w, im)[0] if ok else math.inf
+
+
+@njit(cache=True)
+def _grid_spreads(L: np.ndarray, k: np.ndarray, a: np.ndarray, nt: int, nu: int) -> np.ndarray:
+    """The spread of every working mode on the grid ``theta = linspace(0, pi, nt)``,
+    ``u = linspace(0, 1, nu)``: ``(nt, nu, 8)`` (m; inf where the legs cannot all reach)."""
+    out = np.full((nt, nu, 8), math.inf)
+    for jt in range(nt):
+        th = math.pi * jt / (nt - 1)
+        s, c = math.sin(th), math.cos(th)
+        for ju in range(nu):
+            ok, _, base, w = _reach(L, k, a, s, c, ju / (nu - 1))
+            if ok:
+                for im in range(8):
+                    out[jt, ju, im] = _mode_spread(base, w, im)[0]
+    return out
+
+
+@njit(cache=True)
+def _first_within(
+    L: np.ndarray, k: np.ndarray, a: np.ndarray, stroke: float, nt: int, nu: int
+) -> tuple[float, float, float, int]:
+    """The first point ``(spread, theta, u, im)`` of :func:`_grid_spreads`'s grid whose spread
+    is within ``stroke`` (it stops there), else the grid's least spread."""
+    best = (math.inf, 0.0, 0.0, 0)
+    for jt in range(nt):
+        th = math.pi * jt / (nt - 1)
+        s, c = math.sin(th), math.cos(th)
+        for ju in range(nu):
+            u = ju / (nu - 1)
+            ok, _, base, w = _reach(L, k, a, s, c, u)
+            if not ok:
+                continue
+            for im in range(8):
+                sp = _mode_spread(base, w, im)[0]
+                if sp < best[0]:
+                    best = (sp, th, u, im)
+                if sp <= stroke:
+                    return best
+    return best
+
+
+@njit(cache=True)
+def _refine(
+    L: np.ndarray, k: np.ndarray, a: np.ndarray, t0: float, u0: float, dt: float, du: float,
+    im: int, spread: float,
+) -> tuple[float, float, float]:  # fmt: skip
+    """Pattern search from ``(t0, u0)`` in working mode ``im``: a 9 x 9 local grid of steps
+    ``dt, du``, moved to its best point while that improves, else shrunk fourfold, until
+    ``dt < 1e-10`` or 40 rounds; ``(spread, theta, u)``."""
+    for _ in range(40):
+        bt, bu, bs = t0, u0, math.inf
+        for it in range(9):
+            t = t0 + dt * (it / 4.0 - 1.0)
+            for iu in range(9):
+                u = min(max(u0 + du * (iu / 4.0 - 1.0), 0.0), 1.0)
+                sp = _spread(L, k, a, t, u, im)
+                if sp < bs:
+                    bt, bu, bs = t, u, sp
+        if bs < spread:
+            t0, u0, spread = bt, bu, bs
+        else:
+            dt, du = dt / 4.0, du / 4.0
+        if dt < 1e-10:
+            break
+    return spread, t0, u0
 
 
 @lru_cache(maxsize=256)
@@ -265,26 +358,21 @@ def _least_spread(
     """Least spread (m) and, if it is within the stroke, a pose and working mode that close.
 
     A grid point within the stroke is returned at once (its spread is then only an upper bound
-    of the least spread): first a grid of 13 x 5 points (about 30 us: a design drawn per
-    episode, ``Planar3PReal-v0``'s, is checked at every reset and nearly always closes there),
-    then a coarse one of 91 x 25 (about 1.5 ms).  Otherwise a fine grid (0.25 deg x 1/160 of
-    the height interval) is searched and its best points per working mode are refined by a
-    shrinking local grid (a pattern search in ``(theta, u)``)."""
+    of the least spread): a grid of 13 x 5 points, then one of 91 x 25 (a design drawn per
+    episode, ``Planar3PReal-v0``'s, nearly always closes at the first points).  Otherwise a
+    fine grid (0.25 deg x 1/160 of the height interval) is searched and its best local minima
+    per working mode are refined (:func:`_refine`, a pattern search in ``(theta, u)``)."""
     L, k, a = (np.asarray(v, dtype=np.float64) for v in (legs, offsets, origins))
     best = (math.inf, 0.0, 0.0, 0)
-    for nt, nu in ((13, 5), (91, 25), (721, 161)):
-        th = np.linspace(0.0, np.pi, nt)[:, None]
-        u = np.linspace(0.0, 1.0, nu)[None, :]
-        flat = _spreads(L, k, a, th + 0.0 * u, u + 0.0 * th)[0].reshape(-1, 8)
-        j = int(np.argmin(flat.min(axis=1)))
-        im = int(np.argmin(flat[j]))
-        best = min(best, (float(flat[j, im]), float(th[j // nu, 0]), float(u[0, j % nu]), im))
+    for nt, nu in ((13, 5), (91, 25)):
+        best = min(best, _first_within(L, k, a, stroke, nt, nu))
         if best[0] <= stroke:
             break
     else:
-        steps = np.linspace(-1.0, 1.0, 9)
+        nt, nu = 721, 161
+        grid = _grid_spreads(L, k, a, nt, nu)
+        best = min(best, _grid_best(grid, nt, nu))
         # start from the best local minima of the grid (the landscape has several basins)
-        grid = flat.reshape(nt, nu, 8)
         pad = np.pad(grid, ((1, 1), (1, 1), (0, 0)), constant_values=np.inf)
         is_min = np.ones(grid.shape, dtype=bool)
         for di in (0, 1, 2):
@@ -296,23 +384,12 @@ def _least_spread(
             for j in np.argsort(flat[:, im])[:4]:
                 if not np.isfinite(flat[j, im]) or best[0] <= stroke:
                     break
-                t0, u0 = float(th[j // nu, 0]), float(u[0, j % nu])
-                cand = (float(flat[j, im]), t0, u0, im)
-                dt, du = 2.0 * np.pi / (nt - 1), 2.0 / (nu - 1)
-                for _ in range(40):  # move while it improves, else shrink
-                    T, U = np.meshgrid(
-                        t0 + dt * steps, np.clip(u0 + du * steps, 0.0, 1.0), indexing="ij"
-                    )
-                    sp = _spreads(L, k, a, T, U)[0][..., im]
-                    jj = np.unravel_index(np.argmin(sp), sp.shape)
-                    if sp[jj] < cand[0]:
-                        t0, u0 = float(T[jj]), float(U[jj])
-                        cand = (float(sp[jj]), t0, u0, im)
-                    else:
-                        dt, du = dt / 4.0, du / 4.0
-                    if dt < 1e-10:
-                        break
-                best = min(best, cand)
+                t0, u0 = math.pi * (j // nu) / (nt - 1), (j % nu) / (nu - 1)
+                sp, t0, u0 = _refine(
+                    L, k, a, t0, u0, 2.0 * math.pi / (nt - 1), 2.0 / (nu - 1), im,
+                    float(flat[j, im]),
+                )  # fmt: skip
+                best = min(best, (sp, t0, u0, im))
     spread_min, t0, u0, im = best
     if not spread_min <= stroke:
         return spread_min, None, None
@@ -321,15 +398,24 @@ def _least_spread(
     # and rounding may leave it a hair short: step inside the height interval if needed.
     for nudge in (0.0, 1e-9, 1e-6, 1e-4, 1e-2):
         u1 = min(max(u0, nudge), 1.0 - nudge)
-        _, y, v = _spreads(L, k, a, np.array(t0), np.array(u1))
-        x = 0.5 * float(v[im].max() + v[im].min() + stroke)
-        cy = float(y) + k * math.sin(t0)
+        _, y, base, w = _reach(L, k, a, math.sin(t0), math.cos(t0), u1)
+        _, v_min, v_max = _mode_spread(base, w, im)
+        x = 0.5 * (v_max + v_min + stroke)
+        cy = y + k * math.sin(t0)
         disc = L**2 - cy**2
         if (disc >= 0.0).all():
             rho = ((x + k * math.cos(t0)) - a) - np.array(mode) * np.sqrt(disc)
             if ((rho >= 0.0) & (rho <= stroke)).all():
                 break
-    return spread_min, (x, float(y), t0), mode  # type: ignore[return-value]
+    return spread_min, (x, y, t0), mode  # type: ignore[return-value]
+
+
+def _grid_best(grid: np.ndarray, nt: int, nu: int) -> tuple[float, float, float, int]:
+    """The least spread of a grid of :func:`_grid_spreads` as ``(spread, theta, u, im)``."""
+    flat = grid.reshape(-1, 8)
+    j = int(np.argmin(flat.min(axis=1)))
+    im = int(np.argmin(flat[j]))
+    return float(flat[j, im]), math.pi * (j // nu) / (nt - 1), (j % nu) / (nu - 1), im
 
 
 def closing_pose(

@@ -10,7 +10,7 @@ How each quantity enters the pymunk model is said in :class:`MachineDynamics`.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 from planar3p_gym import checks
@@ -108,8 +108,9 @@ class MachineDynamics:
         return -math.expm1(-dt / self.servo_lag)
 
     def to_dict(self) -> dict[str, float]:
-        """Plain-Python dictionary of the fields."""
-        return asdict(self)
+        """Plain-Python dictionary of the fields (``asdict``'s, without its deep copy of the
+        floats: a reset of a machine drawn per episode asks for it twice)."""
+        return {name: getattr(self, name) for name in _FIELDS}
 
     @classmethod
     def from_value(cls, value: Any, name: str = "dynamics") -> MachineDynamics:
@@ -120,3 +121,5 @@ class MachineDynamics:
 
 #: The ideal machine.
 IDEAL = MachineDynamics()
+#: The field names of :class:`MachineDynamics`, in order.
+_FIELDS = tuple(f.name for f in fields(MachineDynamics))

@@ -126,6 +126,14 @@ try:  # Direct Chipmunk calls skip pymunk's per-call Python bookkeeping (the hot
             "cpConstraintGetMaxForce",
             "cpConstraintSetMaxForce",
             "cpSpaceSetIterations",
+            # a new machine's numbers (Planar3PSim._set_numbers)
+            "cpSpaceSetGravity",
+            "cpBodySetMass",
+            "cpBodySetMoment",
+            "cpGrooveJointSetGrooveA",
+            "cpGrooveJointSetGrooveB",
+            "cpSlideJointSetAnchorA",
+            "cpSlideJointSetMax",
         )
     )
 except ImportError:  # pragma: no cover - other pymunk builds
@@ -510,23 +518,34 @@ class Planar3PSim:
         )
 
     def _set_numbers(self, n: ModelNumbers) -> None:
-        """Give the kept model the numbers ``n`` through pymunk's setters (Chipmunk's, which
-        store what its constructors store): the model :meth:`_build` makes with them, for a
-        machine with the same kinds of constraints (:func:`_constraint_kinds`)."""
-        self.space.gravity = n.gravity
-        self.platform.mass, self.platform.moment = n.platform
+        """Give the kept model the numbers ``n`` through Chipmunk's setters (those pymunk's
+        properties call, called directly as :meth:`_place` does), which store what its
+        constructors store: the model :meth:`_build` makes with them, for a machine with the
+        same kinds of constraints (:func:`_constraint_kinds`).  Needs Chipmunk's C API
+        (``_MOVE``)."""
+        cp = _cp
+        set_mass, set_moment = cp.cpBodySetMass, cp.cpBodySetMoment
+        set_force = cp.cpConstraintSetMaxForce
+        cp.cpSpaceSetGravity(self.space._space, n.gravity)
+        set_mass(self.platform._body, n.platform[0])
+        set_moment(self.platform._body, n.platform[1])
         for i in range(3):
-            self.sliders[i].mass = n.slider_mass
-            self.legs[i].mass, self.legs[i].moment = n.legs[i]
-            self._rails[i].groove_a, self._rails[i].groove_b = n.grooves[i]
+            set_mass(self.sliders[i]._body, n.slider_mass)
+            set_mass(self.legs[i]._body, n.legs[i][0])
+            set_moment(self.legs[i]._body, n.legs[i][1])
+            rail = self._rails[i]._constraint
+            cp.cpGrooveJointSetGrooveA(rail, n.grooves[i][0])
+            cp.cpGrooveJointSetGrooveB(rail, n.grooves[i][1])
             if self.projection:
-                self._stops[i].anchor_a, self._stops[i].max = n.stops[i]
-            self.servos[i].max_force = n.servo_force
+                stop = self._stops[i]._constraint
+                cp.cpSlideJointSetAnchorA(stop, n.stops[i][0])
+                cp.cpSlideJointSetMax(stop, n.stops[i][1])
+            set_force(self.servos[i]._constraint, n.servo_force)
         for c in self._frictions:  # (_friction: a slider's pin, a joint's motor)
-            c.max_force = n.slider_coulomb if isinstance(c, pymunk.PinJoint) else n.joint_coulomb
-        if self._limits is not None:
-            limits = np.array([c.max_force for c in self.space.constraints])
-            self._limits = (self._limits[0], limits)
+            pin = isinstance(c, pymunk.PinJoint)
+            set_force(c._constraint, n.slider_coulomb if pin else n.joint_coulomb)
+        constraints, _ = self._limits  # type: ignore[misc]
+        self._limits = (constraints, np.array([c.max_force for c in self.space.constraints]))
 
     def _build(
         self, pose: np.ndarray, rho: np.ndarray, error_bias: float, platform_error_bias: float
