@@ -91,6 +91,9 @@ class Planar3PAssemblyChangeEnv(Planar3PEnv):
     slider travels, :mod:`planar3p_gym.tasks.travel_shaping`; default 0, no such term).
 
     ## Version History
+    - v0 (0.2.0, issue 24): the same distribution of episodes, drawn faster: poses are proposed
+      from the region that holds every reachable pose (:mod:`planar3p_gym.tasks.pose_proposal`);
+      a seed draws other episodes than before.
     - v0: initial release.
     """
 

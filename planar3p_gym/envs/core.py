@@ -286,6 +286,9 @@ class Planar3PEnv(gym.Env):
     ``reset(options=spec)`` replays it exactly (:mod:`planar3p_gym.tasks.base`).
 
     ## Version History
+    - v0 (0.2.0, issue 24): the same distribution of episodes, drawn faster: poses are proposed
+      from the region that holds every reachable pose (:mod:`planar3p_gym.tasks.pose_proposal`);
+      a seed draws other episodes than before.
     - v0 (0.2.0, issue 26): the machine as built (``randomization``, ``sensors``, ``latency``,
       ``action_type``), off by default: ``Planar3P-v0`` and every other id unchanged;
       ``Planar3PReal-v0`` and ``Planar3PRealOnOff-v0`` turn them on.

@@ -76,6 +76,9 @@ class Planar3PModeChangeEnv(Planar3PEnv):
     such term; for training, it does not change the success test).
 
     ## Version History
+    - v0 (0.2.0, issue 24): the same distribution of episodes, drawn faster: poses are proposed
+      from the region that holds every reachable pose (:mod:`planar3p_gym.tasks.pose_proposal`);
+      a seed draws other episodes than before.
     - v0: initial release.
     """
 

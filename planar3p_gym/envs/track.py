@@ -58,6 +58,9 @@ class Planar3PTrackEnv(Planar3PEnv):
     :class:`planar3p_gym.envs.core.Planar3PEnv` except ``task``.
 
     ## Version History
+    - v0 (0.2.0, issue 24): the same distribution of episodes, drawn faster: poses are proposed
+      from the region that holds every reachable pose (:mod:`planar3p_gym.tasks.pose_proposal`);
+      a seed draws other episodes than before.
     - v0: initial release.
     """
 

@@ -1,12 +1,14 @@
 """The reaching task: sampling start and target poses, and the success test.
 
-Poses are drawn by rejection from the search rectangle (uniform ``x``, ``y >= 0``,
-``theta``) and kept when they are reachable in the episode's working mode with every travel
-away from the end stops, both singularity margins above thresholds, and holding forces well
-within the actuators' limit (so that a machine told to stand still can).  A target is paired with
-a start only if it has the same assembly mode (``sign det A``) and, by default, the straight
-path between them in pose space stays reachable, in that assembly mode, with margins: every
-task the environment samples can be solved without crossing a singularity.
+Poses are drawn by rejection, uniformly over a region of the search box (``x`` over the search
+rectangle, ``0 <= y <= h``, any ``theta``) that holds every pose reachable in the working mode
+(:mod:`.pose_proposal`), and kept when they are reachable in the episode's working mode with
+every travel away from the end stops, both singularity margins above thresholds, and holding
+forces well within the actuators' limit (so that a machine told to stand still can).  A
+target is paired with a start only if it has the same assembly mode (``sign det A``) and, by
+default, the straight path between them in pose space stays reachable, in that assembly mode,
+with margins: every task the environment samples can be solved without crossing a
+singularity.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.kinematics import pose_distance
 from planar3p_gym.machine.slider_line import slider_line_reaches
 from planar3p_gym.machine.statics import holding_forces_of_rows
+from planar3p_gym.tasks.pose_proposal import pose_proposal, propose
 
 __all__ = [
     "SCHEDULABLE_FIELDS",
@@ -207,16 +210,20 @@ def sample_poses(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Acceptable poses drawn by rejection: ``(poses (M, 3), assembly (M,))``, ``M >= 1``.
 
-    Raises ``ValueError`` if the working mode has no acceptable pose after ``max_batches``
-    batches (a budget: every sampler loop of the package is bounded).
+    A batch is uniform over the region of :func:`.pose_proposal.pose_proposal` (every pose of
+    the search box reachable in ``mode`` with the task's travel margin) and covers the volume
+    of ``batch`` uniform poses of the search box: as many acceptable poses are expected as from
+    ``batch`` poses of the box, from about ten times fewer draws.  Raises ``ValueError`` if the
+    working mode has no acceptable pose after ``max_batches`` batches (a budget: every sampler
+    loop of the package is bounded).
     """
-    x0, x1, _, h = design.search_rectangle
+    modes = tuple(int(m) for m in np.asarray(mode).tolist())
+    lo, hi = design.travel_band(cfg.travel_margin)
+    proposal = pose_proposal(design, modes, lo, hi)  # type: ignore[arg-type]
+    draws = math.ceil(batch * proposal.fraction)
     mode = np.asarray(mode, dtype=np.float64)
-    for _ in range(max_batches):
-        u = rng.random((batch, 3))
-        poses = np.column_stack(
-            [x0 + (x1 - x0) * u[:, 0], h * u[:, 1], math.pi * (2.0 * u[:, 2] - 1.0)]
-        )
+    for _ in range(max_batches if draws else 0):
+        poses = propose(proposal, rng.random((draws, 3)))
         ok, det = _acceptable(design, poses, mode, cfg)
         if ok.any():
             return poses[ok], det[ok]
@@ -344,11 +351,11 @@ class PoseSampler:
 
 #: Refills :meth:`PoseSampler.draw_many` tries before it gives up (returns no pose).
 DRAW_MANY_REFILLS = 50
-#: Batches of 4096 poses a refill draws after the first 200 found none, in a working mode that
-#: :func:`check_mode` accepts, before it raises ``ValueError`` (a budget: about 8 million
-#: poses; the check found at least two acceptable poses among its 1.6 million, so some ten
-#: are expected here, and the budget runs out with a probability below 1e-4 of a refill that
-#: already came up empty, itself rare).
+#: Batches (:func:`sample_poses`) a refill draws after the first 200 found none, in a working
+#: mode that :func:`check_mode` accepts, before it raises ``ValueError`` (a budget: the volume
+#: of about 8 million search-box poses; the check found at least two acceptable poses in the
+#: volume of 1.6 million, so some ten are expected here, and the budget runs out with a
+#: probability below 1e-4 of a refill that already came up empty, itself rare).
 REFILL_BATCHES = 2000
 
 
@@ -524,13 +531,13 @@ def _first_ok(
     return None
 
 
-#: Budget of :func:`check_mode`: batches of 4096 uniform poses searched (fixed seed).
+#: Budget of :func:`check_mode`: batches of :func:`sample_poses` searched (fixed seed).
 CHECK_BATCHES = 400
 
 
 def check_mode(design: Design, mode: ArrayLike, cfg: TaskConfig) -> None:
     """Raise ``ValueError`` unless working mode ``mode`` of ``design`` has a start/target pair
-    meeting ``cfg``, found among ``CHECK_BATCHES`` batches of 4096 uniform poses drawn with a
+    meeting ``cfg``, found among ``CHECK_BATCHES`` batches of :func:`sample_poses` drawn with a
     fixed internal seed (the episode's random stream is not touched).  The result is cached.
 
     A mode that passes has pairs with positive probability, so :func:`sample_pair` without a
@@ -570,12 +577,13 @@ def _mode_problem(design: Design, mode: tuple[int, int, int], cfg: TaskConfig) -
         f"working mode {mode} of this design has no {what} meeting the task's margins "
         f"(parallel >= {cfg.min_parallel_margin}, serial >= {cfg.min_serial_margin}, holding "
         f"force <= {cfg.max_holding_force} max_force, travel margin {cfg.travel_margin}) in "
-        f"{CHECK_BATCHES * 4096} uniform samples ({found} acceptable poses); choose another "
-        "working mode or relax the TaskConfig"
+        f"{CHECK_BATCHES} sampling batches (as many poses as {CHECK_BATCHES * 4096} uniform "
+        f"samples of the search box; {found} acceptable); choose another working mode or relax "
+        "the TaskConfig"
     )
 
 
-#: Batches of 4096 uniform poses (fixed seed) in which :func:`assembly_modes` looks for the
+#: Batches of :func:`sample_poses` (fixed seed) in which :func:`assembly_modes` looks for the
 #: assembly modes of a working mode's acceptable poses.
 ASSEMBLY_BATCHES = 32
 

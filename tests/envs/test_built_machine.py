@@ -60,9 +60,11 @@ def test_zero_ranges_and_no_delay_are_the_default_environment_bit_for_bit():
 
 @pytest.mark.parametrize("name", sorted(RANGES))
 def test_each_randomised_quantity_changes_the_episode(name):
-    default = _stream(gym.make("Planar3P-v0"))
+    # (seed 6: a servo saturates in its 40 steps; the force limit changes an episode only then,
+    # and seed 5's episode has no saturation)
+    default = _stream(gym.make("Planar3P-v0"), seed=6)
     env = gym.make("Planar3P-v0", randomization={name: RANGES[name]})
-    changed = _stream(env)
+    changed = _stream(env, seed=6)
     assert not _same(default, changed)
     # The task's draws come first: the same start and target as the nominal machine.
     assert np.array_equal(

@@ -57,10 +57,13 @@ def test_a_start_in_a_rare_assembly_mode_is_redrawn():
 @pytest.mark.parametrize(
     ("kwargs", "seed", "resets"),
     [
-        # 'no pose of working mode (1, 1, -1) meets the task's margins' at the first reset
-        ({"design": "fig7", "working_mode": (1, 1, -1)}, 26, 1),
-        # ... at reset 25 of seed 2 (the issue's reproduction)
-        ({"design": "fig7", "working_mode": (1, 1, -1)}, 2, 26),
+        # 'no pose of working mode (1, 1, -1) meets the task's margins' was raised where a pool
+        # refill found no pose in its 200 batches: at the first reset of seed 26 and at reset
+        # 25 of seed 2 (the issue's reproduction), with the random streams before the proposal
+        # region (tasks/pose_proposal.py); with today's, at reset 6 of seed 13 and reset 27 of
+        # seed 11
+        ({"design": "fig7", "working_mode": (1, 1, -1)}, 13, 6),
+        ({"design": "fig7", "working_mode": (1, 1, -1)}, 11, 27),
         # ... with working_mode='random', at reset 8 of seed 14
         ({"design": "fig7", "working_mode": "random"}, 14, 9),
     ],
@@ -75,7 +78,7 @@ def test_reported_fig7_reset_failures_now_succeed(kwargs, seed, resets, monkeypa
         _, info = env.reset()
     u = env.unwrapped
     _check_pair(u.design, np.asarray(info["pose"]), np.asarray(u.target), u.working_mode)
-    if kwargs["working_mode"] != "random":  # the same stream as before: the old failure point
+    if kwargs["working_mode"] != "random":  # a failure point of the old code
         assert calls  # a pool refill ran out of its 200 batches and went on drawing
 
 
@@ -102,7 +105,10 @@ def test_random_mode_list_of_the_default_design_is_unchanged():
 
 
 def test_a_mode_without_poses_is_rejected_at_construction():
-    with pytest.raises(ValueError, match=r"working mode \(1, 1, 1\) .* has no pose"):
+    # (its check finds two acceptable poses, too close together for a pair)
+    with pytest.raises(
+        ValueError, match=r"working mode \(1, 1, 1\) .* has no (pose|start/target pair)"
+    ):
         gym.make(ENV_ID, design="fig7", working_mode=(1, 1, 1))
     # fig7's random list leaves out the four empty modes.
     assert (1, 1, 1) not in gym.make(ENV_ID, design="fig7", working_mode="random").unwrapped.modes

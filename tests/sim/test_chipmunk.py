@@ -26,10 +26,13 @@ def projected(pose: np.ndarray) -> Planar3PSim:
 
 
 def commands(n: int, seed: int) -> np.ndarray:
-    """Bang-bang slider commands at full speed (m/s): the servos saturate and the sliders reach
-    their end stops."""
+    """Slider commands at full speed (m/s): every slider driven one way for ``n // 2`` steps
+    (at 0.2 m/s for 1.5 s or more, past its stroke: the sliders reach their end stops and the
+    servos pushing them saturate), then bang-bang."""
     rng = np.random.default_rng(seed)
-    return DESIGN.max_speed * rng.choice([-1.0, 1.0], size=(n, 3))
+    out = DESIGN.max_speed * rng.choice([-1.0, 1.0], size=(n, 3))
+    out[: n // 2] = out[0]
+    return out
 
 
 def test_chipmunk_calls_are_compiled_on_the_pinned_pymunk():
