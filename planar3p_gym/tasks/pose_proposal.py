@@ -5,7 +5,7 @@ The samplers draw poses uniformly and keep the acceptable ones (:mod:`.sampling`
 keep is uniform over the acceptable poses whatever uniform region they draw from, provided the
 region contains all of them.  Drawing from the search box (``x`` over the search rectangle,
 ``0 <= y <= h``, ``theta`` in ``[-pi, pi)``) wastes most draws on poses whose legs cannot reach
-their rails; the region here, a stack of boxes over bins of ``theta``, holds between 7 and 15 %
+their rails; the region here, a stack of boxes over bins of ``theta``, holds between 5 and 13 %
 of the search box for the paper's design and loses none of the acceptable poses.
 
 For ``theta`` in a bin, leg ``i`` closes with its travel ``rho_i`` in ``[lo, hi]`` only if
@@ -33,6 +33,7 @@ from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from planar3p_gym.machine.design import Design
 
@@ -114,11 +115,22 @@ def propose(proposal: PoseProposal, u: np.ndarray) -> np.ndarray:
     in ``[0, 1)``: ``u[:, 2]`` picks ``theta``, ``u[:, 0]`` and ``u[:, 1]`` place ``x`` and ``y``
     in its bin's box."""
     edges, boxes, cumulative, volume, _ = proposal
-    v = u[:, 2] * volume
-    b = np.minimum(np.searchsorted(cumulative, v, side="right") - 1, BINS - 1)
-    box = boxes[b]
-    width = box[:, 1] - box[:, 0]
-    height = box[:, 3] - box[:, 2]
-    theta = edges[b] + (v - cumulative[b]) / (width * height)
-    theta = np.minimum(theta, edges[b + 1])
-    return np.column_stack([box[:, 0] + width * u[:, 0], box[:, 2] + height * u[:, 1], theta])
+    return _propose(edges, boxes, cumulative, volume, u)
+
+
+@njit(cache=True)
+def _propose(
+    edges: np.ndarray, boxes: np.ndarray, cumulative: np.ndarray, volume: float, u: np.ndarray
+) -> np.ndarray:
+    """:func:`propose`'s loop, compiled (a refill proposes a few hundred poses)."""
+    out = np.empty((u.shape[0], 3))
+    last = edges.shape[0] - 2
+    for j in range(u.shape[0]):
+        v = u[j, 2] * volume
+        b = min(np.searchsorted(cumulative, v, side="right") - 1, last)
+        width = boxes[b, 1] - boxes[b, 0]
+        height = boxes[b, 3] - boxes[b, 2]
+        out[j, 0] = boxes[b, 0] + width * u[j, 0]
+        out[j, 1] = boxes[b, 2] + height * u[j, 1]
+        out[j, 2] = min(edges[b] + (v - cumulative[b]) / (width * height), edges[b + 1])
+    return out

@@ -238,10 +238,8 @@ def interpolate(start: np.ndarray, target: np.ndarray, n: int) -> np.ndarray:
     """``n`` poses on the straight path from ``start`` to ``target`` (shortest rotation);
     shapes ``(..., 3)`` -> ``(..., n, 3)``."""
     t = _steps(operator.index(n))
-    delta = target - start
-    delta = np.concatenate(
-        [delta[..., :2], (delta[..., 2:] + math.pi) % (2.0 * math.pi) - math.pi], axis=-1
-    )
+    delta = np.subtract(target, start, dtype=np.float64)
+    delta[..., 2] = (delta[..., 2] + math.pi) % (2.0 * math.pi) - math.pi
     return start[..., None, :] + t * delta[..., None, :]
 
 
@@ -368,8 +366,10 @@ def sample_pair(
     target: np.ndarray | None = None,
     sampler: PoseSampler | None = None,
     max_tries: int = 100,
+    assembly: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """A ``(start, target)`` pair for the task; either may be given (already validated).
+    """A ``(start, target)`` pair for the task; either may be given (already validated), a
+    given start with its assembly mode (``sign det A``, computed if ``None``).
 
     The target has the start's assembly mode, is at least ``min_distance`` away and, with
     ``clear_path``, is joined to the start by a straight path clear of singularities.
@@ -396,6 +396,8 @@ def sample_pair(
             check_mode(design, tuple(int(m) for m in np.asarray(mode).tolist()), cfg)
         if start is None:
             s, det = sampler.draw(rng)
+        elif assembly is not None:
+            s, det = start, float(assembly)
         else:
             s = start
             rho = kinematics.inverse(design, s, mode).rho

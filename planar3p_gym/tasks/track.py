@@ -334,8 +334,24 @@ class TrackTask(Task):
     def _peak_rate(self, poses: np.ndarray, mode: Any) -> float:
         """Largest ``|d rho / d(parameter)|`` along densely sampled poses ``(n, 3)`` spanning
         a unit parameter interval (m per unit parameter)."""
-        rho = kinematics.inverse(self.env.design, poses, mode).rho
-        return float(np.abs(np.diff(rho, axis=0)).max() * (len(poses) - 1))
+        return _peak_of(kinematics.inverse(self.env.design, poses, mode).rho)
+
+    def _screened_travels(self, path: np.ndarray, mode: Any, assembly: float) -> Any:
+        """The travels ``(n, 3)`` (m) of ``path`` if it passes :meth:`_screen` (the same
+        decision: every pose passes), else ``None``; one screen instead of a screen and an
+        inverse (the screen's travels are the inverse's, bit for bit)."""
+        cfg = self.env.task_config
+        design = self.env.design
+        screening = kinematics.screen_poses(
+            design,
+            path,
+            np.asarray(mode, dtype=np.float64),
+            travel=design.travel_band(cfg.travel_margin),
+            min_parallel=cfg.path_parallel_margin,
+            min_serial=cfg.path_serial_margin,
+            assembly=assembly,
+        )
+        return screening.rho if screening.ok.all() else None
 
     def _reference_problem(self, ref: dict[str, Any], mode: Any) -> str | None:
         """Why ``ref`` is infeasible in ``mode`` (None if it is feasible)."""
@@ -359,10 +375,13 @@ class TrackTask(Task):
         mode: Any,
         start: Any,
         sampler: task.PoseSampler | None = None,
-    ) -> np.ndarray:
+    ) -> tuple[np.ndarray, float]:
+        """The given start or one drawn from ``sampler`` (by default the task's), with its
+        assembly mode (``sign det A``: the sampler's, else computed)."""
         if start is not None:
-            return np.asarray(start, dtype=np.float64)
-        return (self.pose_sampler(mode) if sampler is None else sampler).draw(rng)[0]
+            pose = np.asarray(start, dtype=np.float64)
+            return pose, self._assembly(pose, mode)
+        return (self.pose_sampler(mode) if sampler is None else sampler).draw(rng)
 
     def _draw_segments(
         self, rng: np.random.Generator, mode: Any, start: Any
@@ -371,24 +390,26 @@ class TrackTask(Task):
         waypoint could not be paired; the caller draws again)."""
         design, cfg = self.env.design, self.env.task_config
         vmax = self.speed_fraction * design.max_speed
-        wps = [self._draw_start(rng, mode, start)]
+        first, asm = self._draw_start(rng, mode, start)
+        wps = [first]
         durations: list[float] = []
-        asm = self._assembly(wps[0], mode)
         while sum(durations) < self.duration:
             for _ in range(20):
                 try:
                     _, nxt = task.sample_pair(
-                        design, mode, rng, cfg, start=wps[-1], sampler=self.pose_sampler(mode)
-                    )
+                        design, mode, rng, cfg, start=wps[-1], sampler=self.pose_sampler(mode),
+                        assembly=asm,
+                    )  # fmt: skip
                 except ValueError:
                     return None
                 path = task.interpolate(wps[-1], nxt, CHECK_POINTS)
                 # The validation of requested references (travel margins included).
-                if self._screen(path, mode, asm):
+                rho = self._screened_travels(path, mode, asm)
+                if rho is not None:
                     break
             else:
                 return None
-            peak = self._peak_rate(path, mode) * MIN_JERK_PEAK
+            peak = _peak_of(rho) * MIN_JERK_PEAK
             durations.append(max(peak / vmax, MIN_DURATION))
             wps.append(nxt)
         return {
@@ -407,7 +428,7 @@ class TrackTask(Task):
         """A feasible figure-eight around a drawn (from ``sampler``, by default the task's) or
         the given centre (None if the drawn amplitudes do not fit; the caller draws again)."""
         design = self.env.design
-        centre = self._draw_start(rng, mode, start, sampler)
+        centre, asm = self._draw_start(rng, mode, start, sampler)
         (x0, x1), (y0, y1), (_, t1) = EIGHT_AMPLITUDES
         amp = np.array(
             [rng.uniform(x0, x1), rng.uniform(y0, y1), rng.uniform(-t1, t1)], dtype=np.float64
@@ -424,7 +445,7 @@ class TrackTask(Task):
             for scale in EIGHT_SCALES
         ]
         curves = np.stack([eight_curve(r) for r in refs])
-        fits = self._screen(curves, mode, self._assembly(centre, mode))
+        fits = self._screen(curves, mode, asm)
         if not fits.any():
             return None
         ref = refs[int(np.argmax(fits))]
@@ -472,3 +493,9 @@ class TrackTask(Task):
             "tracking_rms_orientation_error": float(rms[2]),
             "tracking_max_orientation_error": float(self._maxes[2]),
         }
+
+
+def _peak_of(rho: np.ndarray) -> float:
+    """Largest ``|d rho / d(parameter)|`` (m per unit parameter) of travels ``(n, 3)`` at ``n``
+    evenly spaced parameters spanning a unit interval."""
+    return float(np.abs(np.diff(rho, axis=0)).max() * (len(rho) - 1))
