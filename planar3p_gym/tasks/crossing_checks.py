@@ -94,10 +94,10 @@ def crossing_path(
     rho = kinematics.inverse(design, path, m).rho
     if not (np.isfinite(rho).all() and (rho >= lo).all() and (rho <= hi).all()):
         return False, "stroke"
-    marg = kinematics.margins(design, path, rho)
-    if float(marg.serial.min()) < limits.min_serial_margin:
+    # (the serial margins and assembly modes of kinematics.margins, without its SVD)
+    if float(kinematics.serial_margin(design, path, rho).min()) < limits.min_serial_margin:
         return False, "serial_margin"
-    signs = marg.assembly.astype(np.int64)
+    signs = kinematics.assembly_mode(design, path, rho).astype(np.int64)
     if (signs == 0).any() or int(np.count_nonzero(np.diff(signs))) != 1:
         return False, "crossings"
     return True, "ok"
