@@ -132,5 +132,8 @@ def _propose(
         height = boxes[b, 3] - boxes[b, 2]
         out[j, 0] = boxes[b, 0] + width * u[j, 0]
         out[j, 1] = boxes[b, 2] + height * u[j, 1]
-        out[j, 2] = min(edges[b] + (v - cumulative[b]) / (width * height), edges[b + 1])
+        area = width * height  # (0 only where u * volume rounded up to volume, in an empty
+        # last bin: a pose on its box, which the samplers' checks reject)
+        step = (v - cumulative[b]) / area if area > 0.0 else 0.0
+        out[j, 2] = min(edges[b] + step, edges[b + 1])
     return out
