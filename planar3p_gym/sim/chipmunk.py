@@ -55,7 +55,9 @@ __all__ = [
     "read_bodies",
     "settle",
     "step_projected",
+    "step_projected_viscous",
     "write_bodies",
+    "write_forces",
 ]
 
 #: The C signatures :data:`FUNCTIONS` are called with (as cffi spells them).
@@ -102,12 +104,14 @@ class BodyReadout(NamedTuple):
     ints: Any  #: the (empty) ``pmIntArray *`` the request also names
 
 
-def body_readout(memory: np.ndarray) -> BodyReadout:
-    """A batch request whose array is ``memory`` (a C-contiguous 1-D float64 array).
+def body_readout(memory: np.ndarray, forces: bool = False) -> BodyReadout:
+    """A batch request whose array is ``memory`` (a C-contiguous 1-D float64 array): of every
+    body's position, angle, velocity and angular velocity, or with ``forces`` of its force and
+    torque (``fx, fy, t``: a simulation's viscous friction, :func:`step_projected_viscous`).
 
     Its length is the array's room (``max``): pymunk grows a full array with ``realloc``,
-    which memory numpy owns must never see, so it has to hold six numbers for every body of
-    the space, its own static body included.
+    which memory numpy owns must never see, so it has to hold six (three) numbers for every
+    body of the space, its own static body included.
     """
     if memory.dtype != np.float64 or memory.ndim != 1 or not memory.flags.c_contiguous:
         raise ValueError("a body readout's memory must be a C-contiguous 1-D float64 array")
@@ -116,7 +120,11 @@ def body_readout(memory: np.ndarray) -> BodyReadout:
     array.arr = _ffi.cast("double *", memory.ctypes.data)
     ints = _ffi.gc(_cp.pmIntArrayNew(0), _cp.pmIntArrayFree)
     request = _ffi.new("pmBatchedData *")
-    request.fields = _cp.POSITION | _cp.ANGLE | _cp.VELOCITY | _cp.ANGULAR_VELOCITY
+    request.fields = (
+        _cp.FORCE | _cp.TORQUE
+        if forces
+        else _cp.POSITION | _cp.ANGLE | _cp.VELOCITY | _cp.ANGULAR_VELOCITY
+    )
     request.floatArray, request.intArray = array, ints
     return BodyReadout(memory, array, request, ints)
 
@@ -231,6 +239,15 @@ def write_bodies(fns: np.ndarray, handles: np.ndarray) -> None:
 
 
 @njit(cache=True)
+def write_forces(fns: np.ndarray, handles: np.ndarray, force_handles: np.ndarray) -> None:
+    """Write every body's force and torque (until the next physics step, which clears them)
+    from the array of the force request ``force_handles`` (its ``pmBatchedData *`` and
+    ``pmFloatArray *``; :func:`body_readout` with ``forces``)."""
+    _store_int32(force_handles[1], np.int32(0))
+    _each_body(fns[2], handles[0], fns[4], force_handles[0])
+
+
+@njit(cache=True)
 def advance(
     fns: np.ndarray,
     handles: np.ndarray,
@@ -247,28 +264,70 @@ def advance(
     ``readout`` (its first 60 numbers): write every body (from ``readout``, with the new drive
     velocities), step, read every body back into ``readout``.  ``forces`` (6) receives the
     servos' summed impulses and their largest single-substep impulse (N s)."""
+    _write_with_drives(fns, handles, readout, v0, v1, v2, forces)
+    for _ in range(substeps):
+        _step_and_sum(fns, handles, h, forces)
+    read_bodies(fns, handles)
+
+
+@njit(cache=True)
+def _write_with_drives(
+    fns: np.ndarray, handles: np.ndarray, readout: np.ndarray, v0: float, v1: float, v2: float,
+    forces: np.ndarray,
+) -> None:  # fmt: skip
+    """Write every body from ``readout`` with the drive velocities ``v0, v1, v2`` (m/s), and
+    zero the impulse sums ``forces`` (a step's start)."""
     readout[DRIVE_VX[0]] = v0
     readout[DRIVE_VX[1]] = v1
     readout[DRIVE_VX[2]] = v2
     write_bodies(fns, handles)
-    f0 = f1 = f2 = m0 = m1 = m2 = 0.0
-    for _ in range(substeps):
-        _call_pd(fns[0], handles[0], h)
-        j0 = _get_double(fns[1], handles[1])
-        j1 = _get_double(fns[1], handles[2])
-        j2 = _get_double(fns[1], handles[3])
-        f0 += j0
-        f1 += j1
-        f2 += j2
-        if j0 > m0:  # (not max(): a NaN impulse leaves the largest as it was)
-            m0 = j0
-        if j1 > m1:
-            m1 = j1
-        if j2 > m2:
-            m2 = j2
-    read_bodies(fns, handles)
-    forces[0], forces[1], forces[2] = f0, f1, f2
-    forces[3], forces[4], forces[5] = m0, m1, m2
+    forces[:] = 0.0
+
+
+@njit(cache=True)
+def _project_and_write(
+    fns: np.ndarray, handles: np.ndarray, force_limit: float, readout: np.ndarray,
+    consts: np.ndarray, setpoint_limit: float, forces: np.ndarray,
+) -> tuple[np.ndarray, float]:  # fmt: skip
+    """A step's end: project ``readout`` (a servo is saturated when its largest substep impulse
+    reaches ``force_limit``, N s) and write the projected bodies back."""
+    state, closure = project_in_place(
+        readout, forces[3] >= force_limit, forces[4] >= force_limit, forces[5] >= force_limit,
+        consts, setpoint_limit,
+    )  # fmt: skip
+    write_bodies(fns, handles)
+    return state, closure
+
+
+@njit(cache=True)
+def _step_and_sum(fns: np.ndarray, handles: np.ndarray, h: float, forces: np.ndarray) -> None:
+    """One physics step of ``h`` (s); adds the servos' impulses (N s) to ``forces[:3]`` and
+    keeps their largest in ``forces[3:]``."""
+    _call_pd(fns[0], handles[0], h)
+    for i in range(3):
+        j = _get_double(fns[1], handles[1 + i])
+        forces[i] += j
+        if j > forces[3 + i]:  # (not max(): a NaN impulse leaves the largest as it was)
+            forces[3 + i] = j
+
+
+@njit(cache=True)
+def _viscous_forces(readout: np.ndarray, applied: np.ndarray, cs: float, cj: float) -> None:
+    """The viscous friction forces of :meth:`Planar3PSim._apply_viscous` from the velocities in
+    ``readout``, into ``applied`` (``fx, fy, t`` per body in readout order; 0 where that method
+    sets nothing, as Chipmunk leaves every force after a step), with its operations in its
+    order: ``-cs vx`` on each slider, ``-cj w_l - cj (w_l - w_p)`` on each leg and the sum of
+    ``cj (w_l - w_p)`` on the platform (N, N m)."""
+    applied[:30] = 0.0
+    w_p = readout[5]
+    for i in range(3):
+        slider, leg = 1 + 3 * i, 3 + 3 * i
+        if cs > 0.0:
+            applied[3 * slider] = -cs * readout[6 * slider + 3]
+        if cj > 0.0:
+            w_l = readout[6 * leg + 5]
+            applied[3 * leg + 2] = -cj * w_l - cj * (w_l - w_p)
+            applied[2] += cj * (w_l - w_p)
 
 
 @njit(cache=True)
@@ -324,12 +383,41 @@ def step_projected(
     :func:`~planar3p_gym.sim.projection.project_readout` does (theta not wrapped)."""
     read_bodies(fns, handles)
     advance(fns, handles, v0, v1, v2, h, substeps, readout, forces)
-    state, closure = project_in_place(
-        readout, forces[3] >= force_limit, forces[4] >= force_limit, forces[5] >= force_limit,
-        consts, setpoint_limit,
-    )  # fmt: skip
-    write_bodies(fns, handles)
-    return state, closure
+    return _project_and_write(fns, handles, force_limit, readout, consts, setpoint_limit, forces)
+
+
+@njit(cache=True)
+def step_projected_viscous(
+    fns: np.ndarray,
+    handles: np.ndarray,
+    force_handles: np.ndarray,
+    v0: float,
+    v1: float,
+    v2: float,
+    h: float,
+    substeps: int,
+    force_limit: float,
+    readout: np.ndarray,
+    consts: np.ndarray,
+    setpoint_limit: float,
+    forces: np.ndarray,
+    applied: np.ndarray,
+    cs: float,
+    cj: float,
+) -> tuple[np.ndarray, float]:
+    """:func:`step_projected` of a machine with viscous friction (slider coefficient ``cs``,
+    N s/m; joint coefficient ``cj``, N m s/rad): before each physics step the bodies are read
+    and their viscous forces written (:func:`_viscous_forces`, through the force request of
+    ``force_handles``: its ``pmBatchedData *`` and ``pmFloatArray *``, over ``applied``)."""
+    read_bodies(fns, handles)
+    _write_with_drives(fns, handles, readout, v0, v1, v2, forces)
+    for _ in range(substeps):
+        read_bodies(fns, handles)
+        _viscous_forces(readout, applied, cs, cj)
+        write_forces(fns, handles, force_handles)
+        _step_and_sum(fns, handles, h, forces)
+    read_bodies(fns, handles)
+    return _project_and_write(fns, handles, force_limit, readout, consts, setpoint_limit, forces)
 
 
 @njit(cache=True)

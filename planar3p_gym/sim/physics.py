@@ -357,6 +357,9 @@ class FastPath(NamedTuple):
     handles: np.ndarray  #: :data:`planar3p_gym.sim.chipmunk.HANDLE_FIELDS`, addresses (uintp)
     readout: np.ndarray  #: the bodies' numbers in :attr:`read`'s memory (float64, 60)
     impulses: np.ndarray  #: the last step's summed and largest servo impulses (N s, 6)
+    push: chipmunk.BodyReadout  #: the bodies' force and torque request (viscous friction)
+    push_handles: np.ndarray  #: its ``pmBatchedData *`` and ``pmFloatArray *`` (uintp)
+    applied: np.ndarray  #: its memory: ``fx, fy, t`` per body in readout order (N, N m)
 
 
 class CompiledStep(NamedTuple):
@@ -399,6 +402,10 @@ class Planar3PSim:
     """
 
     use_fast_path: bool = True
+    #: Whether a projected model with viscous friction steps in one compiled call
+    #: (:func:`~planar3p_gym.sim.chipmunk.step_projected_viscous`), else through pymunk's API
+    #: (the same numbers, ``tests/sim/test_chipmunk.py``).
+    use_compiled_viscous: bool = True
     #: Whether pymunk's batch readout lists the bodies as :meth:`_public_values` does (checked
     #: on the first build).
     _batch_layout_ok: ClassVar[bool | None] = None
@@ -643,6 +650,7 @@ class Planar3PSim:
         # Twice the room a readout needs (the array never grows).
         read = chipmunk.body_readout(np.zeros(2 * _BODY_FIELDS * (len(self._bodies) + 1)))
         fast_servos = tuple(sv._constraint for sv in servos)
+        push = chipmunk.body_readout(np.zeros(2 * 3 * (len(self._bodies) + 1)), forces=True)
         fast = FastPath(
             space=space._space,
             servos=fast_servos,
@@ -650,6 +658,11 @@ class Planar3PSim:
             handles=chipmunk.handle_row(space._space, fast_servos, read),
             readout=read.memory[: _BODY_FIELDS * len(self._bodies)],
             impulses=np.zeros(6),
+            push=push,
+            push_handles=np.array(
+                [chipmunk.address(push.request), chipmunk.address(push.array)], dtype=np.uintp
+            ),
+            applied=push.memory,
         )
         if Planar3PSim._batch_layout_ok is None:  # checked once per process
             public = self._public_values()
@@ -858,14 +871,26 @@ class Planar3PSim:
             v1 = lagged[1] = lagged[1] + f * (v1 - lagged[1])
             v2 = lagged[2] = lagged[2] + f * (v2 - lagged[2])
         fast, projector = self._fast, self._projector
-        if fast is not None and not self._viscous:  # one compiled call (sim/chipmunk.py)
+        viscous = self._viscous
+        compiled = not viscous or (projector is not None and self.use_compiled_viscous)
+        if fast is not None and compiled:  # one compiled call (sim/chipmunk.py)
             handles, readout, impulses = fast.handles, fast.readout, fast.impulses
-            if projector is not None:
+            if projector is not None and viscous:
+                dyn = self.dynamics
+                assert dyn is not None
+                st, closure = chipmunk.step_projected_viscous(
+                    chipmunk.FUNCTIONS, handles, fast.push_handles, v0, v1, v2, self._h,
+                    self.substeps, self._force_limit, readout, projector.constants,
+                    FOLLOWING_ERROR_LIMIT, impulses, fast.applied, dyn.slider_viscous,
+                    dyn.joint_viscous,
+                )  # fmt: skip
+            elif projector is not None:
                 st, closure = chipmunk.step_projected(
                     chipmunk.FUNCTIONS, handles, v0, v1, v2, self._h, self.substeps,
                     self._force_limit, readout, projector.constants, FOLLOWING_ERROR_LIMIT,
                     impulses,
                 )  # fmt: skip
+            if projector is not None:
                 projector.last_state = st
                 self._account(impulses)
                 self._state = self._projected_state(st, closure, readout)

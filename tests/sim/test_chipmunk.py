@@ -136,3 +136,44 @@ def test_a_body_readout_reads_every_body_into_its_memory():
     assert n == 6 * (len(sim.space.bodies) + 1)  # six per body, and the space's static body
     assert read.memory[:n].tolist() == sim._batch_values(sim._fast)
     assert np.isnan(read.memory[n:]).all()  # nothing past the bodies' numbers
+
+
+#: A machine with viscous friction on the sliders and the joints, and every other imperfection.
+VISCOUS = {
+    "slider_coulomb": 0.5,
+    "joint_coulomb": 0.01,
+    "slider_viscous": 2.0,
+    "joint_viscous": 1e-3,
+    "servo_lag": 0.03,
+    "gravity_tilt": 0.01,
+    "inertia_scale": 1.1,
+}
+
+
+@pytest.mark.parametrize("dynamics", [VISCOUS, {"slider_viscous": 5.0}, {"joint_viscous": 2e-3}])
+def test_the_compiled_viscous_step_is_pymunks_bit_for_bit(dynamics):
+    """:func:`chipmunk.step_projected_viscous` (the forces of ``_apply_viscous`` written before
+    each physics step through the force request) against the same steps through pymunk's API:
+    the same states and bodies, into the end stops and out of them."""
+    pose = starts(1)[0]
+    runs = []
+    for compiled in (True, False):
+        sim = Planar3PSim(
+            DESIGN, pose, MODE, substeps=2, iterations=10, projection=True, dynamics=dynamics
+        )
+        sim.use_compiled_viscous = compiled
+        runs.append([(sim.step(c), sim._public_values()) for c in commands(150, 3)])
+    assert runs[0] == runs[1]
+    assert any(any(s.saturated) for s, _ in runs[0])
+
+
+def test_the_force_request_writes_each_bodys_force_and_torque():
+    """The force request's layout: ``fx, fy, t`` per body, in readout order."""
+    sim = Planar3PSim(DESIGN, starts(1)[0], MODE, projection=True, dynamics=VISCOUS)
+    fast = sim._fast
+    n = len(sim._bodies)
+    fast.applied[: 3 * n] = np.arange(1.0, 3 * n + 1.0)
+    chipmunk.write_forces(chipmunk.FUNCTIONS, fast.handles, fast.push_handles)
+    for k, body in enumerate(sim._bodies):
+        if body.body_type == body.DYNAMIC:
+            assert (*body.force, body.torque) == tuple(fast.applied[3 * k : 3 * k + 3])
