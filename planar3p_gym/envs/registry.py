@@ -130,6 +130,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
             "sensors": REALISTIC_SENSORS.to_dict(),
             "latency": REALISTIC_LATENCY.to_dict(),
         },
+        vector_entry_point=f"{_ENVS}.vector:Planar3PVectorEnv",
     ),
     EnvRegistration(
         REAL_ON_OFF_ENV_ID,
@@ -143,6 +144,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
             "latency": REALISTIC_LATENCY.to_dict(),
             "action_type": "on-off",
         },
+        vector_entry_point=f"{_ENVS}.vector:Planar3PVectorEnv",
     ),
 )
 

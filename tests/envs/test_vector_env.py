@@ -42,6 +42,8 @@ def test_make_vec_gives_the_native_vector_env(env_id):
         ("Planar3PTrack-v0", {}, "auto"),
         ("Planar3PModeChange-v0", {}, "auto"),
         ("Planar3PAssemblyChange-v0", {}, "auto"),
+        # The machine as built (randomised machine, encoders, delay): environment by environment.
+        ("Planar3PReal-v0", {}, "auto"),
     ],
 )
 def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, batch):
@@ -125,6 +127,7 @@ def test_batched_commands_reach_the_simulations_records_across_the_log():
         ("Planar3P-v0", {"breakdown_threshold": 1e-15}, "scalar"),
         ("Planar3P-v0", {"breakdown_threshold": 1e-15}, "numpy"),
         ("Planar3PTrack-v0", {}, "auto"),
+        ("Planar3PReal-v0", {}, "auto"),
     ],
 )
 def test_same_step_infos_are_the_single_envs_episode_by_episode(env_id, kwargs, batch):
@@ -342,3 +345,32 @@ def test_render_without_mode_warns_and_bad_mode_is_rejected():
         assert venv.render() is None
     with pytest.raises(ValueError, match="render_mode"):
         Planar3PVectorEnv(num_envs=2, render_mode="human")
+
+
+def test_the_on_off_id_has_a_native_vector_env_of_its_single_envs():
+    """``Planar3PRealOnOff-v0`` (MultiDiscrete motor commands): the native vector env steps
+    its single environments, bit for bit, autoreset included."""
+    n, limit = 3, 40
+    venv = gym.make_vec(planar3p_gym.REAL_ON_OFF_ENV_ID, num_envs=n, max_episode_steps=limit)
+    assert type(venv) is Planar3PVectorEnv
+    singles = [gym.make(planar3p_gym.REAL_ON_OFF_ENV_ID, max_episode_steps=limit) for _ in range(n)]
+    actions = np.random.default_rng(2).integers(0, 3, (100, n, 3))
+    obs, _ = venv.reset(seed=4)
+    np.testing.assert_array_equal(
+        obs, np.stack([e.reset(seed=4 + i)[0] for i, e in enumerate(singles)])
+    )
+    done, ends = [False] * n, 0
+    for a in actions:
+        obs, rewards, terminated, truncated, _ = venv.step(a)
+        for i, env in enumerate(singles):
+            if done[i]:  # (next-step autoreset: this step resets the environment)
+                o, _ = env.reset()
+                r, te, tr = 0.0, False, False
+            else:
+                o, r, te, tr, _ = env.step(a[i])
+            assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr)
+            np.testing.assert_array_equal(obs[i], o)
+            done[i] = te or tr
+            ends += done[i]
+    assert ends >= 2 * n  # (a time limit of 40 steps in 100: autoresets were checked)
+    venv.close()
