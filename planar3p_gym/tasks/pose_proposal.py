@@ -63,9 +63,7 @@ class PoseProposal(NamedTuple):
 
 
 @lru_cache(maxsize=64)
-def pose_proposal(
-    design: Design, mode: tuple[int, int, int], lo: float, hi: float
-) -> PoseProposal:
+def pose_proposal(design: Design, mode: tuple[int, int, int], lo: float, hi: float) -> PoseProposal:
     """The region holding every pose of the search box that is reachable in working ``mode``
     (``sigma_i`` of +-1) with every travel in ``[lo, hi]`` (m); read-only arrays, kept per
     design and mode.  ``ValueError`` if the band is empty."""

@@ -183,8 +183,9 @@ def test_check_mode_accepts_modes_with_pairs_and_explains_the_others():
         assert task.has_pairs(DESIGN, mode, CFG)
     fig7 = Design.fig7()
     with pytest.raises(
-        ValueError, match=r"\(1, 1, 1\) of this design has no (pose|start/target pair) .*"
-        r"(\d+) acceptable\)"
+        ValueError,
+        match=r"\(1, 1, 1\) of this design has no (pose|start/target pair) .*"
+        r"(\d+) acceptable\)",
     ):
         task.check_mode(fig7, (1, 1, 1), CFG)
     assert not task.has_pairs(fig7, (1, 1, 1), CFG)
