@@ -738,9 +738,11 @@ class Planar3PSim:
             _check_viscous(design, dyn, self._h)
         p, rho = _start(new_design, pose, working_mode)
         new_dyn = None if dyn.is_ideal else dyn
-        settings = {k: v for k, v in self._origin[2].items() if k != "dynamics"}
-        if new_dyn is not None:
-            settings["dynamics"] = new_dyn.to_dict()
+        settings = self._origin[2]
+        if design is not None:  # (the settings of a new machine: its dynamics)
+            settings = {k: v for k, v in settings.items() if k != "dynamics"}
+            if new_dyn is not None:
+                settings["dynamics"] = new_dyn.to_dict()
         if self._move is None or _constraint_kinds(new_dyn) != _constraint_kinds(self.dynamics):
             fresh = Planar3PSim(new_design, p, working_mode, **settings)
             self.close()
@@ -875,22 +877,22 @@ class Planar3PSim:
         compiled = not viscous or (projector is not None and self.use_compiled_viscous)
         if fast is not None and compiled:  # one compiled call (sim/chipmunk.py)
             handles, readout, impulses = fast.handles, fast.readout, fast.impulses
-            if projector is not None and viscous:
-                dyn = self.dynamics
-                assert dyn is not None
-                st, closure = chipmunk.step_projected_viscous(
-                    chipmunk.FUNCTIONS, handles, fast.push_handles, v0, v1, v2, self._h,
-                    self.substeps, self._force_limit, readout, projector.constants,
-                    FOLLOWING_ERROR_LIMIT, impulses, fast.applied, dyn.slider_viscous,
-                    dyn.joint_viscous,
-                )  # fmt: skip
-            elif projector is not None:
-                st, closure = chipmunk.step_projected(
-                    chipmunk.FUNCTIONS, handles, v0, v1, v2, self._h, self.substeps,
-                    self._force_limit, readout, projector.constants, FOLLOWING_ERROR_LIMIT,
-                    impulses,
-                )  # fmt: skip
             if projector is not None:
+                if viscous:
+                    dyn = self.dynamics
+                    assert dyn is not None
+                    st, closure = chipmunk.step_projected_viscous(
+                        chipmunk.FUNCTIONS, handles, fast.push_handles, v0, v1, v2, self._h,
+                        self.substeps, self._force_limit, readout, projector.constants,
+                        FOLLOWING_ERROR_LIMIT, impulses, fast.applied, dyn.slider_viscous,
+                        dyn.joint_viscous,
+                    )  # fmt: skip
+                else:
+                    st, closure = chipmunk.step_projected(
+                        chipmunk.FUNCTIONS, handles, v0, v1, v2, self._h, self.substeps,
+                        self._force_limit, readout, projector.constants,
+                        FOLLOWING_ERROR_LIMIT, impulses,
+                    )  # fmt: skip
                 projector.last_state = st
                 self._account(impulses)
                 self._state = self._projected_state(st, closure, readout)

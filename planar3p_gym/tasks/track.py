@@ -312,18 +312,20 @@ class TrackTask(Task):
         return float(p[0]), float(p[1]), float(p[2])
 
     # ------------------------------------------------------------------ feasibility
-    def _screen(self, paths: np.ndarray, mode: Any, assembly: float | None) -> np.ndarray:
+    def _limits(self, assembly: float | None) -> dict[str, Any]:
+        """The tests a reference's poses pass (the screens' keyword arguments): travels in
+        the task's band, the path margins, and ``sign det A == assembly``."""
         cfg = self.env.task_config
-        design = self.env.design
-        lo, hi = design.travel_band(cfg.travel_margin)
+        return {
+            "travel": self.env.design.travel_band(cfg.travel_margin),
+            "min_parallel": cfg.path_parallel_margin,
+            "min_serial": cfg.path_serial_margin,
+            "assembly": assembly,
+        }
+
+    def _screen(self, paths: np.ndarray, mode: Any, assembly: float | None) -> np.ndarray:
         return kinematics.screen_paths(
-            design,
-            paths,
-            np.asarray(mode, dtype=np.float64),
-            travel=(lo, hi),
-            min_parallel=cfg.path_parallel_margin,
-            min_serial=cfg.path_serial_margin,
-            assembly=assembly,
+            self.env.design, paths, np.asarray(mode, dtype=np.float64), **self._limits(assembly)
         )
 
     def _assembly(self, pose: np.ndarray, mode: Any) -> float:
@@ -340,16 +342,8 @@ class TrackTask(Task):
         """The travels ``(n, 3)`` (m) of ``path`` if it passes :meth:`_screen` (the same
         decision: every pose passes), else ``None``; one screen instead of a screen and an
         inverse (the screen's travels are the inverse's, bit for bit)."""
-        cfg = self.env.task_config
-        design = self.env.design
         screening = kinematics.screen_poses(
-            design,
-            path,
-            np.asarray(mode, dtype=np.float64),
-            travel=design.travel_band(cfg.travel_margin),
-            min_parallel=cfg.path_parallel_margin,
-            min_serial=cfg.path_serial_margin,
-            assembly=assembly,
+            self.env.design, path, np.asarray(mode, dtype=np.float64), **self._limits(assembly)
         )
         return screening.rho if screening.ok.all() else None
 
