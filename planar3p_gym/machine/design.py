@@ -169,8 +169,10 @@ class Design:
         )
 
     def travel_band(self, margin: float) -> tuple[float, float]:
-        """The travels ``(lo, hi)`` (m) that keep ``margin`` (a fraction of the stroke) free at
-        both ends of the stroke."""
+        """The travels ``(lo, hi)`` (m) that keep ``margin`` (a fraction of the stroke, in
+        ``[0, 0.5)``) free at both ends of the stroke; ``ValueError`` otherwise."""
+        if not (_is_number(margin) and 0.0 <= margin < 0.5):
+            raise ValueError(f"a travel margin must be in [0, 0.5), got {margin!r}")
         return margin * self.stroke, (1.0 - margin) * self.stroke
 
     @property

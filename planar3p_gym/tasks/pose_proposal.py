@@ -69,6 +69,8 @@ def pose_proposal(design: Design, mode: tuple[int, int, int], lo: float, hi: flo
     design and mode.  ``ValueError`` if the band is empty."""
     if not lo <= hi:
         raise ValueError(f"the travel band [{lo}, {hi}] (m) is empty")
+    if len(mode) != 3 or any(m not in (1, -1) for m in mode):
+        raise ValueError(f"mode must be three entries of +1 or -1, got {mode!r}")
     x0, x1, y0, y1 = design.search_rectangle
     k = np.asarray(design.joint_offsets)
     legs = np.asarray(design.leg_lengths)
@@ -112,6 +114,9 @@ def propose(proposal: PoseProposal, u: np.ndarray) -> np.ndarray:
     """Poses ``(N, 3)`` uniform over the proposal's region from uniform numbers ``u`` ``(N, 3)``
     in ``[0, 1)``: ``u[:, 2]`` picks ``theta``, ``u[:, 0]`` and ``u[:, 1]`` place ``x`` and ``y``
     in its bin's box."""
+    u = np.ascontiguousarray(u, dtype=np.float64)
+    if u.ndim != 2 or u.shape[1] != 3:
+        raise ValueError(f"u must have shape (N, 3), got shape {u.shape}")
     edges, boxes, cumulative, volume, _ = proposal
     return _propose(edges, boxes, cumulative, volume, u)
 

@@ -381,6 +381,10 @@ def sample_pair(
     """
     if start is not None and target is not None:
         return start, target
+    if assembly is not None and (start is None or assembly not in (1.0, -1.0)):
+        raise ValueError(
+            f"assembly must be +1 or -1 and comes with a given start, got {assembly!r}"
+        )
     sampler = sampler if sampler is not None else PoseSampler(design, mode, cfg)
     free = start is None and target is None
     if free and cfg.near_singular_fraction > 0 and rng.random() < cfg.near_singular_fraction:

@@ -240,3 +240,13 @@ def test_closability_decision_is_consistent(legs, spacings, stroke, origins):
     else:
         pose, mode = closing_pose(d)
         assert kinematics.inverse(d, pose, mode).reachable
+
+
+def test_travel_band_keeps_the_margin_free_and_refuses_bad_margins():
+    d = Design.fig8()
+    assert d.travel_band(0.0) == (0.0, d.stroke)
+    lo, hi = d.travel_band(0.1)
+    assert lo == pytest.approx(0.1 * d.stroke) and hi == pytest.approx(0.9 * d.stroke)
+    for bad in (-0.1, 0.5, 0.7, math.nan, "0.1", True):
+        with pytest.raises(ValueError, match="travel margin"):
+            d.travel_band(bad)

@@ -109,3 +109,12 @@ def test_the_region_is_a_small_part_of_the_box_and_batches_keep_their_yield():
 def test_an_empty_band_is_refused():
     with pytest.raises(ValueError, match="travel band"):
         pose_proposal(Design.fig8(), (1, 1, 1), 0.2, 0.1)
+
+
+def test_bad_modes_and_numbers_are_refused():
+    design = Design.fig8()
+    with pytest.raises(ValueError, match="mode"):
+        pose_proposal(design, (1, 0, 1), 0.0, 0.1)
+    proposal = pose_proposal(design, (1, 1, -1), 0.0, 0.1)
+    with pytest.raises(ValueError, match=r"shape \(N, 3\)"):
+        propose(proposal, np.zeros((4, 2)))

@@ -262,3 +262,19 @@ def test_near_singular_fraction_mixes_and_replays():
 def test_bad_near_singular_settings_raise(kwargs):
     with pytest.raises(ValueError, match="near_singular"):
         task.TaskConfig(**kwargs)
+
+
+def test_a_given_assembly_mode_needs_a_given_start_and_a_sign():
+    """``sample_pair(assembly=...)``: the assembly mode of a given start, +1 or -1; the same
+    pair as when it is computed."""
+    start, _ = task.sample_pair(DESIGN, (1, 1, -1), np.random.default_rng(0), CFG)
+    rho = kinematics.inverse(DESIGN, start, (1, 1, -1)).rho
+    det = float(kinematics.assembly_mode(DESIGN, start, rho))
+    a = task.sample_pair(DESIGN, (1, 1, -1), np.random.default_rng(1), CFG, start=start)
+    b = task.sample_pair(
+        DESIGN, (1, 1, -1), np.random.default_rng(1), CFG, start=start, assembly=det
+    )
+    np.testing.assert_array_equal(a[1], b[1])
+    for kwargs in ({"start": start, "assembly": 0.5}, {"assembly": 1.0}):
+        with pytest.raises(ValueError, match="assembly must be"):
+            task.sample_pair(DESIGN, (1, 1, -1), np.random.default_rng(1), CFG, **kwargs)
