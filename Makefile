@@ -13,7 +13,7 @@ setup: $(STAMP)
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --upgrade pip
-	$(PY) -m pip install -c constraints.txt -e ".[train,dev,bench,sweep,video,docs]"
+	$(PY) -m pip install -c constraints.txt -e ".[plots,train,dev,bench,sweep,video,docs]"
 	touch $(STAMP)
 
 demo: $(STAMP)

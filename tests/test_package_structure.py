@@ -65,6 +65,43 @@ def test_importing_the_package_loads_no_learning_code():
     subprocess.run([sys.executable, "-c", code], check=True, cwd=ROOT / "tests")
 
 
+#: Core modules that may import matplotlib (the ``plots`` extra of the core package).
+PLOTTING_MODULES = {"planar3p_gym.analysis.workspace_figures"}
+#: A subprocess prelude that makes matplotlib unimportable, as on an install without the extra.
+_NO_MATPLOTLIB = (
+    "import sys\n"
+    "class _Block:\n"
+    "    def find_spec(self, name, path=None, target=None):\n"
+    "        if name.split('.')[0] == 'matplotlib':\n"
+    "            raise ModuleNotFoundError(f'No module named {name!r}', name=name)\n"
+    "sys.meta_path.insert(0, _Block())\n"
+)
+
+
+@pytest.mark.parametrize("name", sorted(set(CORE_MODULES) - PLOTTING_MODULES))
+def test_core_module_imports_no_matplotlib(name):
+    bad = sorted(m for m in _imports(CORE_MODULES[name]) if m.split(".")[0] == "matplotlib")
+    assert not bad, f"{name} imports {bad}: matplotlib is the plots extra"
+
+
+def test_the_core_works_without_matplotlib_and_its_figures_name_the_extra():
+    code = _NO_MATPLOTLIB + (
+        "import gymnasium as gym, planar3p_gym\n"
+        "from planar3p_gym.analysis import workspace, workspace_report\n"
+        "for spec in planar3p_gym.ENV_SPECS:\n"
+        "    env = gym.make(spec.id); env.reset(seed=0); env.step(env.action_space.sample())\n"
+        "try:\n"
+        "    import planar3p_gym.analysis.workspace_figures\n"
+        "except ModuleNotFoundError as exc:\n"
+        "    assert \"pip install 'planar3p-gym[plots]'\" in str(exc), exc\n"
+        "    assert exc.name == 'matplotlib', exc.name\n"
+        "else:\n"
+        "    raise AssertionError('workspace_figures imported without matplotlib')\n"
+        "assert not [m for m in sys.modules if m.startswith('matplotlib')]\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, cwd=ROOT / "tests")
+
+
 def _graph() -> dict[str, set[str]]:
     graph = {}
     for name, path in CORE_MODULES.items():

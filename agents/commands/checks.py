@@ -3,13 +3,15 @@
 ``--seed must be >= 0, got -1``.
 
 Numbers: :func:`at_least`, :func:`in_range`.  Lists: :func:`split_list`, :func:`known`.
-Files: :func:`output_dir`, :func:`output_file` (where the command will write: not a file of the
-other kind, not under a file, writable; :mod:`planar3p_gym.atomic_files` does the checking),
+Optional packages: :func:`extra_installed`.  Files: :func:`output_dir`, :func:`output_file`
+(where the command will write: not a file of the other kind, not under a file, writable;
+:mod:`planar3p_gym.atomic_files` does the checking),
 :func:`input_file`, :func:`input_dir` and :func:`json_file` (what it will read).
 """
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import math
 from collections.abc import Iterable
@@ -21,6 +23,7 @@ from planar3p_gym import atomic_files
 
 __all__ = [
     "at_least",
+    "extra_installed",
     "in_range",
     "input_dir",
     "input_file",
@@ -69,6 +72,20 @@ def in_range(
             bounds = f"between {_num(low)} and {_num(high)}"
         suffix = f" {unit}" if unit else ""
         raise UsageError(f"{flag} must be {bounds}{suffix}, got {_num(value)}")
+
+
+def extra_installed(flag: str, module: str, extra: str, what: str) -> None:
+    """``module`` must be importable for ``what``: otherwise the line names ``flag`` and the
+    extra of planar3p-gym that installs it (a lookup that fails counts as not installed)."""
+    try:
+        found = importlib.util.find_spec(module) is not None
+    except ImportError:
+        found = False
+    if not found:
+        raise UsageError(
+            f"{flag}: {what} needs {module}, which is not installed "
+            f"(pip install 'planar3p-gym[{extra}]')"
+        )
 
 
 def split_list(flag: str, text: str) -> list[str]:

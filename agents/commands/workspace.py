@@ -59,6 +59,10 @@ def check(args: argparse.Namespace) -> None:
     if args.repeats is not None:
         checks.at_least("--repeats", args.repeats, 1)
     checks.in_range("--theta-plane", args.theta_plane, -360, 360, unit="deg")
+    if not (args.bench_only or args.no_figures):
+        checks.extra_installed(
+            "--no-figures", "matplotlib", "plots", "without it, drawing the figures"
+        )
     if not args.bench_only:
         checks.output_dir("--out", args.out)
         checks.output_dir("--out", args.out / "figures")

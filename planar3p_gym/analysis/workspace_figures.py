@@ -14,11 +14,19 @@ import math
 from pathlib import Path
 from typing import Any
 
-import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.colors import BoundaryNorm, ListedColormap
-from matplotlib.lines import Line2D
-from matplotlib.patches import Patch, Rectangle
+
+try:  # matplotlib is the core package's ``plots`` extra: only these figures need it
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import BoundaryNorm, ListedColormap
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch, Rectangle
+except ModuleNotFoundError as exc:
+    raise ModuleNotFoundError(
+        f"the workspace figures need matplotlib ({exc.name} is missing): "
+        "pip install 'planar3p-gym[plots]'",
+        name=exc.name,
+    ) from exc
 
 from planar3p_gym.analysis.workspace import (
     DEFAULT_MIN_PARALLEL,

@@ -53,6 +53,7 @@ __all__ = [
     "normalised_A",
     "parallel_margin",
     "pose_distance",
+    "pose_distance_euclidean",
     "screen_paths",
     "screen_poses",
     "serial_margin",
@@ -252,11 +253,21 @@ def _leg_vectors(c: _Consts, p: FloatArray, r: FloatArray) -> FloatArray:
 
 def pose_distance(a: ArrayLike, b: ArrayLike, length: float) -> FloatArray:
     """``|dp| + length * |dtheta|`` (m) between poses ``(..., 3)`` (m, m, rad), the angle
-    difference wrapped to ``[0, pi]``; ``length`` (m) weighs the rotation."""
+    difference wrapped to ``[0, pi]``; ``length`` (m) weighs the rotation (the Euclidean
+    distance is :func:`pose_distance_euclidean`)."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
     dth = np.abs((b[..., 2] - a[..., 2] + math.pi) % (2.0 * math.pi) - math.pi)
     return np.hypot(b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]) + length * dth
+
+
+def pose_distance_euclidean(a: ArrayLike, b: ArrayLike, length: float) -> FloatArray:
+    """``|(dx, dy, length * dtheta)|`` (m) between poses ``(..., 3)`` (m, m, rad), the angle
+    difference wrapped to ``[-pi, pi)``; ``length`` (m) weighs the rotation.  The Euclidean
+    twin of :func:`pose_distance` (which adds ``|dp|`` and ``length * |dtheta|``)."""
+    d = np.asarray(b, dtype=np.float64) - np.asarray(a, dtype=np.float64)
+    d[..., 2] = ((d[..., 2] + math.pi) % (2.0 * math.pi) - math.pi) * length
+    return np.linalg.norm(d, axis=-1)
 
 
 def loop_residual(design: Design, pose: ArrayLike, rho: ArrayLike) -> FloatArray:

@@ -254,9 +254,7 @@ def _run_demonstration(
             "steps": taken,
         }
     asm = kin.measures(state.pose, state.rho).det_sign
-    d = np.asarray(state.pose) - t
-    d[2] = ((d[2] + math.pi) % (2.0 * math.pi) - math.pi) * design.characteristic_length
-    dist = float(np.linalg.norm(d))
+    dist = float(kinematics.pose_distance_euclidean(t, state.pose, design.characteristic_length))
     ok = asm == target_asm and dist <= limits.verify_tolerance
     return ok, {
         "end_distance": dist,

@@ -118,13 +118,6 @@ class JointPath:
     max_holding_force: float
 
 
-def _pose_gap(design: Design, a: FloatArray, b: FloatArray) -> FloatArray:
-    """``|(dx, dy, L_ref dtheta)|`` (m) between poses ``(..., 3)``."""
-    d = b - a
-    d[..., 2] = ((d[..., 2] + math.pi) % (2.0 * math.pi) - math.pi) * (design.characteristic_length)
-    return np.linalg.norm(d, axis=-1)
-
-
 @dataclass(frozen=True)
 class _Tracked:
     """Direct-kinematics branches followed along ``S`` straight travel segments at once.
@@ -165,14 +158,14 @@ def _walk(
     cand: FloatArray, valid: NDArray[np.bool_], start: FloatArray, length: float, ratio: float
 ) -> tuple[NDArray[np.intp], NDArray[np.bool_]]:
     """The branch walk of :func:`_track`: for each segment ``s``, from ``start[s]`` through the
-    solutions ``cand[s, j]`` ``(4, 3)`` (``valid[s, j]`` marks the real ones) point after
-    point, the index of the followed solution at every point and whether the branch stayed
-    unambiguous (the gaps of :func:`_pose_gap`, ``|(dx, dy, length * dtheta)|`` in m, with
-    ``dtheta`` wrapped by :func:`~planar3p_gym.tasks.observation.wrap_angle`; ties go to the
-    lower index).  Written as loops and compiled with numba because it only ever compares the
-    followed solution with the next point's four, where an array formulation computes all
-    sixteen gaps per point and sorts them; past the point where a branch is lost its indices
-    stay 0."""
+    solutions ``cand[s, j]`` ``(4, 3)`` (``valid[s, j]`` marks the real ones) point after point,
+    the index of the followed solution at every point and whether the branch stayed unambiguous
+    (the gaps ``|(dx, dy, length * dtheta)|`` in m of
+    :func:`~planar3p_gym.machine.kinematics.pose_distance_euclidean`, with ``dtheta`` wrapped by
+    :func:`~planar3p_gym.tasks.observation.wrap_angle`; ties go to the lower index). Written as
+    loops and compiled with numba because it only ever compares the followed solution with the
+    next point's four, where an array formulation computes all sixteen gaps per point and sorts
+    them; past the point where a branch is lost its indices stay 0."""
     n, points = cand.shape[0], cand.shape[1]
     index = np.zeros((n, points), dtype=np.intp)
     alive = np.zeros(n, dtype=np.bool_)
@@ -268,7 +261,7 @@ def certify_joint_path(
             return None, "holding_force"
         pose = tracked.poses[0, -1]
         waypoint_poses.append(pose)
-    if _pose_gap(design, pose, np.asarray(end, dtype=np.float64)) > _END_TOLERANCE:
+    if kinematics.pose_distance_euclidean(pose, end, design.characteristic_length) > _END_TOLERANCE:
         return None, "end_pose"
     return JointPath(w, np.array(waypoint_poses), min_margin, max_force), "ok"
 
@@ -330,7 +323,9 @@ def _certify_segments(
     if not n:
         return ok, margins, forces, np.zeros((0, 3))
     tracked = _track(design, rho_a, rho_b, pose_a, limits.points)
-    end_gap = _pose_gap(design, tracked.poses[:, -1], pose_b)
+    end_gap = kinematics.pose_distance_euclidean(
+        tracked.poses[:, -1], pose_b, design.characteristic_length
+    )
     rows = np.flatnonzero(tracked.alive & (end_gap <= _END_TOLERANCE))
     if rows.size:
         m, f = _segment_figures(design, tracked, rows)

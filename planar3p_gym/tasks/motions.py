@@ -109,8 +109,7 @@ def nearest_dk(
     if int(sol.count) < 1:
         raise ValueError(f"no direct-kinematics solution for travels {rho!r}")
     p = np.asarray(pose, dtype=np.float64)
-    d = sol.poses - p
-    d[:, 2] = ((d[:, 2] + math.pi) % (2.0 * math.pi) - math.pi) * design.characteristic_length
-    dist = np.where(sol.valid, np.linalg.norm(d, axis=-1), np.inf)
+    gaps = kinematics.pose_distance_euclidean(p, sol.poses, design.characteristic_length)
+    dist = np.where(sol.valid, gaps, np.inf)
     j = int(np.argmin(dist))
     return sol.poses[j], int(sol.assembly[j]), float(dist[j])

@@ -5,6 +5,7 @@ items 4 and 9); the files of scripts/ are thin calls of it (issue 22 item 6)."""
 
 from __future__ import annotations
 
+import importlib.util
 import os
 import re
 import signal
@@ -249,6 +250,26 @@ def test_bad_input_exits_2_naming_the_flag_before_any_work(
     assert captured.out == ""
     assert _tree(tmp_path) == before and a_file.read_text() == "keep"  # nothing written
     assert _children() <= children  # no process left behind
+
+
+def test_workspace_figures_without_matplotlib_exit_2_naming_the_extra(
+    tmp_path: Path, monkeypatch, capsys, no_work
+) -> None:
+    """Without the plots extra the figures are refused before any work, in one line that
+    names the flag that leaves them out and the extra that installs matplotlib."""
+    real = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util,
+        "find_spec",
+        lambda name, *a: None if name.split(".")[0] == "matplotlib" else real(name, *a),
+    )
+    out = tmp_path / "docs"
+    assert cli.main(["workspace", "--quick", "--no-pin", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert err.startswith("planar3p workspace: error: --no-figures: "), err
+    assert "pip install 'planar3p-gym[plots]'" in err
+    assert not out.exists()
 
 
 def test_sweep_refuses_bad_samples_without_starting_ray(tmp_path: Path, capsys, no_work) -> None:

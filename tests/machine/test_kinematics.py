@@ -1070,3 +1070,38 @@ def test_min_parallel_margin_checks_its_arguments():
         kinematics.min_parallel_margin(FIG8, np.zeros((2, 0, 3)), np.zeros((2, 0, 3)))
     empty = kinematics.min_parallel_margin(FIG8, np.zeros((0, 4, 3)), np.zeros((0, 4, 3)))
     assert empty.shape == (0,)
+
+
+_coordinate = st.floats(-1.0, 1.0, allow_nan=False)
+_angle = st.floats(-20.0, 20.0, allow_nan=False)
+
+
+@given(
+    st.tuples(_coordinate, _coordinate, _angle),
+    st.tuples(_coordinate, _coordinate, _angle),
+    st.floats(0.01, 1.0),
+)
+def test_the_two_pose_distances_bound_each_other(a, b, length):
+    """The Euclidean distance ``|(dp, L dtheta)|`` and the sum ``|dp| + L |dtheta|`` of two
+    vectors' norms: ``e <= s <= sqrt(2) e`` (Cauchy-Schwarz); both see the angle wrapped, so a
+    turn of ``2 pi`` changes neither beyond the rounding of the wrap (``4 eps`` of the angle)."""
+    e = float(kinematics.pose_distance_euclidean(a, b, length))
+    s = float(kinematics.pose_distance(a, b, length))
+    tol = 1e-12 * (1.0 + s)
+    assert e <= s + tol
+    assert s <= math.sqrt(2.0) * e + tol
+    turned = (b[0], b[1], b[2] + 2.0 * math.pi)
+    slack = 4.0 * np.finfo(float).eps * (abs(a[2]) + abs(b[2]) + 2.0 * math.pi) * length
+    assert abs(float(kinematics.pose_distance_euclidean(a, turned, length)) - e) <= slack + tol
+    dx, dy = b[0] - a[0], b[1] - a[1]
+    dth = (b[2] - a[2] + math.pi) % (2.0 * math.pi) - math.pi
+    assert e == pytest.approx(math.sqrt(dx * dx + dy * dy + (length * dth) ** 2), rel=1e-12)
+
+
+def test_pose_distance_euclidean_broadcasts_over_poses():
+    poses = np.array([[0.1, 0.2, 0.3], [0.0, 0.0, math.pi - 0.1], [0.3, -0.1, -3.0]])
+    ref = np.array([0.0, 0.1, -math.pi + 0.1])
+    got = kinematics.pose_distance_euclidean(ref, poses, 0.5)
+    assert got.shape == (3,)
+    for i, p in enumerate(poses):
+        assert got[i] == kinematics.pose_distance_euclidean(ref, p, 0.5)
