@@ -49,7 +49,7 @@ from planar3p_gym.sim.projection import (
     project_row,
     wrap_angle,
 )
-from planar3p_gym.sim.recovery import ENERGY_SLACK, excess_energy, recover
+from planar3p_gym.sim.recovery import excess_energy, recover
 
 __all__ = [
     "AVAILABLE",
@@ -327,15 +327,15 @@ def needs_recovery(start: np.ndarray, end: np.ndarray, closure: float, consts: n
     """Whether a projected step from the readout ``start`` to ``end`` (closure error
     ``closure``, m) is to be taken again by the constrained dynamics: where the projector has
     its numbers (``consts``, :data:`~planar3p_gym.sim.projection.RECOVERY_OFFSET`), when the
-    projection failed or the step made more than
-    :data:`~planar3p_gym.sim.recovery.ENERGY_SLACK` of mechanical energy beyond the servos'
-    work (:func:`~planar3p_gym.sim.recovery.excess_energy`)."""
+    projection failed or the step made more mechanical energy beyond the servos' work
+    (:func:`~planar3p_gym.sim.recovery.excess_energy`) than the slack in ``consts``
+    (:data:`~planar3p_gym.sim.recovery.ENERGY_SLACK`)."""
     r = RECOVERY_OFFSET
     if consts.shape[0] <= r or consts[r] != 1.0:
         return False
     if not closure <= MAX_CLOSURE_ERROR:
         return True
-    return excess_energy(start, end, consts[22], consts[r + 3 :]) > ENERGY_SLACK
+    return excess_energy(start, end, consts[22], consts[r + 4 :]) > consts[r + 3]
 
 
 @njit(cache=True)
@@ -357,7 +357,7 @@ def recovered_step(
         return False, bodies, np.empty(23), math.inf
     out = np.empty(60)
     impulses = np.empty(6)
-    if not recover(start, v0, v1, v2, consts[22], h, consts[r + 3 :], out, impulses):
+    if not recover(start, v0, v1, v2, consts[22], h, consts[r + 4 :], out, impulses):
         return False, bodies, np.empty(23), math.inf
     bodies, state, closure, _ = project_readout(
         out, impulses[3] >= force_limit, impulses[4] >= force_limit, impulses[5] >= force_limit,

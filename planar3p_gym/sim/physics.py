@@ -506,7 +506,7 @@ class Planar3PSim:
     def _recovery_numbers(self) -> np.ndarray:
         """The constrained-dynamics numbers of the steps whose projection fails
         (:data:`~planar3p_gym.sim.projection.RECOVERY_OFFSET`): this model's solver
-        iterations, the warm-start iterations, and the machine's numbers
+        iterations, the warm-start iterations, the energy slack, and the machine's numbers
         (:func:`~planar3p_gym.sim.recovery.recovery_constants` of :meth:`_numbers`)."""
         n, d, dyn = self._numbers(), self.design, self.dynamics
         half = 0.5 * self._k[0]
@@ -514,9 +514,10 @@ class Planar3PSim:
             self._origins, self._legs, tuple(k - half for k in self._k), d.stroke, n.platform,
             n.slider_mass, n.legs, n.gravity, n.servo_force, SERVO_CORRECTION_SPEED,
             self._error_bias, 0.0 if dyn is None else dyn.slider_viscous,
-            0.0 if dyn is None else dyn.joint_viscous,
+            0.0 if dyn is None else dyn.joint_viscous, n.slider_coulomb, n.joint_coulomb,
         )  # fmt: skip
-        return np.concatenate(([self.iterations, WARM_START_ITERATIONS], numbers))
+        head = [self.iterations, WARM_START_ITERATIONS, recovery.ENERGY_SLACK]
+        return np.concatenate((head, numbers))
 
     def _numbers(self) -> ModelNumbers:
         """The pymunk model's numbers for this machine (:class:`ModelNumbers`)."""

@@ -121,8 +121,8 @@ MAX_NEWTON_STEPS = 8
 #: free (near a fold of the direct kinematics the held travels may have no pose nearby).
 HELD_NEWTON_STEPS = 4
 #: Where the constrained-dynamics numbers start in :attr:`LoopProjector.constants` (a 1.0
-#: there, then the solver iterations to restore, the warm-start iterations and
-#: :func:`planar3p_gym.sim.recovery.recovery_constants`); shorter constants: no recovery.
+#: there, then the solver iterations to restore, the warm-start iterations, the energy slack
+#: (J) and :func:`planar3p_gym.sim.recovery.recovery_constants`); shorter: no recovery.
 RECOVERY_OFFSET = 24
 #: Smallest ``det(G) / (G_11 G_22 G_33)`` of ``G = J W^-1 J^T`` with the servo-held sliders
 #: fixed; below it (close to a parallel singularity, where it vanishes like the square of

@@ -30,8 +30,11 @@ with a direct (not iterative) solution of the same model, and hands the state ba
   does not converge is halved (down to ``2 ** -MAX_HALVINGS`` of a substep) and the step size
   grows back after each success.  A step that still cannot be taken is a real breakdown
   (:func:`recover` returns ``False``).
-* **Not modelled** here: the Coulomb friction of the machine as built (its viscous friction is);
-  the servo lag is the caller's (the commands passed are the lagged ones).
+* **Friction** of the machine as built: viscous, as an applied force; a slider's dry friction
+  in its rail impulse's bounds (against the servo's target motion); the joints' dry friction
+  as one clamped impulse per joint and substep after the rail impulses (each removes kinetic
+  energy; a sequential-impulse approximation of the coupled problem).  The servo lag is the
+  caller's (the commands passed are the lagged ones).
 
 The result is a readout (the 60 body values) that the caller projects with the one projection
 (:func:`planar3p_gym.sim.projection.project_readout`) and writes back into pymunk, whose solver
@@ -64,7 +67,7 @@ __all__ = [
 #: Mechanical energy (J) a projected step may make beyond the servos' work before it is taken
 #: again by :func:`recover` (docs/physics.md: ordinary steps stay below 0.01 J; the steps
 #: that lock at a parallel singularity make up to hundreds of joules).
-ENERGY_SLACK = 0.01
+ENERGY_SLACK = 1e-3
 #: Substeps of a recovered control step (0.5 ms at 50 Hz).
 SUBSTEPS = 40
 #: How many times a substep may be halved when its projection does not converge.
@@ -86,7 +89,7 @@ RECOVERY_FIELDS = (
     "point_1", "point_2", "point_3", "stroke", "platform_mass", "platform_moment",
     "slider_mass", "leg_mass_1", "leg_mass_2", "leg_mass_3", "leg_moment_1", "leg_moment_2",
     "leg_moment_3", "gravity_x", "gravity_y", "max_force", "servo_max_bias", "servo_error_bias",
-    "slider_viscous", "joint_viscous",
+    "slider_viscous", "joint_viscous", "slider_coulomb", "joint_coulomb",
 )  # fmt: skip
 
 
@@ -104,17 +107,20 @@ def recovery_constants(
     servo_error_bias: float,
     slider_viscous: float,
     joint_viscous: float,
+    slider_coulomb: float,
+    joint_coulomb: float,
 ) -> np.ndarray:
     """The numbers :func:`recover` reads (:data:`RECOVERY_FIELDS`): the rail origins, leg
     lengths and the platform's joint points from its centre along its axis (m), the stroke (m),
     the platform's mass (kg) and moment (kg m^2), the slider mass (kg), each leg's mass and
     moment, gravity (m/s^2), the servos' force limit (N), largest correction speed (m/s) and
     error bias (fraction of an error left after 1 s), the viscous coefficients (N s/m,
-    N m s/rad)."""
+    N m s/rad) and the dry friction of the sliders (N) and the joints (N m)."""
     values = [
         *origins, *legs, *points, stroke, *platform, slider_mass,
         *(m for m, _ in leg_bodies), *(i for _, i in leg_bodies), *gravity, max_force,
-        servo_max_bias, servo_error_bias, slider_viscous, joint_viscous,
+        servo_max_bias, servo_error_bias, slider_viscous, joint_viscous, slider_coulomb,
+        joint_coulomb,
     ]  # fmt: skip
     out = np.array(values, dtype=np.float64)
     assert out.shape == (len(RECOVERY_FIELDS),)
@@ -373,19 +379,27 @@ def _substep(
         at_hi[i] = rho >= stroke - ON_STOP
         a[i, i] += SERVO_COMPLIANCE * scale
     jmax = fmax * h
+    dry = rc[26] * h  # a slider's dry friction impulse (N s)
     x = np.zeros(3)
     # A slider on a stop that the chain pulls into it harder than its servo pushes away is
     # held by the stop (its servo at the limit): solved again with it held, until none is.
     stopped = np.zeros(3, dtype=np.bool_)
     for _ in range(4):
         for i in range(3):
-            t, low, high = target[i], -jmax, jmax
+            # The servo's impulse with the slider's dry friction: against the target motion
+            # (either way at a target of rest), added to what holds a slider on a stop.
+            t = target[i]
+            shift = -dry if t > 0.0 else (dry if t < 0.0 else 0.0)
+            low, high = -jmax + shift - (dry if t == 0.0 else 0.0), jmax + shift
+            high += dry if t == 0.0 else 0.0
             if at_lo[i] and t <= 0.0:  # pushed into its lower stop: held there
-                t, high = 0.0, math.inf
+                t, low, high = 0.0, -jmax - dry, math.inf
             elif at_hi[i] and t >= 0.0:
-                t, low = 0.0, -math.inf
+                t, low, high = 0.0, -math.inf, jmax + dry
             elif stopped[i]:
-                t, low, high = (0.0, jmax, math.inf) if at_lo[i] else (0.0, -math.inf, -jmax)
+                t, low, high = (
+                    (0.0, jmax - dry, math.inf) if at_lo[i] else (0.0, -math.inf, dry - jmax)
+                )
             lo[i], hi[i] = low, high
             b[i] = u[i] - t
         _box_qp(a, b, lo, hi, x)
@@ -403,6 +417,8 @@ def _substep(
         impulses[i] = x[i]
         for k in range(15):
             u[k] += resp[i, k] * x[i]
+    if rc[27] > 0.0:
+        _joint_friction(jac, minv, chol, u, rc[27] * h)
     # Positions; a slider past a stop put on it (velocity into it removed) and held.
     for k in range(15):
         z[k] += h * u[k]
@@ -437,6 +453,45 @@ def _substep(
     for k in range(15):
         ok = ok and math.isfinite(z[k]) and math.isfinite(u[k])
     return ok
+
+
+@njit(cache=True)
+def _joint_friction(
+    jac: np.ndarray, minv: np.ndarray, chol: np.ndarray, u: np.ndarray, dry: float
+) -> None:
+    """The revolute joints' dry friction for a substep, at most ``dry`` (N m s) each: joint
+    ``B_i`` turns leg ``i`` against its (non-rotating) slider, ``C_i`` leg ``i`` against the
+    platform.  One pass over the six joints, each impulse the one that stops the joint's
+    relative rotation in the pivots' tangent space, clamped to ``dry``: each one removes
+    kinetic energy (a sequential-impulse approximation of the coupled problem, which the
+    servos' next substep corrects)."""
+    w = np.zeros(15)
+    r = np.empty(15)
+    col = np.empty(12)
+    for joint in range(6):
+        i = joint // 2
+        w[:] = 0.0
+        w[5 + 3 * i] = 1.0
+        if joint % 2:
+            w[14] = -1.0
+        for k in range(15):
+            r[k] = minv[k] * w[k]
+        for row in range(12):
+            s = 0.0
+            for k in range(15):
+                s += jac[row, k] * r[k]
+            col[row] = s
+        _correct(jac, minv, chol, col, r)
+        eff = 0.0
+        rel = 0.0
+        for k in range(15):
+            eff += w[k] * r[k]
+            rel += w[k] * u[k]
+        if not eff > 0.0:
+            continue
+        j = min(max(-rel / eff, -dry), dry)
+        for k in range(15):
+            u[k] += r[k] * j
 
 
 @njit(cache=True)
