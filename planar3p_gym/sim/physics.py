@@ -631,6 +631,8 @@ class Planar3PSim:
         space.add(*frictions)
         space.add(*servos)
         self.space = space
+        self._space = space  # the model's own space, for the recovery's re-warm step
+        self._step_start: tuple = (np.zeros(60), (0.0, 0.0, 0.0))
         self._pivots = tuple((group[-2], group[-1]) for group in joints)
         # The constraints whose numbers depend on the machine (_set_numbers).
         self._rails = tuple(group[0] for group in joints)
@@ -950,7 +952,11 @@ class Planar3PSim:
                 largest[i] = max(largest[i], j)
         self._account(np.array(totals + largest))
         self.recovered = False
-        self._state = self._read() if start is None else self._project(start, (v0, v1, v2))
+        if start is None:
+            self._state = self._read()
+        else:
+            self._step_start = (start, (v0, v1, v2))
+            self._state = self._project()
         return self._state
 
     def compiled_step(self) -> CompiledStep | None:
@@ -1021,11 +1027,13 @@ class Planar3PSim:
                 )
                 platform.torque += cj * (leg.angular_velocity - platform.angular_velocity)
 
-    def _project(self, start: np.ndarray, commands: tuple[float, float, float]) -> SimState:
+    def _project(self) -> SimState:
         """Project the bodies onto the constraint manifold, write them back, return the state
-        (after a physics step taken through pymunk's API from the readout ``start`` with the
-        drive ``commands``, m/s); where the projection fails, the step is taken again by the
-        constrained dynamics (:meth:`_recover`) as the compiled step does."""
+        (after a physics step taken through pymunk's API from the readout and with the drive
+        commands, m/s, of ``_step_start``); where it :func:`~chipmunk.needs_recovery`, the
+        step is taken again by the constrained dynamics (:meth:`_recover`) as the compiled step
+        does."""
+        start, commands = self._step_start
         state = self._project_bodies()
         end = np.array(self._public_values())
         projector = self._projector
@@ -1050,10 +1058,11 @@ class Planar3PSim:
             return None
         projector.last_state = st
         self._write_public(bodies.tolist(), start.tolist())
-        self.space.iterations = WARM_START_ITERATIONS
-        self.space.step(self._h)
+        space = self._space  # (pymunk's own, whatever wraps self.space)
+        space.iterations = WARM_START_ITERATIONS
+        space.step(self._h)
         self._write_public(bodies.tolist(), start.tolist())
-        self.space.iterations = self.iterations
+        space.iterations = self.iterations
         self._set_forces(impulses)
         self.recovered = True
         if self._fast is not None:
