@@ -17,7 +17,10 @@ forward) from a generator of the same seed.  Counted per id and policy:
 * on every accepted step (one not reported as ``physics_breakdown``): a travel more than
   0.5 mm outside the stroke, and a loop-closure error above 1e-9 m;
 * the steps the simulation took through its constrained-dynamics recovery
-  (``sim.recovered``, where the simulation has it) and the episodes with one.
+  (``sim.recovered``, where the simulation has it) and the episodes with one;
+* with ``--energy``, on every accepted step the mechanical energy it made beyond the most the
+  servos can have done (:func:`excess_energy`): the steps above 1e-3, 0.01 and 1 J and the
+  largest (slower: the bodies are read before and after each step).
 
 Not a ``planar3p`` command and not installed: a measurement of the repository
 (``docs/physics.md``).  Bad flags: exit 2 with one line naming the flag, before any work.
@@ -27,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 import time
 import warnings
@@ -61,7 +65,44 @@ def bang_bang(env: gym.Env, rng: np.random.Generator) -> Any:
     return digits if action_type == "on-off" else int(digits @ np.array([9, 3, 1]))
 
 
-def soak(env_id: str, policy: str, episodes: int, seed: int) -> dict[str, Any]:
+#: Thresholds (J) of the ``--energy`` counts.
+ENERGY_LEVELS = (1e-3, 1e-2, 1.0)
+
+
+def _energy(sim: Any, v: list[float]) -> float:
+    """Mechanical energy (J) of the body values ``v`` (the simulation's readout order) with the
+    pymunk bodies' masses and moments and the space's gravity."""
+    gx, gy = tuple(sim.space.gravity)
+    p = sim.platform
+    e = 0.5 * p.mass * (v[3] ** 2 + v[4] ** 2) + 0.5 * p.moment * v[5] ** 2
+    e -= p.mass * (gx * v[0] + gy * v[1])
+    ms = sim.sliders[0].mass
+    for i, leg in enumerate(sim.legs):
+        o = 6 + 18 * i
+        e += 0.5 * ms * v[o + 3] ** 2 - ms * gx * v[o]
+        e += 0.5 * leg.mass * (v[o + 15] ** 2 + v[o + 16] ** 2) + 0.5 * leg.moment * v[o + 17] ** 2
+        e -= leg.mass * (gx * v[o + 12] + gy * v[o + 13])
+    return e
+
+
+def excess_energy(sim: Any, before: list[float], after: list[float]) -> float:
+    """Energy (J) a control step made from the body values ``before`` to ``after`` beyond the
+    most the servos can have done: ``max_force`` times each slider's path, the longer of its
+    travel and its mean speed times the control period (the simulation's own measure,
+    ``planar3p_gym.sim.recovery.excess_energy``, written here on pymunk's bodies so that the
+    script measures any version of the simulation alike)."""
+    force = sim.servos[0].max_force
+    work = 0.0
+    for i in range(3):
+        o = 6 + 18 * i
+        travel = abs(after[o] - before[o])
+        work += force * max(travel, 0.5 * (abs(before[o + 3]) + abs(after[o + 3])) * sim.dt)
+    return _energy(sim, after) - _energy(sim, before) - work
+
+
+def soak(
+    env_id: str, policy: str, episodes: int, seed: int, energy: bool = False
+) -> dict[str, Any]:
     """Run ``episodes`` episodes of ``policy`` on ``env_id`` (module docstring); the counts."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # a deprecation notice
@@ -80,6 +121,9 @@ def soak(env_id: str, policy: str, episodes: int, seed: int) -> dict[str, Any]:
         "episodes_with_recovery": 0,
         "breakdown_seeds": [],
     }
+    if energy:
+        out["energy_steps_over"] = dict.fromkeys(map(str, ENERGY_LEVELS), 0)
+        out["max_excess_energy"] = -math.inf
     unwrapped = env.unwrapped
     for k in range(episodes):
         s = seed + k
@@ -89,6 +133,7 @@ def soak(env_id: str, policy: str, episodes: int, seed: int) -> dict[str, Any]:
         recovered = 0
         while True:
             a = env.action_space.sample() if policy == "random" else bang_bang(env, rng)
+            before = unwrapped.sim._public_values() if energy else None
             _, _, terminated, truncated, info = env.step(a)
             out["steps"] += 1
             sim = unwrapped.sim
@@ -102,6 +147,11 @@ def soak(env_id: str, policy: str, episodes: int, seed: int) -> dict[str, Any]:
                 out["closure_violations"] += not state.closure_error <= CLOSURE_TOLERANCE
                 out["max_overshoot_mm"] = max(out["max_overshoot_mm"], 1e3 * overshoot)
                 out["max_accepted_closure"] = max(out["max_accepted_closure"], state.closure_error)
+                if before is not None:
+                    x = excess_energy(sim, before, sim._public_values())
+                    for level in ENERGY_LEVELS:
+                        out["energy_steps_over"][str(level)] += x > level
+                    out["max_excess_energy"] = max(out["max_excess_energy"], x)
             if reason is not None:
                 out["end_reasons"][reason] += 1
                 if reason == "physics_breakdown":
@@ -136,6 +186,9 @@ def parse(argv: list[str] | None) -> argparse.Namespace:
         "--policies", nargs="+", default=list(POLICIES), choices=POLICIES, help="policies"
     )
     p.add_argument("--jobs", type=int, default=1, help="worker processes (>= 1)")
+    p.add_argument(
+        "--energy", action="store_true", help="also count the steps that make energy (slower)"
+    )
     p.add_argument("--json", type=Path, default=None, metavar="FILE", help="write the results")
     args = p.parse_args(argv)
     if args.episodes < 1:
@@ -181,7 +234,7 @@ def table_row(r: dict[str, Any]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse(argv)
-    tasks = [(i, p, args.episodes, args.seed) for i in args.ids for p in args.policies]
+    tasks = [(i, p, args.episodes, args.seed, args.energy) for i in args.ids for p in args.policies]
     start = time.perf_counter()
     print(row([name for name, _ in COLUMNS]), flush=True)
     results = []
@@ -196,6 +249,14 @@ def main(argv: list[str] | None = None) -> int:
                 print(table_row(r), flush=True)
     seconds = time.perf_counter() - start
     worst = max(r["breakdown_fraction"] for r in results)
+    if args.energy:
+        print("energy beyond the servos' work, accepted steps above 1e-3 / 0.01 / 1 J | largest")
+        for r in results:
+            over = r["energy_steps_over"]
+            print(
+                f"{r['id']} {r['policy']} | {over['0.001']} / {over['0.01']} / {over['1.0']} | "
+                f"{r['max_excess_energy']:.3g}"
+            )
     print(
         f"largest breakdown share {100 * worst:.2f} %; stroke violations "
         f"{sum(r['stroke_violations'] for r in results)}, closure violations "

@@ -7,6 +7,7 @@ import importlib.util
 import json
 from pathlib import Path
 
+import gymnasium as gym
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -47,6 +48,24 @@ def test_the_soak_counts_every_episode_and_writes_them(tmp_path, capsys):
     # A second run gives the same counts (seeded episodes and actions).
     again = soak_physics.soak("Planar3PAssemblyChange-v0", "bang-bang", 2, 10_000)
     assert {k: v for k, v in again.items()} == results[1]
+
+
+def test_the_energy_counts_see_a_step_that_makes_energy():
+    """``--energy``'s measure: 0 for a step that changes nothing,
+    the energy added to a body for one that makes it."""
+    env = gym.make("Planar3PGoal-v0")
+    env.reset(seed=0)
+    sim = env.unwrapped.sim
+    before = sim._public_values()
+    assert soak_physics.excess_energy(sim, before, before) == 0.0
+    after = list(before)
+    after[3] += 1.0  # the platform 1 m/s faster along x, the sliders not moved
+    made = 0.5 * sim.platform.mass * ((before[3] + 1.0) ** 2 - before[3] ** 2)
+    assert soak_physics.excess_energy(sim, before, after) == pytest.approx(made, rel=1e-12)
+    r = soak_physics.soak("Planar3PAssemblyChange-v0", "random", 1, 10_000, energy=True)
+    assert set(r["energy_steps_over"]) == {"0.001", "0.01", "1.0"}
+    assert r["max_excess_energy"] <= 1e-3  # (the simulation recovers the steps that make more)
+    env.close()
 
 
 @pytest.mark.parametrize(
