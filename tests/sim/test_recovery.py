@@ -187,3 +187,33 @@ def test_no_recovery_without_the_numbers():
     c = sim._projector.constants[:RECOVERY_OFFSET]
     ok, *_ = chipmunk.recovered_step(start, 0.2, 0.2, 0.2, sim._h, 1.0, c, 1e-3, forces)
     assert not ok and not chipmunk.needs_recovery(start, start, math.inf, c)
+
+
+@pytest.mark.parametrize("batch", ["numpy", "scalar"])
+def test_the_native_vector_env_recovers_as_the_single_envs(batch):
+    """``gym.make_vec("Planar3P-v0")`` (its compiled batch step or each simulation's step)
+    against single environments under bang-bang actions that lock the chain: the same
+    observations and rewards, bit for bit, through the recovered steps."""
+    n = 6
+    venv = gym.make_vec(
+        planar3p_gym.ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", batch=batch
+    )
+    singles = [gym.make(planar3p_gym.ENV_ID) for _ in range(n)]
+    obs, _ = venv.reset(seed=10000)
+    for i, env in enumerate(singles):
+        assert np.array_equal(env.reset(seed=10000 + i)[0], obs[i])
+    rng = np.random.default_rng(1)
+    done = np.zeros(n, dtype=bool)
+    recovered = 0
+    for _ in range(250):
+        a = rng.choice(np.array([-1.0, 1.0], dtype=np.float32), (n, 3))
+        obs, reward, *_ = venv.step(a)
+        for i, env in enumerate(singles):
+            if done[i]:  # (the vector env resets on its own from here)
+                continue
+            o, r, terminated, truncated, _ = env.step(a[i])
+            recovered += env.unwrapped.sim.recovered
+            assert np.array_equal(o, obs[i]) and r == reward[i]
+            done[i] = terminated or truncated
+    assert recovered >= 5
+    venv.close()
