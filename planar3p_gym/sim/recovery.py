@@ -231,10 +231,13 @@ def _project_velocity(jac: np.ndarray, minv: np.ndarray, chol: np.ndarray, u: np
 
 
 @njit(cache=True)
-def _solve_small(a: np.ndarray, b: np.ndarray, free: np.ndarray, k: int, x: np.ndarray) -> bool:
+def _solve_small(
+    a: np.ndarray, b: np.ndarray, free: np.ndarray, k: int, x: np.ndarray, m: np.ndarray
+) -> bool:
     """Solve ``a[free][:, free] x_f = b[free]`` (``k`` free indices, at most 3) by Gaussian
-    elimination with partial pivoting; ``x[free]`` receives the solution.  False if singular."""
-    m = np.zeros((3, 4))
+    elimination with partial pivoting, in the work array ``m`` (3 x 4, zeroed here); ``x[free]``
+    receives the solution.  False if singular."""
+    m[:, :] = 0.0
     for r in range(k):
         for c in range(k):
             m[r, c] = a[free[r], free[c]]
@@ -272,6 +275,7 @@ def _box_qp(a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, x: np.
     free = np.zeros(3, dtype=np.int64)
     y = np.zeros(3)
     rhs = np.zeros(3)
+    work = np.zeros((3, 4))
     for code in range(27):
         c = code
         k = 0
@@ -302,7 +306,7 @@ def _box_qp(a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, x: np.
                 if not is_free:
                     s -= a[r, q] * y[q]
             rhs[r] = s
-        if k and not _solve_small(a, rhs, free, k, y):
+        if k and not _solve_small(a, rhs, free, k, y, work):
             continue
         for i in range(3):
             y[i] = min(max(y[i], lo[i]), hi[i])
