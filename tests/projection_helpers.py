@@ -33,14 +33,31 @@ def step_in_parts(record: Recorder | None = None) -> Callable[..., tuple[np.ndar
         fns, handles, v0, v1, v2, h, substeps, force_limit, readout, consts, limit, forces
     ) -> tuple[np.ndarray, float]:
         chipmunk.read_bodies(fns, handles)
+        start = readout[:60].copy()
         chipmunk.advance(fns, handles, v0, v1, v2, h, substeps, readout, forces)
-        saturated = tuple(bool(m >= force_limit) for m in forces[3:].tolist())
+        saturated = tuple(bool(m >= force_limit) for m in forces[3:6].tolist())
         before = readout[:60].tolist()
         state, closure = project_in_place(readout, *saturated, consts, limit)
         if record is not None:
             record(before, saturated, readout[:60].tolist())
         chipmunk.write_bodies(fns, handles)
-        return state, closure
+        # (a step the constrained dynamics takes again: chipmunk.step_projected's last part)
+        return chipmunk._recover_and_write(
+            fns,
+            handles,
+            start,
+            v0,
+            v1,
+            v2,
+            h,
+            force_limit,
+            readout,
+            consts,
+            limit,
+            forces,
+            state,
+            closure,
+        )
 
     return step
 

@@ -58,6 +58,11 @@ class Planar3PTrackEnv(Planar3PEnv):
     :class:`planar3p_gym.envs.core.Planar3PEnv` except ``task``.
 
     ## Version History
+    - v0 (0.2.0): the simulation survives a parallel singularity: a step that locks there (its
+      projection fails, or it makes energy the servos did not put in) is taken again by a
+      compiled constrained-dynamics step (:mod:`planar3p_gym.sim.recovery`); trajectories
+      change from such a step on, where they used to end in ``"physics_breakdown"`` or gain
+      energy.
     - v0 (0.2.0, issue 24): the same distribution of episodes, drawn faster: poses are proposed
       from the region that holds every reachable pose (:mod:`planar3p_gym.tasks.pose_proposal`);
       a seed draws other episodes than before.

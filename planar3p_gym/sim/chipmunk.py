@@ -33,6 +33,7 @@ first field, checked at import).
 
 from __future__ import annotations
 
+import math
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -40,7 +41,15 @@ from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
-from planar3p_gym.sim.projection import project_in_place, project_row
+from planar3p_gym.sim.projection import (
+    MAX_CLOSURE_ERROR,
+    RECOVERY_OFFSET,
+    project_in_place,
+    project_readout,
+    project_row,
+    wrap_angle,
+)
+from planar3p_gym.sim.recovery import excess_energy, recover
 
 __all__ = [
     "AVAILABLE",
@@ -52,7 +61,9 @@ __all__ = [
     "advance_batch",
     "body_readout",
     "handle_row",
+    "needs_recovery",
     "read_bodies",
+    "recovered_step",
     "settle",
     "step_projected",
     "step_projected_viscous",
@@ -312,6 +323,92 @@ def _step_and_sum(fns: np.ndarray, handles: np.ndarray, h: float, forces: np.nda
 
 
 @njit(cache=True)
+def needs_recovery(start: np.ndarray, end: np.ndarray, closure: float, consts: np.ndarray) -> bool:
+    """Whether a projected step from the readout ``start`` to ``end`` (closure error
+    ``closure``, m) is to be taken again by the constrained dynamics: where the projector has
+    its numbers (``consts``, :data:`~planar3p_gym.sim.projection.RECOVERY_OFFSET`), when the
+    projection failed or the step made more mechanical energy beyond the servos' work
+    (:func:`~planar3p_gym.sim.recovery.excess_energy`) than the slack in ``consts``
+    (:data:`~planar3p_gym.sim.recovery.ENERGY_SLACK`)."""
+    r = RECOVERY_OFFSET
+    if consts.shape[0] <= r or consts[r] != 1.0:
+        return False
+    if not closure <= MAX_CLOSURE_ERROR:
+        return True
+    return excess_energy(start, end, consts[22], consts[r + 4 :]) > consts[r + 3]
+
+
+@njit(cache=True)
+def recovered_step(
+    start: np.ndarray, v0: float, v1: float, v2: float, h: float, force_limit: float,
+    consts: np.ndarray, setpoint_limit: float, forces: np.ndarray,
+) -> tuple[bool, np.ndarray, np.ndarray, float]:  # fmt: skip
+    """A control step whose projection failed, taken again from its start readout ``start``
+    by the constrained dynamics (:func:`planar3p_gym.sim.recovery.recover`, with the numbers
+    in the projector's ``consts`` from :data:`~planar3p_gym.sim.projection.RECOVERY_OFFSET`)
+    and projected: ``(ok, bodies, state, closure)`` as
+    :func:`~planar3p_gym.sim.projection.project_readout` gives them, with the servos'
+    impulses in ``forces[:6]`` (N s; ``force_limit``, N s: a saturated servo's largest).
+    ``ok`` False (``forces`` untouched) where the projector has no recovery numbers or no
+    closed state results: the failed step then stands."""
+    r = RECOVERY_OFFSET
+    bodies = np.empty(60)
+    if consts.shape[0] <= r or consts[r] != 1.0:
+        return False, bodies, np.empty(23), math.inf
+    out = np.empty(60)
+    impulses = np.empty(6)
+    if not recover(start, v0, v1, v2, consts[22], h, consts[r + 4 :], out, impulses):
+        return False, bodies, np.empty(23), math.inf
+    bodies, state, closure, _ = project_readout(
+        out, impulses[3] >= force_limit, impulses[4] >= force_limit, impulses[5] >= force_limit,
+        consts, setpoint_limit,
+    )  # fmt: skip
+    if not closure <= MAX_CLOSURE_ERROR:
+        return False, bodies, state, math.inf
+    forces[:6] = impulses
+    return True, bodies, state, closure
+
+
+@njit(cache=True)
+def _rewarm(fns: np.ndarray, handles: np.ndarray, h: float, consts: np.ndarray) -> None:
+    """After a recovered step written into the bodies (from the batch array): re-solve the
+    joint impulses the solver warm-starts from, which the failed step left wrong, by one
+    physics step of ``h`` (s) with the warm-start iterations, the bodies put back after it,
+    the solver left at its own iterations (both in ``consts``,
+    :data:`~planar3p_gym.sim.projection.RECOVERY_OFFSET`)."""
+    r = RECOVERY_OFFSET
+    _call_pi(fns[6], handles[0], np.int32(consts[r + 2]))
+    _call_pd(fns[0], handles[0], h)
+    write_bodies(fns, handles)
+    _call_pi(fns[6], handles[0], np.int32(consts[r + 1]))
+
+
+@njit(cache=True)
+def _recover_and_write(
+    fns: np.ndarray, handles: np.ndarray, start: np.ndarray, v0: float, v1: float, v2: float,
+    h: float, force_limit: float, readout: np.ndarray, consts: np.ndarray,
+    setpoint_limit: float, forces: np.ndarray, state: np.ndarray, closure: float,
+) -> tuple[np.ndarray, float]:  # fmt: skip
+    """A single simulation's step end (the projected ``state``, ``closure`` and bodies in
+    ``readout``, from the step's ``start``): where it :func:`needs_recovery`, the recovered
+    step (:func:`recovered_step`) written back and the solver re-warmed (:func:`_rewarm`),
+    with ``forces[6]`` set to 1 where ``forces`` has room; else ``state``, ``closure``."""
+    if not needs_recovery(start, readout, closure, consts):
+        return state, closure
+    ok, bodies, new_state, new_closure = recovered_step(
+        start, v0, v1, v2, h, force_limit, consts, setpoint_limit, forces
+    )
+    if not ok:
+        return state, closure
+    readout[:60] = bodies
+    write_bodies(fns, handles)
+    _rewarm(fns, handles, h, consts)
+    if forces.shape[0] > 6:
+        forces[6] = 1.0
+    return new_state, new_closure
+
+
+@njit(cache=True)
 def _viscous_forces(readout: np.ndarray, applied: np.ndarray, cs: float, cj: float) -> None:
     """The viscous friction forces of :meth:`Planar3PSim._apply_viscous` from the velocities in
     ``readout``, into ``applied`` (``fx, fy, t`` per body in readout order; 0 where that method
@@ -382,8 +479,15 @@ def step_projected(
     write the projected bodies back.  Returns ``(state, closure_error)`` as
     :func:`~planar3p_gym.sim.projection.project_readout` does (theta not wrapped)."""
     read_bodies(fns, handles)
+    start = readout[:60].copy()
     advance(fns, handles, v0, v1, v2, h, substeps, readout, forces)
-    return _project_and_write(fns, handles, force_limit, readout, consts, setpoint_limit, forces)
+    state, closure = _project_and_write(
+        fns, handles, force_limit, readout, consts, setpoint_limit, forces
+    )
+    return _recover_and_write(
+        fns, handles, start, v0, v1, v2, h, force_limit, readout, consts, setpoint_limit,
+        forces, state, closure,
+    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -410,6 +514,7 @@ def step_projected_viscous(
     and their viscous forces written (:func:`_viscous_forces`, through the force request of
     ``force_handles``: its ``pmBatchedData *`` and ``pmFloatArray *``, over ``applied``)."""
     read_bodies(fns, handles)
+    start = readout[:60].copy()
     _write_with_drives(fns, handles, readout, v0, v1, v2, forces)
     for _ in range(substeps):
         read_bodies(fns, handles)
@@ -417,7 +522,13 @@ def step_projected_viscous(
         write_forces(fns, handles, force_handles)
         _step_and_sum(fns, handles, h, forces)
     read_bodies(fns, handles)
-    return _project_and_write(fns, handles, force_limit, readout, consts, setpoint_limit, forces)
+    state, closure = _project_and_write(
+        fns, handles, force_limit, readout, consts, setpoint_limit, forces
+    )
+    return _recover_and_write(
+        fns, handles, start, v0, v1, v2, h, force_limit, readout, consts, setpoint_limit,
+        forces, state, closure,
+    )  # fmt: skip
 
 
 @njit(cache=True)
@@ -451,14 +562,26 @@ def advance_batch(
     for k in range(n):
         i = rows[k]
         readout = readouts[i]
-        advance(
-            fns, handles[i], velocities[k, 0], velocities[k, 1], velocities[k, 2], h, substeps,
-            readout, forces[k],
-        )  # fmt: skip
+        start = readout[:60].copy()
+        v0, v1, v2 = velocities[k, 0], velocities[k, 1], velocities[k, 2]
+        advance(fns, handles[i], v0, v1, v2, h, substeps, readout, forces[k])
         for d in range(3):
             saturated[d, k] = forces[k, 3 + d] >= force_limit
         project_row(
             readout, saturated[0, k], saturated[1, k], saturated[2, k], consts, setpoint_limit,
             states, closure, k,
         )  # fmt: skip
+        if needs_recovery(start, readout, closure[k], consts):  # as a single simulation
+            ok, bodies, state, err = recovered_step(
+                start, v0, v1, v2, h, force_limit, consts, setpoint_limit, forces[k]
+            )
+            if ok:
+                readout[:60] = bodies
+                write_bodies(fns, handles[i])
+                _rewarm(fns, handles[i], h, consts)
+                for d in range(3):
+                    saturated[d, k] = forces[k, 3 + d] >= force_limit
+                state[8] = wrap_angle(state[8])
+                states[:, k] = state
+                closure[k] = err
     return forces, saturated, states, closure

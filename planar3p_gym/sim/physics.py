@@ -71,7 +71,7 @@ from numpy.typing import ArrayLike
 
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
-from planar3p_gym.sim import chipmunk
+from planar3p_gym.sim import chipmunk, recovery
 from planar3p_gym.sim.dynamics import MachineDynamics
 from planar3p_gym.sim.projection import LoopProjector
 from planar3p_gym.sim.projection import wrap_angle as _wrap
@@ -452,6 +452,10 @@ class Planar3PSim:
         self._forces = (0.0, 0.0, 0.0)
         self._saturated = (False, False, False)
         self.projection = bool(projection)
+        self._error_bias = float(error_bias)
+        #: Whether the last step was taken by the constrained dynamics of
+        #: :mod:`planar3p_gym.sim.recovery` (its projection had failed).
+        self.recovered = False
         #: The machine's design (:meth:`reset` may give a new one).
         self.design = design
         #: The machine's imperfections; ``None`` for the ideal machine (the default model).
@@ -494,8 +498,26 @@ class Planar3PSim:
         self._viscous = dyn.slider_viscous > 0.0 or dyn.joint_viscous > 0.0
         self._lag = 1.0 if self.dynamics is None else self.dynamics.lag_factor(self.dt)
         self._projector = (
-            LoopProjector(design, self.dt, FOLLOWING_ERROR_LIMIT) if self.projection else None
+            LoopProjector(design, self.dt, FOLLOWING_ERROR_LIMIT, self._recovery_numbers())
+            if self.projection
+            else None
         )
+
+    def _recovery_numbers(self) -> np.ndarray:
+        """The constrained-dynamics numbers of the steps whose projection fails
+        (:data:`~planar3p_gym.sim.projection.RECOVERY_OFFSET`): this model's solver
+        iterations, the warm-start iterations, the energy slack, and the machine's numbers
+        (:func:`~planar3p_gym.sim.recovery.recovery_constants` of :meth:`_numbers`)."""
+        n, d, dyn = self._numbers(), self.design, self.dynamics
+        half = 0.5 * self._k[0]
+        numbers = recovery.recovery_constants(
+            self._origins, self._legs, tuple(k - half for k in self._k), d.stroke, n.platform,
+            n.slider_mass, n.legs, n.gravity, n.servo_force, SERVO_CORRECTION_SPEED,
+            self._error_bias, 0.0 if dyn is None else dyn.slider_viscous,
+            0.0 if dyn is None else dyn.joint_viscous, n.slider_coulomb, n.joint_coulomb,
+        )  # fmt: skip
+        head = [self.iterations, WARM_START_ITERATIONS, recovery.ENERGY_SLACK]
+        return np.concatenate((head, numbers))
 
     def _numbers(self) -> ModelNumbers:
         """The pymunk model's numbers for this machine (:class:`ModelNumbers`)."""
@@ -609,6 +631,8 @@ class Planar3PSim:
         space.add(*frictions)
         space.add(*servos)
         self.space = space
+        self._space = space  # the model's own space, for the recovery's re-warm step
+        self._step_start: tuple = (np.zeros(60), (0.0, 0.0, 0.0))
         self._pivots = tuple((group[-2], group[-1]) for group in joints)
         # The constraints whose numbers depend on the machine (_set_numbers).
         self._rails = tuple(group[0] for group in joints)
@@ -657,7 +681,7 @@ class Planar3PSim:
             read=read,
             handles=chipmunk.handle_row(space._space, fast_servos, read),
             readout=read.memory[: _BODY_FIELDS * len(self._bodies)],
-            impulses=np.zeros(6),
+            impulses=np.zeros(7),  # (the 7th: 1.0 after a recovered step)
             push=push,
             push_handles=np.array(
                 [chipmunk.address(push.request), chipmunk.address(push.array)], dtype=np.uintp
@@ -761,6 +785,7 @@ class Planar3PSim:
         self._forces = (0.0, 0.0, 0.0)
         self._saturated = (False, False, False)
         self._lagged = [0.0, 0.0, 0.0]
+        self.recovered = False
         del self._commands[:]  # (in place: a vector env holds this array)
         self.geometry = None
         self._origin = (
@@ -894,6 +919,7 @@ class Planar3PSim:
                         FOLLOWING_ERROR_LIMIT, impulses,
                     )  # fmt: skip
                 projector.last_state = st
+                self.recovered = impulses[6] == 1.0
                 self._account(impulses)
                 self._state = self._projected_state(st, closure, readout)
                 return self._state
@@ -908,6 +934,11 @@ class Planar3PSim:
         # pymunk's API: viscous friction (set before each physics step), or no Chipmunk C API.
         if projector is None:  # (with projection, done when the state is written back)
             self._limit_following_error()
+            start = None
+        else:  # the step's start, for a recovery (_project)
+            start = np.array(self._public_values() if fast is None else self._batch_values(fast))[
+                :60
+            ]
         for drive, v in zip(self.drives, (v0, v1, v2), strict=True):
             drive.velocity = (v, 0.0)
         totals, largest = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
@@ -920,7 +951,12 @@ class Planar3PSim:
                 totals[i] += j
                 largest[i] = max(largest[i], j)
         self._account(np.array(totals + largest))
-        self._state = self._read() if projector is None else self._project()
+        self.recovered = False
+        if start is None:
+            self._state = self._read()
+        else:
+            self._step_start = (start, (v0, v1, v2))
+            self._state = self._project()
         return self._state
 
     def compiled_step(self) -> CompiledStep | None:
@@ -953,6 +989,7 @@ class Planar3PSim:
         for _ in range(n - 1):  # the clock is a sum of periods, as step by step
             self._time += self.dt
         self._projector.last_state = state  # type: ignore[union-attr]
+        self.recovered = self._fast.impulses[6] == 1.0  # type: ignore[union-attr]
         self._account(self._fast.impulses)  # type: ignore[union-attr]
         readout = self._fast.readout  # type: ignore[union-attr]
         self._state = self._projected_state(state, closure, readout)
@@ -960,8 +997,13 @@ class Planar3PSim:
     def _account(self, impulses: np.ndarray) -> None:
         """Advance the clock by a control period and set the mean actuator forces (N) and the
         saturation flags from the servos' summed and largest substep ``impulses`` (N s)."""
-        f0, f1, f2, m0, m1, m2 = impulses.tolist()
         self._time += self.dt
+        self._set_forces(impulses)
+
+    def _set_forces(self, impulses: np.ndarray) -> None:
+        """The mean actuator forces (N) and the saturation flags from the servos' summed and
+        largest substep ``impulses`` (N s, the first 6 numbers)."""
+        f0, f1, f2, m0, m1, m2 = impulses[:6].tolist()
         scale, limit = self._force_scale, self._force_limit
         self._forces = (f0 * scale, f1 * scale, f2 * scale)
         self._saturated = (m0 >= limit, m1 >= limit, m2 >= limit)
@@ -987,7 +1029,62 @@ class Planar3PSim:
 
     def _project(self) -> SimState:
         """Project the bodies onto the constraint manifold, write them back, return the state
-        (after a physics step taken through pymunk's API)."""
+        (after a physics step taken through pymunk's API from the readout and with the drive
+        commands, m/s, of ``_step_start``); where it :func:`~chipmunk.needs_recovery`, the
+        step is taken again by the constrained dynamics (:meth:`_recover`) as the compiled step
+        does."""
+        start, commands = self._step_start
+        state = self._project_bodies()
+        end = np.array(self._public_values())
+        projector = self._projector
+        assert projector is not None
+        if not chipmunk.needs_recovery(start, end, state.closure_error, projector.constants):
+            return state
+        return self._recover(start, commands) or state
+
+    def _recover(self, start: np.ndarray, commands: tuple[float, float, float]) -> SimState | None:
+        """:func:`~planar3p_gym.sim.chipmunk.recovered_step` of a step taken through pymunk's
+        API: the recovered bodies written back, the solver re-warmed as the compiled step does
+        (one physics step with the warm-start iterations, the bodies put back), the forces
+        and saturation of the recovered step; ``None`` (nothing changed) where it fails."""
+        projector = self._projector
+        assert projector is not None
+        impulses = np.zeros(6)
+        ok, bodies, st, closure = chipmunk.recovered_step(
+            start, *commands, self._h, self._force_limit, projector.constants,
+            FOLLOWING_ERROR_LIMIT, impulses,
+        )  # fmt: skip
+        if not ok:
+            return None
+        projector.last_state = st
+        self._write_public(bodies.tolist(), start.tolist())
+        space = self._space  # (pymunk's own, whatever wraps self.space)
+        space.iterations = WARM_START_ITERATIONS
+        space.step(self._h)
+        self._write_public(bodies.tolist(), start.tolist())
+        space.iterations = self.iterations
+        self._set_forces(impulses)
+        self.recovered = True
+        if self._fast is not None:
+            self._fast.readout[:60] = bodies
+        return self._projected_state(st, closure, bodies)
+
+    def _write_public(self, out: list[float], v: list[float]) -> None:
+        """Write the body values ``out`` (readout order) through pymunk's API; a drive's
+        position only where it differs from ``v`` (the values read)."""
+        for n, body in enumerate(self._bodies):
+            o = 6 * n
+            if body.body_type == pymunk.Body.KINEMATIC:
+                if out[o] != v[o]:
+                    body.position = (out[o], out[o + 1])
+                continue
+            body.position = (out[o], out[o + 1])
+            body.angle = out[o + 2]
+            body.velocity = (out[o + 3], out[o + 4])
+            body.angular_velocity = out[o + 5]
+
+    def _project_bodies(self) -> SimState:
+        """The projection of :meth:`_project` (its result may be a failed one)."""
         fast = self._fast
         projector = self._projector
         assert projector is not None
@@ -1007,16 +1104,7 @@ class Planar3PSim:
         # FOLLOWING_ERROR_LIMIT of their sliders, :meth:`_limit_following_error`.)
         pr = projector.project(v, self._saturated, FOLLOWING_ERROR_LIMIT)
         out = pr.bodies
-        for n, body in enumerate(self._bodies):
-            o = 6 * n
-            if body.body_type == pymunk.Body.KINEMATIC:
-                if out[o] != v[o]:
-                    body.position = (out[o], out[o + 1])
-                continue
-            body.position = (out[o], out[o + 1])
-            body.angle = out[o + 2]
-            body.velocity = (out[o + 3], out[o + 4])
-            body.angular_velocity = out[o + 5]
+        self._write_public(out, v)
         self._setpoints = [out[12], out[30], out[48]]
         self.geometry = pr.geometry
         return SimState(

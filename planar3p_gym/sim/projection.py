@@ -90,6 +90,7 @@ __all__ = [
     "MAX_NEWTON_STEPS",
     "POSITION_TOLERANCE",
     "RATE_ALLOWANCE",
+    "RECOVERY_OFFSET",
     "STOP_CONTACT",
     "LoopProjector",
     "Projected",
@@ -119,6 +120,10 @@ MAX_NEWTON_STEPS = 8
 #: Newton steps allowed with servo-held sliders fixed before starting again with every slider
 #: free (near a fold of the direct kinematics the held travels may have no pose nearby).
 HELD_NEWTON_STEPS = 4
+#: Where the constrained-dynamics numbers start in :attr:`LoopProjector.constants` (a 1.0
+#: there, then the solver iterations to restore, the warm-start iterations, the energy slack
+#: (J) and :func:`planar3p_gym.sim.recovery.recovery_constants`); shorter: no recovery.
+RECOVERY_OFFSET = 24
 #: Smallest ``det(G) / (G_11 G_22 G_33)`` of ``G = J W^-1 J^T`` with the servo-held sliders
 #: fixed; below it (close to a parallel singularity, where it vanishes like the square of
 #: ``det A``) the held sliders take their share of the correction.
@@ -188,10 +193,16 @@ class LoopProjector:
             at the start of a step (the simulation's
             :data:`~planar3p_gym.physics.FOLLOWING_ERROR_LIMIT`); with ``dt``, where a slider
             was is known from its drive to within it.
+        recovery: the simulation's constrained-dynamics numbers for the steps whose
+            projection fails (:data:`RECOVERY_OFFSET`; needs ``dt``); ``None``: no recovery.
     """
 
     def __init__(
-        self, design: Design, dt: float | None = None, following_error: float = 0.0
+        self,
+        design: Design,
+        dt: float | None = None,
+        following_error: float = 0.0,
+        recovery: np.ndarray | None = None,
     ) -> None:
         self.design = design
         k = design.joint_offsets
@@ -227,6 +238,7 @@ class LoopProjector:
                 *(2.0 * li * POSITION_TOLERANCE for li in self.legs),
                 self.d_centre, self.k_q, self.stroke, 1.0 / self.m_platform, 1.0 / self.i_q,
                 1.0 / self.m_rho, self.rate_limit, self.dt, self.reach,
+                *(() if recovery is None or dt is None else (1.0, *recovery)),
             ]
         )  # fmt: skip
         self.constants.flags.writeable = False

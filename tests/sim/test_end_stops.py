@@ -146,6 +146,13 @@ def recorded_readouts() -> tuple[object, list[list[float]], list[tuple[bool, boo
                 w[b : b + 6] += rng.normal(0.0, 1e-3, 6)
             vs.append(w.tolist())
             sats.append((True, True, True) if i else (True, bool(rng.random() < 0.5), False))
+    # And readouts with a saturated servo's slider at 3 m/s (the projection's rate limit is
+    # 1 m/s): the episodes above no longer reach it, the steps that would being recovered.
+    for v in vs[::16]:
+        w = np.array(v)
+        w[9] = 3.0 if rng.random() < 0.5 else -3.0
+        vs.append(w.tolist())
+        sats.append((True, True, True))
     return projector, vs, sats
 
 

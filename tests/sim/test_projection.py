@@ -277,11 +277,13 @@ def test_projection_gains_no_energy_in_a_free_swing(max_force):
     """Servos released (1e-6 N) or saturated (0.5 N, far below the weight's share): the
     mechanism swings and falls onto its end stops for 2 s.  Summed over the swing, the
     projections remove energy (the position corrections move bodies up or down by the drift,
-    the velocity corrections remove the joints' violation), and the energy rises above its
-    initial value (Chipmunk's error correction, in both models) by about as much as in the same
-    swing simulated without projection: at most 1.25 times as much (over 8 starts of each
-    case the ratio was at most 1.19; one projection may add up to about 0.06 J, their sum
-    removes about 1 J)."""
+    the velocity corrections remove the joints' violation).  The energy never rises above its
+    initial value by more than in the same swing simulated without projection (Chipmunk's
+    error correction): the steps that would make energy are taken by the constrained dynamics
+    (planar3p_gym.sim.recovery), which makes none; over 8 starts of each case the ratio was at
+    most 0.98 (1.19 before the recovery, when this bound was 1.25).  With the servos released
+    the energy never rises above its initial value by more than the servos' largest possible
+    work, 1e-6 N over each slider's whole stroke (pymunk alone: 0.04 to 0.10 J)."""
     design = DESIGN.with_(max_force=max_force)
     peak = {}
     for projection in (False, True):
@@ -310,7 +312,9 @@ def test_projection_gains_no_energy_in_a_free_swing(max_force):
         if projection:
             assert len(changes) == 100
             assert sum(changes) < 0.0
-    assert peak[True] <= 1.25 * peak[False]
+    assert peak[True] <= peak[False]
+    if max_force < 1e-3:
+        assert peak[True] <= 3 * max_force * design.stroke
 
 
 def test_a_slider_leaves_its_end_stop_when_commanded_away():
