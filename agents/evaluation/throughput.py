@@ -146,10 +146,9 @@ def profile_step(env_id: str, n_steps: int, seed: int) -> dict[str, float]:
     env stepped in lockstep with the whole step (same actions, so the same states):
     ``wrapped_step`` (``gym.make(...).step``), ``env_step`` (unwrapped), ``physics``
     (``Planar3PSim.step_unchecked``: pymunk, and the projection where it is on),
-    ``outputs`` (configuration measures, observation, errors, termination and reward terms:
-    the fused step's compiled :meth:`planar3p_gym.tasks.reach_step.ReachStep.compute` where
-    the env uses it, else the general step's pieces); ``other`` is the rest of ``env_step``
-    (action parsing, ``info``)."""
+    ``outputs`` (the task's kernel, :mod:`planar3p_gym.tasks.kernel`: configuration measures,
+    observation, errors, termination, reward terms and ``info``); ``other`` is the rest of
+    ``env_step`` (the actuation, the observation delay)."""
     rng = np.random.default_rng(seed)
     actions = rng.uniform(-1.0, 1.0, size=(n_steps, 3)).astype(np.float32)
     wrapped, raw, parts = make_env(env_id), make_env(env_id).unwrapped, make_env(env_id).unwrapped
@@ -159,7 +158,6 @@ def profile_step(env_id: str, n_steps: int, seed: int) -> dict[str, float]:
     clock = time.perf_counter_ns
     for env in (wrapped, raw, parts):
         env.reset(seed=seed)
-    fused = parts._reach_step
     for n, a in enumerate(actions):
         t0 = clock()
         _, _, terminated, truncated, _ = wrapped.step(a)
@@ -169,17 +167,8 @@ def profile_step(env_id: str, n_steps: int, seed: int) -> dict[str, float]:
         act = (float(a[0]), float(a[1]), float(a[2]))
         state = parts.sim.step_unchecked(act[0] * vmax, act[1] * vmax, act[2] * vmax)
         t3 = clock()
-        if fused is not None:  # (the fused step's one compiled call, as the env makes it)
-            st = parts.sim._projector.last_state
-            fused.compute(st, state.pose[2], parts._target, parts._target_cs, parts._assembly, act)
-        else:
-            measures = parts._kin.measures(state.pose, state.rho)
-            parts._observe(state, measures)
-            errors = parts._errors(state.pose)
-            parts.task.termination(state, measures, errors, parts._assembly)
-            parts.task.reward_terms(
-                errors=errors, measures=measures, action=act, success=False, failure=False
-            )
+        parts.episode.steps += 1  # (the task's kernel, as the env calls it)
+        parts.kernel.step(parts.episode, state, parts.sim.state_array, act, parts.np_random)
         t4 = clock()
         samples[n] = (t1 - t0, t2 - t1, t3 - t2, t4 - t3)
         if terminated or truncated:

@@ -231,7 +231,7 @@ class Planar3PGoalEnv(Planar3PEnv):
         flat, info = super().reset(seed=seed, options=options)
         info["failure"] = False
         info["goal_free_reward"] = 0.0
-        self._last_info = info
+        self.episode.info = info
         return self._dict_obs(flat, info), info
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict]:

@@ -61,6 +61,7 @@ from planar3p_gym.sim import chipmunk, physics
 from planar3p_gym.sim.batch_step import BatchState
 from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, SimState
 from planar3p_gym.tasks import sampling as task_module
+from planar3p_gym.tasks.kernel import ReachKernel
 from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
 from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, BatchReach
 from planar3p_gym.tasks.rewards import TERM_NAMES
@@ -190,7 +191,9 @@ class Planar3PVectorEnv(VectorEnv):
         #: How the batch is stepped: None (environment by environment), or the batched step's
         #: mode (``True``: numpy over the batch); the batched step's C handles are rebuilt
         #: from it when the vector env is unpickled.
-        self._numpy_batch: bool | None = numpy_batch if first._reach_step is not None else None
+        self._numpy_batch: bool | None = (
+            numpy_batch if isinstance(first.kernel, ReachKernel) else None
+        )
         self._core = None if self._numpy_batch is None else _BatchCore(self, self._numpy_batch)
 
     @property
@@ -409,8 +412,8 @@ class _BatchCore:
         self.scale = 1.0 / (self.substeps * self.h)
         self.force_limit = 0.999 * env.design.max_force * self.h
         self.breakdown = env.breakdown_distance
-        self.reach = BatchReach(env._reach_step)
-        self.low, self.high = env._obs_low, env._obs_high
+        self.reach = BatchReach(env.kernel.reach)
+        self.low, self.high = env.kernel.settings.low, env.kernel.settings.high
         #: The projection's constants (LoopProjector.constants), from the first simulation.
         self.constants: np.ndarray | None = None
         #: Every environment's fused-step constants (their tolerances among them), one row
@@ -418,7 +421,7 @@ class _BatchCore:
         #: ``set_task_config`` shows here with no loop over the environments.
         self.consts = np.zeros((n, 10))
         for i, e in enumerate(venv._envs):
-            e._reach_step.share_constants(self.consts[i])  # type: ignore[union-attr]
+            e.kernel.reach.share_constants(self.consts[i])
         self.buf = np.zeros((n, _ROW))
         #: Each environment's batch request over its row of :attr:`buf`.
         self.reads = [chipmunk.body_readout(row) for row in self.buf]
@@ -462,10 +465,11 @@ class _BatchCore:
         self.handle_rows[i] = chipmunk.handle_row(space, servos, self.reads[i])
         chipmunk.read_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
         self.time[i] = sim._time
-        self.target[:, i] = env._target
-        self.target_cs[:, i] = env._target_cs
-        self.target_rho[i] = env._target_rho
-        self.assembly[i] = env._assembly
+        ep = env.episode
+        self.target[:, i] = ep.target
+        self.target_cs[:, i] = ep.target_cs
+        self.target_rho[i] = ep.target_rho
+        self.assembly[i] = ep.assembly
         self.pending[i] = False
 
     def sync_all(self) -> None:
@@ -483,8 +487,11 @@ class _BatchCore:
             measures = ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles)
             terms = dict(zip(TERM_NAMES, res[TERMS_START:], strict=True))
             errors = (res[2], res[3])
-            env._obs = self.venv._obs[i].copy()
-            env._last_info = env._info(state, measures, reason, terms, reason == "success", errors)
+            ep = env.episode
+            ep.obs = self.venv._obs[i].copy()
+            ep.info = env.kernel.info(
+                ep, state, measures, reason, terms, reason == "success", errors
+            )
             self.pending[i] = False
             return
         self._append_commands(i)
@@ -499,11 +506,12 @@ class _BatchCore:
         )
         reason = _REASONS[o["reason"][j]]
         terms = {k: float(v[j]) for k, v in o["terms"].items()}
-        env._steps = int(self.venv._elapsed[i])
-        env._obs = o["obs"][j].copy()
-        env._measures = measures
+        ep = env.episode
+        ep.steps = int(self.venv._elapsed[i])
+        ep.obs = o["obs"][j].copy()
+        ep.measures = measures
         errors = (float(o["position_error"][j]), float(o["orientation_error"][j]))
-        env._last_info = env._info(state, measures, reason, terms, reason == "success", errors)
+        ep.info = env.kernel.info(ep, state, measures, reason, terms, reason == "success", errors)
         if bodies:
             chipmunk.write_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
         self.pending[i] = False
@@ -615,20 +623,17 @@ class _BatchCore:
             sim = env._sim
             v0, v1, v2 = commands[i]
             state = sim.step_unchecked(v0, v1, v2)
-            env._steps += 1
+            ep = env.episode
+            ep.steps += 1
             if state.finite and state.closure_error <= breakdown:
-                rs = env._reach_step
-                res = rs.compute(  # type: ignore[union-attr]
-                    sim._projector.last_state,
-                    state.pose[2],
-                    env._target,
-                    env._target_cs,
-                    env._assembly,
+                rs = env.kernel.reach
+                res = rs.compute(
+                    sim.state_array, state.pose[2], ep.target, ep.target_cs, ep.assembly,
                     actions[i],
-                ).tolist()
-                obs_out[i, :width] = rs.obs  # type: ignore[union-attr]
+                ).tolist()  # fmt: skip
+                obs_out[i, :width] = rs.obs
                 stepped.append(i)
-                env._measures = ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles)
+                ep.measures = ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles)
                 pending[i] = (state, res)
                 flags[i] = True
                 results.append(
@@ -638,14 +643,13 @@ class _BatchCore:
             else:  # physics breakdown: the single env's general step
                 if flags[i]:
                     self.sync(i)
-                act = actions[i]
-                obs, r, _, _, full = env._general_step(state, (act[0], act[1], act[2]))
+                obs, r, _, full = env.kernel.reference_step(env.episode, state, actions[i])
                 obs_out[i] = obs
                 results.append(
                     (r, *(full[key] for key in _RESULT_KEYS))  # type: ignore[arg-type]
                 )
         if stepped and self.travel_goal:  # the joint-space goal over the batch
-            goal = np.array([envs[i]._target_rho for i in stepped])
+            goal = np.array([envs[i].episode.target_rho for i in stepped])
             obs_out[stepped, width:] = travel_goal_entries(obs_out[stepped, :3], goal)
         sel = slice(None) if len(idx) == len(envs) else idx
         venv._elapsed[sel] += 1
@@ -751,12 +755,11 @@ class _BatchCore:
             env = venv._envs[i]
             state = self._sim_state(self.last, j, i)
             self._set_sim(env, state, self.last, j, i)
-            env._steps = int(venv._elapsed[i])
-            a0, a1, a2 = a[i].tolist()
-            ob, r, term, _, inf = env._general_step(state, (a0, a1, a2))
+            env.episode.steps = int(venv._elapsed[i])
+            ob, r, reason, inf = env.kernel.reference_step(env.episode, state, a[i].tolist())
             venv._obs[i] = ob
             rewards[i] = r
-            terminated[i] = term
+            terminated[i] = reason is not None
             for key in INFO_KEYS:
                 info[key][i] = inf[key]
             chipmunk.write_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])

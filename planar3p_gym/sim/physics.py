@@ -1139,6 +1139,16 @@ class Planar3PSim:
         """The state after the last step (or at construction)."""
         return self._state
 
+    @property
+    def state_array(self) -> np.ndarray | None:
+        """The projected state of the last step as the projection's array of 23 float64 (SI
+        units: ``rho``, ``rho_dot``, the pose, the twist, the leg angles and the geometry
+        ``(u_1x, u_1y, u_2x, u_2y, u_3x, u_3y, cos theta, sin theta)``,
+        :func:`planar3p_gym.sim.projection.project_readout`'s layout); ``None`` without the
+        projection or before the first projected step.  Read only: the simulation owns it."""
+        projector = self._projector
+        return None if projector is None else projector.last_state
+
     def _public_values(self) -> list[float]:
         """``x, y, angle, vx, vy, angular velocity`` of every body in readout order, through
         pymunk's public API."""

@@ -65,12 +65,12 @@ from planar3p_gym import checks
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
+from planar3p_gym.tasks.kernel import KernelSettings, Sensing, StepKernel
 from planar3p_gym.tasks.observation import within_tolerances
 from planar3p_gym.tasks.rewards import reward_terms
 
 if TYPE_CHECKING:
     from planar3p_gym.machine.design import Design
-    from planar3p_gym.sim.physics import Planar3PSim
     from planar3p_gym.tasks.rewards import RewardWeights
 
 __all__ = [
@@ -131,7 +131,8 @@ def mode_option(arg: Any, name: str) -> ModeTriple:
 
 class TaskEnv(Protocol):
     """What a task may read of the environment it is bound to (:meth:`Task.bind`): the
-    machine, the settings of its episodes and the simulation, nothing of Gymnasium.  The
+    machine and the settings of its episodes, nothing of the simulation (a hook is handed the
+    state and the measures the environment computed) and nothing of Gymnasium.  The
     environment (:class:`planar3p_gym.envs.core.Planar3PEnv`) provides it; a task never imports
     the environment's module, so the layers stay one-way (tasks below envs)."""
 
@@ -142,9 +143,6 @@ class TaskEnv(Protocol):
     dt: float
     breakdown_distance: float
     np_random: np.random.Generator
-
-    @property
-    def sim(self) -> Planar3PSim: ...
 
     @property
     def modes(self) -> list[tuple[int, int, int]]:
@@ -183,6 +181,9 @@ class Task:
     #: task whose problem is to pass one turns that barrier off (its margin counts as 1).
     parallel_barrier: ClassVar[bool] = True
     serial_barrier: ClassVar[bool] = True
+    #: Whether the environment's ``travel_goal`` block (the fixed target's slider travels)
+    #: applies to the task's observation.
+    travel_goal: ClassVar[bool] = False
 
     env: TaskEnv
 
@@ -237,8 +238,11 @@ class Task:
         empty = np.zeros(0, dtype=np.float32)
         return empty, empty.copy()
 
-    def observation_extra(self, step: int) -> list[float]:
-        """Task entries appended to the 31-entry observation after ``step`` steps."""
+    def observation_extra(
+        self, step: int, state: SimState, measures: ConfigurationMeasures
+    ) -> list[float]:
+        """Task entries appended to the 31-entry observation after ``step`` steps, of the
+        (true) ``state`` and its ``measures`` the environment computed."""
         return []
 
     def is_success(self, state: SimState, errors: tuple[float, float]) -> bool:
@@ -275,8 +279,9 @@ class Task:
         action: tuple[float, float, float],
         success: bool,
         failure: bool,
+        state: SimState | None = None,
     ) -> dict[str, float]:
-        """Weighted reward terms (their sum is the reward); default
+        """Weighted reward terms (their sum is the reward) of the step to ``state``; default
         :func:`planar3p_gym.tasks.rewards.reward_terms` on the errors to the reference, with the
         singularity barriers :attr:`parallel_barrier` and :attr:`serial_barrier`."""
         env = self.env
@@ -298,6 +303,11 @@ class Task:
         """Task metrics for ``info`` after ``step`` steps (``step == 0`` at reset); keys are
         :attr:`metric_keys`.  Called once per step, also on the step that ends the episode."""
         return {}
+
+    def kernel(self, settings: KernelSettings, machine: Sensing) -> StepKernel:
+        """The task's kernel (:mod:`planar3p_gym.tasks.kernel`): default the reference, this
+        task's hooks."""
+        return StepKernel(self, settings, machine)
 
     # ------------------------------------------------------------------ helpers
     def pose_sampler(self, mode: tuple[int, int, int]) -> task.PoseSampler:

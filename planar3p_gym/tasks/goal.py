@@ -364,6 +364,7 @@ class GoalTask(ReachTask):
     """
 
     name: ClassVar[str] = "goal"
+    travel_goal: ClassVar[bool] = False
     option_keys: ClassVar[tuple[str, ...]] = ("start", "target", "working_mode", "desired_goal")
 
     def __init__(self, reward_type: str = "sparse") -> None:

@@ -60,6 +60,7 @@ import numpy as np
 
 from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.base import Pose, Task, pose_list
@@ -457,7 +458,9 @@ class TrackTask(Task):
         high = np.array([v, v, w], dtype=np.float32)
         return -high, high
 
-    def observation_extra(self, step: int) -> list[float]:
+    def observation_extra(
+        self, step: int, state: SimState, measures: ConfigurationMeasures
+    ) -> list[float]:
         return self._current(step)[1].tolist()
 
     def is_success(self, state: SimState, errors: tuple[float, float]) -> bool:

@@ -70,7 +70,7 @@ def test_each_randomised_quantity_changes_the_episode(name):
     assert np.array_equal(
         default[0][SLICES["target_position"]], changed[0][SLICES["target_position"]]
     )
-    machine = env.unwrapped._machine
+    machine = env.unwrapped.machine.episode.machine
     assert machine.design != env.unwrapped.design or not machine.dynamics.is_ideal
     assert env.unwrapped.sim.design == machine.design  # the projection's geometry is the drawn one
 
@@ -205,7 +205,7 @@ def test_a_start_out_of_every_drawn_machine_s_reach_falls_back_to_the_nominal_ma
 ):
     """When no draw reaches the start (none allowed here), the episode runs the nominal
     machine, not the previous episode's."""
-    import planar3p_gym.envs.core as core
+    import planar3p_gym.envs.actuation as core
 
     env = gym.make("Planar3P-v0", randomization={"rail_offset": 1e-3, "servo_lag": 0.01}).unwrapped
     env.reset(seed=0)
@@ -213,7 +213,7 @@ def test_a_start_out_of_every_drawn_machine_s_reach_falls_back_to_the_nominal_ma
     monkeypatch.setattr(core, "MACHINE_DRAWS", 0)
     env.reset(seed=1)
     assert env.sim.design == env.design and env.sim.dynamics is None
-    assert env._true_kin.design == env.design
+    assert env.machine.episode.true_kin.design == env.design
 
 
 def test_the_realistic_ranges_keep_the_task_solvable_in_principle():
@@ -224,5 +224,5 @@ def test_the_realistic_ranges_keep_the_task_solvable_in_principle():
                    sensors=REALISTIC_SENSORS.to_dict()).unwrapped  # fmt: skip
     for seed in range(20):
         obs, info = env.reset(seed=seed)
-        assert env._machine.design != env.design
+        assert env.machine.episode.machine.design != env.design
         assert np.abs(obs[SLICES["position"]] - np.array(info["pose"][:2])).max() < 0.005

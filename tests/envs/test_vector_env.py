@@ -82,11 +82,11 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, ba
     for env, single in zip(venv.envs, singles, strict=True):
         assert env.sim.state == single.unwrapped.sim.state
         assert env.sim.get_state() == single.unwrapped.sim.get_state()  # commands included
-        np.testing.assert_array_equal(env._obs, single.unwrapped._obs)
-        assert env._last_info.keys() == single.unwrapped._last_info.keys()
-        for key, value in single.unwrapped._last_info.items():
+        np.testing.assert_array_equal(env.episode.obs, single.unwrapped.episode.obs)
+        assert env.episode.info.keys() == single.unwrapped.episode.info.keys()
+        for key, value in single.unwrapped.episode.info.items():
             if key != "reward_terms":
-                assert env._last_info[key] == value, key
+                assert env.episode.info[key] == value, key
     venv.close()
 
 
