@@ -31,7 +31,7 @@ from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures, ScalarKinematics
 from planar3p_gym.sim.dynamics import MachineDynamics
-from planar3p_gym.sim.physics import SimState
+from planar3p_gym.sim.physics import Planar3PSim, SimState
 from planar3p_gym.sim.randomization import DynamicsRandomization, SampledMachine
 from planar3p_gym.sim.sensors import Encoders, SensorConfig
 
@@ -198,12 +198,12 @@ class BuiltMachine:
             self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
 
     # ------------------------------------------------------------------ reset
-    def draw(self, rng: np.random.Generator, start: Any, mode: tuple[int, int, int]) -> bool:
+    def draw(self, rng: np.random.Generator, start: Any, mode: tuple[int, int, int]) -> None:
         """Draw the episode's machine from ``rng`` (with :attr:`randomization`): redrawn while
         the start pose is out of its reach (at most :data:`MACHINE_DRAWS` draws, then the
-        nominal one).  Returns whether the simulation must take a drawn machine."""
+        nominal one)."""
         if self.randomization is None:
-            return False
+            return
         machine = SampledMachine(self.design, MachineDynamics())
         for _ in range(MACHINE_DRAWS):
             drawn = self.randomization.sample(self.design, rng)
@@ -215,7 +215,6 @@ class BuiltMachine:
         ep.true_kin = (
             self.kin if machine.design == self.design else ScalarKinematics(machine.design)
         )
-        return True
 
     def begin(self, rng: np.random.Generator) -> None:
         """The per-episode state of the delays (drawn from ``rng``) and the encoders."""
@@ -243,6 +242,29 @@ class BuiltMachine:
         if self.latency is not None:
             out["delays"] = self.episode.delays
         return out
+
+    def simulation(
+        self, previous: Planar3PSim | None, start: Any, mode: tuple[int, int, int], s: Any
+    ) -> Planar3PSim:
+        """The episode's simulation of the episode's machine at rest at ``start`` in working
+        ``mode``, with the settings ``s`` (:class:`planar3p_gym.envs.settings.EnvSettings`):
+        the ``previous`` model moved (and, for a drawn machine, given its numbers), bit for
+        bit the model a new build would give (:meth:`Planar3PSim.reset`), or a new one."""
+        machine, drawn = self.episode.machine, self.randomization is not None
+        if previous is not None and not previous.closed:
+            if drawn:
+                previous.reset(start, mode, design=machine.design, dynamics=machine.dynamics)
+            else:
+                previous.reset(start, mode)
+            return previous
+        sim = Planar3PSim(
+            machine.design, start, mode, dt=s.dt, substeps=s.substeps,
+            iterations=s.solver_iterations, projection=s.projection,
+            dynamics=machine.dynamics if drawn else None,
+        )  # fmt: skip
+        if previous is not None:  # freed now, not left to the garbage collector
+            previous.close()
+        return sim
 
     # ------------------------------------------------------------------ per step
     def command(self, action: Any) -> tuple[float, float, float]:

@@ -1,13 +1,9 @@
 """``Planar3P-v0``: move the gripper of a 3-PRR planar parallel manipulator to a target pose.
 
-:class:`Planar3PEnv` owns the Gymnasium API and nothing else: spaces, seeding, reset, one
-``step`` for every task, snapshots and rendering.  A step is
-
-- the action through the machine's actuation (:class:`planar3p_gym.envs.actuation.BuiltMachine`:
-  parsing, on-off decoding, action delay);
-- the physics (:meth:`planar3p_gym.sim.physics.Planar3PSim.step_unchecked`);
-- the task's kernel (:mod:`planar3p_gym.tasks.kernel`: observation through the machine's
-  sensing, errors, end, reward terms, metrics), then the observation delay.
+:class:`Planar3PEnv` owns the Gymnasium API: spaces, seeding, reset, snapshots, rendering and one
+``step`` for every task: the action through the machine's actuation
+(:class:`planar3p_gym.envs.actuation.BuiltMachine`), the physics, the task's kernel
+(:mod:`planar3p_gym.tasks.kernel`).
 """
 
 from __future__ import annotations
@@ -19,22 +15,16 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from planar3p_gym.checks import RESET_OPTIONS, check_reset_options, parse_action
 from planar3p_gym.envs.actuation import (
-    ACTION_TYPES,
-    KEYBOARD_KEYS,
-    KEYBOARD_SPEED,
-    MACHINE_DRAWS,
     ON_OFF_ACTION_TYPES,
-    ON_OFF_COMMANDS,
     ON_OFF_SPEED,
     BuiltMachine,
     keys_to_action,
     on_off_action,
 )
-from planar3p_gym.envs.end_reason import END_REASONS, TERMINATION_REASONS, TIME_LIMIT
 from planar3p_gym.envs.latency import LatencyConfig
 from planar3p_gym.envs.settings import RENDER_MODES, EnvSettings, episode_modes, make_task
+from planar3p_gym.envs.snapshot import check_snapshot, random_state, restored_random
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.sim.physics import Planar3PSim
@@ -48,24 +38,11 @@ from planar3p_gym.tasks.rewards import RewardWeights
 from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
-    "ACTION_TYPES",
     "DEFAULT_WORKING_MODE",
-    "END_REASONS",
-    "KEYBOARD_KEYS",
-    "KEYBOARD_SPEED",
-    "MACHINE_DRAWS",
     "OBSERVATION_ARGUMENTS",
     "ON_OFF_ACTION_TYPES",
-    "ON_OFF_COMMANDS",
-    "ON_OFF_SPEED",
-    "RESET_OPTIONS",
-    "TERMINATION_REASONS",
-    "TIME_LIMIT",
     "Planar3PEnv",
-    "check_reset_options",
-    "make_task",
     "on_off_action",
-    "parse_action",
 ]
 
 #: The working mode used unless another is asked for: the mode of the default design with the
@@ -312,18 +289,11 @@ class Planar3PEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
-        options = check_reset_options(options, (*self.task.option_keys, "task"))
-        requested = options.pop("task", None)
-        if requested is not None and requested != self.task.name:
-            raise ValueError(
-                f"options are for task {requested!r}, but this environment's task is "
-                f"{self.task.name!r}"
-            )
-        options = self.task.check_options(options)  # before seeding: a rejection changes nothing
+        options = self.task.reset_options(options)  # before seeding: a rejection changes nothing
         # Checks that need the episode's draw (a pose under a drawn working mode, a start no
         # target pairs with) can only reject after seeding: then the random stream and the
         # task's pools are put back, so a rejected reset changes nothing either.
-        undo = self._random_state() if options else None
+        undo = random_state(self.np_random, self._np_random_seed, self.task) if options else None
         try:
             super().reset(seed=seed)
             if seed is not None:
@@ -332,7 +302,8 @@ class Planar3PEnv(gym.Env):
             start, mode = self.task.begin(spec)
         except ValueError:
             if undo is not None:
-                self._restore_random_state(undo)
+                kind = type(self.np_random.bit_generator)
+                self._np_random, self._np_random_seed = restored_random(undo, self.task, kind)
             raise
         target = self.task.reference(0)
         ep = self.episode = Episode(
@@ -340,7 +311,8 @@ class Planar3PEnv(gym.Env):
         )
         if self.travel_goal:
             ep.target_rho = kinematics.inverse(self.design, target, mode).rho
-        self._build_sim(start, mode, self.machine.draw(self.np_random, start, mode))
+        self.machine.draw(self.np_random, start, mode)
+        self._sim = self.machine.simulation(self._sim, start, mode, self.settings)
         self.machine.begin(self.np_random)
         info = self.kernel.start(ep, self.sim.state, self.np_random)
         info["episode_spec"] = copy_spec(spec)
@@ -350,25 +322,6 @@ class Planar3PEnv(gym.Env):
         if self.render_mode == "human":
             self.render()
         return ep.obs.copy(), info
-
-    def _build_sim(self, start: Any, mode: tuple[int, int, int], drawn: bool) -> None:
-        """The episode's simulation: the kept model moved (and given the drawn machine's
-        numbers), bit for bit the model a new build would give (:meth:`Planar3PSim.reset`)."""
-        machine = self.machine.episode.machine
-        previous = self._sim
-        if previous is not None and not previous.closed:
-            if drawn:
-                previous.reset(start, mode, design=machine.design, dynamics=machine.dynamics)
-            else:
-                previous.reset(start, mode)
-            return
-        self._sim = Planar3PSim(
-            machine.design, start, mode, dt=self.dt, substeps=self.substeps,
-            iterations=self.solver_iterations, projection=self.projection,
-            dynamics=machine.dynamics if drawn else None,
-        )  # fmt: skip
-        if previous is not None:  # freed now, not left to the garbage collector
-            previous.close()
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         sim = self.sim
@@ -384,12 +337,10 @@ class Planar3PEnv(gym.Env):
 
     def set_task_config(self, changes: dict[str, Any]) -> TaskConfig:
         """Change fields of :attr:`task_config` in the running environment (a curriculum on
-        the tolerances or on the mix of training pairs) and return the new configuration.
-
-        Only :data:`planar3p_gym.tasks.sampling.SCHEDULABLE_FIELDS` may change; the success test
-        uses the new values from the next step on, the pair sampling from the next reset.
-        Invalid changes raise ``ValueError`` and change nothing.
-        """
+        the tolerances or on the mix of training pairs) and return the new configuration: only
+        :data:`planar3p_gym.tasks.sampling.SCHEDULABLE_FIELDS`; the success test uses the new
+        values from the next step on, the pair sampling from the next reset.  Invalid changes
+        raise ``ValueError`` and change nothing."""
         cfg = task_module.updated_config(self.task_config, changes)
         self.task_config = cfg
         self.kernel.config_changed(cfg.success_tolerances)
@@ -412,22 +363,8 @@ class Planar3PEnv(gym.Env):
             self._renderer = Renderer(
                 self.design, self.render_size, self.render_mode, self.metadata["render_fps"]
             )
-        info = self.episode.info
-        pos_err = info.get("position_error", 0.0)
-        frame = Frame(
-            rho=info.get("rho", (0.0, 0.0, 0.0)),
-            pose=info.get("pose", (0.0, 0.0, 0.0)),
-            target=self.episode.target if self._sim is not None else None,
-            parallel_margin=info.get("parallel_margin", 1.0),
-            serial_margin=info.get("serial_margin", 1.0),
-            time=info.get("time", 0.0),
-            text=(
-                f"position error {1000 * pos_err:6.1f} mm",
-                f"orientation error {math.degrees(info.get('orientation_error', 0.0)):6.1f} deg",
-            ),
-            forces=info.get("actuator_forces"),
-        )
-        return self._renderer.render(frame)
+        target = self.episode.target if self._sim is not None else None
+        return self._renderer.render(Frame.of_info(self.episode.info, target))
 
     def close(self) -> None:
         """Close the renderer and free the simulation now (:meth:`Planar3PSim.close`), and
@@ -452,32 +389,9 @@ class Planar3PEnv(gym.Env):
         return {
             "config": self.config(),
             "sim": None if self._sim is None else self._sim.get_state(),
-            **self._random_state(),
+            **random_state(self.np_random, self._np_random_seed, self.task),
             "episode": {"record": copy.deepcopy(self.episode), "machine": self.machine.get_state()},
         }
-
-    def _random_state(self) -> dict[str, Any]:
-        """``np_random``'s state, its seed and the task's state (sampler pools included)."""
-        task = self.task
-        if hasattr(task, "get_state"):
-            task_state = task.get_state()
-        else:
-            task_state = copy.deepcopy({k: v for k, v in vars(task).items() if k != "env"})
-        return {
-            "np_random": copy.deepcopy(self.np_random.bit_generator.state),
-            "np_random_seed": self._np_random_seed,
-            "task": task_state,
-        }
-
-    def _restore_random_state(self, state: dict[str, Any]) -> None:
-        """Put back what :meth:`_random_state` recorded."""
-        rng = np.random.Generator(type(self.np_random.bit_generator)())
-        rng.bit_generator.state = copy.deepcopy(state["np_random"])
-        self._np_random, self._np_random_seed = rng, state["np_random_seed"]
-        if hasattr(self.task, "set_state"):
-            self.task.set_state(copy.deepcopy(state["task"]))
-        else:
-            vars(self.task).update(copy.deepcopy(state["task"]))
 
     def set_state(self, state: dict[str, Any]) -> None:
         """Restore a :meth:`get_state` snapshot (``ValueError`` if it is not one, or was taken
@@ -485,16 +399,10 @@ class Planar3PEnv(gym.Env):
         environment; for one made with ``gym.make``, whose ``TimeLimit`` wrapper counts the
         episode's steps on its own, use :func:`planar3p_gym.envs.end_reason.restore_state`
         ``(env, state)``, which sets that counter too."""
-        keys = {"config", "sim", "np_random", "np_random_seed", "task", "episode"}
-        if not isinstance(state, dict) or set(state) != keys:
-            raise ValueError("state must be a snapshot from Planar3PEnv.get_state()")
-        if state["config"] != self.config():
-            raise ValueError(
-                "the snapshot was taken from an environment with other settings: "
-                f"{state['config']} != {self.config()}"
-            )
+        check_snapshot(state, self.config())
         sim = None if state["sim"] is None else Planar3PSim.from_state(state["sim"])
-        self._restore_random_state(state)
+        kind = type(self.np_random.bit_generator)
+        self._np_random, self._np_random_seed = restored_random(state, self.task, kind)
         if self._sim is not None:  # the model being replaced (Planar3PSim.close)
             self._sim.close()
         self._sim = sim

@@ -150,7 +150,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
 
 
 def action_type_of(row: EnvRegistration) -> str:
-    """The action type of a registered id (:data:`planar3p_gym.envs.core.ACTION_TYPES`)."""
+    """The action type of a registered id (:data:`planar3p_gym.envs.actuation.ACTION_TYPES`)."""
     return str(row.kwargs.get("action_type", "continuous"))
 
 

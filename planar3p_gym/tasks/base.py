@@ -212,6 +212,19 @@ class Task:
         for sampler in self._samplers.values():
             sampler.cfg = self.env.task_config
 
+    def reset_options(self, options: Any) -> dict[str, Any]:
+        """``reset``'s ``options`` checked before seeding (``ValueError``: a rejection changes
+        nothing): the keys (:attr:`option_keys` and ``"task"``,
+        :func:`planar3p_gym.checks.check_reset_options`), ``"task"`` equal to :attr:`name`
+        (then removed), then :meth:`check_options`."""
+        options = checks.check_reset_options(options, (*self.option_keys, "task"))
+        requested = options.pop("task", None)
+        if requested is not None and requested != self.name:
+            raise ValueError(
+                f"options are for task {requested!r}, but this environment's task is {self.name!r}"
+            )
+        return self.check_options(options)
+
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         """Validate ``reset`` options that need no randomness (``ValueError`` if invalid);
         return them, parsed.  Called before seeding.  Keys are already restricted to

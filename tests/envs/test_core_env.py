@@ -14,7 +14,7 @@ import pytest
 
 import planar3p_gym
 from planar3p_gym import ENV_ID, MAX_EPISODE_STEPS
-from planar3p_gym.envs.core import TERMINATION_REASONS
+from planar3p_gym.envs.end_reason import TERMINATION_REASONS
 from planar3p_gym.machine import kinematics
 from planar3p_gym.tasks import motions
 from planar3p_gym.tasks import sampling as task
