@@ -21,12 +21,12 @@ from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.goal import (
     GOAL_SIZE,
     GoalTask,
-    _goals,
-    _info_field,
+    goal_arrays,
     goal_bounds,
     goal_free_reward,
     goal_reward,
     goal_success,
+    info_field,
     pose_of_goal,
     poses_of_goals,
 )
@@ -210,9 +210,9 @@ class Planar3PGoalEnv(Planar3PEnv):
         self, achieved_goal: ArrayLike, desired_goal: ArrayLike, info: Any
     ) -> Any:
         """Whether the episode ends: success or failure (bool, or a bool array for batches)."""
-        a, d, single = _goals(achieved_goal, desired_goal)
+        a, d, single = goal_arrays(achieved_goal, desired_goal)
         success = goal_success(a, d, info, self.task_config)
-        out = success | (_info_field(info, "failure", success.shape[0]) > 0.5)
+        out = success | (info_field(info, "failure", success.shape[0]) > 0.5)
         return bool(out[0]) if single else out
 
     def compute_truncated(
@@ -220,8 +220,8 @@ class Planar3PGoalEnv(Planar3PEnv):
     ) -> Any:
         """Always False: truncation is the registered time limit's.  The arguments are
         checked as :meth:`compute_reward` checks them (``ValueError``)."""
-        a, _, single = _goals(achieved_goal, desired_goal)
-        _info_field(info, "failure", a.shape[0])
+        a, _, single = goal_arrays(achieved_goal, desired_goal)
+        info_field(info, "failure", a.shape[0])
         return False if single else np.zeros(a.shape[0], dtype=bool)
 
     # ------------------------------------------------------------------ Gymnasium API

@@ -187,7 +187,7 @@ class Planar3PVectorEnv(VectorEnv):
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
         if batch == "auto":
             batch = "numpy" if self.num_envs >= NUMPY_BATCH_MIN else "scalar"
-        numpy_batch = physics._FAST and physics.Planar3PSim.use_fast_path and batch == "numpy"
+        numpy_batch = physics.BATCH_STEP and physics.Planar3PSim.use_fast_path and batch == "numpy"
         #: How the batch is stepped: None (environment by environment), or the batched step's
         #: mode (``True``: numpy over the batch); the batched step's C handles are rebuilt
         #: from it when the vector env is unpickled.
@@ -235,7 +235,7 @@ class Planar3PVectorEnv(VectorEnv):
         except ValueError:
             for i in range(len(results)):  # the env that raised changed nothing itself
                 envs[i].set_state(undo[i])
-                if self._core is not None and envs[i]._sim is not None:
+                if self._core is not None and _has_sim(envs[i]):
                     self._core.load(i)
             raise
         if seed is not None:
@@ -369,7 +369,7 @@ class Planar3PVectorEnv(VectorEnv):
             raise ValueError("state must be a snapshot from Planar3PVectorEnv.get_state()")
         for i, (env, s) in enumerate(zip(self._envs, state["envs"], strict=True)):
             env.set_state(s)
-            if self._core is not None and env._sim is not None:
+            if self._core is not None and _has_sim(env):
                 self._core.load(i)
         self._obs[:] = state["obs"]
         self._elapsed[:] = state["elapsed"]
@@ -388,8 +388,17 @@ class Planar3PVectorEnv(VectorEnv):
         if self._numpy_batch is not None:
             self._core = _BatchCore(self, self._numpy_batch)
             for i, env in enumerate(self._envs):
-                if env._sim is not None:
+                if _has_sim(env):
                     self._core.load(i)
+
+
+def _has_sim(env: Planar3PEnv) -> bool:
+    """Whether ``env`` has a simulation (was reset, or restored from a reset one)."""
+    try:
+        env.sim  # noqa: B018  (the property raises before the first reset)
+    except RuntimeError:
+        return False
+    return True
 
 
 class _BatchCore:
@@ -453,18 +462,17 @@ class _BatchCore:
         self.pending[i] = False
         if not self.numpy:
             return
-        sim = env.sim
-        if sim._fast is None:
-            raise RuntimeError("the batched step needs pymunk's batch API (Planar3PSim._fast)")
+        link = env.sim.batch_link()
+        if link is None:
+            raise RuntimeError("the batched step needs pymunk's batch API (Planar3PSim.batch_link)")
         if self.constants is None:
-            self.constants = sim._projector.constants
-        fast = sim._fast
-        space, servos = fast.space, fast.servos
-        self.handles[i] = (space, *servos, sim._commands)
+            self.constants = link.projection
+        space, servos = link.space, link.servos
+        self.handles[i] = (space, *servos, link.commands)
         self.logged[i] = 0  # (the record was just cleared or restored)
         self.handle_rows[i] = chipmunk.handle_row(space, servos, self.reads[i])
         chipmunk.read_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
-        self.time[i] = sim._time
+        self.time[i] = link.time
         ep = env.episode
         self.target[:, i] = ep.target
         self.target_cs[:, i] = ep.target_cs
@@ -541,15 +549,11 @@ class _BatchCore:
         )
 
     def _set_sim(self, env: Planar3PEnv, state: SimState, last: dict, j: int, i: int) -> None:
-        sim = env.sim
         st: BatchState = last["state"]
-        sim._state = state
-        sim._time = state.time
-        sim._forces = state.actuator_forces
-        sim._saturated = state.saturated
-        sim._setpoints = [float(self.buf[i, 12]), float(self.buf[i, 30]), float(self.buf[i, 48])]
+        setpoints = (float(self.buf[i, 12]), float(self.buf[i, 30]), float(self.buf[i, 48]))
         x, y = st.ux[:, j].tolist(), st.uy[:, j].tolist()
-        sim.geometry = (x[0], y[0], x[1], y[1], x[2], y[2], float(st.c[j]), float(st.s[j]))
+        geometry = (x[0], y[0], x[1], y[1], x[2], y[2], float(st.c[j]), float(st.s[j]))
+        env.sim.adopt_state(state, setpoints, geometry)
 
     # ------------------------------------------------------------------ stepping
     def step(
@@ -620,7 +624,7 @@ class _BatchCore:
         results: list[tuple] = []
         for i in idx:
             env = envs[i]
-            sim = env._sim
+            sim = env.sim
             v0, v1, v2 = commands[i]
             state = sim.step_unchecked(v0, v1, v2)
             ep = env.episode

@@ -77,10 +77,12 @@ from planar3p_gym.sim.projection import LoopProjector
 from planar3p_gym.sim.projection import wrap_angle as _wrap
 
 __all__ = [
+    "BATCH_STEP",
     "DEFAULT_ITERATIONS",
     "DEFAULT_SUBSTEPS",
     "PROJECTED_ITERATIONS",
     "PROJECTED_SUBSTEPS",
+    "BatchLink",
     "CompiledStep",
     "FastPath",
     "Planar3PSim",
@@ -138,6 +140,9 @@ try:  # Direct Chipmunk calls skip pymunk's per-call Python bookkeeping (the hot
     )
 except ImportError:  # pragma: no cover - other pymunk builds
     _FAST = _RELEASE = _MOVE = False
+
+#: Whether this pymunk build gives the Chipmunk C API the compiled and batched steps call.
+BATCH_STEP: bool = bool(_FAST)
 
 #: Numbers per body in a readout: ``x, y, angle, vx, vy, angular velocity`` (pymunk's batch
 #: layout for these fields).
@@ -360,6 +365,17 @@ class FastPath(NamedTuple):
     push: chipmunk.BodyReadout  #: the bodies' force and torque request (viscous friction)
     push_handles: np.ndarray  #: its ``pmBatchedData *`` and ``pmFloatArray *`` (uintp)
     applied: np.ndarray  #: its memory: ``fx, fy, t`` per body in readout order (N, N m)
+
+
+class BatchLink(NamedTuple):
+    """What a step batched over many simulations needs of one (:meth:`Planar3PSim.batch_link`):
+    its Chipmunk handles, its record of drive commands and its projection's constants."""
+
+    space: Any  #: the ``cpSpace *``
+    servos: tuple  #: the three servos' ``cpConstraint *``
+    commands: list  #: the drive commands of every step (m/s, flattened); a batch appends its own
+    projection: np.ndarray  #: the projector's constants
+    time: float  #: simulated time (s)
 
 
 class CompiledStep(NamedTuple):
@@ -1138,6 +1154,31 @@ class Planar3PSim:
     def state(self) -> SimState:
         """The state after the last step (or at construction)."""
         return self._state
+
+    def batch_link(self) -> BatchLink | None:
+        """The simulation's :class:`BatchLink` when a batched step can take it (projection on,
+        Chipmunk's C API), else ``None``."""
+        fast, projector = self._fast, self._projector
+        if fast is None or projector is None:
+            return None
+        return BatchLink(fast.space, fast.servos, self._commands, projector.constants, self._time)
+
+    def adopt_state(
+        self,
+        state: SimState,
+        setpoints: tuple[float, float, float],
+        geometry: tuple[float, ...],
+    ) -> None:
+        """Take ``state`` computed by a batched step of this simulation's bodies (its commands
+        already in :attr:`BatchLink.commands`) as the current one: the clock, forces and
+        saturation of ``state``, the drives' ``setpoints`` (m) and the projection's
+        :attr:`geometry`."""
+        self._state = state
+        self._time = state.time
+        self._forces = state.actuator_forces
+        self._saturated = state.saturated
+        self._setpoints = list(setpoints)
+        self.geometry = geometry
 
     @property
     def state_array(self) -> np.ndarray | None:

@@ -60,6 +60,7 @@ __all__ = [
     "GoalTask",
     "achieved_goal",
     "evaluate_state_goal",
+    "goal_arrays",
     "goal_bounds",
     "goal_errors",
     "goal_free_reward",
@@ -70,6 +71,7 @@ __all__ = [
     "goal_success",
     "goal_test",
     "goal_tests",
+    "info_field",
     "pose_of_goal",
     "poses_of_goals",
     "write_achieved_goal",
@@ -127,7 +129,7 @@ def goal_bounds(design: Design) -> tuple[NDArray[np.float32], NDArray[np.float32
     return g_low, g_high
 
 
-def _goals(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndarray, bool]:
+def goal_arrays(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndarray, bool]:
     """Both goal arrays as float64 ``(n, 5)`` and whether they were single goals; ``ValueError``
     for non-real entries (complex, bool, strings), wrong shapes, mismatched batches or
     non-finite values."""
@@ -160,7 +162,7 @@ def _goals(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndar
 def goal_errors(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Position error (m) and signed orientation error desired minus achieved (rad, in
     ``[-pi, pi]``), each of shape ``(n,)`` (``(1,)`` for single goals)."""
-    a, d, _ = _goals(achieved, desired)
+    a, d, _ = goal_arrays(achieved, desired)
     return _errors(a, d)
 
 
@@ -261,7 +263,7 @@ def write_achieved_goal(
         out[j] = min(max(np.float32(values[j]), low[j]), high[j])
 
 
-def _info_field(info: Any, key: str, n: int) -> np.ndarray:
+def info_field(info: Any, key: str, n: int) -> np.ndarray:
     """``info[key]`` from one info dict or a sequence/array of ``n`` of them, shape ``(n,)``;
     0 where an info dict lacks the key (SB3's HER passes empty dicts by default)."""
     if info is None:
@@ -304,8 +306,8 @@ def evaluate_state_goal(
 
 
 def _failed(info: Any, n: int) -> NDArray[np.bool_]:
-    """``info["failure"]`` per goal pair (:func:`_info_field`) as booleans."""
-    return _info_field(info, "failure", n) > 0.5
+    """``info["failure"]`` per goal pair (:func:`info_field`) as booleans."""
+    return info_field(info, "failure", n) > 0.5
 
 
 def goal_success(
@@ -314,7 +316,7 @@ def goal_success(
     """Success per goal pair, shape ``(n,)``: within ``position_tolerance`` (m) and
     ``orientation_tolerance`` (rad), achieved speed at most desired speed plus ``rest_speed``
     (m/s), and not ``info["failure"]`` (:func:`goal_test`)."""
-    a, d, _ = _goals(achieved, desired)
+    a, d, _ = goal_arrays(achieved, desired)
     return goal_tests(a, d, _failed(info, a.shape[0]), *cfg.success_tolerances)[2]
 
 
@@ -335,14 +337,14 @@ def goal_reward(
     exp(-d / s)) + w_success [success]`` with ``d = |dp| + length |dtheta|`` (m), ``e = d /
     length`` (the reach reward's goal terms, :mod:`planar3p_gym.tasks.rewards`).
     """
-    a, d, _ = _goals(achieved, desired)
+    a, d, _ = goal_arrays(achieved, desired)
     n = a.shape[0]
     return goal_rewards(
         weights.as_array(),
         a,
         d,
         _failed(info, n),
-        _info_field(info, "goal_free_reward", n),
+        info_field(info, "goal_free_reward", n),
         float(length),
         reward_type == "dense",
         *cfg.success_tolerances,

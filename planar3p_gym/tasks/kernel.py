@@ -40,7 +40,6 @@ from planar3p_gym.tasks.rewards import TERM_NAMES, RewardWeights
 
 if TYPE_CHECKING:
     from planar3p_gym.machine.design import Design
-    from planar3p_gym.tasks.base import Task
 
 __all__ = [
     "Episode",
@@ -84,6 +83,29 @@ class Episode:
     obs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.float32))
     measures: ConfigurationMeasures | None = None
     info: dict[str, Any] = field(default_factory=dict)
+
+
+class TaskHooks(Protocol):
+    """The hooks of a task a kernel calls (:class:`planar3p_gym.tasks.base.Task` has them; the
+    contract is there)."""
+
+    name: str
+    failure_reasons: tuple[str, ...]
+    travel_goal: bool
+
+    def reference(self, step: int) -> Pose: ...
+    def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]: ...
+    def observation_extra(
+        self, step: int, state: SimState, measures: ConfigurationMeasures
+    ) -> list[float]: ...
+    def termination(
+        self, state: SimState, measures: ConfigurationMeasures, errors: tuple[float, float],
+        assembly: int,
+    ) -> str | None: ...  # fmt: skip
+    def reward_terms(self, **kwargs: Any) -> dict[str, float]: ...
+    def step_info(
+        self, step: int, state: SimState, errors: tuple[float, float]
+    ) -> dict[str, Any]: ...
 
 
 class Sensing(Protocol):
@@ -130,7 +152,7 @@ class KernelSettings:
     @classmethod
     def of(
         cls,
-        task: Task,
+        task: TaskHooks,
         design: Design,
         weights: RewardWeights,
         tolerances: tuple[float, float, float],
@@ -183,7 +205,7 @@ class StepKernel:
         machine: the machine's sensing (:class:`Sensing`).
     """
 
-    def __init__(self, task: Task, settings: KernelSettings, machine: Sensing) -> None:
+    def __init__(self, task: TaskHooks, settings: KernelSettings, machine: Sensing) -> None:
         self.task = task
         self.settings = settings
         self.machine = machine
@@ -348,7 +370,7 @@ class ReachKernel(StepKernel):
     (the reference kernel where the physics broke down).  The target is fixed over the
     episode (the reach task's reference)."""
 
-    def __init__(self, task: Task, settings: KernelSettings, machine: Sensing) -> None:
+    def __init__(self, task: TaskHooks, settings: KernelSettings, machine: Sensing) -> None:
         super().__init__(task, settings, machine)
         #: The compiled outputs' constants and buffers.
         self.reach = ReachStep(
