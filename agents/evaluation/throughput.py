@@ -8,7 +8,8 @@ all alike; ratios are taken per round against the reference measured in the same
 * :func:`interleave`: the rounds of a section (any measurement functions).
 * :func:`single_env_rates`: steps/s of single envs made with ``gym.make`` (their registered
   wrappers included), each measured by Gymnasium's own
-  :func:`gymnasium.utils.performance.benchmark_step` (random actions, resets included);
+  :func:`gymnasium.utils.performance.benchmark_step` (random actions, resets included), and
+  beside it with pre-sampled actions (:func:`single_rate`, no action sampling in the loop);
   :data:`NOOP`, an env that does nothing with ``Planar3P-v0``'s spaces and time limit, shows
   the ceiling of any env's ratio there (the action sampling and the wrappers are left).
 * :func:`make_vector_env`, :func:`vector_rate`, :func:`single_rate`: total env steps/s of a
@@ -117,9 +118,15 @@ def make_env(env_id: str, **kwargs: Any) -> gym.Env:
 
 
 def single_env_rates(
-    env_ids: list[str], repeats: int, duration: float, seed: int
+    env_ids: list[str],
+    repeats: int,
+    duration: float,
+    seed: int,
+    presampled: dict[str, list[float]] | None = None,
 ) -> dict[str, list[float]]:
-    """``{env_id: [steps/s of each repeat]}``, interleaved (module docstring)."""
+    """``{env_id: [steps/s of each repeat]}`` by ``benchmark_step``, interleaved (module
+    docstring); with a dict ``presampled``, each round also measures each env with
+    pre-sampled actions (:func:`single_rate`, right after its ``benchmark_step``) into it."""
     envs = {e: make_env(e) for e in env_ids}
     rates: dict[str, list[float]] = {e: [] for e in env_ids}
     try:
@@ -130,6 +137,8 @@ def single_env_rates(
             for e in order:
                 envs[e].action_space.seed(seed + r)
                 rates[e].append(benchmark_step(envs[e], target_duration=duration, seed=seed))
+                if presampled is not None:
+                    presampled.setdefault(e, []).append(single_rate(envs[e], duration, seed + r))
     finally:
         for env in envs.values():
             env.close()

@@ -85,6 +85,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
         100,
         "goal-conditioned reach, sparse reward (HER)",
         "goal",
+        vector_entry_point=f"{_ENVS}.vector:Planar3PGoalVectorEnv",
         kwargs={"reward_type": "sparse"},
     ),
     EnvRegistration(
@@ -93,6 +94,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
         100,
         "goal-conditioned reach, dense reward",
         "goal",
+        vector_entry_point=f"{_ENVS}.vector:Planar3PGoalVectorEnv",
         kwargs={"reward_type": "dense"},
     ),
     EnvRegistration(

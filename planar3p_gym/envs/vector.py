@@ -24,7 +24,7 @@ few environments on (:data:`NUMPY_BATCH_MIN`;
 ``batch="auto"``, the default, chooses by it).
 In numpy mode the projected bodies are written back into pymunk at the start of the next step
 (with the new servo commands).  Either way the single environments' own attributes
-(``env.sim.state``, ``env._last_info``, ...) are brought up to date when
+(``env.sim.state``, ``env.episode``, ...) are brought up to date when
 :attr:`Planar3PVectorEnv.envs` or :meth:`Planar3PVectorEnv.get_state` is used, and a state
 that fails the physics-breakdown test takes the single environment's own (general) step.
 
@@ -33,27 +33,30 @@ per-environment dict is built on the reach task's batched step (the task ids bel
 through each environment's own ``step``, whose ``info`` dict is Gymnasium's contract, and their
 entries are gathered into the arrays).
 
-**Per-environment step** (every other configuration, e.g. ``Planar3P-v0``, and the task ids
-``Planar3PTrack-v0``, ``Planar3PModeChange-v0``, ``Planar3PAssemblyChange-v0`` through the
-subclasses at the end of this module): each environment steps through its own ``step``; what
-the vector env saves there is the per-step overhead of ``gym.make``'s wrappers and of
-``SyncVectorEnv``.  (The goal ids' dictionary observations have no batch array here: they use
-``SyncVectorEnv``.)
+**Per-environment step** (every other configuration: the built machine's ids, and the task ids
+``Planar3PTrack-v0``, ``Planar3PModeChange-v0``, ``Planar3PAssemblyChange-v0``,
+``Planar3PGoal-v0`` and ``Planar3PGoalDense-v0`` through the subclasses at the end of this
+module): each environment steps through its own ``step``; what the vector env saves there is
+the per-step overhead of ``gym.make``'s wrappers and of ``SyncVectorEnv``.  The goal ids'
+``Dict`` observations are a dict of batch arrays, and their vector env's ``compute_reward``
+takes the batch's goals and infos.
 """
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
+from gymnasium.vector.utils import batch_space, create_empty_array
 
 from planar3p_gym import checks
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
 from planar3p_gym.envs.batch_kernel import reach_batch_step
 from planar3p_gym.envs.core import Planar3PEnv
+from planar3p_gym.envs.goal import Planar3PGoalEnv
 from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
 from planar3p_gym.envs.track import Planar3PTrackEnv
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
@@ -61,6 +64,7 @@ from planar3p_gym.sim import chipmunk, physics
 from planar3p_gym.sim.batch_step import BatchState
 from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, SimState
 from planar3p_gym.tasks import sampling as task_module
+from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS
 from planar3p_gym.tasks.kernel import ReachKernel
 from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
 from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, BatchReach
@@ -71,6 +75,7 @@ __all__ = [
     "INFO_KEYS",
     "NUMPY_BATCH_MIN",
     "Planar3PAssemblyChangeVectorEnv",
+    "Planar3PGoalVectorEnv",
     "Planar3PModeChangeVectorEnv",
     "Planar3PTrackVectorEnv",
     "Planar3PVectorEnv",
@@ -140,6 +145,8 @@ class Planar3PVectorEnv(VectorEnv):
     }
     #: The single environment's class (subclasses below: the task ids' environments).
     env_class: type[Planar3PEnv] = Planar3PEnv
+    #: ``info`` entries returned over the batch.
+    info_keys: tuple[str, ...] = INFO_KEYS
 
     def __init__(
         self,
@@ -182,7 +189,7 @@ class Planar3PVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.render_mode = render_mode
-        self._obs = np.zeros(self.observation_space.shape, dtype=np.float32)
+        self._obs = create_empty_array(self.single_observation_space, self.num_envs, fn=np.zeros)
         self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
         if batch == "auto":
@@ -242,13 +249,27 @@ class Planar3PVectorEnv(VectorEnv):
             self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seeds[0])
         infos = []
         for i, (obs, info) in enumerate(results):
-            self._obs[i] = obs
+            self._put(i, obs)
             infos.append(info)
             if self._core is not None:
                 self._core.load(i)
         self._elapsed[:] = 0
         self._autoreset[:] = False
-        return self._obs.copy(), self._batch_infos(infos)
+        return self._observations(), self._batch_infos(infos)
+
+    def _put(self, i: int, obs: Any) -> None:
+        """Write environment ``i``'s observation into the batch (a ``Dict``'s entries each)."""
+        if isinstance(self._obs, dict):
+            for key, value in obs.items():
+                self._obs[key][i] = value
+        else:
+            self._obs[i] = obs
+
+    def _observations(self) -> Any:
+        """A copy of the batch of observations."""
+        if isinstance(self._obs, dict):
+            return {key: value.copy() for key, value in self._obs.items()}
+        return self._obs.copy()
 
     def _check_actions(self, actions: Any) -> np.ndarray:
         """The batch of actions as float64 ``(num_envs, 3)``, checked as the single environment
@@ -266,7 +287,6 @@ class Planar3PVectorEnv(VectorEnv):
         rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
         infos = []
         limit = self.max_episode_steps if self.max_episode_steps is not None else -1
-        obs_out = self._obs
         # Plain lists in the loop: numpy scalar indexing costs more than the bookkeeping.
         elapsed, autoreset = self._elapsed.tolist(), self._autoreset.tolist()
         same_step = self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
@@ -284,7 +304,7 @@ class Planar3PVectorEnv(VectorEnv):
                     final[i] = (obs, info)
                     obs, info = env.reset()
                     elapsed[i] = 0
-            obs_out[i] = obs
+            self._put(i, obs)
             infos.append(info)
         self._elapsed[:] = elapsed
         terminated_a = np.array(terminated, dtype=np.bool_)
@@ -294,7 +314,7 @@ class Planar3PVectorEnv(VectorEnv):
         out = self._batch_infos(infos)
         if final:
             self._final_entries(out, final, infos)
-        return obs_out.copy(), np.array(rewards), terminated_a, truncated_a, out
+        return self._observations(), np.array(rewards), terminated_a, truncated_a, out
 
     def _final_entries(
         self,
@@ -307,10 +327,10 @@ class Planar3PVectorEnv(VectorEnv):
         final_obs = np.full(self.num_envs, None, dtype=object)
         done = np.zeros(self.num_envs, dtype=np.bool_)
         if isinstance(infos, dict):
-            final_info = {k: infos[k].copy() for k in INFO_KEYS}
+            final_info = {k: infos[k].copy() for k in self.info_keys}
             for i, (obs, info) in final.items():
                 final_obs[i], done[i] = obs, True
-                for key in INFO_KEYS:
+                for key in self.info_keys:
                     final_info[key][i] = info[key]
         else:
             last = list(infos)
@@ -318,15 +338,15 @@ class Planar3PVectorEnv(VectorEnv):
                 final_obs[i], done[i], last[i] = obs, True, info
             final_info = self._batch_infos(last)
         out["final_obs"], out["_final_obs"] = final_obs, done
-        for key in INFO_KEYS:
+        for key in self.info_keys:
             final_info["_" + key] = done
         out["final_info"], out["_final_info"] = final_info, done
 
     def _batch_infos(self, infos: list[dict[str, Any]]) -> dict[str, Any]:
-        """Gymnasium's vector info layout for :data:`INFO_KEYS`."""
+        """Gymnasium's vector info layout for :attr:`info_keys`."""
         out: dict[str, Any] = {}
         mask = np.ones(self.num_envs, dtype=np.bool_)
-        for key in INFO_KEYS:
+        for key in self.info_keys:
             out[key] = np.array([info[key] for info in infos], dtype=_DTYPES.get(key, np.float64))
             out["_" + key] = mask
         return out
@@ -357,7 +377,7 @@ class Planar3PVectorEnv(VectorEnv):
         :meth:`Planar3PEnv.get_state`)."""
         return {
             "envs": [env.get_state() for env in self.envs],
-            "obs": self._obs.copy(),
+            "obs": self._observations(),
             "elapsed": self._elapsed.copy(),
             "autoreset": self._autoreset.copy(),
         }
@@ -371,7 +391,7 @@ class Planar3PVectorEnv(VectorEnv):
             env.set_state(s)
             if self._core is not None and _has_sim(env):
                 self._core.load(i)
-        self._obs[:] = state["obs"]
+        self._obs = copy.deepcopy(state["obs"])
         self._elapsed[:] = state["elapsed"]
         self._autoreset[:] = state["autoreset"]
 
@@ -786,3 +806,18 @@ class Planar3PAssemblyChangeVectorEnv(Planar3PVectorEnv):
     """``Planar3PAssemblyChange-v0``'s native vector env (environment by environment)."""
 
     env_class = Planar3PAssemblyChangeEnv
+
+
+class Planar3PGoalVectorEnv(Planar3PVectorEnv):
+    """``Planar3PGoal-v0``'s and ``Planar3PGoalDense-v0``'s native vector env (environment by
+    environment): the ``Dict`` observations as a dict of batch arrays, the relabelling entries
+    (:data:`planar3p_gym.tasks.goal.RELABEL_INFO_KEYS`) among the infos, and
+    :meth:`compute_reward` over the batch."""
+
+    env_class = Planar3PGoalEnv
+    info_keys = (*INFO_KEYS, *RELABEL_INFO_KEYS)
+
+    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> Any:
+        """:meth:`Planar3PGoalEnv.compute_reward` of goals ``(n, 5)`` (one per pair; ``info``
+        this vector env's infos, a dict of arrays over the pairs, or one dict per pair)."""
+        return self._envs[0].compute_reward(achieved_goal, desired_goal, info)

@@ -264,10 +264,16 @@ def write_achieved_goal(
 
 
 def info_field(info: Any, key: str, n: int) -> np.ndarray:
-    """``info[key]`` from one info dict or a sequence/array of ``n`` of them, shape ``(n,)``;
-    0 where an info dict lacks the key (SB3's HER passes empty dicts by default)."""
+    """``info[key]`` from one info dict, a sequence/array of ``n`` of them or a vector env's
+    infos (a dict whose ``info[key]`` is an array of ``n``), shape ``(n,)``; 0 where an info
+    dict lacks the key (SB3's HER passes empty dicts by default)."""
     if info is None:
         return np.zeros(n)
+    if isinstance(info, dict) and np.ndim(info.get(key)) == 1 and len(info[key]) == n:
+        try:
+            return np.asarray(info[key], dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"info[{key!r}] must be numbers") from exc
     if isinstance(info, dict):
         items = [info] * n
     else:
