@@ -134,11 +134,8 @@ class Planar3PEnv(gym.Env):
       (the exact machine of every id).  ``False`` runs the unprojected pymunk-only model (its
       loop closes only as well as pymunk's iterative solver holds it), for fidelity studies.
     - ``substeps``: physics steps per control step; ``solver_iterations``: pymunk constraint
-      iterations per physics step.  ``None`` (default) takes the settings of the physics:
-      :data:`~planar3p_gym.sim.physics.PROJECTED_SUBSTEPS` and
-      :data:`~planar3p_gym.sim.physics.PROJECTED_ITERATIONS` with the projection,
-      :data:`~planar3p_gym.sim.physics.DEFAULT_SUBSTEPS` and
-      :data:`~planar3p_gym.sim.physics.DEFAULT_ITERATIONS` without it.
+      iterations per physics step; ``None`` (default): the physics' settings
+      (:mod:`planar3p_gym.sim.physics`: ``PROJECTED_*`` with the projection, else ``DEFAULT_*``).
     - ``reward_weights``: :class:`RewardWeights` or a dict of its fields.
     - ``task_config``: :class:`TaskConfig` or a dict of its fields (tolerances, sampling
       margins).
@@ -149,25 +146,21 @@ class Planar3PEnv(gym.Env):
       inverse kinematics, m) and ``tanh((target_rho - rho) / 1 cm)`` to the observation
       (:data:`planar3p_gym.tasks.observation.TRAVEL_GOAL_FIELDS`); reach task only, default
       ``False``.
-    - ``randomization``: a :class:`~planar3p_gym.sim.randomization.DynamicsRandomization` or a
-      dict of its fields: the ranges from which each episode's machine is drawn (masses,
-      inertias, leg lengths, joint positions, rail offsets, servo force limit, friction, servo
-      lag, base tilt), from ``np_random`` after the task's draws; the simulation and its loop
-      projection run the drawn machine (``info["machine"]`` at reset), the observation bounds,
-      the sensing model and ``self.design`` stay nominal.  Default: none (the nominal machine).
-    - ``sensors``: a :class:`~planar3p_gym.sim.sensors.SensorConfig` or a dict of its fields:
-      the observation is then computed from joint encoder readings (noise from ``np_random``,
-      quantised) with the nominal model (:mod:`planar3p_gym.sim.sensors`) -- travels, their
-      rates, pose, twist, leg angles and margins -- while success, reward and termination are
-      judged on the true state.  ``None`` (default): the true state is observed.
-    - ``latency``: a :class:`~planar3p_gym.envs.latency.LatencyConfig` or a dict of its fields:
-      action and observation delays of 0 to 2 control steps, drawn per episode
-      (``info["delays"]`` at reset).  Default: none.
-    - ``action_type``: ``"continuous"`` (default, the Box above), ``"on-off"``
-      (``MultiDiscrete([3, 3, 3])``: each motor stopped (0), forward (1) or backward (2) at
-      its rated speed, as on the paper's prototype) or ``"on-off-discrete"`` (``Discrete(27)``,
-      the three digits in base 3, slider 1 first; for DQN).  ``on_off_speed``: the motors'
-      rated speed as a fraction of ``max_speed`` (default :data:`ON_OFF_SPEED`, 0.1).
+    - The machine as built (:class:`~planar3p_gym.envs.actuation.BuiltMachine`; each feature
+      off by default): ``randomization`` (a
+      :class:`~planar3p_gym.sim.randomization.DynamicsRandomization` or a dict of its fields:
+      each episode's machine drawn from ``np_random`` after the task's draws, masses, inertias,
+      geometry, servo force limit, friction, servo lag, base tilt; ``info["machine"]`` at
+      reset; the observation bounds, the sensing model and ``self.design`` stay nominal);
+      ``sensors`` (a :class:`~planar3p_gym.sim.sensors.SensorConfig` or a dict: the
+      observation from noisy, quantised joint encoder readings through the nominal model,
+      while success, reward and termination are judged on the true state); ``latency`` (a
+      :class:`~planar3p_gym.envs.latency.LatencyConfig` or a dict: action and observation
+      delays of 0 to 2 control steps drawn per episode, ``info["delays"]`` at reset);
+      ``action_type``: ``"continuous"`` (the Box above), ``"on-off"`` (``MultiDiscrete([3, 3,
+      3])``: each motor stopped (0), forward (1) or backward (2) at its rated speed
+      ``on_off_speed``, a fraction of ``max_speed``, default 0.1, as on the paper's prototype)
+      or ``"on-off-discrete"`` (``Discrete(27)``, the three digits in base 3; for DQN).
     - ``task``: a :class:`planar3p_gym.tasks.Task`, or the ``"module:Class"`` path of a Task
       class built with ``task_kwargs`` (a dict of its constructor arguments) -- how a
       registration row names a new task without an environment class of its own
@@ -381,11 +374,10 @@ class Planar3PEnv(gym.Env):
 
     # ------------------------------------------------------------------ snapshots
     def get_state(self) -> dict[str, Any]:
-        """A snapshot of the environment (plain, picklable data): the simulation
-        (:meth:`Planar3PSim.get_state`), ``np_random``'s state, the task's episode state
-        (``task.get_state()`` if the task defines it, else a copy of its attributes) and the
-        episode's record (:attr:`episode`, the built machine's).  :meth:`set_state` on an
-        environment made with the same settings continues bit for bit as this one would."""
+        """A snapshot (plain, picklable data): the simulation, ``np_random``, the task's state
+        (its ``get_state()``, else a copy of its attributes) and the episode's records
+        (:attr:`episode`, the built machine's); :meth:`set_state` on an environment made with
+        the same settings continues bit for bit as this one would."""
         return {
             "config": self.config(),
             "sim": None if self._sim is None else self._sim.get_state(),
@@ -394,11 +386,10 @@ class Planar3PEnv(gym.Env):
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        """Restore a :meth:`get_state` snapshot (``ValueError`` if it is not one, or was taken
-        from an environment with other settings; nothing is changed then).  This restores the
-        environment; for one made with ``gym.make``, whose ``TimeLimit`` wrapper counts the
-        episode's steps on its own, use :func:`planar3p_gym.envs.end_reason.restore_state`
-        ``(env, state)``, which sets that counter too."""
+        """Restore a :meth:`get_state` snapshot (``ValueError``, nothing changed, if it is not
+        one of an environment with these settings); for a made environment, whose
+        ``TimeLimit`` counts steps on its own, :func:`planar3p_gym.envs.end_reason.restore_state`
+        sets that counter too."""
         check_snapshot(state, self.config())
         sim = None if state["sim"] is None else Planar3PSim.from_state(state["sim"])
         kind = type(self.np_random.bit_generator)
