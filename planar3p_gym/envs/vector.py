@@ -664,7 +664,7 @@ class _BatchCore:
                     (res[0], REASONS[int(res[1])], res[2], res[3], res[4], res[5], int(res[6]),
                      state.closure_error)
                 )  # fmt: skip
-            else:  # physics breakdown: the single env's general step
+            else:  # physics breakdown: the reference kernel, as the single env
                 if flags[i]:
                     self.sync(i)
                 obs, r, _, full = env.kernel.reference_step(env.episode, state, actions[i])
@@ -736,7 +736,8 @@ class _BatchCore:
         o: dict[str, Any],
     ) -> None:
         """The step's results of the environments ``idx`` from their outputs ``o`` (a
-        broken-down state's NaN outputs are replaced by the single env's general step)."""
+        broken-down state's NaN outputs are replaced by the reference kernel's, as in the
+        single env)."""
         venv, st = self.venv, self.state
         reward = o["reward"]  # (the terms' sum, as the single env adds them)
         bad = ~st.finite | (st.closure > self.breakdown)
@@ -774,7 +775,7 @@ class _BatchCore:
             "time": self.time[idx],
         }
         self.pending[sel] = True
-        for j in bad_rows:  # the single env's general step, on the state just computed
+        for j in bad_rows:  # the reference kernel, on the state just computed
             i = int(idx[j])
             env = venv._envs[i]
             state = self._sim_state(self.last, j, i)
