@@ -9,19 +9,12 @@
 from __future__ import annotations
 
 import copy
-import math
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from planar3p_gym.envs.actuation import (
-    ON_OFF_ACTION_TYPES,
-    ON_OFF_SPEED,
-    BuiltMachine,
-    keys_to_action,
-    on_off_action,
-)
+from planar3p_gym.envs.actuation import ON_OFF_SPEED, BuiltMachine, keys_to_action
 from planar3p_gym.envs.latency import LatencyConfig
 from planar3p_gym.envs.settings import RENDER_MODES, EnvSettings, episode_modes, make_task
 from planar3p_gym.envs.snapshot import check_snapshot, random_state, restored_random
@@ -40,9 +33,7 @@ from planar3p_gym.tasks.sampling import TaskConfig
 __all__ = [
     "DEFAULT_WORKING_MODE",
     "OBSERVATION_ARGUMENTS",
-    "ON_OFF_ACTION_TYPES",
     "Planar3PEnv",
-    "on_off_action",
 ]
 
 #: The working mode used unless another is asked for: the mode of the default design with the
@@ -295,13 +286,10 @@ class Planar3PEnv(gym.Env):
             start, mode = self.task.begin(spec)
         except ValueError:
             if undo is not None:
-                kind = type(self.np_random.bit_generator)
-                self._np_random, self._np_random_seed = restored_random(undo, self.task, kind)
+                self._np_random, self._np_random_seed = restored_random(undo, self.task)
             raise
         target = self.task.reference(0)
-        ep = self.episode = Episode(
-            spec, 0, mode, target, (math.cos(target[2]), math.sin(target[2]))
-        )
+        ep = self.episode = Episode.of(spec, mode, target)
         if self.travel_goal:
             ep.target_rho = kinematics.inverse(self.design, target, mode).rho
         self.machine.draw(self.np_random, start, mode)
@@ -329,13 +317,11 @@ class Planar3PEnv(gym.Env):
         return self.machine.delay(obs.copy()), reward, reason is not None, False, info
 
     def set_task_config(self, changes: dict[str, Any]) -> TaskConfig:
-        """Change fields of :attr:`task_config` in the running environment (a curriculum on
-        the tolerances or on the mix of training pairs) and return the new configuration: only
-        :data:`planar3p_gym.tasks.sampling.SCHEDULABLE_FIELDS`; the success test uses the new
-        values from the next step on, the pair sampling from the next reset.  Invalid changes
-        raise ``ValueError`` and change nothing."""
-        cfg = task_module.updated_config(self.task_config, changes)
-        self.task_config = cfg
+        """Change fields of :attr:`task_config` (a curriculum) and return the new one: only
+        :data:`planar3p_gym.tasks.sampling.SCHEDULABLE_FIELDS`, used by the success test from
+        the next step on, by the pair sampling from the next reset (``ValueError``, nothing
+        changed, for invalid changes)."""
+        cfg = self.task_config = task_module.updated_config(self.task_config, changes)
         self.kernel.config_changed(cfg.success_tolerances)
         self.task.config_changed()
         return cfg
@@ -368,9 +354,7 @@ class Planar3PEnv(gym.Env):
             self._renderer = None
         if self._sim is not None:
             self._sim.close()
-        close_task = getattr(self.task, "close", None)
-        if close_task is not None:
-            close_task()
+        getattr(self.task, "close", lambda: None)()
 
     # ------------------------------------------------------------------ snapshots
     def get_state(self) -> dict[str, Any]:
@@ -392,8 +376,7 @@ class Planar3PEnv(gym.Env):
         sets that counter too."""
         check_snapshot(state, self.config())
         sim = None if state["sim"] is None else Planar3PSim.from_state(state["sim"])
-        kind = type(self.np_random.bit_generator)
-        self._np_random, self._np_random_seed = restored_random(state, self.task, kind)
+        self._np_random, self._np_random_seed = restored_random(state, self.task)
         if self._sim is not None:  # the model being replaced (Planar3PSim.close)
             self._sim.close()
         self._sim = sim

@@ -35,11 +35,9 @@ def random_state(rng: np.random.Generator, seed: int | None, task: Task) -> dict
     }
 
 
-def restored_random(
-    state: dict[str, Any], task: Task, kind: type
-) -> tuple[np.random.Generator, int | None]:
-    """The generator (bit generator class ``kind``) and seed :func:`random_state` recorded;
-    puts ``task``'s state back."""
+def restored_random(state: dict[str, Any], task: Task) -> tuple[np.random.Generator, int | None]:
+    """The generator and seed :func:`random_state` recorded; puts ``task``'s state back."""
+    kind = getattr(np.random, state["np_random"]["bit_generator"])
     rng = np.random.Generator(kind())
     rng.bit_generator.state = copy.deepcopy(state["np_random"])
     if hasattr(task, "set_state"):

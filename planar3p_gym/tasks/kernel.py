@@ -84,6 +84,12 @@ class Episode:
     measures: ConfigurationMeasures | None = None
     info: dict[str, Any] = field(default_factory=dict)
 
+    @classmethod
+    def of(cls, spec: dict[str, Any], mode: tuple[int, int, int], target: Pose) -> Episode:
+        """The record of an episode starting: its ``spec``, working ``mode`` and first
+        reference ``target``."""
+        return cls(spec, 0, mode, target, (math.cos(target[2]), math.sin(target[2])))
+
 
 class TaskHooks(Protocol):
     """The hooks of a task a kernel calls (:class:`planar3p_gym.tasks.base.Task` has them; the

@@ -10,7 +10,8 @@ from gymnasium.utils.env_checker import check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import planar3p_gym
-from planar3p_gym.envs.core import Planar3PEnv, on_off_action
+from planar3p_gym.envs.actuation import on_off_action
+from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.sim.randomization import REALISTIC_RANDOMIZATION
 from planar3p_gym.sim.sensors import REALISTIC_SENSORS
 from planar3p_gym.tasks.observation import SLICES
