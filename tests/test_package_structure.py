@@ -253,3 +253,12 @@ def test_the_environment_has_one_step():
     """One step for every id (no second step method beside ``step``)."""
     methods = [name for name, value in vars(Planar3PEnv).items() if callable(value)]
     assert [name for name in methods if "step" in name] == ["step"]
+
+
+def test_the_environment_stays_small():
+    """The environment owns the Gymnasium API and nothing else: ``envs/core.py`` at most 400
+    lines, ``Planar3PEnv.__init__`` at most 60 and its ``step`` at most 25 (the work is in
+    the actuation component, the simulation and the task's kernel)."""
+    assert len((CORE / "envs" / "core.py").read_text().splitlines()) <= 400
+    assert len(inspect.getsource(Planar3PEnv.__init__).splitlines()) <= 60
+    assert len(inspect.getsource(Planar3PEnv.step).splitlines()) <= 25

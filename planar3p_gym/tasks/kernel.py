@@ -128,7 +128,7 @@ class Sensing(Protocol):
         ...
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class KernelSettings:
     """What a kernel is built from (the environment's settings, fixed for its life).
 
