@@ -5,15 +5,18 @@ Planar3PSim`), the action parsing, the configuration measures and the physics-br
 a :class:`Task` owns everything that makes an episode a particular problem.  The environment
 calls, in this order:
 
-1. :meth:`Task.bind` once, at the end of ``Planar3PEnv.__init__``.
-2. On ``reset(seed, options)``: :meth:`Task.check_options` (before the environment is seeded:
-   a rejected reset changes nothing), then :meth:`Task.reseed` if a seed was given, then
+1. :meth:`Task.bind` once in ``Planar3PEnv.__init__``, then :meth:`Task.kernel`.
+2. On ``reset(seed, options)``: :meth:`Task.reset_options` and so :meth:`Task.check_options`
+   (before the environment is seeded: a rejected reset changes nothing), then :meth:`Task.reseed` if a seed was given, then
    :meth:`Task.episode_spec` (draws everything random from ``env.np_random``), then
    :meth:`Task.begin` with that spec, which returns the start pose and the working mode the
    simulation is built from.
-3. On every ``step``: :meth:`Task.reference` for the pose the observation and errors refer to
-   at the new step, :meth:`Task.termination`, :meth:`Task.reward_terms` and
-   :meth:`Task.step_info` (metrics merged into ``info``).
+3. On every ``step``, the task's kernel (:meth:`Task.kernel`, :mod:`planar3p_gym.tasks.kernel`),
+   handed the state after the physics step: the reference kernel calls :meth:`Task.reference`
+   for the pose the observation and errors refer to at the new step,
+   :meth:`Task.observation_extra`, :meth:`Task.termination`, :meth:`Task.reward_terms` and
+   :meth:`Task.step_info` (metrics merged into ``info``), each with the state and the measures
+   the environment computed; a compiled kernel is the same definitions compiled.
 
 Contract every task must meet (the fixed benchmark suites and the tests rely on it):
 
