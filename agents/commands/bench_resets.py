@@ -90,14 +90,7 @@ def check(args: argparse.Namespace) -> None:
         raise UsageError(f"--kwargs must be a JSON object, got {args.kwargs}")
     args.kwargs = kwargs
     if args.json is not None:
-        path = os.path.abspath(args.json)
-        parent = os.path.dirname(path)
-        if os.path.isdir(path):
-            raise UsageError(f"--json: {args.json} is a directory")
-        if not os.path.isdir(parent):
-            raise UsageError(f"--json: directory {parent} does not exist")
-        if not os.access(parent, os.W_OK):
-            raise UsageError(f"--json: directory {parent} is not writable")
+        checks.output_file("--json", args.json)
 
 
 def make_envs(ids: list[str], kwargs: dict[str, Any]) -> dict[str, gym.Env]:
