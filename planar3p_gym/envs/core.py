@@ -515,6 +515,7 @@ class Planar3PEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
+        seed = checks.seed(seed)  # (NumPy integers too; bools and floats are refused)
         options = check_reset_options(options, (*self.task.option_keys, "task"))
         requested = options.pop("task", None)
         if requested is not None and requested != self.task.name:
