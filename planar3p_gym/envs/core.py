@@ -372,6 +372,8 @@ class Planar3PEnv(gym.Env):
         on_off_speed = checks.number(on_off_speed, "on_off_speed", low=0.0, high=1.0, low_open=True)
         #: Rated speed of the on-off motors as a fraction of ``max_speed``.
         self.on_off_speed = on_off_speed
+        # Every machine drawn must be one the step integrates (a reset never fails on it).
+        randomization.check_step(self.design, control_frequency, substeps)
         #: Ranges of the per-episode machine (``None``: the nominal machine).
         self.randomization = None if randomization.is_zero else randomization
         #: The encoders' noise and resolution (``None``: the policy observes the true state).
@@ -525,19 +527,26 @@ class Planar3PEnv(gym.Env):
             )
         options = self.task.check_options(options)  # before seeding: a rejection changes nothing
         # Checks that need the episode's draw (a pose under a drawn working mode, a start no
-        # target pairs with) can only reject after seeding: then the random stream and the
-        # task's pools are put back, so a rejected reset changes nothing either.
-        undo = self._random_state() if options else None
+        # target pairs with, a drawn machine) can only reject after seeding: then the random
+        # stream and the task's pools are put back, and nothing of the environment has changed
+        # yet, so a rejected reset changes nothing either.
+        undo = self._random_state() if options or self.randomization else None
         try:
             super().reset(seed=seed)
             if seed is not None:
                 self.task.reseed()
             spec = self.task.episode_spec(self.np_random, options)
             start, mode = self.task.begin(spec)
+            machine = self._draw_machine(start, mode) if self.randomization else self._machine
         except ValueError:
             if undo is not None:
                 self._restore_random_state(undo)
             raise
+        if machine is not self._machine:
+            self._machine = machine
+            self._true_kin = (
+                self._kin if machine.design == self.design else ScalarKinematics(machine.design)
+            )
         self._spec = spec
         self._steps = 0
         self._mode = mode
@@ -545,7 +554,6 @@ class Planar3PEnv(gym.Env):
         self._target_cs = (math.cos(self._target[2]), math.sin(self._target[2]))
         if self.travel_goal:
             self._target_rho = kinematics.inverse(self.design, self._target, mode).rho
-        machine = self._draw_machine(start, mode) if self.randomization else self._machine
         previous = self._sim
         if previous is not None and not previous.closed:
             # The bodies are moved (and, for a machine drawn per episode, the model given its
@@ -590,19 +598,14 @@ class Planar3PEnv(gym.Env):
 
     def _draw_machine(self, start: Any, mode: tuple[int, int, int]) -> SampledMachine:
         """The episode's machine from ``np_random`` (:attr:`randomization`): redrawn while the
-        start pose is out of its reach (at most :data:`MACHINE_DRAWS` draws, then nominal)."""
+        start pose is out of its reach (at most :data:`MACHINE_DRAWS` draws, then nominal).
+        Changes nothing but the random stream (the reset takes the machine on)."""
         assert self.randomization is not None
-        machine = SampledMachine(self.design, MachineDynamics())
         for _ in range(MACHINE_DRAWS):
             drawn = self.randomization.sample(self.design, self.np_random)
             if bool(kinematics.inverse(drawn.design, np.asarray(start), mode).reachable):
-                machine = drawn
-                break
-        self._machine = machine
-        self._true_kin = (
-            self._kin if machine.design == self.design else ScalarKinematics(machine.design)
-        )
-        return machine
+                return drawn
+        return SampledMachine(self.design, MachineDynamics())
 
     def _begin_realistic(self) -> None:
         """Per-episode state of the built machine's features: the delays (drawn from
