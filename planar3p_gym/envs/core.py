@@ -24,6 +24,7 @@ from planar3p_gym.checks import (
 )
 from planar3p_gym.envs.end_reason import END_REASONS, TERMINATION_REASONS, TIME_LIMIT
 from planar3p_gym.envs.latency import DelayLine, LatencyConfig
+from planar3p_gym.envs.snapshot import check_snapshot, checked_generator
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures, ScalarKinematics
@@ -871,16 +872,17 @@ class Planar3PEnv(gym.Env):
         environment; for one made with ``gym.make``, whose ``TimeLimit`` wrapper counts the
         episode's steps on its own, use :func:`planar3p_gym.envs.end_reason.restore_state`
         ``(env, state)``, which sets that counter too."""
-        keys = {"config", "sim", "np_random", "np_random_seed", "task", "episode"}
-        if not isinstance(state, dict) or set(state) != keys:
-            raise ValueError("state must be a snapshot from Planar3PEnv.get_state()")
-        if state["config"] != self.config():
-            raise ValueError(
-                "the snapshot was taken from an environment with other settings: "
-                f"{state['config']} != {self.config()}"
-            )
+        check_snapshot(self, state)  # the contents too: a rejected snapshot changes nothing
+        checked_generator(self, state)
         sim = None if state["sim"] is None else Planar3PSim.from_state(state["sim"])
-        self._restore_random_state(state)
+        undo = self._random_state()
+        try:
+            self._restore_random_state(state)
+        except (TypeError, ValueError, KeyError, AttributeError) as exc:
+            self._restore_random_state(undo)
+            raise ValueError(
+                f"not a Planar3PEnv snapshot: its task state does not fit ({exc})"
+            ) from None
         if self._sim is not None:  # the model being replaced (Planar3PSim.close)
             self._sim.close()
         self._sim = sim
