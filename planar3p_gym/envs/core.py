@@ -418,6 +418,7 @@ class Planar3PEnv(gym.Env):
         if self._fixed_mode:  # rejected here if it has no usable start/target pair
             task_module.check_mode(self.design, self._fixed_mode, self.task_config)
         self._modes = [self._fixed_mode] if self._fixed_mode else self._usable_modes()
+        task_module.check_detours(self.design, self._modes, self.task_config)
         self.task.bind(self)
         extra_low, extra_high = self.task.observation_bounds()
         self._extra_low = np.asarray(extra_low, dtype=np.float32)
@@ -745,6 +746,7 @@ class Planar3PEnv(gym.Env):
         Invalid changes raise ``ValueError`` and change nothing.
         """
         cfg = task_module.updated_config(self.task_config, changes)
+        task_module.check_detours(self.design, self._modes, cfg)
         self.task_config = cfg
         if self._reach_step is not None:
             self._reach_step.tolerances = cfg.success_tolerances

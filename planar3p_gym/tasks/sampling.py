@@ -38,8 +38,10 @@ __all__ = [
     "PoseSampler",
     "TaskConfig",
     "assembly_modes",
+    "check_detours",
     "check_mode",
     "check_pose",
+    "has_detours",
     "has_pairs",
     "path_is_clear",
     "sample_pair",
@@ -392,7 +394,12 @@ def sample_pair(
         if pair is not None:
             return pair
     elif free and cfg.detour_fraction > 0 and rng.random() < cfg.detour_fraction:
-        pair = _detour_pair(design, mode, rng, cfg, sampler)
+        # (A mode without such pairs draws an ordinary pair at once, not after the budget.)
+        pair = (
+            _detour_pair(design, mode, rng, cfg, sampler)
+            if has_detours(design, mode, cfg)
+            else None
+        )
         if pair is not None:
             return pair
     for attempt in range(max_tries * PAIR_TRIES_FACTOR if free else max_tries):
@@ -482,6 +489,40 @@ def _detour_pair(
         return ok
 
     return _pair_by_rejection(design, rng, cfg, sampler, detour, DETOUR_CANDIDATES, DETOUR_STARTS)
+
+
+def has_detours(design: Design, mode: ArrayLike, cfg: TaskConfig) -> bool:
+    """Whether working ``mode`` of ``design`` has pairs :func:`_detour_pair` finds: one found
+    within its budget with a fixed internal seed (the episode's random stream is not touched;
+    cached).  A mode without detours is one where every reset would spend that budget (about
+    a second) for nothing."""
+    # The schedulable fields (tolerances, shares of pairs) do not change the answer: one entry
+    # of the cache serves a curriculum over them.
+    key = replace(cfg, **{f: getattr(_DEFAULT_CONFIG, f) for f in SCHEDULABLE_FIELDS})
+    return _has_detours(design, tuple(int(m) for m in np.asarray(mode).tolist()), key)
+
+
+_DEFAULT_CONFIG = TaskConfig()
+
+
+@lru_cache(maxsize=256)
+def _has_detours(design: Design, mode: tuple[int, int, int], cfg: TaskConfig) -> bool:
+    sampler = PoseSampler(design, mode, cfg)
+    return _detour_pair(design, mode, np.random.default_rng(0), cfg, sampler) is not None
+
+
+def check_detours(design: Design, modes: list[tuple[int, int, int]], cfg: TaskConfig) -> None:
+    """``ValueError`` naming ``detour_fraction`` if it is positive and none of the working
+    ``modes`` an environment draws from has detour pairs (:func:`has_detours`); with some that
+    have them, the others draw ordinary pairs."""
+    if cfg.detour_fraction == 0 or any(has_detours(design, m, cfg) for m in modes):
+        return
+    raise ValueError(
+        f"task_config.detour_fraction ({cfg.detour_fraction:g}) asks for pairs the straight "
+        f"slider line does not solve, but working mode(s) {', '.join(map(str, modes))} have "
+        f"none (none in {DETOUR_STARTS} starts of a fixed-seed search); set detour_fraction "
+        "to 0 or choose a working mode with such pairs"
+    )
 
 
 def _pair_by_rejection(
