@@ -453,12 +453,24 @@ def _near_singular_pair(
     m = np.asarray(mode, dtype=np.float64)
 
     def near_singular(s: np.ndarray, det: float, cands: np.ndarray) -> np.ndarray:
+        # reachable & ~clear, in one screen for the common path (reachable and clear): the
+        # screen of both tests passes exactly those, and only the paths it fails need the
+        # reachability screen alone (reachable & ~(reachable & clear) == reachable & ~clear).
         paths = interpolate(s[None, :], cands, cfg.path_points)
-        reachable = kinematics.screen_paths(design, paths, m, min_serial=cfg.path_serial_margin)
-        clear = kinematics.screen_paths(
-            design, paths, m, min_parallel=cfg.near_singular_margin, assembly=det
+        both = kinematics.screen_paths(
+            design,
+            paths,
+            m,
+            min_parallel=cfg.near_singular_margin,
+            min_serial=cfg.path_serial_margin,
+            assembly=det,
         )
-        return reachable & ~clear
+        hits = ~both
+        if hits.any():
+            hits[hits] = kinematics.screen_paths(
+                design, paths[hits], m, min_serial=cfg.path_serial_margin
+            )
+        return hits
 
     return _pair_by_rejection(
         design, rng, cfg, sampler, near_singular, NEAR_SINGULAR_CANDIDATES, NEAR_SINGULAR_STARTS
