@@ -237,7 +237,10 @@ class Planar3PEnv(gym.Env):
       (one of the modes with start/target pairs, drawn per episode).  A mode without pairs
       under the task's margins is rejected here (:func:`planar3p_gym.tasks.sampling.check_mode`), so
       ``reset()`` never fails on a valid setting: it redraws until it finds a pair.
-    - ``control_frequency``: control rate (Hz), default 50; also the render fps.
+    - ``control_frequency``: control rate (Hz), default 50; also the render fps.  With viscous
+      friction in ``randomization``, a rate whose physics step cannot integrate every machine
+      drawn is refused, naming the lowest rate accepted
+      (:meth:`~planar3p_gym.sim.randomization.DynamicsRandomization.check_step`).
     - ``projection``: project the simulated state exactly onto the mechanism's constraint
       manifold after every control step (:mod:`planar3p_gym.sim.projection`); default ``True``
       (the exact machine of every id).  ``False`` runs the unprojected pymunk-only model (its

@@ -49,7 +49,9 @@ class DynamicsRandomization:
 
     Relative ranges ``r`` multiply the nominal value by a factor drawn from ``[1 - r, 1 + r]``;
     absolute ranges ``e`` add an error drawn from ``[-e, e]``; the friction coefficients and the
-    servo lag are drawn from ``[0, max]``.
+    servo lag are drawn from ``[0, max]``.  Viscous friction is integrated explicitly, so the
+    physics step must stay below :meth:`longest_step` for every machine drawn; an environment
+    refuses a control rate that would not (:meth:`check_step`).
 
     Attributes:
         mass: relative range of the slider, leg and platform masses (each drawn on its own;

@@ -114,7 +114,11 @@ class TaskConfig:
             target's mirror image about the rail line or loses the branch
             (:mod:`planar3p_gym.machine.slider_line`).  These need a detour in slider space, the
             pairs on which PPO from scratch fails the benchmark's ``standard`` suite; for
-            training on them more often.  0 (the default) draws no extra random number.
+            training on them more often.  0 (the default) draws no extra random number.  Some
+            working modes have no such pairs (:func:`has_detours`; ``(1, 1, 1)`` on the
+            paper's design): an environment whose every mode lacks them refuses a positive
+            share (:func:`check_detours`); under random working modes those modes draw an
+            ordinary pair.
     """
 
     position_tolerance: float = 0.002
