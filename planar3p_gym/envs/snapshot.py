@@ -1,4 +1,6 @@
-"""Checks of an environment snapshot's contents before :meth:`Planar3PEnv.set_state` uses it.
+"""Checks of a snapshot's contents before the environment's ``set_state`` uses them (``env``
+below is a :class:`~planar3p_gym.envs.core.Planar3PEnv`, not imported here: the environment
+imports this module).
 
 :meth:`~planar3p_gym.envs.core.Planar3PEnv.get_state` returns plain data; a snapshot that was
 edited, truncated or assembled from two snapshots must be refused before anything of the
@@ -13,7 +15,7 @@ from __future__ import annotations
 
 import copy
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -24,12 +26,9 @@ from planar3p_gym.sim.physics import SimSnapshot
 from planar3p_gym.sim.randomization import SampledMachine
 from planar3p_gym.sim.sensors import Encoders
 
-if TYPE_CHECKING:
-    from planar3p_gym.envs.core import Planar3PEnv
-
 __all__ = ["SNAPSHOT_KEYS", "check_snapshot", "checked_generator"]
 
-#: The keys of a snapshot (:meth:`Planar3PEnv.get_state`).
+#: The keys of a snapshot (:meth:`~planar3p_gym.envs.core.Planar3PEnv.get_state`).
 SNAPSHOT_KEYS = frozenset({"config", "sim", "np_random", "np_random_seed", "task", "episode"})
 
 
@@ -49,7 +48,7 @@ def _reals(value: Any, n: int) -> bool:
     )
 
 
-def _check_episode(env: Planar3PEnv, episode: Any) -> None:
+def _check_episode(env: Any, episode: Any) -> None:
     """``ValueError`` unless ``episode`` holds every per-episode field of ``env``, each of its
     type and shape."""
     fields = env._EPISODE_FIELDS
@@ -97,9 +96,9 @@ def _check_episode(env: Planar3PEnv, episode: Any) -> None:
         _fail("_encoders", "Encoders" if want_encoders else "None (no sensors)", e["_encoders"])
 
 
-def check_snapshot(env: Planar3PEnv, state: Any) -> None:
-    """``ValueError`` unless ``state`` is a snapshot :meth:`Planar3PEnv.set_state` can restore
-    on ``env``: the keys of :data:`SNAPSHOT_KEYS`, ``env``'s settings, a complete episode
+def check_snapshot(env: Any, state: Any) -> None:
+    """``ValueError`` unless ``state`` is a snapshot that ``env.set_state`` can restore: the
+    keys of :data:`SNAPSHOT_KEYS`, ``env``'s settings, a complete episode
     (:func:`_check_episode`), and a simulation of that episode (``None`` only before the first
     reset; otherwise of the episode's working mode and machine, as many steps in).  Changes
     nothing."""
@@ -131,7 +130,7 @@ def check_snapshot(env: Planar3PEnv, state: Any) -> None:
         )
 
 
-def checked_generator(env: Planar3PEnv, state: dict[str, Any]) -> np.random.Generator:
+def checked_generator(env: Any, state: dict[str, Any]) -> np.random.Generator:
     """A generator of ``env``'s bit generator in the snapshot's ``np_random`` state;
     ``ValueError`` if that is not such a state (nothing of ``env`` is touched)."""
     rng = np.random.Generator(type(env.np_random.bit_generator)())
