@@ -147,6 +147,10 @@ class BuiltMachine:
     Args:
         design: the nominal machine.
         dt: control period (s).
+        substeps: physics steps per control step.  With viscous friction in
+            ``randomization``, a physics step too long to integrate every machine drawn is
+            refused, naming the lowest control rate accepted
+            (:meth:`~planar3p_gym.sim.randomization.DynamicsRandomization.check_step`).
         randomization, sensors, latency: the built machine's features (or dicts of their
             fields); ``None`` or zero ranges turn them off.
         action_type: one of :data:`ACTION_TYPES`.
@@ -158,6 +162,7 @@ class BuiltMachine:
         design: Design,
         dt: float,
         *,
+        substeps: int = 1,
         randomization: DynamicsRandomization | dict | None = None,
         sensors: SensorConfig | dict | None = None,
         latency: LatencyConfig | dict | None = None,
@@ -167,6 +172,8 @@ class BuiltMachine:
         randomization = config_from(randomization, DynamicsRandomization, "randomization")
         sensors = None if sensors is None else config_from(sensors, SensorConfig, "sensors")
         latency = config_from(latency, LatencyConfig, "latency")
+        # Every machine drawn must be one the step integrates (a reset never fails on it).
+        randomization.check_step(design, 1.0 / dt, substeps)
         self.action_type = checks.choice(action_type, "action_type", ACTION_TYPES)
         #: Rated speed of the on-off motors as a fraction of ``max_speed``.
         self.on_off_speed = checks.number(
@@ -198,23 +205,20 @@ class BuiltMachine:
             self.action_space = spaces.Box(-1.0, 1.0, shape=(3,), dtype=np.float32)
 
     # ------------------------------------------------------------------ reset
-    def draw(self, rng: np.random.Generator, start: Any, mode: tuple[int, int, int]) -> None:
-        """Draw the episode's machine from ``rng`` (with :attr:`randomization`): redrawn while
-        the start pose is out of its reach (at most :data:`MACHINE_DRAWS` draws, then the
-        nominal one)."""
+    def draw(
+        self, rng: np.random.Generator, start: Any, mode: tuple[int, int, int]
+    ) -> SampledMachine:
+        """The next episode's machine: drawn from ``rng`` with :attr:`randomization`, redrawn
+        while the start pose is out of its reach (at most :data:`MACHINE_DRAWS` draws, then the
+        nominal one); the nominal one without.  Changes nothing but ``rng`` (the reset hands
+        the machine to :meth:`simulation`, once nothing can reject the reset any more)."""
         if self.randomization is None:
-            return
-        machine = SampledMachine(self.design, MachineDynamics())
+            return self.episode.machine
         for _ in range(MACHINE_DRAWS):
             drawn = self.randomization.sample(self.design, rng)
             if bool(kinematics.inverse(drawn.design, np.asarray(start), mode).reachable):
-                machine = drawn
-                break
-        ep = self.episode
-        ep.machine = machine
-        ep.true_kin = (
-            self.kin if machine.design == self.design else ScalarKinematics(machine.design)
-        )
+                return drawn
+        return SampledMachine(self.design, MachineDynamics())
 
     def begin(self, rng: np.random.Generator) -> None:
         """The per-episode state of the delays (drawn from ``rng``) and the encoders."""
@@ -244,13 +248,24 @@ class BuiltMachine:
         return out
 
     def simulation(
-        self, previous: Planar3PSim | None, start: Any, mode: tuple[int, int, int], s: Any
+        self,
+        machine: SampledMachine,
+        previous: Planar3PSim | None,
+        start: Any,
+        mode: tuple[int, int, int],
+        s: Any,
     ) -> Planar3PSim:
-        """The episode's simulation of the episode's machine at rest at ``start`` in working
-        ``mode``, with the settings ``s`` (:class:`planar3p_gym.envs.settings.EnvSettings`):
-        the ``previous`` model moved (and, for a drawn machine, given its numbers), bit for
-        bit the model a new build would give (:meth:`Planar3PSim.reset`), or a new one."""
-        machine, drawn = self.episode.machine, self.randomization is not None
+        """The episode's simulation of ``machine`` (:meth:`draw`; now the episode's) at rest at
+        ``start`` in working ``mode``, with the settings ``s``
+        (:class:`planar3p_gym.envs.settings.EnvSettings`): the ``previous`` model moved (and,
+        for a drawn machine, given its numbers), bit for bit the model a new build would give
+        (:meth:`Planar3PSim.reset`), or a new one."""
+        ep, drawn = self.episode, self.randomization is not None
+        if machine is not ep.machine:
+            ep.machine = machine
+            ep.true_kin = (
+                self.kin if machine.design == self.design else ScalarKinematics(machine.design)
+            )
         if previous is not None and not previous.closed:
             if drawn:
                 previous.reset(start, mode, design=machine.design, dynamics=machine.dynamics)

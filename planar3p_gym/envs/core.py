@@ -14,6 +14,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from planar3p_gym import checks
 from planar3p_gym.envs.actuation import ON_OFF_SPEED, BuiltMachine, keys_to_action
 from planar3p_gym.envs.latency import LatencyConfig
 from planar3p_gym.envs.settings import RENDER_MODES, EnvSettings, episode_modes, make_task
@@ -24,7 +25,6 @@ from planar3p_gym.sim.physics import Planar3PSim
 from planar3p_gym.sim.randomization import DynamicsRandomization
 from planar3p_gym.sim.sensors import SensorConfig
 from planar3p_gym.tasks import Task
-from planar3p_gym.tasks import sampling as task_module
 from planar3p_gym.tasks.base import copy_spec
 from planar3p_gym.tasks.kernel import Episode, KernelSettings
 from planar3p_gym.tasks.rewards import RewardWeights
@@ -84,33 +84,32 @@ class Planar3PEnv(gym.Env):
     breakdown.  Weighted terms are in ``info["reward_terms"]`` and sum to the reward.
 
     ## Starting State
-    Start and target are drawn from ``self.np_random``: reachable in the episode's working
-    mode within the stroke (away from the end stops), with parallel and serial margins above
-    thresholds, holdable at rest with at most 75 % of the actuator force, in the same assembly
-    mode, and by default joined by a straight path in pose
-    space that stays clear of singularities (:class:`planar3p_gym.tasks.sampling.TaskConfig`;
-    ``task_config={"near_singular_fraction": p}`` makes a share ``p`` of the pairs instead pass
-    within 0.01 of a parallel singularity, like the benchmark's ``hard`` suite, and
-    ``{"detour_fraction": p}`` makes a share ``p`` of the other pairs ones that the straight
-    line in slider space does not solve, :mod:`planar3p_gym.machine.slider_line`;
-    :meth:`set_task_config` changes these shares and the tolerances of a running
-    environment).  The
-    mechanism starts at rest.  ``reset(options={"start": pose, "target": pose,
-    "working_mode": (s1, s2, s3)})`` sets any of them (validated; ``ValueError`` if invalid).
+    Start and target are drawn from ``self.np_random``: reachable in the episode's working mode
+    within the stroke (away from the end stops), with parallel and serial margins above thresholds,
+    holdable at rest with at most 75 % of the actuator force, in the same assembly mode, and by
+    default joined by a straight path in pose space that stays clear of singularities
+    (:class:`planar3p_gym.tasks.sampling.TaskConfig`; ``task_config={"near_singular_fraction": p}``
+    makes a share ``p`` of the pairs instead pass within 0.01 of a parallel singularity, like the
+    benchmark's ``hard`` suite, and ``{"detour_fraction": p}`` makes a share ``p`` of the other
+    pairs ones that the straight line in slider space does not solve,
+    :mod:`planar3p_gym.machine.slider_line`; :meth:`set_task_config` changes these shares and the
+    tolerances of a running environment).  The mechanism starts at rest.  ``reset(options={"start":
+    pose, "target": pose, "working_mode": (s1, s2, s3)})`` sets any of them (validated;
+    ``ValueError`` if invalid).
 
     ## Episode End
-    ``terminated`` when the gripper is within ``position_tolerance`` and
-    ``orientation_tolerance`` of the target with every slider slower than ``rest_speed``
-    (``"success"``), when ``sign det A`` changes (``"singularity_crossing"``), or when the
-    loop-closure error exceeds ``breakdown_threshold`` or the state is not finite
-    (``"physics_breakdown"``); ``info["termination_reason"]`` says which.  A leg swinging past
-    the perpendicular to its rail (a serial singularity) changes the working mode without ending
-    the episode; ``info["working_mode_changed"]`` reports it.  ``truncated`` only
-    by the registered time limit (``max_episode_steps=250``, 5 s at 50 Hz; Gymnasium's
-    ``TimeLimit`` wrapper): ``info["termination_reason"]`` stays ``None`` then, and the end is
-    named ``"time_limit"`` (:func:`planar3p_gym.envs.end_reason.end_reason` names any end from
-    the step's flags and ``info``, with the names of the training metrics and the benchmark,
-    :data:`END_REASONS`; ``EndReason(gym.make(...))`` puts the name in ``info`` as well).
+    ``terminated`` when the gripper is within ``position_tolerance`` and ``orientation_tolerance``
+    of the target with every slider slower than ``rest_speed`` (``"success"``), when ``sign det A``
+    changes (``"singularity_crossing"``), or when the loop-closure error exceeds
+    ``breakdown_threshold`` or the state is not finite (``"physics_breakdown"``);
+    ``info["termination_reason"]`` says which.  A leg swinging past the perpendicular to its rail (a
+    serial singularity) changes the working mode without ending the episode;
+    ``info["working_mode_changed"]`` reports it.  ``truncated`` only by the registered time limit
+    (``max_episode_steps=250``, 5 s at 50 Hz; Gymnasium's ``TimeLimit`` wrapper):
+    ``info["termination_reason"]`` stays ``None`` then, and the end is named ``"time_limit"``
+    (:func:`planar3p_gym.envs.end_reason.end_reason` names any end from the step's flags and
+    ``info``, with the names of the training metrics and the benchmark, :data:`END_REASONS`;
+    ``EndReason(gym.make(...))`` puts the name in ``info`` as well).
 
     ## Arguments
     - ``design``: a :class:`Design`, a dict of its fields, or a preset name (``"fig8"``,
@@ -208,8 +207,8 @@ class Planar3PEnv(gym.Env):
         )  # fmt: skip
         #: The machine's actuation and sensing (the nominal machine's: the identity).
         m = self.machine = BuiltMachine(
-            s.design, s.dt, randomization=randomization, sensors=sensors, latency=latency,
-            action_type=action_type, on_off_speed=on_off_speed,
+            s.design, s.dt, substeps=s.substeps, randomization=randomization, sensors=sensors,
+            latency=latency, action_type=action_type, on_off_speed=on_off_speed,
         )  # fmt: skip
         self.randomization, self.sensors, self.latency = m.randomization, m.sensors, m.latency
         self.action_type, self.on_off_speed = m.action_type, m.on_off_speed
@@ -273,27 +272,27 @@ class Planar3PEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
+        seed = checks.seed(seed)  # (NumPy integers too; bools and floats are refused)
         options = self.task.reset_options(options)  # before seeding: a rejection changes nothing
-        # Checks that need the episode's draw (a pose under a drawn working mode, a start no
-        # target pairs with) can only reject after seeding: then the random stream and the
-        # task's pools are put back, so a rejected reset changes nothing either.
-        undo = random_state(self.np_random, self._np_random_seed, self.task) if options else None
+        # A draw that rejects (a pose under a drawn working mode, a start no target pairs with,
+        # a drawn machine) puts the random stream and the task's pools back: nothing changed.
+        can_reject = options or self.randomization is not None
+        undo = random_state(self.np_random, self._np_random_seed, self.task) if can_reject else None
         try:
             super().reset(seed=seed)
             if seed is not None:
                 self.task.reseed()
             spec = self.task.episode_spec(self.np_random, options)
             start, mode = self.task.begin(spec)
+            machine = self.machine.draw(self.np_random, start, mode)
         except ValueError:
             if undo is not None:
                 self._np_random, self._np_random_seed = restored_random(undo, self.task)
             raise
-        target = self.task.reference(0)
-        ep = self.episode = Episode.of(spec, mode, target)
+        ep = self.episode = Episode.of(spec, mode, self.task.reference(0))
         if self.travel_goal:
-            ep.target_rho = kinematics.inverse(self.design, target, mode).rho
-        self.machine.draw(self.np_random, start, mode)
-        self._sim = self.machine.simulation(self._sim, start, mode, self.settings)
+            ep.target_rho = kinematics.inverse(self.design, ep.target, mode).rho
+        self._sim = self.machine.simulation(machine, self._sim, start, mode, self.settings)
         self.machine.begin(self.np_random)
         info = self.kernel.start(ep, self.sim.state, self.np_random)
         info["episode_spec"] = copy_spec(spec)
@@ -321,7 +320,7 @@ class Planar3PEnv(gym.Env):
         :data:`planar3p_gym.tasks.sampling.SCHEDULABLE_FIELDS`, used by the success test from
         the next step on, by the pair sampling from the next reset (``ValueError``, nothing
         changed, for invalid changes)."""
-        cfg = self.task_config = task_module.updated_config(self.task_config, changes)
+        cfg = self.task_config = self.settings.updated(self.task_config, changes, self._modes)
         self.kernel.config_changed(cfg.success_tolerances)
         self.task.config_changed()
         return cfg
@@ -370,11 +369,12 @@ class Planar3PEnv(gym.Env):
         }
 
     def set_state(self, state: dict[str, Any]) -> None:
-        """Restore a :meth:`get_state` snapshot (``ValueError``, nothing changed, if it is not
-        one of an environment with these settings); for a made environment, whose
+        """Restore a :meth:`get_state` snapshot (``ValueError``, nothing changed, unless it is a
+        whole one of an environment with these settings:
+        :func:`~planar3p_gym.envs.snapshot.check_snapshot`); for a made environment, whose
         ``TimeLimit`` counts steps on its own, :func:`planar3p_gym.envs.end_reason.restore_state`
         sets that counter too."""
-        check_snapshot(state, self.config())
+        check_snapshot(self, state)
         sim = None if state["sim"] is None else Planar3PSim.from_state(state["sim"])
         self._np_random, self._np_random_seed = restored_random(state, self.task)
         if self._sim is not None:  # the model being replaced (Planar3PSim.close)

@@ -68,9 +68,11 @@ def episode_modes(
     """The working modes episodes are drawn from: ``fixed`` (rejected, ``ValueError``, if it
     has no usable start/target pair), or every mode with usable pairs
     (:func:`planar3p_gym.tasks.sampling.check_mode`, a fixed internal seed: the list never
-    depends on, or consumes, the episode's stream)."""
+    depends on, or consumes, the episode's stream); ``ValueError`` too if ``cfg`` asks for
+    detour pairs none of them has (:func:`planar3p_gym.tasks.sampling.check_detours`)."""
     if fixed:
         task_module.check_mode(design, fixed, cfg)
+        task_module.check_detours(design, [fixed], cfg)
         return [fixed]
     usable = [
         (int(m[0]), int(m[1]), int(m[2]))
@@ -82,6 +84,7 @@ def episode_modes(
             "no working mode of this design has start/target pairs meeting the task's "
             "margins; relax the TaskConfig"
         )
+    task_module.check_detours(design, usable, cfg)
     return usable
 
 
@@ -110,6 +113,16 @@ class EnvSettings:
     def dt(self) -> float:
         """Control period (s)."""
         return 1.0 / self.control_frequency
+
+    def updated(
+        self, task_config: TaskConfig, changes: dict[str, Any], modes: list[tuple[int, int, int]]
+    ) -> TaskConfig:
+        """``task_config`` with ``changes`` (:func:`planar3p_gym.tasks.sampling.updated_config`),
+        its ``detour_fraction`` checked against the working ``modes`` episodes are drawn from
+        (:func:`planar3p_gym.tasks.sampling.check_detours`); ``ValueError`` otherwise."""
+        cfg = task_module.updated_config(task_config, changes)
+        task_module.check_detours(self.design, modes, cfg)
+        return cfg
 
     def record(self, task_config: TaskConfig) -> dict[str, Any]:
         """The settings as plain data (for run records), with the current ``task_config``."""

@@ -224,13 +224,12 @@ class Planar3PVectorEnv(VectorEnv):
         the working mode an environment drew) every environment is put back as it was, and
         so is the vector env."""
         if seed is None or checks.is_int(seed):
-            if seed is not None:
-                checks.integer(seed, "seed", low=0)
-            seeds = [None if seed is None else int(seed) + i for i in range(self.num_envs)]
+            first = checks.seed(seed)
+            seeds = [None if first is None else first + i for i in range(self.num_envs)]
         else:
             if isinstance(seed, (str, bytes)) or not hasattr(seed, "__len__"):
                 raise ValueError(f"seed must be an int, a list of seeds or None, got {seed!r}")
-            seeds = [None if s is None else checks.integer(s, "seed", low=0) for s in seed]
+            seeds = [checks.seed(s) for s in seed]
             if len(seeds) != self.num_envs:
                 raise ValueError(f"expected {self.num_envs} seeds, got {len(seeds)}")
         envs = self.envs  # (up to date: their snapshots are complete)

@@ -72,7 +72,11 @@ from numpy.typing import ArrayLike
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.sim import chipmunk
-from planar3p_gym.sim.dynamics import MachineDynamics
+from planar3p_gym.sim.dynamics import (
+    MachineDynamics,
+    smallest_leg_inertia,
+    viscous_step_limits,
+)
 from planar3p_gym.sim.projection import LoopProjector
 from planar3p_gym.sim.projection import wrap_angle as _wrap
 
@@ -264,17 +268,17 @@ def _check_viscous(design: Design, dyn: MachineDynamics, h: float) -> None:
     the physics step ``h`` (s)."""
     if not (dyn.slider_viscous > 0.0 or dyn.joint_viscous > 0.0):
         return
-    leg_inertia = dyn.inertia_scale * design.leg_mass * min(design.leg_lengths) ** 2 / 12
-    # Explicit viscous forces are stable for c h / m < 2; half that is asked for.
-    if dyn.slider_viscous * h >= design.slider_mass:
+    slider_limit, joint_limit = viscous_step_limits(design, dyn)
+    if h >= slider_limit:
         raise ValueError(
             f"dynamics.slider_viscous ({dyn.slider_viscous} N s/m) times the physics "
             f"step ({h} s) must stay below the slider mass ({design.slider_mass} kg)"
         )
-    if dyn.joint_viscous * h >= leg_inertia:
+    if h >= joint_limit:
         raise ValueError(
             f"dynamics.joint_viscous ({dyn.joint_viscous} N m s/rad) times the physics "
-            f"step ({h} s) must stay below a leg's moment of inertia ({leg_inertia} kg m^2)"
+            f"step ({h} s) must stay below a leg's moment of inertia "
+            f"({smallest_leg_inertia(design, dyn)} kg m^2)"
         )
 
 

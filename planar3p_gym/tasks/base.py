@@ -7,10 +7,10 @@ calls, in this order:
 
 1. :meth:`Task.bind` once in ``Planar3PEnv.__init__``, then :meth:`Task.kernel`.
 2. On ``reset(seed, options)``: :meth:`Task.reset_options` and so :meth:`Task.check_options`
-   (before the environment is seeded: a rejected reset changes nothing), then :meth:`Task.reseed` if a seed was given, then
-   :meth:`Task.episode_spec` (draws everything random from ``env.np_random``), then
-   :meth:`Task.begin` with that spec, which returns the start pose and the working mode the
-   simulation is built from.
+   (before the environment is seeded: a rejected reset changes nothing), then
+   :meth:`Task.reseed` if a seed was given, then :meth:`Task.episode_spec` (draws everything
+   random from ``env.np_random``), then :meth:`Task.begin` with that spec, which returns the
+   start pose and the working mode the simulation is built from.
 3. On every ``step``, the task's kernel (:meth:`Task.kernel`, :mod:`planar3p_gym.tasks.kernel`),
    handed the state after the physics step: the reference kernel calls :meth:`Task.reference`
    for the pose the observation and errors refer to at the new step,

@@ -80,14 +80,20 @@ def test_a_drawn_machine_gives_the_true_measures_and_is_in_the_snapshot():
     env = gym.make("Planar3P-v0").unwrapped
     env.reset(seed=0)
     start, mode = env.episode.spec["start"], env.episode.mode
-    machine.draw(np.random.default_rng(1), start, mode)
-    drawn = machine.episode.machine
-    assert drawn.design != DESIGN and machine.episode.true_kin.design == drawn.design
+    nominal = machine.episode.machine
+    drawn = machine.draw(np.random.default_rng(1), start, mode)
+    assert drawn.design != DESIGN and machine.episode.machine is nominal  # (the draw alone)
+    sim = machine.simulation(drawn, None, start, mode, env.settings)
+    assert machine.episode.machine is drawn and machine.episode.true_kin.design == drawn.design
+    assert sim.design == drawn.design
     record = machine.get_state()
-    machine.draw(np.random.default_rng(2), start, mode)
+    machine.simulation(
+        machine.draw(np.random.default_rng(2), start, mode), sim, start, mode, env.settings
+    )
     assert machine.episode.machine != drawn
     machine.set_state(record)
     assert machine.episode.machine == drawn
+    sim.close()
     env.close()
 
 
