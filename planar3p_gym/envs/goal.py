@@ -152,6 +152,10 @@ class Planar3PGoalEnv(Planar3PEnv):
     - v0 (0.2.0, issue 24): the same distribution of episodes, drawn faster: poses are proposed
       from the region that holds every reachable pose (:mod:`planar3p_gym.tasks.pose_proposal`);
       a seed draws other episodes than before.
+    - v0 (0.2.0): a step's observation, margins and reward terms from the reach task's
+      compiled outputs (:class:`planar3p_gym.tasks.goal.GoalKernel`): the same episodes, goals,
+      ends and sparse rewards; margins and the dense reward differ from before by float64
+      rounding.
     - v0: initial release; later the ``observe_working_mode`` argument (off by default: the
       observation, rewards and episodes of ``v0`` are unchanged).
     """

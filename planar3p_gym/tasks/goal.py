@@ -47,16 +47,26 @@ from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym import checks
 from planar3p_gym.machine.design import Design
+from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks.base import Pose
+from planar3p_gym.tasks.kernel import (
+    Episode,
+    KernelSettings,
+    ReachKernel,
+    Sensing,
+    StepKernel,
+    StepOutputs,
+)
 from planar3p_gym.tasks.observation import SLICES, SPEED_BOUND_FACTOR, bounds
-from planar3p_gym.tasks.reach import ReachTask
-from planar3p_gym.tasks.rewards import RewardWeights, weighted_terms
+from planar3p_gym.tasks.reach import COMPILED_HOOKS, ReachTask
+from planar3p_gym.tasks.rewards import TERM_NAMES, RewardWeights, weighted_terms
 from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
     "GOAL_SIZE",
     "RELABEL_INFO_KEYS",
     "REWARD_TYPES",
+    "GoalKernel",
     "GoalTask",
     "achieved_goal",
     "evaluate_state_goal",
@@ -488,6 +498,15 @@ class GoalTask(ReachTask):
             return "singularity_crossing"
         return "success" if success else None
 
+    def kernel(self, settings: KernelSettings, machine: Sensing) -> StepKernel:
+        """The compiled goal kernel (:class:`GoalKernel`) on the projected physics of the
+        nominal machine when the per-step hooks are the goal task's own
+        (:data:`~planar3p_gym.tasks.reach.COMPILED_HOOKS`), else the reference."""
+        own = all(getattr(type(self), h) is getattr(GoalTask, h) for h in COMPILED_HOOKS)
+        if own and settings.projection and settings.nominal:
+            return GoalKernel(self, settings, machine)
+        return StepKernel(self, settings, machine)
+
     def step_reward(self, goal_free: float) -> float:
         """The reward of the step last evaluated (:meth:`evaluate`): :func:`goal_reward_value`
         of its ``evaluation`` and the goal-independent part ``goal_free``, so exactly
@@ -513,3 +532,58 @@ def achieved_goal(pose: ArrayLike, rho_dot: ArrayLike) -> NDArray[np.float32]:
     out = np.empty(GOAL_SIZE, dtype=np.float32)
     write_achieved_goal(out, x, y, th, r0, r1, r2, _NO_BOUND[0], _NO_BOUND[1])
     return out
+
+
+class GoalKernel(StepKernel):
+    """The goal task's compiled kernel: the reach kernel's compiled outputs
+    (:class:`~planar3p_gym.tasks.kernel.ReachKernel`: observation, errors, margins, reward
+    terms) with the goal task's success test, on the goals (:meth:`GoalTask.evaluate`, compiled),
+    in place of the reach one; the reference kernel where the physics broke down.  Its
+    observations, margins and reward terms are the reach kernel's: equal to the reference's to a
+    few float64 rounding errors (``tests/tasks/test_goal.py``)."""
+
+    task: GoalTask
+
+    def __init__(self, task: GoalTask, settings: KernelSettings, machine: Sensing) -> None:
+        super().__init__(task, settings, machine)
+        #: The reach task's compiled outputs (the goal task's reference pose is the reach's).
+        self.reach = ReachKernel(task, settings, machine)
+        self._weights = settings.weights.as_array()
+
+    def config_changed(self, tolerances: tuple[float, float, float]) -> None:
+        self.reach.config_changed(tolerances)
+
+    def step(
+        self,
+        ep: Episode,
+        state: SimState,
+        array: np.ndarray | None,
+        action: tuple[float, float, float],
+        rng: np.random.Generator,
+    ) -> StepOutputs:
+        if (
+            array is None
+            or not state.finite
+            or state.closure_error > self.settings.breakdown_distance
+        ):
+            return super().step(ep, state, array, action, rng)
+        obs, reward, reason, info = self.reach.step(ep, state, array, action, rng)
+        # GoalTask.termination: a crossing first, else success on the goals (evaluated once).
+        crossing = reason == "singularity_crossing"
+        success = self.task.evaluate(state.pose, state.rho_dot, crossing)[2]
+        if success == (reason == "success"):
+            return obs, reward, reason, info
+        reason = "success" if success else None  # (not a crossing: its terms but success hold)
+        terms = dict(
+            zip(
+                TERM_NAMES,
+                weighted_terms(
+                    self._weights, info["position_error"], info["orientation_error"],
+                    self._length, info["parallel_margin"], info["serial_margin"],
+                    action[0], action[1], action[2], success, False,
+                ),
+                strict=True,
+            )
+        )  # fmt: skip
+        info.update(termination_reason=reason, is_success=success, reward_terms=terms)
+        return obs, float(sum(terms.values())), reason, info

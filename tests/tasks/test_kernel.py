@@ -11,6 +11,7 @@ import pytest
 import planar3p_gym  # noqa: F401  (registers the ids)
 from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.tasks import ReachTask
+from planar3p_gym.tasks.goal import GoalKernel
 from planar3p_gym.tasks.kernel import ReachKernel, StepKernel
 
 
@@ -37,7 +38,8 @@ class _Recording(ReachTask):
     [
         ("Planar3P-v0", ReachKernel),
         ("Planar3PReal-v0", StepKernel),
-        ("Planar3PGoal-v0", StepKernel),
+        ("Planar3PGoal-v0", GoalKernel),
+        ("Planar3PGoalDense-v0", GoalKernel),
         ("Planar3PTrack-v0", StepKernel),
         ("Planar3PModeChange-v0", StepKernel),
         ("Planar3PAssemblyChange-v0", StepKernel),
