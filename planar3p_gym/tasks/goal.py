@@ -59,7 +59,7 @@ from planar3p_gym.tasks.kernel import (
 )
 from planar3p_gym.tasks.observation import SLICES, SPEED_BOUND_FACTOR, bounds
 from planar3p_gym.tasks.reach import COMPILED_HOOKS, ReachTask
-from planar3p_gym.tasks.rewards import TERM_NAMES, RewardWeights, weighted_terms
+from planar3p_gym.tasks.rewards import RewardWeights, weighted_terms
 from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
@@ -548,7 +548,6 @@ class GoalKernel(StepKernel):
         super().__init__(task, settings, machine)
         #: The reach task's compiled outputs (the goal task's reference pose is the reach's).
         self.reach = ReachKernel(task, settings, machine)
-        self._weights = settings.weights.as_array()
 
     def config_changed(self, tolerances: tuple[float, float, float]) -> None:
         self.reach.config_changed(tolerances)
@@ -573,17 +572,5 @@ class GoalKernel(StepKernel):
         success = self.task.evaluate(state.pose, state.rho_dot, crossing)[2]
         if success == (reason == "success"):
             return obs, reward, reason, info
-        reason = "success" if success else None  # (not a crossing: its terms but success hold)
-        terms = dict(
-            zip(
-                TERM_NAMES,
-                weighted_terms(
-                    self._weights, info["position_error"], info["orientation_error"],
-                    self._length, info["parallel_margin"], info["serial_margin"],
-                    action[0], action[1], action[2], success, False,
-                ),
-                strict=True,
-            )
-        )  # fmt: skip
-        info.update(termination_reason=reason, is_success=success, reward_terms=terms)
-        return obs, float(sum(terms.values())), reason, info
+        reward = self.reach.rejudge(info, action, success)
+        return obs, reward, info["termination_reason"], info

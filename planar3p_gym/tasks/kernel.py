@@ -36,7 +36,7 @@ from planar3p_gym.tasks.observation import (
     wrap_angle,
 )
 from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, ReachStep
-from planar3p_gym.tasks.rewards import TERM_NAMES, RewardWeights
+from planar3p_gym.tasks.rewards import TERM_NAMES, RewardWeights, weighted_terms
 
 if TYPE_CHECKING:
     from planar3p_gym.machine.design import Design
@@ -324,13 +324,21 @@ class StepKernel:
             seen_measures.parallel_margin, seen_measures.serial_margin, s.low, s.high,
             self._length,
         )  # fmt: skip
+        return self.with_travel_goal(ep, self.with_extra(ep, obs, state, measures))
+
+    def with_extra(
+        self, ep: Episode, obs: np.ndarray, state: SimState, measures: ConfigurationMeasures
+    ) -> np.ndarray:
+        """``obs`` with the task's extra entries of the true ``state`` appended (float32,
+        clipped to their bounds)."""
         extra = self.task.observation_extra(ep.steps, state, measures)
-        if extra:
-            tail = np.array(extra, dtype=np.float32)
-            np.minimum(tail, s.extra_high, out=tail)
-            np.maximum(tail, s.extra_low, out=tail)
-            obs = np.concatenate([obs, tail])
-        return self.with_travel_goal(ep, obs)
+        if not extra:
+            return obs
+        s = self.settings
+        tail = np.array(extra, dtype=np.float32)
+        np.minimum(tail, s.extra_high, out=tail)
+        np.maximum(tail, s.extra_low, out=tail)
+        return np.concatenate([obs, tail])
 
     def with_travel_goal(self, ep: Episode, obs: np.ndarray) -> np.ndarray:
         """``obs`` with the joint-space goal block appended when ``travel_goal`` is on."""
@@ -382,6 +390,7 @@ class ReachKernel(StepKernel):
         self.reach = ReachStep(
             settings.design, settings.low, settings.high, settings.weights, settings.tolerances
         )
+        self.weights = settings.weights.as_array()
 
     def config_changed(self, tolerances: tuple[float, float, float]) -> None:
         self.reach.tolerances = tolerances
@@ -410,3 +419,28 @@ class ReachKernel(StepKernel):
         info = self.info(ep, state, measures, reason, terms, reason == "success", (res[2], res[3]))
         ep.obs, ep.measures, ep.info = obs, measures, info
         return obs, res[0], reason, info
+
+    def rejudge(
+        self, info: dict[str, Any], action: tuple[float, float, float], success: bool
+    ) -> float:
+        """Give a step of :meth:`step` that did not cross a singularity another task's success
+        test's verdict ``success``: ``info``'s reason, success flag and reward terms
+        (:func:`~planar3p_gym.tasks.rewards.weighted_terms` of the step's errors and margins)
+        updated; returns the reward (the terms' sum)."""
+        terms = dict(
+            zip(
+                TERM_NAMES,
+                weighted_terms(
+                    self.weights, info["position_error"], info["orientation_error"],
+                    self._length, info["parallel_margin"], info["serial_margin"],
+                    action[0], action[1], action[2], success, False,
+                ),
+                strict=True,
+            )
+        )  # fmt: skip
+        info.update(
+            termination_reason="success" if success else None,
+            is_success=success,
+            reward_terms=terms,
+        )
+        return float(sum(terms.values()))

@@ -64,8 +64,17 @@ from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.base import Pose, Task, pose_list
+from planar3p_gym.tasks.kernel import (
+    Episode,
+    KernelSettings,
+    ReachKernel,
+    Sensing,
+    StepKernel,
+    StepOutputs,
+)
 from planar3p_gym.tasks.motions import MIN_JERK_PEAK
 from planar3p_gym.tasks.observation import SPEED_BOUND_FACTOR
+from planar3p_gym.tasks.reach import COMPILED_HOOKS
 from planar3p_gym.tasks.track_references import (
     CHECK_POINTS,
     MIN_DURATION,
@@ -82,6 +91,7 @@ __all__ = [
     "MIXED",
     "REFERENCE_KINDS",
     "TRACKING_METRICS",
+    "TrackKernel",
     "TrackTask",
 ]
 
@@ -468,6 +478,15 @@ class TrackTask(Task):
         :meth:`Task.termination` only ever returns ``"singularity_crossing"`` here."""
         return False
 
+    def kernel(self, settings: KernelSettings, machine: Sensing) -> StepKernel:
+        """The compiled tracking kernel (:class:`TrackKernel`) on the projected physics of the
+        nominal machine when the per-step hooks are the tracking task's own
+        (:data:`~planar3p_gym.tasks.reach.COMPILED_HOOKS`), else the reference."""
+        own = all(getattr(type(self), h) is getattr(TrackTask, h) for h in COMPILED_HOOKS)
+        if own and settings.projection and settings.nominal:
+            return TrackKernel(self, settings, machine)
+        return StepKernel(self, settings, machine)
+
     def step_info(self, step: int, state: SimState, errors: tuple[float, float]) -> dict[str, Any]:
         pos_err, ang_err = errors
         err = (
@@ -496,3 +515,50 @@ def _peak_of(rho: np.ndarray) -> float:
     """Largest ``|d rho / d(parameter)|`` (m per unit parameter) of travels ``(n, 3)`` at ``n``
     evenly spaced parameters spanning a unit interval."""
     return float(np.abs(np.diff(rho, axis=0)).max() * (len(rho) - 1))
+
+
+class TrackKernel(StepKernel):
+    """The tracking task's compiled kernel: the reach task's compiled outputs
+    (:class:`~planar3p_gym.tasks.kernel.ReachKernel`: observation, errors, margins, reward
+    terms) against the step's reference pose, with no success (a step within the tolerances is
+    rejudged, :meth:`~planar3p_gym.tasks.kernel.ReachKernel.rejudge`), then the reference
+    velocity entries and the tracking metrics (the task's hooks); the reference kernel where
+    the physics broke down.  Its observations, margins and rewards are the reach kernel's:
+    equal to the reference's to a few float64 rounding errors (``tests/tasks/test_track.py``)."""
+
+    task: TrackTask
+
+    def __init__(self, task: TrackTask, settings: KernelSettings, machine: Sensing) -> None:
+        super().__init__(task, settings, machine)
+        #: The reach task's compiled outputs, against each step's reference pose.
+        self.reach = ReachKernel(task, settings, machine)
+
+    def config_changed(self, tolerances: tuple[float, float, float]) -> None:
+        self.reach.config_changed(tolerances)
+
+    def step(
+        self,
+        ep: Episode,
+        state: SimState,
+        array: np.ndarray | None,
+        action: tuple[float, float, float],
+        rng: np.random.Generator,
+    ) -> StepOutputs:
+        if (
+            array is None
+            or not state.finite
+            or state.closure_error > self.settings.breakdown_distance
+        ):
+            return super().step(ep, state, array, action, rng)
+        task = self.task
+        target = ep.target = task.reference(ep.steps)
+        ep.target_cs = (math.cos(target[2]), math.sin(target[2]))
+        obs, reward, reason, info = self.reach.step(ep, state, array, action, rng)
+        if reason == "success":  # (never for this task: within the tolerances, going on)
+            reward, reason = self.reach.rejudge(info, action, False), None
+        assert ep.measures is not None
+        obs = ep.obs = self.with_extra(ep, obs, state, ep.measures)
+        info.update(
+            task.step_info(ep.steps, state, (info["position_error"], info["orientation_error"]))
+        )
+        return obs, reward, reason, info

@@ -13,6 +13,7 @@ from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.tasks import ReachTask
 from planar3p_gym.tasks.goal import GoalKernel
 from planar3p_gym.tasks.kernel import ReachKernel, StepKernel
+from planar3p_gym.tasks.track import TrackKernel
 
 
 class _Recording(ReachTask):
@@ -40,7 +41,7 @@ class _Recording(ReachTask):
         ("Planar3PReal-v0", StepKernel),
         ("Planar3PGoal-v0", GoalKernel),
         ("Planar3PGoalDense-v0", GoalKernel),
-        ("Planar3PTrack-v0", StepKernel),
+        ("Planar3PTrack-v0", TrackKernel),
         ("Planar3PModeChange-v0", StepKernel),
         ("Planar3PAssemblyChange-v0", StepKernel),
     ],
