@@ -155,6 +155,7 @@ class AssemblyChangeTask(TravelShaping, Task):
     )
     #: Passing the parallel singularity is the task: no parallel barrier in the reward.
     parallel_barrier: ClassVar[bool] = False
+    compiled_measures: ClassVar[bool] = True
 
     def __init__(
         self,

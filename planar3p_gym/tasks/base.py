@@ -68,7 +68,7 @@ from planar3p_gym import checks
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
-from planar3p_gym.tasks.kernel import KernelSettings, Sensing, StepKernel
+from planar3p_gym.tasks.kernel import HookKernel, KernelSettings, Sensing, StepKernel
 from planar3p_gym.tasks.observation import within_tolerances
 from planar3p_gym.tasks.rewards import reward_terms
 
@@ -184,6 +184,11 @@ class Task:
     #: task whose problem is to pass one turns that barrier off (its margin counts as 1).
     parallel_barrier: ClassVar[bool] = True
     serial_barrier: ClassVar[bool] = True
+    #: Whether the default :meth:`kernel` takes the observation and measures from the compiled
+    #: outputs on the projected physics of the nominal machine
+    #: (:class:`~planar3p_gym.tasks.kernel.HookKernel`: within float64 rounding of the
+    #: reference); the hooks run either way.
+    compiled_measures: ClassVar[bool] = False
     #: Whether the environment's ``travel_goal`` block (the fixed target's slider travels)
     #: applies to the task's observation.
     travel_goal: ClassVar[bool] = False
@@ -322,7 +327,10 @@ class Task:
 
     def kernel(self, settings: KernelSettings, machine: Sensing) -> StepKernel:
         """The task's kernel (:mod:`planar3p_gym.tasks.kernel`): default the reference, this
-        task's hooks."""
+        task's hooks (with :attr:`compiled_measures`, on the compiled measures where they
+        exist)."""
+        if self.compiled_measures and settings.projection and settings.nominal:
+            return HookKernel(self, settings, machine)
         return StepKernel(self, settings, machine)
 
     # ------------------------------------------------------------------ helpers

@@ -43,6 +43,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Episode",
+    "HookKernel",
     "KernelSettings",
     "ReachKernel",
     "Sensing",
@@ -444,3 +445,62 @@ class ReachKernel(StepKernel):
             reward_terms=terms,
         )
         return float(sum(terms.values()))
+
+
+class HookKernel(StepKernel):
+    """The reference kernel's step with its costly part compiled, for a task on the projected
+    physics of the nominal machine: the 31 observation entries, the errors and the measures
+    (margins, ``sign det A``) come from the reach task's compiled outputs on the simulation's
+    state array (:func:`planar3p_gym.tasks.reach_step.reach_outputs`) against the task's
+    reference pose; the task's hooks (extra entries, termination, reward terms, metrics) run as
+    in :class:`StepKernel`, on those measures.  Within float64 rounding of the reference: the
+    compiled margins share intermediate values instead of recomputing them."""
+
+    def __init__(self, task: TaskHooks, settings: KernelSettings, machine: Sensing) -> None:
+        super().__init__(task, settings, machine)
+        #: The compiled outputs' constants and buffers (their reward and reason are not used).
+        self.reach = ReachStep(
+            settings.design, settings.low, settings.high, settings.weights, settings.tolerances
+        )
+
+    def step(
+        self,
+        ep: Episode,
+        state: SimState,
+        array: np.ndarray | None,
+        action: tuple[float, float, float],
+        rng: np.random.Generator,
+    ) -> StepOutputs:
+        if (
+            array is None
+            or not state.finite
+            or state.closure_error > self.settings.breakdown_distance
+        ):
+            return super().step(ep, state, array, action, rng)
+        task = self.task
+        target = ep.target = task.reference(ep.steps)
+        ep.target_cs = (math.cos(target[2]), math.sin(target[2]))
+        rs = self.reach
+        res = rs.compute(array, state.pose[2], target, ep.target_cs, ep.assembly, action)
+        measures = ConfigurationMeasures(
+            float(res[4]), float(res[5]), int(res[6]), state.leg_angles
+        )
+        errors = (float(res[2]), float(res[3]))
+        obs = ep.obs = self.with_travel_goal(
+            ep, self.with_extra(ep, rs.obs.copy(), state, measures)
+        )
+        reason = task.termination(state, measures, errors, ep.assembly)
+        success = reason == "success"
+        terms = task.reward_terms(
+            errors=errors,
+            measures=measures,
+            action=action,
+            success=success,
+            failure=reason in task.failure_reasons,
+            state=state,
+        )
+        info = self.info(ep, state, measures, reason, terms, success, errors)
+        ep.measures = measures
+        info.update(task.step_info(ep.steps, state, errors))
+        ep.info = info
+        return obs, float(sum(terms.values())), reason, info

@@ -126,6 +126,7 @@ class ModeChangeTask(TravelShaping, Task):
     )
     #: Passing a serial singularity is the task: no serial barrier in the reward.
     serial_barrier: ClassVar[bool] = False
+    compiled_measures: ClassVar[bool] = True
 
     def __init__(
         self,
