@@ -167,8 +167,8 @@ class TrackTask(Task):
         super().bind(env)
         self._ref: dict[str, Any] = {}
         self._pose_cache: tuple[int, np.ndarray, np.ndarray] | None = None
-        self._sums = np.zeros(3)
-        self._maxes = np.zeros(3)
+        self._sums = [0.0, 0.0, 0.0]
+        self._maxes = [0.0, 0.0, 0.0]
         self._count = 0
         kinds = REFERENCE_KINDS if self.kind == MIXED else (self.kind,)
         self._draw_modes = {kind: self._reference_modes(kind) for kind in kinds}
@@ -301,8 +301,8 @@ class TrackTask(Task):
     def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
         self._ref = parse_reference(spec["reference"])
         self._pose_cache = None
-        self._sums = np.zeros(3)
-        self._maxes = np.zeros(3)
+        self._sums = [0.0, 0.0, 0.0]
+        self._maxes = [0.0, 0.0, 0.0]
         self._count = 0
         mode = tuple(int(m) for m in spec["working_mode"])
         return np.asarray(spec["start"], dtype=np.float64), mode  # type: ignore[return-value]
@@ -494,20 +494,25 @@ class TrackTask(Task):
             pos_err,
             abs(ang_err),
         )
+        # Plain floats (three numbers: numpy's per-call cost is most of a step's here); the
+        # same IEEE operations as elementwise numpy, NaN kept by the maximum as np.maximum.
+        sums, maxes = self._sums, self._maxes
         if step > 0:
             self._count += 1
-            e = np.asarray(err)
-            self._sums += e * e
-            self._maxes = np.maximum(self._maxes, e)
-        rms = np.sqrt(self._sums / self._count) if self._count else np.zeros(3)
+            for i in range(3):
+                e = err[i]
+                sums[i] += e * e
+                maxes[i] = maxes[i] if maxes[i] >= e or maxes[i] != maxes[i] else e
+        n = self._count
+        rms = [math.sqrt(v / n) for v in sums] if n else [0.0, 0.0, 0.0]
         return {
             "tracking_error": err[0] if step > 0 else 0.0,
-            "tracking_rms_error": float(rms[0]),
-            "tracking_max_error": float(self._maxes[0]),
-            "tracking_rms_position_error": float(rms[1]),
-            "tracking_max_position_error": float(self._maxes[1]),
-            "tracking_rms_orientation_error": float(rms[2]),
-            "tracking_max_orientation_error": float(self._maxes[2]),
+            "tracking_rms_error": rms[0],
+            "tracking_max_error": maxes[0],
+            "tracking_rms_position_error": rms[1],
+            "tracking_max_position_error": maxes[1],
+            "tracking_rms_orientation_error": rms[2],
+            "tracking_max_orientation_error": maxes[2],
         }
 
 
