@@ -52,6 +52,7 @@ __all__ = [
     "parse_action",
     "parse_actions",
     "real_array",
+    "seed",
     "short",
 ]
 
@@ -159,6 +160,12 @@ def integer(value: Any, name: str, *, low: int | None = None, high: int | None =
             f"{name} must be an integer{_interval(low, high, False, False)}, got {short(value)}"
         )
     return n
+
+
+def seed(value: Any, name: str = "seed") -> int | None:
+    """A reset's seed: ``None``, or an integer ``>= 0`` (Python or NumPy; ``bool`` excluded) as
+    a Python int; ``ValueError`` naming ``name`` otherwise (floats and bools included)."""
+    return None if value is None else integer(value, name, low=0)
 
 
 def count(value: Any, name: str) -> int:

@@ -1,16 +1,23 @@
 """The package's shape: its layers import only downwards, nothing of the core reaches torch,
 Stable-Baselines3 or the agents, the import graph has no cycle (type-only imports included),
-and the wheel's package list names every folder."""
+the wheel's package list names every folder, no module reads another module's private
+attributes (an attribute ``obj._name`` on anything but ``self``/``cls`` only where ``_name`` is
+defined in the same module; no ``from planar3p_gym... import _name``; other libraries'
+privates, such as pymunk's C handles, are not the package's seams), and the environment has
+one step and never tests its task's type."""
 
 from __future__ import annotations
 
 import ast
+import inspect
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 import tomllib
+
+from planar3p_gym.envs.core import Planar3PEnv
 
 ROOT = Path(__file__).resolve().parents[1]
 CORE = ROOT / "planar3p_gym"
@@ -175,3 +182,120 @@ def test_the_wheel_lists_every_package_folder():
             rel = init.parent.relative_to(ROOT / folder).parts
             on_disk.add(".".join((top, *rel)))
     assert listed == on_disk
+
+
+#: Attribute names of the standard library's named tuples (public API despite the underscore).
+NAMEDTUPLE_API = frozenset({"_replace", "_asdict", "_fields", "_make", "_field_defaults"})
+
+
+def _modules() -> dict[Path, ast.Module]:
+    return {path: ast.parse(path.read_text()) for path in sorted(CORE.rglob("*.py"))}
+
+
+def _own(node: ast.AST) -> bool:
+    return isinstance(node, ast.Name) and node.id in ("self", "cls")
+
+
+def _defined(tree: ast.Module) -> set[str]:
+    """Private names a module defines: its functions, classes, names it binds, and the
+    attributes it sets on ``self``/``cls`` (or through ``object.__setattr__(self, ...)``)."""
+    names: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            names.add(node.name)
+        elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
+            names.add(node.id)
+        elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
+            if _own(node.value):
+                names.add(node.attr)
+        elif isinstance(node, ast.Call) and len(node.args) >= 2:
+            arg = node.args[1]
+            if isinstance(arg, ast.Constant) and isinstance(arg.value, str):
+                names.add(arg.value)  # setattr(self, "_name", ...) and object.__setattr__
+    return {n for n in names if n.startswith("_")}
+
+
+def _private(name: str) -> bool:
+    return name.startswith("_") and not name.startswith("__") and name not in NAMEDTUPLE_API
+
+
+def private_reach_ins() -> list[str]:
+    """``path:line: name`` of every read or write of another package module's private (a
+    private attribute defined in another module of the package and not in this one)."""
+    modules = _modules()
+    defined = {path: _defined(tree) for path, tree in modules.items()}
+    everywhere = set().union(*defined.values())
+    found = []
+    for path, tree in modules.items():
+        where = path.relative_to(CORE.parent)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Attribute) and _private(node.attr) and not _own(node.value):
+                # A private the package defines in another module, not in this one.
+                if node.attr in everywhere and node.attr not in defined[path]:
+                    found.append(f"{where}:{node.lineno}: .{node.attr}")
+            elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith(
+                "planar3p_gym"
+            ):
+                found += [
+                    f"{where}:{node.lineno}: import {a.name}"
+                    for a in node.names
+                    if _private(a.name)
+                ]
+    return found
+
+
+def test_no_module_reads_another_module_s_private_attributes():
+    assert private_reach_ins() == []
+
+
+def test_the_checker_finds_a_reach_in(tmp_path, monkeypatch):
+    """The check is real: reads, writes and imports of another module's privates are reported,
+    an object's own privates and other libraries' are not."""
+    package = tmp_path / "pkg"
+    package.mkdir()
+    (package / "a.py").write_text(
+        "class A:\n    def __init__(self):\n        self._x = self._y = 1\n"
+    )
+    (package / "b.py").write_text(
+        "from planar3p_gym.machine.kinematics import _consts\n"
+        "def f(a, body):\n    body._body = a._x\n\n\n"
+        "class B:\n    def g(self, a):\n        self._z = 1\n        a._y = self._z\n"
+    )
+    monkeypatch.setattr(sys.modules[__name__], "CORE", package)
+    assert sorted(private_reach_ins()) == [
+        "pkg/b.py:1: import _consts",
+        "pkg/b.py:3: ._x",
+        "pkg/b.py:9: ._y",
+    ]
+
+
+@pytest.mark.parametrize("method", ["__init__", "reset", "step"])
+def test_the_environment_never_tests_its_task_s_type(method):
+    """No ``type(...)`` or ``isinstance(...)`` of anything of the task in the environment's
+    set-up, reset and step: the task picks its kernel
+    (:meth:`planar3p_gym.tasks.base.Task.kernel`)."""
+    source = inspect.getsource(getattr(Planar3PEnv, method))
+    tree = ast.parse("\n".join(line[4:] for line in source.splitlines()))
+    tests = [
+        ast.unparse(node)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Call)
+        and isinstance(node.func, ast.Name)
+        and node.func.id in ("type", "isinstance", "issubclass")
+    ]
+    assert not [t for t in tests if "task" in t], tests
+
+
+def test_the_environment_has_one_step():
+    """One step for every id (no second step method beside ``step``)."""
+    methods = [name for name, value in vars(Planar3PEnv).items() if callable(value)]
+    assert [name for name in methods if "step" in name] == ["step"]
+
+
+def test_the_environment_stays_small():
+    """The environment owns the Gymnasium API and nothing else: ``envs/core.py`` at most 400
+    lines, ``Planar3PEnv.__init__`` at most 60 and its ``step`` at most 25 (the work is in
+    the actuation component, the simulation and the task's kernel)."""
+    assert len((CORE / "envs" / "core.py").read_text().splitlines()) <= 400
+    assert len(inspect.getsource(Planar3PEnv.__init__).splitlines()) <= 60
+    assert len(inspect.getsource(Planar3PEnv.step).splitlines()) <= 25

@@ -20,9 +20,20 @@ import csv
 import io
 import math
 from dataclasses import asdict
+from pathlib import Path
 
 from planar3p_agents.commands import checks
 from planar3p_agents.commands.parser import CliParser, UsageError
+
+#: The benchmark's suite file in the repository (found from this file, not from the working
+#: directory).
+DEFAULT_SUITE_FILE = (
+    Path(__file__).resolve().parents[2]
+    / "docs"
+    / "benchmark"
+    / "strongest-baselines"
+    / "suites.json"
+)
 
 
 def add_arguments(p: CliParser) -> None:
@@ -30,8 +41,9 @@ def add_arguments(p: CliParser) -> None:
 
     p.add_argument(
         "--suite-file",
-        default="docs/benchmark/strongest-baselines/suites.json",
-        help="benchmark suite file (planar3p benchmark --suite-file)",
+        default=str(DEFAULT_SUITE_FILE),
+        help="benchmark suite file (planar3p benchmark --suite-file); default: the "
+        "repository's docs/benchmark/strongest-baselines/suites.json",
     )
     p.add_argument("--suites", default="standard,hard", help="reach suites, comma-separated")
     p.add_argument("--episodes", type=int, default=100, help="first episodes of each suite")

@@ -107,12 +107,7 @@ def check(args: argparse.Namespace) -> None:
 
     import planar3p_gym  # noqa: F401  (registers the ids)
 
-    out: Path = args.out
-    if out.exists() and not out.is_dir():
-        _fail("--out", f"{out} exists and is not a directory")
-    parent = out if out.exists() else next((p for p in out.parents if p.exists()), None)
-    if parent is None or not os.access(parent, os.W_OK):
-        _fail("--out", f"{out} cannot be created (no writable parent)")
+    checks.output_dir("--out", args.out)  # (a file, under a file, or not writable)
     known = [i for i in gym.registry if i.startswith(ID_PREFIX)]
     if args.ids is None:
         args.ids = known

@@ -40,7 +40,7 @@ def check(args: argparse.Namespace) -> None:
     from planar3p_agents.evaluation import reach_suites
 
     checks.at_least("--pairs", args.pairs, 1)
-    checks.at_least("--episodes", args.episodes, 0)
+    checks.at_least("--episodes", args.episodes, 1)
     checks.at_least("--seed", args.seed, 0)
     args.suites = checks.split_list("--suites", args.suites)
     checks.known("--suites", args.suites, reach_suites.SUITE_NAMES, "suite")

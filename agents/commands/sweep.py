@@ -20,6 +20,7 @@ examples:
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import os
 import signal
 import threading
@@ -161,6 +162,22 @@ def check(args: argparse.Namespace) -> None:
         args.spec = spec_from(args)
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
+    check_extra()
+
+
+#: The top-level modules of the ``sweep`` extra (Ray Tune runs the trials, Optuna searches).
+SWEEP_MODULES = ("ray", "optuna")
+
+
+def check_extra() -> None:
+    """:class:`UsageError` naming the ``sweep`` extra if one of its modules is not installed
+    (looked up, not imported: importing Ray takes about a second)."""
+    missing = [m for m in SWEEP_MODULES if importlib.util.find_spec(m) is None]
+    if missing:
+        raise UsageError(
+            f"{', '.join(missing)} not installed: the sweep needs the 'sweep' extra "
+            "(pip install 'planar3p-gym[sweep]')"
+        )
 
 
 @contextmanager

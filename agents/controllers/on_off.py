@@ -20,7 +20,7 @@ On-off motion is coarse: one control step at the rated speed moves a slider by
 ``on_off_speed max_speed dt`` (0.4 mm by default), which near a parallel singularity moves
 the gripper by millimetres; there the law may cycle without settling.  Actions are
 ``MultiDiscrete([3, 3, 3])`` entries or, for the ``Discrete(27)`` variant, their base-3 index
-(:func:`planar3p_gym.envs.core.on_off_action`).
+(:func:`planar3p_gym.envs.actuation.on_off_action`).
 """
 
 from __future__ import annotations

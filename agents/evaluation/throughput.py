@@ -8,7 +8,8 @@ all alike; ratios are taken per round against the reference measured in the same
 * :func:`interleave`: the rounds of a section (any measurement functions).
 * :func:`single_env_rates`: steps/s of single envs made with ``gym.make`` (their registered
   wrappers included), each measured by Gymnasium's own
-  :func:`gymnasium.utils.performance.benchmark_step` (random actions, resets included);
+  :func:`gymnasium.utils.performance.benchmark_step` (random actions, resets included), and
+  beside it with pre-sampled actions (:func:`single_rate`, no action sampling in the loop);
   :data:`NOOP`, an env that does nothing with ``Planar3P-v0``'s spaces and time limit, shows
   the ceiling of any env's ratio there (the action sampling and the wrappers are left).
 * :func:`make_vector_env`, :func:`vector_rate`, :func:`single_rate`: total env steps/s of a
@@ -117,9 +118,15 @@ def make_env(env_id: str, **kwargs: Any) -> gym.Env:
 
 
 def single_env_rates(
-    env_ids: list[str], repeats: int, duration: float, seed: int
+    env_ids: list[str],
+    repeats: int,
+    duration: float,
+    seed: int,
+    presampled: dict[str, list[float]] | None = None,
 ) -> dict[str, list[float]]:
-    """``{env_id: [steps/s of each repeat]}``, interleaved (module docstring)."""
+    """``{env_id: [steps/s of each repeat]}`` by ``benchmark_step``, interleaved (module
+    docstring); with a dict ``presampled``, each round also measures each env with
+    pre-sampled actions (:func:`single_rate`, right after its ``benchmark_step``) into it."""
     envs = {e: make_env(e) for e in env_ids}
     rates: dict[str, list[float]] = {e: [] for e in env_ids}
     try:
@@ -130,6 +137,8 @@ def single_env_rates(
             for e in order:
                 envs[e].action_space.seed(seed + r)
                 rates[e].append(benchmark_step(envs[e], target_duration=duration, seed=seed))
+                if presampled is not None:
+                    presampled.setdefault(e, []).append(single_rate(envs[e], duration, seed + r))
     finally:
         for env in envs.values():
             env.close()
@@ -146,10 +155,9 @@ def profile_step(env_id: str, n_steps: int, seed: int) -> dict[str, float]:
     env stepped in lockstep with the whole step (same actions, so the same states):
     ``wrapped_step`` (``gym.make(...).step``), ``env_step`` (unwrapped), ``physics``
     (``Planar3PSim.step_unchecked``: pymunk, and the projection where it is on),
-    ``outputs`` (configuration measures, observation, errors, termination and reward terms:
-    the fused step's compiled :meth:`planar3p_gym.tasks.reach_step.ReachStep.compute` where
-    the env uses it, else the general step's pieces); ``other`` is the rest of ``env_step``
-    (action parsing, ``info``)."""
+    ``outputs`` (the task's kernel, :mod:`planar3p_gym.tasks.kernel`: configuration measures,
+    observation, errors, termination, reward terms and ``info``); ``other`` is the rest of
+    ``env_step`` (the actuation, the observation delay)."""
     rng = np.random.default_rng(seed)
     actions = rng.uniform(-1.0, 1.0, size=(n_steps, 3)).astype(np.float32)
     wrapped, raw, parts = make_env(env_id), make_env(env_id).unwrapped, make_env(env_id).unwrapped
@@ -159,7 +167,6 @@ def profile_step(env_id: str, n_steps: int, seed: int) -> dict[str, float]:
     clock = time.perf_counter_ns
     for env in (wrapped, raw, parts):
         env.reset(seed=seed)
-    fused = parts._reach_step
     for n, a in enumerate(actions):
         t0 = clock()
         _, _, terminated, truncated, _ = wrapped.step(a)
@@ -169,17 +176,8 @@ def profile_step(env_id: str, n_steps: int, seed: int) -> dict[str, float]:
         act = (float(a[0]), float(a[1]), float(a[2]))
         state = parts.sim.step_unchecked(act[0] * vmax, act[1] * vmax, act[2] * vmax)
         t3 = clock()
-        if fused is not None:  # (the fused step's one compiled call, as the env makes it)
-            st = parts.sim._projector.last_state
-            fused.compute(st, state.pose[2], parts._target, parts._target_cs, parts._assembly, act)
-        else:
-            measures = parts._kin.measures(state.pose, state.rho)
-            parts._observe(state, measures)
-            errors = parts._errors(state.pose)
-            parts.task.termination(state, measures, errors, parts._assembly)
-            parts.task.reward_terms(
-                errors=errors, measures=measures, action=act, success=False, failure=False
-            )
+        parts.episode.steps += 1  # (the task's kernel, as the env calls it)
+        parts.kernel.step(parts.episode, state, parts.sim.state_array, act, parts.np_random)
         t4 = clock()
         samples[n] = (t1 - t0, t2 - t1, t3 - t2, t4 - t3)
         if terminated or truncated:
@@ -301,13 +299,14 @@ class FullCollections:
         gc.callbacks.remove(self._callback)
 
 
-def reset_times(env: gym.Env, seeds: Sequence[int | None]) -> np.ndarray:
-    """Wall times (s) of ``env.reset(seed=s)`` for each seed, in order (after one unseeded
-    reset, so that first-use costs are not counted); a seed ``None`` is an unseeded reset (the
-    env's generator goes on, as between a vector env's episodes)."""
+def reset_times(
+    env: gym.Env, seeds: Sequence[int | None], clock: Callable[[], float] = time.perf_counter
+) -> np.ndarray:
+    """Times (s, of ``clock``: wall time by default) of ``env.reset(seed=s)`` for each seed, in
+    order (after one unseeded reset, so that first-use costs are not counted); a seed ``None``
+    is an unseeded reset (the env's generator goes on, as between a vector env's episodes)."""
     env.reset()
     out = np.empty(len(seeds))
-    clock = time.perf_counter
     for k, seed in enumerate(seeds):
         t0 = clock()
         env.reset(seed=seed)

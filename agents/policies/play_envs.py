@@ -5,7 +5,7 @@ A model trained with an argument that changes the observation
 (:data:`planar3p_gym.envs.core.OBSERVATION_ARGUMENTS`, e.g. ``travel_goal=True``) only fits an
 environment made with it, and so does a model trained with the on-off motors written as one
 index (``action_type="on-off-discrete"``, for DQN) on a suite of three commands
-(``"on-off"``), or the other way round (:data:`planar3p_gym.envs.core.ON_OFF_ACTION_TYPES`:
+(``"on-off"``), or the other way round (:data:`planar3p_gym.envs.actuation.ON_OFF_ACTION_TYPES`:
 the same motors, only the action's encoding differs).  The benchmark plays such a model in a
 copy of the suite's environment (same registered id and arguments) with those arguments added;
 every other training argument (tolerances, reward weights, the mix of training pairs, a
@@ -19,7 +19,8 @@ from typing import Any
 
 import gymnasium as gym
 
-from planar3p_gym.envs.core import OBSERVATION_ARGUMENTS, ON_OFF_ACTION_TYPES
+from planar3p_gym.envs.actuation import ON_OFF_ACTION_TYPES
+from planar3p_gym.envs.core import OBSERVATION_ARGUMENTS
 
 __all__ = ["PlayEnvs", "observation_kwargs", "play_kwargs"]
 

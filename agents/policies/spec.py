@@ -166,6 +166,10 @@ def parse_policy_spec(text: str) -> PolicySpec:
         except ValueError as exc:
             have = list_pretrained()
             folder = PRETRAINED_DIR / name
+            if folder.is_dir():  # an altered provenance record is a checksum mismatch
+                from planar3p_agents.zoo.manifest import verify_zoo_folder
+
+                verify_zoo_folder(name, PRETRAINED_DIR)
             why = f"{folder} does not exist" if not folder.exists() else str(exc)
             raise PolicyError(
                 f"unknown pretrained model {name!r}: {why}; "

@@ -8,9 +8,11 @@ within the same step (the vector env's ``SAME_STEP`` autoreset).
 **What ``step`` passes as ``infos``** (a list of ``num_envs`` dicts, as SB3's ``VecEnv``
 requires), built without a per-environment dict for the episodes that go on:
 
-- an environment whose episode goes on gets an empty dict ``{}`` (a new one each step);
+- an environment whose episode goes on gets an empty dict ``{}`` (a new one each step), or,
+  for the goal ids, a dict of the entries hindsight relabelling reads
+  (:data:`planar3p_gym.tasks.goal.RELABEL_INFO_KEYS`);
 - an environment whose episode ended in the step gets the core entries of the single env's
-  last ``info`` (:data:`planar3p_gym.envs.vector.INFO_KEYS`, ``is_success`` among them, as
+  last ``info`` (the vector env's ``info_keys``, ``is_success`` among them, as
   Python scalars), ``"terminal_observation"`` (its last observation), ``"TimeLimit.truncated"``
   (the time limit ended it and nothing else did) and ``"episode"`` (``r``: return, ``l``:
   length, ``t``: seconds since the adapter was made), as SB3's ``Monitor`` would add them, so
@@ -47,8 +49,8 @@ def make_native_vec_env(
     env_kwargs: dict[str, Any] | None = None,
 ) -> NativeVecEnv:
     """An SB3 ``VecEnv`` of ``n_envs`` copies of the registered ``env_id`` (an id whose
-    vector entry point is a :class:`Planar3PVectorEnv`: ``Planar3P-v0``, ``Planar3P-v0`` and
-    the flat-observation task ids), with its time limit; ``seed`` seeds env ``i`` with
+    vector entry point is a :class:`Planar3PVectorEnv`: every registered id), with its time
+    limit; ``seed`` seeds env ``i`` with
     ``seed + i`` at the first reset (as SB3's ``make_vec_env`` does)."""
     spec = gym.spec(env_id)
     entry = spec.vector_entry_point
@@ -85,6 +87,9 @@ class NativeVecEnv(VecEnv):
         #: env returned them: a dict of arrays over the batch with ``"_key"`` masks (module
         #: docstring).
         self.batch_infos: dict[str, Any] = {}
+        #: The entries every environment's info carries at every step (the goal ids'
+        #: relabelling entries; none for the other ids).
+        self.step_keys = tuple(k for k in venv.info_keys if k not in INFO_KEYS)
 
     def reset(self) -> np.ndarray:
         seeds = self._seeds if any(s is not None for s in self._seeds) else None
@@ -93,7 +98,7 @@ class NativeVecEnv(VecEnv):
             raise ValueError("NativeVecEnv resets every env with the same options")
         obs, infos = self.venv.reset(seed=seeds, options=options)
         self.batch_infos = infos
-        self.reset_infos = [self._info(infos, i) for i in range(self.num_envs)]
+        self.reset_infos = [self._info(infos, i, self.venv.info_keys) for i in range(self.num_envs)]
         self._reset_seeds()
         self._reset_options()
         self._returns[:] = 0.0
@@ -111,12 +116,15 @@ class NativeVecEnv(VecEnv):
         self._returns += rewards
         self._lengths += 1
         out: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
+        for key in self.step_keys:  # (Python scalars, as in a single env's info)
+            for info, value in zip(out, infos[key].tolist(), strict=True):
+                info[key] = value
         ended = np.flatnonzero(dones).tolist()
         if ended:
             final, final_obs = infos["final_info"], infos["final_obs"]
             t = round(time.time() - self._t0, 6)
             for i in ended:
-                info = out[i] = self._info(final, i)
+                info = out[i] = self._info(final, i, self.venv.info_keys)
                 info["terminal_observation"] = final_obs[i]
                 info["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
                 info["episode"] = {
@@ -129,9 +137,9 @@ class NativeVecEnv(VecEnv):
         return obs, rewards.astype(np.float32), dones, out
 
     @staticmethod
-    def _info(batch: dict[str, Any], i: int) -> dict[str, Any]:
+    def _info(batch: dict[str, Any], i: int, keys: tuple[str, ...]) -> dict[str, Any]:
         return {key: batch[key][i].item() if hasattr(batch[key][i], "item") else batch[key][i]
-                for key in INFO_KEYS}  # fmt: skip
+                for key in keys}  # fmt: skip
 
     def close(self) -> None:
         self.venv.close()

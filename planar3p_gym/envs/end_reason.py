@@ -71,7 +71,7 @@ def restore_state(env: gym.Env, state: dict[str, Any]) -> None:
     nothing changed, if ``state`` is not a snapshot for this environment).  As for stepping,
     Gymnasium's wrappers want a made environment reset once before (``OrderEnforcing``)."""
     env.unwrapped.set_state(state)  # type: ignore[attr-defined]
-    steps = int(state["episode"]["_steps"])
+    steps = int(state["episode"]["record"].steps)
     layer = env
     while isinstance(layer, gym.Wrapper):
         if isinstance(layer, TimeLimit):

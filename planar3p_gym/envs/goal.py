@@ -21,12 +21,12 @@ from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.goal import (
     GOAL_SIZE,
     GoalTask,
-    _goals,
-    _info_field,
+    goal_arrays,
     goal_bounds,
     goal_free_reward,
     goal_reward,
     goal_success,
+    info_field,
     pose_of_goal,
     poses_of_goals,
 )
@@ -157,6 +157,10 @@ class Planar3PGoalEnv(Planar3PEnv):
     - v0 (0.2.0, issue 24): the same distribution of episodes, drawn faster: poses are proposed
       from the region that holds every reachable pose (:mod:`planar3p_gym.tasks.pose_proposal`);
       a seed draws other episodes than before.
+    - v0 (0.2.0): a step's observation, margins and reward terms from the reach task's
+      compiled outputs (:class:`planar3p_gym.tasks.goal.GoalKernel`): the same episodes, goals,
+      ends and sparse rewards; margins and the dense reward differ from before by float64
+      rounding.
     - v0: initial release; later the ``observe_working_mode`` argument (off by default: the
       observation, rewards and episodes of ``v0`` are unchanged).
     """
@@ -215,9 +219,9 @@ class Planar3PGoalEnv(Planar3PEnv):
         self, achieved_goal: ArrayLike, desired_goal: ArrayLike, info: Any
     ) -> Any:
         """Whether the episode ends: success or failure (bool, or a bool array for batches)."""
-        a, d, single = _goals(achieved_goal, desired_goal)
+        a, d, single = goal_arrays(achieved_goal, desired_goal)
         success = goal_success(a, d, info, self.task_config)
-        out = success | (_info_field(info, "failure", success.shape[0]) > 0.5)
+        out = success | (info_field(info, "failure", success.shape[0]) > 0.5)
         return bool(out[0]) if single else out
 
     def compute_truncated(
@@ -225,8 +229,8 @@ class Planar3PGoalEnv(Planar3PEnv):
     ) -> Any:
         """Always False: truncation is the registered time limit's.  The arguments are
         checked as :meth:`compute_reward` checks them (``ValueError``)."""
-        a, _, single = _goals(achieved_goal, desired_goal)
-        _info_field(info, "failure", a.shape[0])
+        a, _, single = goal_arrays(achieved_goal, desired_goal)
+        info_field(info, "failure", a.shape[0])
         return False if single else np.zeros(a.shape[0], dtype=bool)
 
     # ------------------------------------------------------------------ Gymnasium API
@@ -236,7 +240,7 @@ class Planar3PGoalEnv(Planar3PEnv):
         flat, info = super().reset(seed=seed, options=options)
         info["failure"] = False
         info["goal_free_reward"] = 0.0
-        self._last_info = info
+        self.episode.info = info
         return self._dict_obs(flat, info), info
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict]:

@@ -84,6 +84,10 @@ class Planar3PModeChangeEnv(Planar3PEnv):
     - v0 (0.2.0, issue 24): the same distribution of episodes, drawn faster: poses are proposed
       from the region that holds every reachable pose (:mod:`planar3p_gym.tasks.pose_proposal`);
       a seed draws other episodes than before.
+    - v0 (0.2.0): the observation's 31 entries, the errors and the margins from the reach
+      task's compiled outputs (:class:`planar3p_gym.tasks.kernel.HookKernel`; the task's
+      hooks as before): the same episodes and ends; observations, margins and rewards differ
+      from before by float64 rounding.
     - v0: initial release.
     """
 

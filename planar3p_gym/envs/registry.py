@@ -85,6 +85,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
         100,
         "goal-conditioned reach, sparse reward (HER)",
         "goal",
+        vector_entry_point=f"{_ENVS}.vector:Planar3PGoalVectorEnv",
         kwargs={"reward_type": "sparse"},
     ),
     EnvRegistration(
@@ -93,6 +94,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
         100,
         "goal-conditioned reach, dense reward",
         "goal",
+        vector_entry_point=f"{_ENVS}.vector:Planar3PGoalVectorEnv",
         kwargs={"reward_type": "dense"},
     ),
     EnvRegistration(
@@ -150,7 +152,7 @@ ENV_SPECS: tuple[EnvRegistration, ...] = (
 
 
 def action_type_of(row: EnvRegistration) -> str:
-    """The action type of a registered id (:data:`planar3p_gym.envs.core.ACTION_TYPES`)."""
+    """The action type of a registered id (:data:`planar3p_gym.envs.actuation.ACTION_TYPES`)."""
     return str(row.kwargs.get("action_type", "continuous"))
 
 

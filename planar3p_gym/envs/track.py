@@ -66,6 +66,10 @@ class Planar3PTrackEnv(Planar3PEnv):
     - v0 (0.2.0, issue 24): the same distribution of episodes, drawn faster: poses are proposed
       from the region that holds every reachable pose (:mod:`planar3p_gym.tasks.pose_proposal`);
       a seed draws other episodes than before.
+    - v0 (0.2.0): a step's observation, margins and reward terms from the reach task's
+      compiled outputs against the reference (:class:`planar3p_gym.tasks.track.TrackKernel`):
+      the same episodes and ends; observations, margins and rewards differ from before by
+      float64 rounding.
     - v0: initial release.
     """
 

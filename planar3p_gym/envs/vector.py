@@ -24,7 +24,7 @@ few environments on (:data:`NUMPY_BATCH_MIN`;
 ``batch="auto"``, the default, chooses by it).
 In numpy mode the projected bodies are written back into pymunk at the start of the next step
 (with the new servo commands).  Either way the single environments' own attributes
-(``env.sim.state``, ``env._last_info``, ...) are brought up to date when
+(``env.sim.state``, ``env.episode``, ...) are brought up to date when
 :attr:`Planar3PVectorEnv.envs` or :meth:`Planar3PVectorEnv.get_state` is used, and a state
 that fails the physics-breakdown test takes the single environment's own (general) step.
 
@@ -33,27 +33,30 @@ per-environment dict is built on the reach task's batched step (the task ids bel
 through each environment's own ``step``, whose ``info`` dict is Gymnasium's contract, and their
 entries are gathered into the arrays).
 
-**Per-environment step** (every other configuration, e.g. ``Planar3P-v0``, and the task ids
-``Planar3PTrack-v0``, ``Planar3PModeChange-v0``, ``Planar3PAssemblyChange-v0`` through the
-subclasses at the end of this module): each environment steps through its own ``step``; what
-the vector env saves there is the per-step overhead of ``gym.make``'s wrappers and of
-``SyncVectorEnv``.  (The goal ids' dictionary observations have no batch array here: they use
-``SyncVectorEnv``.)
+**Per-environment step** (every other configuration: the built machine's ids, and the task ids
+``Planar3PTrack-v0``, ``Planar3PModeChange-v0``, ``Planar3PAssemblyChange-v0``,
+``Planar3PGoal-v0`` and ``Planar3PGoalDense-v0`` through the subclasses at the end of this
+module): each environment steps through its own ``step``; what the vector env saves there is
+the per-step overhead of ``gym.make``'s wrappers and of ``SyncVectorEnv``.  The goal ids'
+``Dict`` observations are a dict of batch arrays, and their vector env's ``compute_reward``
+takes the batch's goals and infos.
 """
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
-from gymnasium.vector.utils import batch_space
+from gymnasium.vector.utils import batch_space, create_empty_array
 
 from planar3p_gym import checks
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
 from planar3p_gym.envs.batch_kernel import reach_batch_step
 from planar3p_gym.envs.core import Planar3PEnv
+from planar3p_gym.envs.goal import Planar3PGoalEnv
 from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
 from planar3p_gym.envs.track import Planar3PTrackEnv
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
@@ -61,6 +64,8 @@ from planar3p_gym.sim import chipmunk, physics
 from planar3p_gym.sim.batch_step import BatchState
 from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, SimState
 from planar3p_gym.tasks import sampling as task_module
+from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS
+from planar3p_gym.tasks.kernel import ReachKernel
 from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
 from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, BatchReach
 from planar3p_gym.tasks.rewards import TERM_NAMES
@@ -70,6 +75,7 @@ __all__ = [
     "INFO_KEYS",
     "NUMPY_BATCH_MIN",
     "Planar3PAssemblyChangeVectorEnv",
+    "Planar3PGoalVectorEnv",
     "Planar3PModeChangeVectorEnv",
     "Planar3PTrackVectorEnv",
     "Planar3PVectorEnv",
@@ -139,6 +145,8 @@ class Planar3PVectorEnv(VectorEnv):
     }
     #: The single environment's class (subclasses below: the task ids' environments).
     env_class: type[Planar3PEnv] = Planar3PEnv
+    #: ``info`` entries returned over the batch.
+    info_keys: tuple[str, ...] = INFO_KEYS
 
     def __init__(
         self,
@@ -181,16 +189,18 @@ class Planar3PVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.render_mode = render_mode
-        self._obs = np.zeros(self.observation_space.shape, dtype=np.float32)
+        self._obs = create_empty_array(self.single_observation_space, self.num_envs, fn=np.zeros)
         self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
         self._autoreset = np.zeros(self.num_envs, dtype=np.bool_)
         if batch == "auto":
             batch = "numpy" if self.num_envs >= NUMPY_BATCH_MIN else "scalar"
-        numpy_batch = physics._FAST and physics.Planar3PSim.use_fast_path and batch == "numpy"
+        numpy_batch = physics.BATCH_STEP and physics.Planar3PSim.use_fast_path and batch == "numpy"
         #: How the batch is stepped: None (environment by environment), or the batched step's
         #: mode (``True``: numpy over the batch); the batched step's C handles are rebuilt
         #: from it when the vector env is unpickled.
-        self._numpy_batch: bool | None = numpy_batch if first._reach_step is not None else None
+        self._numpy_batch: bool | None = (
+            numpy_batch if isinstance(first.kernel, ReachKernel) else None
+        )
         self._core = None if self._numpy_batch is None else _BatchCore(self, self._numpy_batch)
 
     @property
@@ -214,13 +224,12 @@ class Planar3PVectorEnv(VectorEnv):
         the working mode an environment drew) every environment is put back as it was, and
         so is the vector env."""
         if seed is None or checks.is_int(seed):
-            if seed is not None:
-                checks.integer(seed, "seed", low=0)
-            seeds = [None if seed is None else int(seed) + i for i in range(self.num_envs)]
+            first = checks.seed(seed)
+            seeds = [None if first is None else first + i for i in range(self.num_envs)]
         else:
             if isinstance(seed, (str, bytes)) or not hasattr(seed, "__len__"):
                 raise ValueError(f"seed must be an int, a list of seeds or None, got {seed!r}")
-            seeds = [None if s is None else checks.integer(s, "seed", low=0) for s in seed]
+            seeds = [checks.seed(s) for s in seed]
             if len(seeds) != self.num_envs:
                 raise ValueError(f"expected {self.num_envs} seeds, got {len(seeds)}")
         envs = self.envs  # (up to date: their snapshots are complete)
@@ -232,20 +241,34 @@ class Planar3PVectorEnv(VectorEnv):
         except ValueError:
             for i in range(len(results)):  # the env that raised changed nothing itself
                 envs[i].set_state(undo[i])
-                if self._core is not None and envs[i]._sim is not None:
+                if self._core is not None and _has_sim(envs[i]):
                     self._core.load(i)
             raise
         if seed is not None:
             self._np_random, self._np_random_seed = gym.utils.seeding.np_random(seeds[0])
         infos = []
         for i, (obs, info) in enumerate(results):
-            self._obs[i] = obs
+            self._put(i, obs)
             infos.append(info)
             if self._core is not None:
                 self._core.load(i)
         self._elapsed[:] = 0
         self._autoreset[:] = False
-        return self._obs.copy(), self._batch_infos(infos)
+        return self._observations(), self._batch_infos(infos)
+
+    def _put(self, i: int, obs: Any) -> None:
+        """Write environment ``i``'s observation into the batch (a ``Dict``'s entries each)."""
+        if isinstance(self._obs, dict):
+            for key, value in obs.items():
+                self._obs[key][i] = value
+        else:
+            self._obs[i] = obs
+
+    def _observations(self) -> Any:
+        """A copy of the batch of observations."""
+        if isinstance(self._obs, dict):
+            return {key: value.copy() for key, value in self._obs.items()}
+        return self._obs.copy()
 
     def _check_actions(self, actions: Any) -> np.ndarray:
         """The batch of actions as float64 ``(num_envs, 3)``, checked as the single environment
@@ -263,7 +286,6 @@ class Planar3PVectorEnv(VectorEnv):
         rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
         infos = []
         limit = self.max_episode_steps if self.max_episode_steps is not None else -1
-        obs_out = self._obs
         # Plain lists in the loop: numpy scalar indexing costs more than the bookkeeping.
         elapsed, autoreset = self._elapsed.tolist(), self._autoreset.tolist()
         same_step = self.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
@@ -281,7 +303,7 @@ class Planar3PVectorEnv(VectorEnv):
                     final[i] = (obs, info)
                     obs, info = env.reset()
                     elapsed[i] = 0
-            obs_out[i] = obs
+            self._put(i, obs)
             infos.append(info)
         self._elapsed[:] = elapsed
         terminated_a = np.array(terminated, dtype=np.bool_)
@@ -291,7 +313,7 @@ class Planar3PVectorEnv(VectorEnv):
         out = self._batch_infos(infos)
         if final:
             self._final_entries(out, final, infos)
-        return obs_out.copy(), np.array(rewards), terminated_a, truncated_a, out
+        return self._observations(), np.array(rewards), terminated_a, truncated_a, out
 
     def _final_entries(
         self,
@@ -304,10 +326,10 @@ class Planar3PVectorEnv(VectorEnv):
         final_obs = np.full(self.num_envs, None, dtype=object)
         done = np.zeros(self.num_envs, dtype=np.bool_)
         if isinstance(infos, dict):
-            final_info = {k: infos[k].copy() for k in INFO_KEYS}
+            final_info = {k: infos[k].copy() for k in self.info_keys}
             for i, (obs, info) in final.items():
                 final_obs[i], done[i] = obs, True
-                for key in INFO_KEYS:
+                for key in self.info_keys:
                     final_info[key][i] = info[key]
         else:
             last = list(infos)
@@ -315,15 +337,15 @@ class Planar3PVectorEnv(VectorEnv):
                 final_obs[i], done[i], last[i] = obs, True, info
             final_info = self._batch_infos(last)
         out["final_obs"], out["_final_obs"] = final_obs, done
-        for key in INFO_KEYS:
+        for key in self.info_keys:
             final_info["_" + key] = done
         out["final_info"], out["_final_info"] = final_info, done
 
     def _batch_infos(self, infos: list[dict[str, Any]]) -> dict[str, Any]:
-        """Gymnasium's vector info layout for :data:`INFO_KEYS`."""
+        """Gymnasium's vector info layout for :attr:`info_keys`."""
         out: dict[str, Any] = {}
         mask = np.ones(self.num_envs, dtype=np.bool_)
-        for key in INFO_KEYS:
+        for key in self.info_keys:
             out[key] = np.array([info[key] for info in infos], dtype=_DTYPES.get(key, np.float64))
             out["_" + key] = mask
         return out
@@ -354,7 +376,7 @@ class Planar3PVectorEnv(VectorEnv):
         :meth:`Planar3PEnv.get_state`)."""
         return {
             "envs": [env.get_state() for env in self.envs],
-            "obs": self._obs.copy(),
+            "obs": self._observations(),
             "elapsed": self._elapsed.copy(),
             "autoreset": self._autoreset.copy(),
         }
@@ -366,9 +388,9 @@ class Planar3PVectorEnv(VectorEnv):
             raise ValueError("state must be a snapshot from Planar3PVectorEnv.get_state()")
         for i, (env, s) in enumerate(zip(self._envs, state["envs"], strict=True)):
             env.set_state(s)
-            if self._core is not None and env._sim is not None:
+            if self._core is not None and _has_sim(env):
                 self._core.load(i)
-        self._obs[:] = state["obs"]
+        self._obs = copy.deepcopy(state["obs"])
         self._elapsed[:] = state["elapsed"]
         self._autoreset[:] = state["autoreset"]
 
@@ -385,8 +407,17 @@ class Planar3PVectorEnv(VectorEnv):
         if self._numpy_batch is not None:
             self._core = _BatchCore(self, self._numpy_batch)
             for i, env in enumerate(self._envs):
-                if env._sim is not None:
+                if _has_sim(env):
                     self._core.load(i)
+
+
+def _has_sim(env: Planar3PEnv) -> bool:
+    """Whether ``env`` has a simulation (was reset, or restored from a reset one)."""
+    try:
+        env.sim  # noqa: B018  (the property raises before the first reset)
+    except RuntimeError:
+        return False
+    return True
 
 
 class _BatchCore:
@@ -409,8 +440,8 @@ class _BatchCore:
         self.scale = 1.0 / (self.substeps * self.h)
         self.force_limit = 0.999 * env.design.max_force * self.h
         self.breakdown = env.breakdown_distance
-        self.reach = BatchReach(env._reach_step)
-        self.low, self.high = env._obs_low, env._obs_high
+        self.reach = BatchReach(env.kernel.reach)
+        self.low, self.high = env.kernel.settings.low, env.kernel.settings.high
         #: The projection's constants (LoopProjector.constants), from the first simulation.
         self.constants: np.ndarray | None = None
         #: Every environment's fused-step constants (their tolerances among them), one row
@@ -418,7 +449,7 @@ class _BatchCore:
         #: ``set_task_config`` shows here with no loop over the environments.
         self.consts = np.zeros((n, 10))
         for i, e in enumerate(venv._envs):
-            e._reach_step.share_constants(self.consts[i])  # type: ignore[union-attr]
+            e.kernel.reach.share_constants(self.consts[i])
         self.buf = np.zeros((n, _ROW))
         #: Each environment's batch request over its row of :attr:`buf`.
         self.reads = [chipmunk.body_readout(row) for row in self.buf]
@@ -450,22 +481,22 @@ class _BatchCore:
         self.pending[i] = False
         if not self.numpy:
             return
-        sim = env.sim
-        if sim._fast is None:
-            raise RuntimeError("the batched step needs pymunk's batch API (Planar3PSim._fast)")
+        link = env.sim.batch_link()
+        if link is None:
+            raise RuntimeError("the batched step needs pymunk's batch API (Planar3PSim.batch_link)")
         if self.constants is None:
-            self.constants = sim._projector.constants
-        fast = sim._fast
-        space, servos = fast.space, fast.servos
-        self.handles[i] = (space, *servos, sim._commands)
+            self.constants = link.projection
+        space, servos = link.space, link.servos
+        self.handles[i] = (space, *servos, link.commands)
         self.logged[i] = 0  # (the record was just cleared or restored)
         self.handle_rows[i] = chipmunk.handle_row(space, servos, self.reads[i])
         chipmunk.read_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
-        self.time[i] = sim._time
-        self.target[:, i] = env._target
-        self.target_cs[:, i] = env._target_cs
-        self.target_rho[i] = env._target_rho
-        self.assembly[i] = env._assembly
+        self.time[i] = link.time
+        ep = env.episode
+        self.target[:, i] = ep.target
+        self.target_cs[:, i] = ep.target_cs
+        self.target_rho[i] = ep.target_rho
+        self.assembly[i] = ep.assembly
         self.pending[i] = False
 
     def sync_all(self) -> None:
@@ -483,8 +514,11 @@ class _BatchCore:
             measures = ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles)
             terms = dict(zip(TERM_NAMES, res[TERMS_START:], strict=True))
             errors = (res[2], res[3])
-            env._obs = self.venv._obs[i].copy()
-            env._last_info = env._info(state, measures, reason, terms, reason == "success", errors)
+            ep = env.episode
+            ep.obs = self.venv._obs[i].copy()
+            ep.info = env.kernel.info(
+                ep, state, measures, reason, terms, reason == "success", errors
+            )
             self.pending[i] = False
             return
         self._append_commands(i)
@@ -499,11 +533,12 @@ class _BatchCore:
         )
         reason = _REASONS[o["reason"][j]]
         terms = {k: float(v[j]) for k, v in o["terms"].items()}
-        env._steps = int(self.venv._elapsed[i])
-        env._obs = o["obs"][j].copy()
-        env._measures = measures
+        ep = env.episode
+        ep.steps = int(self.venv._elapsed[i])
+        ep.obs = o["obs"][j].copy()
+        ep.measures = measures
         errors = (float(o["position_error"][j]), float(o["orientation_error"][j]))
-        env._last_info = env._info(state, measures, reason, terms, reason == "success", errors)
+        ep.info = env.kernel.info(ep, state, measures, reason, terms, reason == "success", errors)
         if bodies:
             chipmunk.write_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
         self.pending[i] = False
@@ -533,15 +568,11 @@ class _BatchCore:
         )
 
     def _set_sim(self, env: Planar3PEnv, state: SimState, last: dict, j: int, i: int) -> None:
-        sim = env.sim
         st: BatchState = last["state"]
-        sim._state = state
-        sim._time = state.time
-        sim._forces = state.actuator_forces
-        sim._saturated = state.saturated
-        sim._setpoints = [float(self.buf[i, 12]), float(self.buf[i, 30]), float(self.buf[i, 48])]
+        setpoints = (float(self.buf[i, 12]), float(self.buf[i, 30]), float(self.buf[i, 48]))
         x, y = st.ux[:, j].tolist(), st.uy[:, j].tolist()
-        sim.geometry = (x[0], y[0], x[1], y[1], x[2], y[2], float(st.c[j]), float(st.s[j]))
+        geometry = (x[0], y[0], x[1], y[1], x[2], y[2], float(st.c[j]), float(st.s[j]))
+        env.sim.adopt_state(state, setpoints, geometry)
 
     # ------------------------------------------------------------------ stepping
     def step(
@@ -612,40 +643,36 @@ class _BatchCore:
         results: list[tuple] = []
         for i in idx:
             env = envs[i]
-            sim = env._sim
+            sim = env.sim
             v0, v1, v2 = commands[i]
             state = sim.step_unchecked(v0, v1, v2)
-            env._steps += 1
+            ep = env.episode
+            ep.steps += 1
             if state.finite and state.closure_error <= breakdown:
-                rs = env._reach_step
-                res = rs.compute(  # type: ignore[union-attr]
-                    sim._projector.last_state,
-                    state.pose[2],
-                    env._target,
-                    env._target_cs,
-                    env._assembly,
+                rs = env.kernel.reach
+                res = rs.compute(
+                    sim.state_array, state.pose[2], ep.target, ep.target_cs, ep.assembly,
                     actions[i],
-                ).tolist()
-                obs_out[i, :width] = rs.obs  # type: ignore[union-attr]
+                ).tolist()  # fmt: skip
+                obs_out[i, :width] = rs.obs
                 stepped.append(i)
-                env._measures = ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles)
+                ep.measures = ConfigurationMeasures(res[4], res[5], int(res[6]), state.leg_angles)
                 pending[i] = (state, res)
                 flags[i] = True
                 results.append(
                     (res[0], REASONS[int(res[1])], res[2], res[3], res[4], res[5], int(res[6]),
                      state.closure_error)
                 )  # fmt: skip
-            else:  # physics breakdown: the single env's general step
+            else:  # physics breakdown: the reference kernel, as the single env
                 if flags[i]:
                     self.sync(i)
-                act = actions[i]
-                obs, r, _, _, full = env._general_step(state, (act[0], act[1], act[2]))
+                obs, r, _, full = env.kernel.reference_step(env.episode, state, actions[i])
                 obs_out[i] = obs
                 results.append(
                     (r, *(full[key] for key in _RESULT_KEYS))  # type: ignore[arg-type]
                 )
         if stepped and self.travel_goal:  # the joint-space goal over the batch
-            goal = np.array([envs[i]._target_rho for i in stepped])
+            goal = np.array([envs[i].episode.target_rho for i in stepped])
             obs_out[stepped, width:] = travel_goal_entries(obs_out[stepped, :3], goal)
         sel = slice(None) if len(idx) == len(envs) else idx
         venv._elapsed[sel] += 1
@@ -708,7 +735,8 @@ class _BatchCore:
         o: dict[str, Any],
     ) -> None:
         """The step's results of the environments ``idx`` from their outputs ``o`` (a
-        broken-down state's NaN outputs are replaced by the single env's general step)."""
+        broken-down state's NaN outputs are replaced by the reference kernel's, as in the
+        single env)."""
         venv, st = self.venv, self.state
         reward = o["reward"]  # (the terms' sum, as the single env adds them)
         bad = ~st.finite | (st.closure > self.breakdown)
@@ -746,17 +774,16 @@ class _BatchCore:
             "time": self.time[idx],
         }
         self.pending[sel] = True
-        for j in bad_rows:  # the single env's general step, on the state just computed
+        for j in bad_rows:  # the reference kernel, on the state just computed
             i = int(idx[j])
             env = venv._envs[i]
             state = self._sim_state(self.last, j, i)
             self._set_sim(env, state, self.last, j, i)
-            env._steps = int(venv._elapsed[i])
-            a0, a1, a2 = a[i].tolist()
-            ob, r, term, _, inf = env._general_step(state, (a0, a1, a2))
+            env.episode.steps = int(venv._elapsed[i])
+            ob, r, reason, inf = env.kernel.reference_step(env.episode, state, a[i].tolist())
             venv._obs[i] = ob
             rewards[i] = r
-            terminated[i] = term
+            terminated[i] = reason is not None
             for key in INFO_KEYS:
                 info[key][i] = inf[key]
             chipmunk.write_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
@@ -779,3 +806,18 @@ class Planar3PAssemblyChangeVectorEnv(Planar3PVectorEnv):
     """``Planar3PAssemblyChange-v0``'s native vector env (environment by environment)."""
 
     env_class = Planar3PAssemblyChangeEnv
+
+
+class Planar3PGoalVectorEnv(Planar3PVectorEnv):
+    """``Planar3PGoal-v0``'s and ``Planar3PGoalDense-v0``'s native vector env (environment by
+    environment): the ``Dict`` observations as a dict of batch arrays, the relabelling entries
+    (:data:`planar3p_gym.tasks.goal.RELABEL_INFO_KEYS`) among the infos, and
+    :meth:`compute_reward` over the batch."""
+
+    env_class = Planar3PGoalEnv
+    info_keys = (*INFO_KEYS, *RELABEL_INFO_KEYS)
+
+    def compute_reward(self, achieved_goal: Any, desired_goal: Any, info: Any) -> Any:
+        """:meth:`Planar3PGoalEnv.compute_reward` of goals ``(n, 5)`` (one per pair; ``info``
+        this vector env's infos, a dict of arrays over the pairs, or one dict per pair)."""
+        return self._envs[0].compute_reward(achieved_goal, desired_goal, info)

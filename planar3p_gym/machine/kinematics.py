@@ -122,6 +122,12 @@ def _as_triples(name: str, value: ArrayLike) -> FloatArray:
     return arr
 
 
+#: The input checks and design constants above under public names, for the other modules of
+#: :mod:`planar3p_gym.machine` (the same functions, not copies).
+check_design, as_float, as_triples = _check_design, _as_float, _as_triples
+design_constants = _consts
+
+
 def _as_modes(mode: ArrayLike) -> FloatArray:
     if type(mode) is tuple and len(mode) == 3 and all(type(m) is int for m in mode):
         return _mode_of_tuple(mode)  # the usual case: a working mode's tuple of ints
@@ -158,6 +164,10 @@ def _check_broadcast(name_a: str, a: NDArray, name_b: str, b: NDArray) -> None:
         raise ValueError(
             f"{name_a} of shape {a.shape} and {name_b} of shape {b.shape} do not broadcast"
         ) from None
+
+
+#: :func:`_check_broadcast` under a public name (for :mod:`planar3p_gym.machine.statics`).
+check_broadcast = _check_broadcast
 
 
 # ---------------------------------------------------------------------------- inverse kinematics

@@ -44,11 +44,11 @@ def holding_forces_at(design: Design, poses: ArrayLike, rho: ArrayLike) -> Float
     not finite, as :func:`kinematics.inverse` gives NaN for unreachable poses, give NaN forces,
     and so do exactly singular configurations).  ``ValueError`` for poses that are not finite
     or shapes that do not broadcast."""
-    p = kinematics._as_triples("poses", poses)
-    r = kinematics._as_float("rho", rho)
+    p = kinematics.as_triples("poses", poses)
+    r = kinematics.as_float("rho", rho)
     if r.ndim == 0 or r.shape[-1] != 3:
         raise ValueError(f"rho must have shape (..., 3), got shape {r.shape}")
-    kinematics._check_broadcast("poses", p, "rho", r)
+    kinematics.check_broadcast("poses", p, "rho", r)
     shape = np.broadcast_shapes(p.shape, r.shape)
     flat_p = np.broadcast_to(p, shape).reshape(-1, 3)
     flat_r = np.broadcast_to(r, shape).reshape(-1, 3)
@@ -70,7 +70,7 @@ def holding_forces_of_rows(design: Design, poses: FloatArray, rho: FloatArray) -
 def _coefficients(design: Design) -> tuple[FloatArray, FloatArray, float, float, float]:
     """The constants of :func:`_holding_row` for ``design``: joint offsets ``L_iG`` (m), rail
     origins ``a_i`` (m), ``c_y`` (kg), ``c_theta`` (kg m, times ``cos theta``), ``g`` (m/s^2)."""
-    c = kinematics._consts(kinematics._check_design(design))
+    c = kinematics.design_constants(kinematics.check_design(design))
     lift = design.platform_mass + 1.5 * design.leg_mass
     turn = 0.5 * design.platform_mass * c.k[0] + 0.5 * design.leg_mass * c.k.sum()
     return c.k, c.origins, float(lift), float(turn), float(design.gravity)

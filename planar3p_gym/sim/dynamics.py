@@ -14,8 +14,9 @@ from dataclasses import dataclass, fields
 from typing import Any
 
 from planar3p_gym import checks
+from planar3p_gym.machine.design import Design
 
-__all__ = ["IDEAL", "MachineDynamics"]
+__all__ = ["IDEAL", "MachineDynamics", "smallest_leg_inertia", "viscous_step_limits"]
 
 #: Largest tilt of the base accepted (rad): beyond a quarter turn "down" is no longer ``-y``.
 MAX_TILT = 0.5 * math.pi
@@ -117,6 +118,27 @@ class MachineDynamics:
         """A :class:`MachineDynamics` from ``None`` (ideal), an instance or a dict of its
         fields; ``ValueError`` naming ``name`` otherwise."""
         return checks.config_from(value, cls, name)
+
+
+def smallest_leg_inertia(design: Design, dyn: MachineDynamics) -> float:
+    """The moment of inertia (kg m^2) of the shortest leg of ``design`` about its centre of
+    mass: a uniform rod, times ``dyn.inertia_scale``."""
+    return dyn.inertia_scale * design.leg_mass * min(design.leg_lengths) ** 2 / 12
+
+
+def viscous_step_limits(design: Design, dyn: MachineDynamics) -> tuple[float, float]:
+    """The physics steps (s) at and above which the explicit viscous forces of ``dyn`` on
+    ``design`` are no longer integrated stably: the sliders' (the slider mass over
+    ``slider_viscous``) and the revolute joints' (:func:`smallest_leg_inertia` over
+    ``joint_viscous``); ``inf`` without that friction.  An explicit viscous force is stable for
+    ``c h / m < 2``; half that is asked for."""
+    slider = design.slider_mass / dyn.slider_viscous if dyn.slider_viscous > 0.0 else math.inf
+    joint = (
+        smallest_leg_inertia(design, dyn) / dyn.joint_viscous
+        if dyn.joint_viscous > 0.0
+        else math.inf
+    )
+    return slider, joint
 
 
 #: The ideal machine.

@@ -72,15 +72,21 @@ from numpy.typing import ArrayLike
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.sim import chipmunk, recovery
-from planar3p_gym.sim.dynamics import MachineDynamics
+from planar3p_gym.sim.dynamics import (
+    MachineDynamics,
+    smallest_leg_inertia,
+    viscous_step_limits,
+)
 from planar3p_gym.sim.projection import LoopProjector
 from planar3p_gym.sim.projection import wrap_angle as _wrap
 
 __all__ = [
+    "BATCH_STEP",
     "DEFAULT_ITERATIONS",
     "DEFAULT_SUBSTEPS",
     "PROJECTED_ITERATIONS",
     "PROJECTED_SUBSTEPS",
+    "BatchLink",
     "CompiledStep",
     "FastPath",
     "Planar3PSim",
@@ -138,6 +144,9 @@ try:  # Direct Chipmunk calls skip pymunk's per-call Python bookkeeping (the hot
     )
 except ImportError:  # pragma: no cover - other pymunk builds
     _FAST = _RELEASE = _MOVE = False
+
+#: Whether this pymunk build gives the Chipmunk C API the compiled and batched steps call.
+BATCH_STEP: bool = bool(_FAST)
 
 #: Numbers per body in a readout: ``x, y, angle, vx, vy, angular velocity`` (pymunk's batch
 #: layout for these fields).
@@ -259,17 +268,17 @@ def _check_viscous(design: Design, dyn: MachineDynamics, h: float) -> None:
     the physics step ``h`` (s)."""
     if not (dyn.slider_viscous > 0.0 or dyn.joint_viscous > 0.0):
         return
-    leg_inertia = dyn.inertia_scale * design.leg_mass * min(design.leg_lengths) ** 2 / 12
-    # Explicit viscous forces are stable for c h / m < 2; half that is asked for.
-    if dyn.slider_viscous * h >= design.slider_mass:
+    slider_limit, joint_limit = viscous_step_limits(design, dyn)
+    if h >= slider_limit:
         raise ValueError(
             f"dynamics.slider_viscous ({dyn.slider_viscous} N s/m) times the physics "
             f"step ({h} s) must stay below the slider mass ({design.slider_mass} kg)"
         )
-    if dyn.joint_viscous * h >= leg_inertia:
+    if h >= joint_limit:
         raise ValueError(
             f"dynamics.joint_viscous ({dyn.joint_viscous} N m s/rad) times the physics "
-            f"step ({h} s) must stay below a leg's moment of inertia ({leg_inertia} kg m^2)"
+            f"step ({h} s) must stay below a leg's moment of inertia "
+            f"({smallest_leg_inertia(design, dyn)} kg m^2)"
         )
 
 
@@ -360,6 +369,17 @@ class FastPath(NamedTuple):
     push: chipmunk.BodyReadout  #: the bodies' force and torque request (viscous friction)
     push_handles: np.ndarray  #: its ``pmBatchedData *`` and ``pmFloatArray *`` (uintp)
     applied: np.ndarray  #: its memory: ``fx, fy, t`` per body in readout order (N, N m)
+
+
+class BatchLink(NamedTuple):
+    """What a step batched over many simulations needs of one (:meth:`Planar3PSim.batch_link`):
+    its Chipmunk handles, its record of drive commands and its projection's constants."""
+
+    space: Any  #: the ``cpSpace *``
+    servos: tuple  #: the three servos' ``cpConstraint *``
+    commands: list  #: the drive commands of every step (m/s, flattened); a batch appends its own
+    projection: np.ndarray  #: the projector's constants
+    time: float  #: simulated time (s)
 
 
 class CompiledStep(NamedTuple):
@@ -1226,6 +1246,41 @@ class Planar3PSim:
     def state(self) -> SimState:
         """The state after the last step (or at construction)."""
         return self._state
+
+    def batch_link(self) -> BatchLink | None:
+        """The simulation's :class:`BatchLink` when a batched step can take it (projection on,
+        Chipmunk's C API), else ``None``."""
+        fast, projector = self._fast, self._projector
+        if fast is None or projector is None:
+            return None
+        return BatchLink(fast.space, fast.servos, self._commands, projector.constants, self._time)
+
+    def adopt_state(
+        self,
+        state: SimState,
+        setpoints: tuple[float, float, float],
+        geometry: tuple[float, ...],
+    ) -> None:
+        """Take ``state`` computed by a batched step of this simulation's bodies (its commands
+        already in :attr:`BatchLink.commands`) as the current one: the clock, forces and
+        saturation of ``state``, the drives' ``setpoints`` (m) and the projection's
+        :attr:`geometry`."""
+        self._state = state
+        self._time = state.time
+        self._forces = state.actuator_forces
+        self._saturated = state.saturated
+        self._setpoints = list(setpoints)
+        self.geometry = geometry
+
+    @property
+    def state_array(self) -> np.ndarray | None:
+        """The projected state of the last step as the projection's array of 23 float64 (SI
+        units: ``rho``, ``rho_dot``, the pose, the twist, the leg angles and the geometry
+        ``(u_1x, u_1y, u_2x, u_2y, u_3x, u_3y, cos theta, sin theta)``,
+        :func:`planar3p_gym.sim.projection.project_readout`'s layout); ``None`` without the
+        projection or before the first projected step.  Read only: the simulation owns it."""
+        projector = self._projector
+        return None if projector is None else projector.last_state
 
     def _public_values(self) -> list[float]:
         """``x, y, angle, vx, vy, angular velocity`` of every body in readout order, through

@@ -21,7 +21,7 @@ import numpy as np
 
 from planar3p_gym import checks
 from planar3p_gym.machine.design import Design
-from planar3p_gym.sim.dynamics import MAX_TILT, MachineDynamics
+from planar3p_gym.sim.dynamics import MAX_TILT, MachineDynamics, viscous_step_limits
 
 __all__ = ["REALISTIC_RANDOMIZATION", "DynamicsRandomization", "SampledMachine"]
 
@@ -49,7 +49,9 @@ class DynamicsRandomization:
 
     Relative ranges ``r`` multiply the nominal value by a factor drawn from ``[1 - r, 1 + r]``;
     absolute ranges ``e`` add an error drawn from ``[-e, e]``; the friction coefficients and the
-    servo lag are drawn from ``[0, max]``.
+    servo lag are drawn from ``[0, max]``.  Viscous friction is integrated explicitly, so the
+    physics step must stay below :meth:`longest_step` for every machine drawn; an environment
+    refuses a control rate that would not (:meth:`check_step`).
 
     Attributes:
         mass: relative range of the slider, leg and platform masses (each drawn on its own;
@@ -108,6 +110,43 @@ class DynamicsRandomization:
     def to_dict(self) -> dict[str, float]:
         """Plain-Python dictionary of the fields."""
         return asdict(self)
+
+    def longest_step(self, nominal: Design) -> float:
+        """The physics step (s) at and above which some machine drawn around ``nominal`` has
+        viscous friction its step cannot integrate
+        (:func:`~planar3p_gym.sim.dynamics.viscous_step_limits` of the worst draw: the largest
+        friction coefficients on the lightest sliders and the shortest, lightest legs of the
+        smallest inertia); ``inf`` without viscous friction."""
+        if not (self.slider_viscous > 0.0 or self.joint_viscous > 0.0):
+            return math.inf
+        light = 1.0 - self.mass
+        worst = nominal.with_(
+            slider_mass=nominal.slider_mass * light,
+            leg_mass=nominal.leg_mass * light,
+            leg_lengths=tuple(v - self.leg_length for v in nominal.leg_lengths),
+        )
+        dyn = MachineDynamics(
+            inertia_scale=1.0 - self.inertia,
+            slider_viscous=self.slider_viscous,
+            joint_viscous=self.joint_viscous,
+        )
+        return min(viscous_step_limits(worst, dyn))
+
+    def check_step(self, nominal: Design, control_frequency: float, substeps: int) -> None:
+        """``ValueError`` naming the lowest control rate accepted unless every machine drawn
+        around ``nominal`` can be integrated at ``control_frequency`` (Hz) with ``substeps``
+        physics steps per control step (:meth:`longest_step`)."""
+        limit = self.longest_step(nominal)
+        h = 1.0 / (control_frequency * substeps)
+        if h >= limit:
+            raise ValueError(
+                f"control_frequency {control_frequency:g} Hz with {substeps} physics step(s) "
+                f"per control step gives a physics step of {h:.4g} s, too long for the viscous "
+                f"friction randomization draws (every step must stay below {limit:.4g} s): "
+                f"control_frequency must exceed {1.0 / (limit * substeps):.4g} Hz at "
+                f"substeps={substeps}, or substeps must be at least "
+                f"{math.floor(1.0 / (limit * control_frequency)) + 1}"
+            )
 
     def sample(self, nominal: Design, rng: np.random.Generator) -> SampledMachine:
         """One machine around ``nominal``, drawn from ``rng`` (no draw for a zero range).

@@ -44,6 +44,26 @@ class Frame:
     text: tuple[str, ...] = ()
     forces: tuple[float, float, float] | None = None
 
+    @classmethod
+    def of_info(cls, info: dict, target: tuple[float, float, float] | None) -> Frame:
+        """The frame of an environment step's ``info`` (its pose, travels, margins, time,
+        forces and errors; defaults before the first reset) and the ``target`` pose."""
+        pos_err = info.get("position_error", 0.0)
+        ang_err = info.get("orientation_error", 0.0)
+        return cls(
+            rho=info.get("rho", (0.0, 0.0, 0.0)),
+            pose=info.get("pose", (0.0, 0.0, 0.0)),
+            target=target,
+            parallel_margin=info.get("parallel_margin", 1.0),
+            serial_margin=info.get("serial_margin", 1.0),
+            time=info.get("time", 0.0),
+            text=(
+                f"position error {1000 * pos_err:6.1f} mm",
+                f"orientation error {math.degrees(ang_err):6.1f} deg",
+            ),
+            forces=info.get("actuator_forces"),
+        )
+
 
 _BG = (250, 250, 247)
 _GRID = (232, 232, 228)

@@ -75,7 +75,7 @@ import numpy as np
 
 from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
-from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures, ScalarKinematics
+from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import Planar3PSim, SimState
 from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.base import ModeTriple, Pose, Task, count_option, mode_option, pose_list
@@ -155,6 +155,7 @@ class AssemblyChangeTask(TravelShaping, Task):
     )
     #: Passing the parallel singularity is the task: no parallel barrier in the reward.
     parallel_barrier: ClassVar[bool] = False
+    compiled_measures: ClassVar[bool] = True
 
     def __init__(
         self,
@@ -181,7 +182,6 @@ class AssemblyChangeTask(TravelShaping, Task):
         self._target_asm = 1
         self._last_sign = 1
         self._crossings = 0
-        self._kin = ScalarKinematics(env.design)
         verdicts = {m: self.mode_problem(m) for m in env.modes}
         self.modes = [m for m, problem in verdicts.items() if problem is None]
         if not self.modes:
@@ -422,9 +422,10 @@ class AssemblyChangeTask(TravelShaping, Task):
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return self.travel_bounds(2)  # target travels, target assembly, signed parallel margin
 
-    def observation_extra(self, step: int) -> list[float]:
-        state = self.env.sim.state
-        m = self._kin.measures(state.pose, state.rho)
+    def observation_extra(
+        self, step: int, state: SimState, measures: ConfigurationMeasures
+    ) -> list[float]:
+        m = measures
         signed = (m.det_sign if m.det_sign else 1) * m.parallel_margin
         return [
             *self._target_rho,

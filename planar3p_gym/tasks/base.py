@@ -5,15 +5,18 @@ Planar3PSim`), the action parsing, the configuration measures and the physics-br
 a :class:`Task` owns everything that makes an episode a particular problem.  The environment
 calls, in this order:
 
-1. :meth:`Task.bind` once, at the end of ``Planar3PEnv.__init__``.
-2. On ``reset(seed, options)``: :meth:`Task.check_options` (before the environment is seeded:
-   a rejected reset changes nothing), then :meth:`Task.reseed` if a seed was given, then
-   :meth:`Task.episode_spec` (draws everything random from ``env.np_random``), then
-   :meth:`Task.begin` with that spec, which returns the start pose and the working mode the
-   simulation is built from.
-3. On every ``step``: :meth:`Task.reference` for the pose the observation and errors refer to
-   at the new step, :meth:`Task.termination`, :meth:`Task.reward_terms` and
-   :meth:`Task.step_info` (metrics merged into ``info``).
+1. :meth:`Task.bind` once in ``Planar3PEnv.__init__``, then :meth:`Task.kernel`.
+2. On ``reset(seed, options)``: :meth:`Task.reset_options` and so :meth:`Task.check_options`
+   (before the environment is seeded: a rejected reset changes nothing), then
+   :meth:`Task.reseed` if a seed was given, then :meth:`Task.episode_spec` (draws everything
+   random from ``env.np_random``), then :meth:`Task.begin` with that spec, which returns the
+   start pose and the working mode the simulation is built from.
+3. On every ``step``, the task's kernel (:meth:`Task.kernel`, :mod:`planar3p_gym.tasks.kernel`),
+   handed the state after the physics step: the reference kernel calls :meth:`Task.reference`
+   for the pose the observation and errors refer to at the new step,
+   :meth:`Task.observation_extra`, :meth:`Task.termination`, :meth:`Task.reward_terms` and
+   :meth:`Task.step_info` (metrics merged into ``info``), each with the state and the measures
+   the environment computed; a compiled kernel is the same definitions compiled.
 
 Contract every task must meet (the fixed benchmark suites and the tests rely on it):
 
@@ -65,12 +68,12 @@ from planar3p_gym import checks
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
+from planar3p_gym.tasks.kernel import HookKernel, KernelSettings, Sensing, StepKernel
 from planar3p_gym.tasks.observation import within_tolerances
 from planar3p_gym.tasks.rewards import reward_terms
 
 if TYPE_CHECKING:
     from planar3p_gym.machine.design import Design
-    from planar3p_gym.sim.physics import Planar3PSim
     from planar3p_gym.tasks.rewards import RewardWeights
 
 __all__ = [
@@ -131,7 +134,8 @@ def mode_option(arg: Any, name: str) -> ModeTriple:
 
 class TaskEnv(Protocol):
     """What a task may read of the environment it is bound to (:meth:`Task.bind`): the
-    machine, the settings of its episodes and the simulation, nothing of Gymnasium.  The
+    machine and the settings of its episodes, nothing of the simulation (a hook is handed the
+    state and the measures the environment computed) and nothing of Gymnasium.  The
     environment (:class:`planar3p_gym.envs.core.Planar3PEnv`) provides it; a task never imports
     the environment's module, so the layers stay one-way (tasks below envs)."""
 
@@ -142,9 +146,6 @@ class TaskEnv(Protocol):
     dt: float
     breakdown_distance: float
     np_random: np.random.Generator
-
-    @property
-    def sim(self) -> Planar3PSim: ...
 
     @property
     def modes(self) -> list[tuple[int, int, int]]:
@@ -183,6 +184,14 @@ class Task:
     #: task whose problem is to pass one turns that barrier off (its margin counts as 1).
     parallel_barrier: ClassVar[bool] = True
     serial_barrier: ClassVar[bool] = True
+    #: Whether the default :meth:`kernel` takes the observation and measures from the compiled
+    #: outputs on the projected physics of the nominal machine
+    #: (:class:`~planar3p_gym.tasks.kernel.HookKernel`: within float64 rounding of the
+    #: reference); the hooks run either way.
+    compiled_measures: ClassVar[bool] = False
+    #: Whether the environment's ``travel_goal`` block (the fixed target's slider travels)
+    #: applies to the task's observation.
+    travel_goal: ClassVar[bool] = False
 
     env: TaskEnv
 
@@ -211,6 +220,19 @@ class Task:
         for sampler in self._samplers.values():
             sampler.cfg = self.env.task_config
 
+    def reset_options(self, options: Any) -> dict[str, Any]:
+        """``reset``'s ``options`` checked before seeding (``ValueError``: a rejection changes
+        nothing): the keys (:attr:`option_keys` and ``"task"``,
+        :func:`planar3p_gym.checks.check_reset_options`), ``"task"`` equal to :attr:`name`
+        (then removed), then :meth:`check_options`."""
+        options = checks.check_reset_options(options, (*self.option_keys, "task"))
+        requested = options.pop("task", None)
+        if requested is not None and requested != self.name:
+            raise ValueError(
+                f"options are for task {requested!r}, but this environment's task is {self.name!r}"
+            )
+        return self.check_options(options)
+
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         """Validate ``reset`` options that need no randomness (``ValueError`` if invalid);
         return them, parsed.  Called before seeding.  Keys are already restricted to
@@ -237,8 +259,11 @@ class Task:
         empty = np.zeros(0, dtype=np.float32)
         return empty, empty.copy()
 
-    def observation_extra(self, step: int) -> list[float]:
-        """Task entries appended to the 31-entry observation after ``step`` steps."""
+    def observation_extra(
+        self, step: int, state: SimState, measures: ConfigurationMeasures
+    ) -> list[float]:
+        """Task entries appended to the 31-entry observation after ``step`` steps, of the
+        (true) ``state`` and its ``measures`` the environment computed."""
         return []
 
     def is_success(self, state: SimState, errors: tuple[float, float]) -> bool:
@@ -275,8 +300,9 @@ class Task:
         action: tuple[float, float, float],
         success: bool,
         failure: bool,
+        state: SimState | None = None,
     ) -> dict[str, float]:
-        """Weighted reward terms (their sum is the reward); default
+        """Weighted reward terms (their sum is the reward) of the step to ``state``; default
         :func:`planar3p_gym.tasks.rewards.reward_terms` on the errors to the reference, with the
         singularity barriers :attr:`parallel_barrier` and :attr:`serial_barrier`."""
         env = self.env
@@ -298,6 +324,14 @@ class Task:
         """Task metrics for ``info`` after ``step`` steps (``step == 0`` at reset); keys are
         :attr:`metric_keys`.  Called once per step, also on the step that ends the episode."""
         return {}
+
+    def kernel(self, settings: KernelSettings, machine: Sensing) -> StepKernel:
+        """The task's kernel (:mod:`planar3p_gym.tasks.kernel`): default the reference, this
+        task's hooks (with :attr:`compiled_measures`, on the compiled measures where they
+        exist)."""
+        if self.compiled_measures and settings.projection and settings.nominal:
+            return HookKernel(self, settings, machine)
+        return StepKernel(self, settings, machine)
 
     # ------------------------------------------------------------------ helpers
     def pose_sampler(self, mode: tuple[int, int, int]) -> task.PoseSampler:

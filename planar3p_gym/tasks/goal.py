@@ -47,9 +47,18 @@ from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym import checks
 from planar3p_gym.machine.design import Design
+from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks.base import Pose
+from planar3p_gym.tasks.kernel import (
+    Episode,
+    KernelSettings,
+    ReachKernel,
+    Sensing,
+    StepKernel,
+    StepOutputs,
+)
 from planar3p_gym.tasks.observation import SLICES, SPEED_BOUND_FACTOR, bounds
-from planar3p_gym.tasks.reach import ReachTask
+from planar3p_gym.tasks.reach import COMPILED_HOOKS, ReachTask
 from planar3p_gym.tasks.rewards import RewardWeights, weighted_terms
 from planar3p_gym.tasks.sampling import TaskConfig
 
@@ -57,9 +66,11 @@ __all__ = [
     "GOAL_SIZE",
     "RELABEL_INFO_KEYS",
     "REWARD_TYPES",
+    "GoalKernel",
     "GoalTask",
     "achieved_goal",
     "evaluate_state_goal",
+    "goal_arrays",
     "goal_bounds",
     "goal_errors",
     "goal_free_reward",
@@ -70,6 +81,7 @@ __all__ = [
     "goal_success",
     "goal_test",
     "goal_tests",
+    "info_field",
     "pose_of_goal",
     "poses_of_goals",
     "write_achieved_goal",
@@ -127,7 +139,7 @@ def goal_bounds(design: Design) -> tuple[NDArray[np.float32], NDArray[np.float32
     return g_low, g_high
 
 
-def _goals(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndarray, bool]:
+def goal_arrays(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndarray, bool]:
     """Both goal arrays as float64 ``(n, 5)`` and whether they were single goals; ``ValueError``
     for non-real entries (complex, bool, strings), wrong shapes, mismatched batches or
     non-finite values."""
@@ -160,7 +172,7 @@ def _goals(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndar
 def goal_errors(achieved: ArrayLike, desired: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Position error (m) and signed orientation error desired minus achieved (rad, in
     ``[-pi, pi]``), each of shape ``(n,)`` (``(1,)`` for single goals)."""
-    a, d, _ = _goals(achieved, desired)
+    a, d, _ = goal_arrays(achieved, desired)
     return _errors(a, d)
 
 
@@ -261,11 +273,17 @@ def write_achieved_goal(
         out[j] = min(max(np.float32(values[j]), low[j]), high[j])
 
 
-def _info_field(info: Any, key: str, n: int) -> np.ndarray:
-    """``info[key]`` from one info dict or a sequence/array of ``n`` of them, shape ``(n,)``;
-    0 where an info dict lacks the key (SB3's HER passes empty dicts by default)."""
+def info_field(info: Any, key: str, n: int) -> np.ndarray:
+    """``info[key]`` from one info dict, a sequence/array of ``n`` of them or a vector env's
+    infos (a dict whose ``info[key]`` is an array of ``n``), shape ``(n,)``; 0 where an info
+    dict lacks the key (SB3's HER passes empty dicts by default)."""
     if info is None:
         return np.zeros(n)
+    if isinstance(info, dict) and np.ndim(info.get(key)) == 1 and len(info[key]) == n:
+        try:
+            return np.asarray(info[key], dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"info[{key!r}] must be numbers") from exc
     if isinstance(info, dict):
         items = [info] * n
     else:
@@ -304,8 +322,8 @@ def evaluate_state_goal(
 
 
 def _failed(info: Any, n: int) -> NDArray[np.bool_]:
-    """``info["failure"]`` per goal pair (:func:`_info_field`) as booleans."""
-    return _info_field(info, "failure", n) > 0.5
+    """``info["failure"]`` per goal pair (:func:`info_field`) as booleans."""
+    return info_field(info, "failure", n) > 0.5
 
 
 def goal_success(
@@ -314,7 +332,7 @@ def goal_success(
     """Success per goal pair, shape ``(n,)``: within ``position_tolerance`` (m) and
     ``orientation_tolerance`` (rad), achieved speed at most desired speed plus ``rest_speed``
     (m/s), and not ``info["failure"]`` (:func:`goal_test`)."""
-    a, d, _ = _goals(achieved, desired)
+    a, d, _ = goal_arrays(achieved, desired)
     return goal_tests(a, d, _failed(info, a.shape[0]), *cfg.success_tolerances)[2]
 
 
@@ -335,14 +353,14 @@ def goal_reward(
     exp(-d / s)) + w_success [success]`` with ``d = |dp| + length |dtheta|`` (m), ``e = d /
     length`` (the reach reward's goal terms, :mod:`planar3p_gym.tasks.rewards`).
     """
-    a, d, _ = _goals(achieved, desired)
+    a, d, _ = goal_arrays(achieved, desired)
     n = a.shape[0]
     return goal_rewards(
         weights.as_array(),
         a,
         d,
         _failed(info, n),
-        _info_field(info, "goal_free_reward", n),
+        info_field(info, "goal_free_reward", n),
         float(length),
         reward_type == "dense",
         *cfg.success_tolerances,
@@ -364,6 +382,7 @@ class GoalTask(ReachTask):
     """
 
     name: ClassVar[str] = "goal"
+    travel_goal: ClassVar[bool] = False
     option_keys: ClassVar[tuple[str, ...]] = ("start", "target", "working_mode", "desired_goal")
 
     def __init__(self, reward_type: str = "sparse") -> None:
@@ -479,6 +498,15 @@ class GoalTask(ReachTask):
             return "singularity_crossing"
         return "success" if success else None
 
+    def kernel(self, settings: KernelSettings, machine: Sensing) -> StepKernel:
+        """The compiled goal kernel (:class:`GoalKernel`) on the projected physics of the
+        nominal machine when the per-step hooks are the goal task's own
+        (:data:`~planar3p_gym.tasks.reach.COMPILED_HOOKS`), else the reference."""
+        own = all(getattr(type(self), h) is getattr(GoalTask, h) for h in COMPILED_HOOKS)
+        if own and settings.projection and settings.nominal:
+            return GoalKernel(self, settings, machine)
+        return StepKernel(self, settings, machine)
+
     def step_reward(self, goal_free: float) -> float:
         """The reward of the step last evaluated (:meth:`evaluate`): :func:`goal_reward_value`
         of its ``evaluation`` and the goal-independent part ``goal_free``, so exactly
@@ -504,3 +532,45 @@ def achieved_goal(pose: ArrayLike, rho_dot: ArrayLike) -> NDArray[np.float32]:
     out = np.empty(GOAL_SIZE, dtype=np.float32)
     write_achieved_goal(out, x, y, th, r0, r1, r2, _NO_BOUND[0], _NO_BOUND[1])
     return out
+
+
+class GoalKernel(StepKernel):
+    """The goal task's compiled kernel: the reach kernel's compiled outputs
+    (:class:`~planar3p_gym.tasks.kernel.ReachKernel`: observation, errors, margins, reward
+    terms) with the goal task's success test, on the goals (:meth:`GoalTask.evaluate`, compiled),
+    in place of the reach one; the reference kernel where the physics broke down.  Its
+    observations, margins and reward terms are the reach kernel's: equal to the reference's to a
+    few float64 rounding errors (``tests/tasks/test_goal.py``)."""
+
+    task: GoalTask
+
+    def __init__(self, task: GoalTask, settings: KernelSettings, machine: Sensing) -> None:
+        super().__init__(task, settings, machine)
+        #: The reach task's compiled outputs (the goal task's reference pose is the reach's).
+        self.reach = ReachKernel(task, settings, machine)
+
+    def config_changed(self, tolerances: tuple[float, float, float]) -> None:
+        self.reach.config_changed(tolerances)
+
+    def step(
+        self,
+        ep: Episode,
+        state: SimState,
+        array: np.ndarray | None,
+        action: tuple[float, float, float],
+        rng: np.random.Generator,
+    ) -> StepOutputs:
+        if (
+            array is None
+            or not state.finite
+            or state.closure_error > self.settings.breakdown_distance
+        ):
+            return super().step(ep, state, array, action, rng)
+        obs, reward, reason, info = self.reach.step(ep, state, array, action, rng)
+        # GoalTask.termination: a crossing first, else success on the goals (evaluated once).
+        crossing = reason == "singularity_crossing"
+        success = self.task.evaluate(state.pose, state.rho_dot, crossing)[2]
+        if success == (reason == "success"):
+            return obs, reward, reason, info
+        reward = self.reach.rejudge(info, action, success)
+        return obs, reward, info["termination_reason"], info

@@ -67,6 +67,7 @@ import numpy as np
 from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
+from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.base import ModeTriple, Pose, Task, count_option, mode_option, pose_list
@@ -125,6 +126,7 @@ class ModeChangeTask(TravelShaping, Task):
     )
     #: Passing a serial singularity is the task: no serial barrier in the reward.
     serial_barrier: ClassVar[bool] = False
+    compiled_measures: ClassVar[bool] = True
 
     def __init__(
         self,
@@ -364,7 +366,9 @@ class ModeChangeTask(TravelShaping, Task):
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return self.travel_bounds(3)  # target travels, target working mode
 
-    def observation_extra(self, step: int) -> list[float]:
+    def observation_extra(
+        self, step: int, state: SimState, measures: ConfigurationMeasures
+    ) -> list[float]:
         return [*self._target_rho, *(float(m) for m in self._target_mode)]
 
     def is_success(self, state: SimState, errors: tuple[float, float]) -> bool:

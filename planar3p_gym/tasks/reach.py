@@ -20,8 +20,21 @@ import numpy as np
 from planar3p_gym.machine import kinematics
 from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.base import Pose, Task, pose_list
+from planar3p_gym.tasks.kernel import KernelSettings, ReachKernel, Sensing, StepKernel
 
-__all__ = ["ReachTask"]
+__all__ = ["COMPILED_HOOKS", "ReachTask"]
+
+#: The per-step hooks whose formulas the reach kernel compiles
+#: (:class:`planar3p_gym.tasks.kernel.ReachKernel`): a subclass that overrides any of them gets
+#: the reference kernel, its hooks.
+COMPILED_HOOKS = (
+    "reference",
+    "observation_extra",
+    "is_success",
+    "termination",
+    "reward_terms",
+    "step_info",
+)
 
 
 class ReachTask(Task):
@@ -29,6 +42,7 @@ class ReachTask(Task):
 
     name: ClassVar[str] = "reach"
     option_keys: ClassVar[tuple[str, ...]] = ("start", "target", "working_mode")
+    travel_goal: ClassVar[bool] = True
 
     def bind(self, env: Any) -> None:
         super().bind(env)
@@ -93,3 +107,11 @@ class ReachTask(Task):
 
     def reference(self, step: int) -> Pose:
         return self._target
+
+    def kernel(self, settings: KernelSettings, machine: Sensing) -> StepKernel:
+        """The compiled reach kernel on the projected physics of the nominal machine when the
+        per-step hooks are the reach task's own (:data:`COMPILED_HOOKS`), else the reference."""
+        own = all(getattr(type(self), h) is getattr(ReachTask, h) for h in COMPILED_HOOKS)
+        if own and settings.projection and settings.nominal:
+            return ReachKernel(self, settings, machine)
+        return super().kernel(settings, machine)

@@ -3,13 +3,14 @@
 After :class:`planar3p_gym.sim.physics.Planar3PSim` has projected the state onto the constraint
 manifold it knows the leg vectors ``u_i = C_i - B_i`` (m) and ``cos/sin theta`` at the new pose
 (``sim.geometry``).  :class:`ReachStep` computes from them, in one pass of plain-float
-arithmetic, what the general step of :class:`planar3p_gym.envs.core.Planar3PEnv` computes through
+arithmetic, what the reference kernel (:class:`planar3p_gym.tasks.kernel.StepKernel`) computes
+through
 :class:`~planar3p_gym.machine.scalar_kinematics.ScalarKinematics`,
 :func:`~planar3p_gym.tasks.observation.build_observation`, the task's hooks and
 :func:`~planar3p_gym.tasks.rewards.reward_terms`: the configuration measures, the observation, the
 errors to the target, the termination and the reward terms.  The formulas are those; only
 intermediate values are shared (``cos alpha_i = u_ix / |u_i|`` instead of ``cos(atan2(...))``,
-``|dp|`` as ``sqrt(dx^2 + dy^2)``), so the numbers agree with the general step to float64
+``|dp|`` as ``sqrt(dx^2 + dy^2)``), so the numbers agree with the reference kernel to float64
 rounding (``tests/sim/test_batch_step.py``).
 
 The pass is one compiled call, :func:`reach_outputs`, from the projection's state array (the
@@ -18,8 +19,9 @@ The pass is one compiled call, :func:`reach_outputs`, from the projection's stat
 formula (:func:`~planar3p_gym.machine.margins.leg_margins`,
 :func:`~planar3p_gym.tasks.observation.write_reach_values`,
 :func:`~planar3p_gym.tasks.observation.within_tolerances`,
-:func:`~planar3p_gym.tasks.rewards.weighted_terms`).  The single env's fused step and the
-native vector env's scalar batch call it through :meth:`ReachStep.compute`; the vector env's
+:func:`~planar3p_gym.tasks.rewards.weighted_terms`).  The reach kernel
+(:class:`planar3p_gym.tasks.kernel.ReachKernel`) and the native vector env's scalar batch call
+it through :meth:`ReachStep.compute`; the vector env's
 compiled step (:func:`planar3p_gym.envs.batch_kernel.reach_batch_step`) through
 :func:`reach_outputs_batch`, the same function in a compiled loop over the batch's projected
 states, so all three give the same numbers bit for bit.

@@ -38,8 +38,10 @@ __all__ = [
     "PoseSampler",
     "TaskConfig",
     "assembly_modes",
+    "check_detours",
     "check_mode",
     "check_pose",
+    "has_detours",
     "has_pairs",
     "path_is_clear",
     "sample_pair",
@@ -112,7 +114,11 @@ class TaskConfig:
             target's mirror image about the rail line or loses the branch
             (:mod:`planar3p_gym.machine.slider_line`).  These need a detour in slider space, the
             pairs on which PPO from scratch fails the benchmark's ``standard`` suite; for
-            training on them more often.  0 (the default) draws no extra random number.
+            training on them more often.  0 (the default) draws no extra random number.  Some
+            working modes have no such pairs (:func:`has_detours`; ``(1, 1, 1)`` on the
+            paper's design): an environment whose every mode lacks them refuses a positive
+            share (:func:`check_detours`); under random working modes those modes draw an
+            ordinary pair.
     """
 
     position_tolerance: float = 0.002
@@ -392,7 +398,12 @@ def sample_pair(
         if pair is not None:
             return pair
     elif free and cfg.detour_fraction > 0 and rng.random() < cfg.detour_fraction:
-        pair = _detour_pair(design, mode, rng, cfg, sampler)
+        # (A mode without such pairs draws an ordinary pair at once, not after the budget.)
+        pair = (
+            _detour_pair(design, mode, rng, cfg, sampler)
+            if has_detours(design, mode, cfg)
+            else None
+        )
         if pair is not None:
             return pair
     for attempt in range(max_tries * PAIR_TRIES_FACTOR if free else max_tries):
@@ -446,12 +457,24 @@ def _near_singular_pair(
     m = np.asarray(mode, dtype=np.float64)
 
     def near_singular(s: np.ndarray, det: float, cands: np.ndarray) -> np.ndarray:
+        # reachable & ~clear, in one screen for the common path (reachable and clear): the
+        # screen of both tests passes exactly those, and only the paths it fails need the
+        # reachability screen alone (reachable & ~(reachable & clear) == reachable & ~clear).
         paths = interpolate(s[None, :], cands, cfg.path_points)
-        reachable = kinematics.screen_paths(design, paths, m, min_serial=cfg.path_serial_margin)
-        clear = kinematics.screen_paths(
-            design, paths, m, min_parallel=cfg.near_singular_margin, assembly=det
+        both = kinematics.screen_paths(
+            design,
+            paths,
+            m,
+            min_parallel=cfg.near_singular_margin,
+            min_serial=cfg.path_serial_margin,
+            assembly=det,
         )
-        return reachable & ~clear
+        hits = ~both
+        if hits.any():
+            hits[hits] = kinematics.screen_paths(
+                design, paths[hits], m, min_serial=cfg.path_serial_margin
+            )
+        return hits
 
     return _pair_by_rejection(
         design, rng, cfg, sampler, near_singular, NEAR_SINGULAR_CANDIDATES, NEAR_SINGULAR_STARTS
@@ -482,6 +505,40 @@ def _detour_pair(
         return ok
 
     return _pair_by_rejection(design, rng, cfg, sampler, detour, DETOUR_CANDIDATES, DETOUR_STARTS)
+
+
+def has_detours(design: Design, mode: ArrayLike, cfg: TaskConfig) -> bool:
+    """Whether working ``mode`` of ``design`` has pairs :func:`_detour_pair` finds: one found
+    within its budget with a fixed internal seed (the episode's random stream is not touched;
+    cached).  A mode without detours is one where every reset would spend that budget (about
+    a second) for nothing."""
+    # The schedulable fields (tolerances, shares of pairs) do not change the answer: one entry
+    # of the cache serves a curriculum over them.
+    key = replace(cfg, **{f: getattr(_DEFAULT_CONFIG, f) for f in SCHEDULABLE_FIELDS})
+    return _has_detours(design, tuple(int(m) for m in np.asarray(mode).tolist()), key)
+
+
+_DEFAULT_CONFIG = TaskConfig()
+
+
+@lru_cache(maxsize=256)
+def _has_detours(design: Design, mode: tuple[int, int, int], cfg: TaskConfig) -> bool:
+    sampler = PoseSampler(design, mode, cfg)
+    return _detour_pair(design, mode, np.random.default_rng(0), cfg, sampler) is not None
+
+
+def check_detours(design: Design, modes: list[tuple[int, int, int]], cfg: TaskConfig) -> None:
+    """``ValueError`` naming ``detour_fraction`` if it is positive and none of the working
+    ``modes`` an environment draws from has detour pairs (:func:`has_detours`); with some that
+    have them, the others draw ordinary pairs."""
+    if cfg.detour_fraction == 0 or any(has_detours(design, m, cfg) for m in modes):
+        return
+    raise ValueError(
+        f"task_config.detour_fraction ({cfg.detour_fraction:g}) asks for pairs the straight "
+        f"slider line does not solve, but working mode(s) {', '.join(map(str, modes))} have "
+        f"none (none in {DETOUR_STARTS} starts of a fixed-seed search); set detour_fraction "
+        "to 0 or choose a working mode with such pairs"
+    )
 
 
 def _pair_by_rejection(

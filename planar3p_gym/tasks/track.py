@@ -60,11 +60,21 @@ import numpy as np
 
 from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.base import Pose, Task, pose_list
+from planar3p_gym.tasks.kernel import (
+    Episode,
+    KernelSettings,
+    ReachKernel,
+    Sensing,
+    StepKernel,
+    StepOutputs,
+)
 from planar3p_gym.tasks.motions import MIN_JERK_PEAK
 from planar3p_gym.tasks.observation import SPEED_BOUND_FACTOR
+from planar3p_gym.tasks.reach import COMPILED_HOOKS
 from planar3p_gym.tasks.track_references import (
     CHECK_POINTS,
     MIN_DURATION,
@@ -81,6 +91,7 @@ __all__ = [
     "MIXED",
     "REFERENCE_KINDS",
     "TRACKING_METRICS",
+    "TrackKernel",
     "TrackTask",
 ]
 
@@ -156,8 +167,8 @@ class TrackTask(Task):
         super().bind(env)
         self._ref: dict[str, Any] = {}
         self._pose_cache: tuple[int, np.ndarray, np.ndarray] | None = None
-        self._sums = np.zeros(3)
-        self._maxes = np.zeros(3)
+        self._sums = [0.0, 0.0, 0.0]
+        self._maxes = [0.0, 0.0, 0.0]
         self._count = 0
         kinds = REFERENCE_KINDS if self.kind == MIXED else (self.kind,)
         self._draw_modes = {kind: self._reference_modes(kind) for kind in kinds}
@@ -290,8 +301,8 @@ class TrackTask(Task):
     def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
         self._ref = parse_reference(spec["reference"])
         self._pose_cache = None
-        self._sums = np.zeros(3)
-        self._maxes = np.zeros(3)
+        self._sums = [0.0, 0.0, 0.0]
+        self._maxes = [0.0, 0.0, 0.0]
         self._count = 0
         mode = tuple(int(m) for m in spec["working_mode"])
         return np.asarray(spec["start"], dtype=np.float64), mode  # type: ignore[return-value]
@@ -457,13 +468,24 @@ class TrackTask(Task):
         high = np.array([v, v, w], dtype=np.float32)
         return -high, high
 
-    def observation_extra(self, step: int) -> list[float]:
+    def observation_extra(
+        self, step: int, state: SimState, measures: ConfigurationMeasures
+    ) -> list[float]:
         return self._current(step)[1].tolist()
 
     def is_success(self, state: SimState, errors: tuple[float, float]) -> bool:
         """Never: a tracking episode runs to its time limit (or a crossing / breakdown), so
         :meth:`Task.termination` only ever returns ``"singularity_crossing"`` here."""
         return False
+
+    def kernel(self, settings: KernelSettings, machine: Sensing) -> StepKernel:
+        """The compiled tracking kernel (:class:`TrackKernel`) on the projected physics of the
+        nominal machine when the per-step hooks are the tracking task's own
+        (:data:`~planar3p_gym.tasks.reach.COMPILED_HOOKS`), else the reference."""
+        own = all(getattr(type(self), h) is getattr(TrackTask, h) for h in COMPILED_HOOKS)
+        if own and settings.projection and settings.nominal:
+            return TrackKernel(self, settings, machine)
+        return StepKernel(self, settings, machine)
 
     def step_info(self, step: int, state: SimState, errors: tuple[float, float]) -> dict[str, Any]:
         pos_err, ang_err = errors
@@ -472,20 +494,25 @@ class TrackTask(Task):
             pos_err,
             abs(ang_err),
         )
+        # Plain floats (three numbers: numpy's per-call cost is most of a step's here); the
+        # same IEEE operations as elementwise numpy, NaN kept by the maximum as np.maximum.
+        sums, maxes = self._sums, self._maxes
         if step > 0:
             self._count += 1
-            e = np.asarray(err)
-            self._sums += e * e
-            self._maxes = np.maximum(self._maxes, e)
-        rms = np.sqrt(self._sums / self._count) if self._count else np.zeros(3)
+            for i in range(3):
+                e = err[i]
+                sums[i] += e * e
+                maxes[i] = maxes[i] if maxes[i] >= e or maxes[i] != maxes[i] else e
+        n = self._count
+        rms = [math.sqrt(v / n) for v in sums] if n else [0.0, 0.0, 0.0]
         return {
             "tracking_error": err[0] if step > 0 else 0.0,
-            "tracking_rms_error": float(rms[0]),
-            "tracking_max_error": float(self._maxes[0]),
-            "tracking_rms_position_error": float(rms[1]),
-            "tracking_max_position_error": float(self._maxes[1]),
-            "tracking_rms_orientation_error": float(rms[2]),
-            "tracking_max_orientation_error": float(self._maxes[2]),
+            "tracking_rms_error": rms[0],
+            "tracking_max_error": maxes[0],
+            "tracking_rms_position_error": rms[1],
+            "tracking_max_position_error": maxes[1],
+            "tracking_rms_orientation_error": rms[2],
+            "tracking_max_orientation_error": maxes[2],
         }
 
 
@@ -493,3 +520,50 @@ def _peak_of(rho: np.ndarray) -> float:
     """Largest ``|d rho / d(parameter)|`` (m per unit parameter) of travels ``(n, 3)`` at ``n``
     evenly spaced parameters spanning a unit interval."""
     return float(np.abs(np.diff(rho, axis=0)).max() * (len(rho) - 1))
+
+
+class TrackKernel(StepKernel):
+    """The tracking task's compiled kernel: the reach task's compiled outputs
+    (:class:`~planar3p_gym.tasks.kernel.ReachKernel`: observation, errors, margins, reward
+    terms) against the step's reference pose, with no success (a step within the tolerances is
+    rejudged, :meth:`~planar3p_gym.tasks.kernel.ReachKernel.rejudge`), then the reference
+    velocity entries and the tracking metrics (the task's hooks); the reference kernel where
+    the physics broke down.  Its observations, margins and rewards are the reach kernel's:
+    equal to the reference's to a few float64 rounding errors (``tests/tasks/test_track.py``)."""
+
+    task: TrackTask
+
+    def __init__(self, task: TrackTask, settings: KernelSettings, machine: Sensing) -> None:
+        super().__init__(task, settings, machine)
+        #: The reach task's compiled outputs, against each step's reference pose.
+        self.reach = ReachKernel(task, settings, machine)
+
+    def config_changed(self, tolerances: tuple[float, float, float]) -> None:
+        self.reach.config_changed(tolerances)
+
+    def step(
+        self,
+        ep: Episode,
+        state: SimState,
+        array: np.ndarray | None,
+        action: tuple[float, float, float],
+        rng: np.random.Generator,
+    ) -> StepOutputs:
+        if (
+            array is None
+            or not state.finite
+            or state.closure_error > self.settings.breakdown_distance
+        ):
+            return super().step(ep, state, array, action, rng)
+        task = self.task
+        target = ep.target = task.reference(ep.steps)
+        ep.target_cs = (math.cos(target[2]), math.sin(target[2]))
+        obs, reward, reason, info = self.reach.step(ep, state, array, action, rng)
+        if reason == "success":  # (never for this task: within the tolerances, going on)
+            reward, reason = self.reach.rejudge(info, action, False), None
+        assert ep.measures is not None
+        obs = ep.obs = self.with_extra(ep, obs, state, ep.measures)
+        info.update(
+            task.step_info(ep.steps, state, (info["position_error"], info["orientation_error"]))
+        )
+        return obs, reward, reason, info

@@ -47,7 +47,7 @@ class TravelShaping:
     def reward_terms(self, **kwargs: Any) -> dict[str, float]:
         terms: dict[str, float] = super().reward_terms(**kwargs)  # type: ignore[misc]
         if self.travel_shaping:
-            rho = self.env.sim.state.rho
+            rho = kwargs["state"].rho
             if all(math.isfinite(r) for r in rho):
                 self._shaping_rho = rho
             distance = sum(

@@ -178,8 +178,8 @@ SWEEP = ["sweep", "--algo", "ppo", "--seeds", "0"]
 DEFECTS = [
     (["bench-env", "--quick", "--json", "{ro}/bench.json"], "--json"),
     (["bench-env", "--quick", "--json", "{file}/bench.json"], "--json"),
-    (["fidelity", "--pairs", "1", "--episodes", "0", "--json", "{ro}/f.json"], "--json"),
-    (["fidelity", "--pairs", "1", "--episodes", "0", "--json", "{file}/f.json"], "--json"),
+    (["fidelity", "--pairs", "1", "--episodes", "1", "--json", "{ro}/f.json"], "--json"),
+    (["fidelity", "--pairs", "1", "--episodes", "1", "--json", "{file}/f.json"], "--json"),
     (["goal-track-baselines", "--episodes", "1", "--json", "{ro}/g.json"], "--json"),
     (["goal-track-baselines", "--episodes", "1", "--json", "{file}/g.json"], "--json"),
     ([*SWEEP, "--out", "{ro}/sweep"], "--out"),
@@ -230,6 +230,10 @@ DEFECTS = [
     (["train", "--algo", "ppo", "--seed", "-1", "--run-dir", "{tmp}/run"], "--seed"),
     (["fidelity", "--suites", "standard,easy"], "--suites"),
     (["workspace", "--theta-plane", "inf", "--out", "{tmp}/docs"], "--theta-plane"),
+    # settings accepted until they were found to fail
+    (["docs-media", "--out", "{file}/media"], "--out"),
+    (["fidelity", "--episodes", "0"], "--episodes"),
+    (["bench-resets", "--seeds", "1", "--json", "{file}/x.json"], "--json"),
 ]  # fmt: skip
 
 
@@ -280,6 +284,44 @@ def test_sweep_refuses_bad_samples_without_starting_ray(tmp_path: Path, capsys, 
     assert cli.main([*argv, "--out", str(tmp_path / "s")]) == 2
     assert "--num-samples must be between 1 and 10000, got -1" in capsys.readouterr().err
     assert not ray.is_initialized() and not (tmp_path / "s").exists()
+
+
+def test_sweep_without_its_extra_names_the_extra(
+    tmp_path: Path, monkeypatch, capsys, no_work
+) -> None:
+    """Without Ray or Optuna (the ``sweep`` extra) the sweep ended in a ModuleNotFoundError
+    traceback; now one line naming the extra, exit 2, nothing written."""
+    import sys
+
+    for module in ("ray", "optuna"):
+        monkeypatch.setitem(sys.modules, module, None)  # as if not installed
+        assert cli.main([*SWEEP, "--out", str(tmp_path / "s")]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1, err
+        assert err.startswith(f"planar3p sweep: error: {module} not installed"), err
+        assert "'sweep' extra (pip install 'planar3p-gym[sweep]')" in err
+        monkeypatch.delitem(sys.modules, module)
+    assert not (tmp_path / "s").exists()
+
+
+def test_a_json_path_under_a_file_is_named_as_such(tmp_path: Path, capsys) -> None:
+    """`bench-resets --json <file>/x.json` said "directory <file> does not exist"."""
+    a_file = tmp_path / "a_file"
+    a_file.write_text("keep")
+    assert cli.main(["bench-resets", "--seeds", "1", "--json", f"{a_file}/x.json"]) == 2
+    err = capsys.readouterr().err
+    assert f"is under {a_file}, which is not a directory" in err, err
+    assert "does not exist" not in err
+
+
+def test_detours_finds_its_default_suite_file_from_any_directory(
+    tmp_path: Path, monkeypatch, capsys
+) -> None:
+    """The default --suite-file was relative to the working directory: from anywhere but the
+    repository's root the command refused its own default."""
+    monkeypatch.chdir(tmp_path)
+    assert cli.main(["detours", "--episodes", "1", "--suites", "standard"]) == 0
+    assert "| standard | 1 |" in capsys.readouterr().out
 
 
 def test_sweep_stops_ray_on_sigterm(tmp_path: Path, monkeypatch, capsys) -> None:

@@ -10,7 +10,8 @@ from gymnasium.utils.env_checker import check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import planar3p_gym
-from planar3p_gym.envs.core import Planar3PEnv, on_off_action
+from planar3p_gym.envs.actuation import on_off_action
+from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.sim.randomization import REALISTIC_RANDOMIZATION
 from planar3p_gym.sim.sensors import REALISTIC_SENSORS
 from planar3p_gym.tasks.observation import SLICES
@@ -70,7 +71,7 @@ def test_each_randomised_quantity_changes_the_episode(name):
     assert np.array_equal(
         default[0][SLICES["target_position"]], changed[0][SLICES["target_position"]]
     )
-    machine = env.unwrapped._machine
+    machine = env.unwrapped.machine.episode.machine
     assert machine.design != env.unwrapped.design or not machine.dynamics.is_ideal
     assert env.unwrapped.sim.design == machine.design  # the projection's geometry is the drawn one
 
@@ -205,7 +206,7 @@ def test_a_start_out_of_every_drawn_machine_s_reach_falls_back_to_the_nominal_ma
 ):
     """When no draw reaches the start (none allowed here), the episode runs the nominal
     machine, not the previous episode's."""
-    import planar3p_gym.envs.core as core
+    import planar3p_gym.envs.actuation as core
 
     env = gym.make("Planar3P-v0", randomization={"rail_offset": 1e-3, "servo_lag": 0.01}).unwrapped
     env.reset(seed=0)
@@ -213,7 +214,7 @@ def test_a_start_out_of_every_drawn_machine_s_reach_falls_back_to_the_nominal_ma
     monkeypatch.setattr(core, "MACHINE_DRAWS", 0)
     env.reset(seed=1)
     assert env.sim.design == env.design and env.sim.dynamics is None
-    assert env._true_kin.design == env.design
+    assert env.machine.episode.true_kin.design == env.design
 
 
 def test_the_realistic_ranges_keep_the_task_solvable_in_principle():
@@ -224,5 +225,82 @@ def test_the_realistic_ranges_keep_the_task_solvable_in_principle():
                    sensors=REALISTIC_SENSORS.to_dict()).unwrapped  # fmt: skip
     for seed in range(20):
         obs, info = env.reset(seed=seed)
-        assert env._machine.design != env.design
+        assert env.machine.episode.machine.design != env.design
         assert np.abs(obs[SLICES["position"]] - np.array(info["pose"][:2])).max() < 0.005
+
+
+# ------------------------------------------------------------------ control rates and resets
+@pytest.mark.parametrize("env_id", REAL_IDS)
+@pytest.mark.parametrize("frequency", [2.0, 5.0, 8.0, 10.0])
+def test_a_control_rate_whose_step_cannot_take_every_drawn_machine_is_refused(env_id, frequency):
+    """At these rates ``reset()`` raised for some seeds (a drawn slider friction too strong for
+    the physics step); now the constructor refuses them, naming the lowest rate it accepts
+    (slider_viscous up to 5 N s/m on sliders as light as 0.9 x 0.5 kg: h < 0.09 s), and so does
+    the native vector env."""
+    with pytest.raises(ValueError, match=r"control_frequency must exceed 11\.11 Hz at substeps=1"):
+        gym.make(env_id, control_frequency=frequency)
+    with pytest.raises(ValueError, match="control_frequency must exceed"):
+        gym.make_vec(
+            env_id, num_envs=2, vectorization_mode="vector_entry_point", control_frequency=frequency
+        )
+    env = gym.make(env_id, control_frequency=frequency, substeps=2 if frequency > 5 else 6)
+    for seed in range(50, 60):  # more physics steps per control step: accepted, and resets
+        env.reset(seed=seed)
+
+
+def test_at_the_lowest_accepted_rate_every_reset_and_autoreset_works():
+    """Just above the bound every seed resets, in the single env and through the native vector
+    env's autoresets (which crashed at 10 Hz)."""
+    env = gym.make(planar3p_gym.REAL_ENV_ID, control_frequency=11.2)
+    for seed in range(200):
+        env.reset(seed=seed)
+    venv = gym.make_vec(
+        planar3p_gym.REAL_ENV_ID,
+        num_envs=2,
+        vectorization_mode="vector_entry_point",
+        control_frequency=11.2,
+        max_episode_steps=3,
+    )
+    venv.reset(seed=0)
+    for _ in range(40):  # ten episodes per env, each ended by the limit and reset
+        obs, *_ = venv.step(venv.action_space.sample())
+        assert np.isfinite(obs).all()
+
+
+def test_a_reset_that_raises_changes_nothing(monkeypatch):
+    """A reset whose drawn machine is refused (here: every draw) left the env half-reset: a new
+    target, a reseeded generator, the old simulation, and step still accepted.  Now it changes
+    nothing: the env steps on exactly as one that never tried."""
+    from planar3p_gym.sim.randomization import DynamicsRandomization
+
+    env, ref = gym.make(planar3p_gym.REAL_ENV_ID).unwrapped, gym.make(planar3p_gym.REAL_ENV_ID)
+    env.reset(seed=50)
+    ref.reset(seed=50)
+    env.action_space.seed(1)
+    ref.action_space.seed(1)
+    env.step(env.action_space.sample())
+    ref.step(ref.action_space.sample())
+    target, sim, rng = env.target, env.sim, env.np_random.bit_generator.state
+
+    def refuse(self, nominal, rng):
+        raise ValueError("the drawn geometry cannot close")
+
+    with monkeypatch.context() as m:
+        m.setattr(DynamicsRandomization, "sample", refuse)
+        with pytest.raises(ValueError, match="cannot close"):
+            env.reset(seed=51)
+    assert env.target == target and env.sim is sim and env.np_random.bit_generator.state == rng
+    want = _stream_on(ref)
+    assert _same(_stream_on(env), want)
+
+
+def _stream_on(env: gym.Env, steps: int = 20) -> list:
+    """Observations, rewards and poses of ``steps`` random steps and then of a reset."""
+    out = []
+    for _ in range(steps):
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        out += [obs, reward, info["pose"]]
+        if terminated or truncated:
+            break
+    obs, info = env.reset()
+    return [*out, obs, info["pose"], info["machine"]["design"]["leg_lengths"]]

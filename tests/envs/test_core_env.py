@@ -14,7 +14,7 @@ import pytest
 
 import planar3p_gym
 from planar3p_gym import ENV_ID, MAX_EPISODE_STEPS
-from planar3p_gym.envs.core import TERMINATION_REASONS
+from planar3p_gym.envs.end_reason import TERMINATION_REASONS
 from planar3p_gym.machine import kinematics
 from planar3p_gym.tasks import motions
 from planar3p_gym.tasks import sampling as task
@@ -248,6 +248,36 @@ def test_same_seed_and_actions_give_identical_trajectories():
     env = make()
     rollout(env, 5, actions[:50])
     _assert_same(rollout(env, 123, actions), a)
+
+
+@pytest.mark.parametrize("seed", [True, np.bool_(False), 3.0, np.float64(3.0), -1, "3"], ids=repr)
+def test_single_and_vector_envs_refuse_the_same_seeds(seed):
+    """The single env accepted ``seed=True`` (as 1) and refused ``np.int64(3)`` with Gymnasium's
+    own error; the vector env the opposite.  Both refuse bools, floats, negative numbers and
+    strings with ``ValueError`` naming the seed, and draw nothing."""
+    from planar3p_gym.envs.vector import Planar3PVectorEnv
+
+    env, ref = make(), make()
+    env.reset(seed=5)
+    ref.reset(seed=5)
+    with pytest.raises(ValueError, match="seed"):
+        env.reset(seed=seed)
+    assert env.reset()[1]["episode_spec"] == ref.reset()[1]["episode_spec"]
+    venv = Planar3PVectorEnv(num_envs=2)
+    for bad in (seed, [seed, 1]):
+        with pytest.raises(ValueError, match="seed"):
+            venv.reset(seed=bad)
+
+
+@pytest.mark.parametrize("seed", [3, np.int64(3), np.uint8(3), np.array(3)], ids=repr)
+def test_single_and_vector_envs_take_numpy_integer_seeds_as_ints(seed):
+    from planar3p_gym.envs.vector import Planar3PVectorEnv
+
+    obs, info = make().reset(seed=seed)
+    assert info["episode_spec"] == make().reset(seed=3)[1]["episode_spec"]
+    vobs, _ = Planar3PVectorEnv(num_envs=2).reset(seed=seed)
+    want, _ = Planar3PVectorEnv(num_envs=2).reset(seed=[3, np.int64(4)])
+    assert vobs.tobytes() == want.tobytes() and vobs[0].tobytes() == obs.tobytes()
 
 
 def test_random_working_mode_is_seeded():

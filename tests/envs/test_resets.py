@@ -479,6 +479,7 @@ def test_pose_pools_hand_out_what_the_list_pool_did(mode, ops):
         (["--kwargs", "[1, 2]"], "--kwargs"),
         (["--kwargs", '{"working_mode": "sideways"}'], "--kwargs"),
         (["--json", "/nonexistent/dir/out.json"], "--json"),
+        (["--clock", "sundial"], "--clock"),
     ],
 )
 def test_bench_resets_rejects_bad_arguments_before_any_reset(argv, flag, capsys, monkeypatch):
@@ -497,6 +498,10 @@ def test_bench_resets_prints_the_figures(capsys, tmp_path):
     text = capsys.readouterr().out
     assert "Planar3P-v0" in text and "p99.9" in text
     assert '"Planar3P-v0"' in out.read_text()
+    argv = ["--seeds", "3", "--ids", "Planar3P-v0", "--clock", "cpu", "--json", str(out)]
+    assert mod.main(argv) == 0
+    assert "CPU time" in capsys.readouterr().out
+    assert json.loads(out.read_text())["clock"] == "cpu"
 
 
 def test_full_collections_are_counted_and_a_frozen_gc_is_thawed(capsys, tmp_path):

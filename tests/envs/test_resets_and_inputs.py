@@ -266,7 +266,7 @@ def test_record_video_writes_a_file(tmp_path):
 
 
 def test_keyboard_mapping_drives_the_sliders():
-    from planar3p_gym.envs.core import KEYBOARD_KEYS, KEYBOARD_SPEED
+    from planar3p_gym.envs.actuation import KEYBOARD_KEYS, KEYBOARD_SPEED
 
     mapping = gym.make(ENV_ID).unwrapped.get_keys_to_action()
     assert len(mapping) == 26  # each slider still, +x or -x; all still is the no-op

@@ -82,11 +82,11 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, ba
     for env, single in zip(venv.envs, singles, strict=True):
         assert env.sim.state == single.unwrapped.sim.state
         assert env.sim.get_state() == single.unwrapped.sim.get_state()  # commands included
-        np.testing.assert_array_equal(env._obs, single.unwrapped._obs)
-        assert env._last_info.keys() == single.unwrapped._last_info.keys()
-        for key, value in single.unwrapped._last_info.items():
+        np.testing.assert_array_equal(env.episode.obs, single.unwrapped.episode.obs)
+        assert env.episode.info.keys() == single.unwrapped.episode.info.keys()
+        for key, value in single.unwrapped.episode.info.items():
             if key != "reward_terms":
-                assert env._last_info[key] == value, key
+                assert env.episode.info[key] == value, key
     venv.close()
 
 
@@ -374,3 +374,82 @@ def test_the_on_off_id_has_a_native_vector_env_of_its_single_envs():
             ends += done[i]
     assert ends >= 2 * n  # (a time limit of 40 steps in 100: autoresets were checked)
     venv.close()
+
+
+@pytest.mark.parametrize("env_id", ["Planar3PGoal-v0", "Planar3PGoalDense-v0"])
+def test_the_goal_ids_native_vector_env_is_their_single_envs(env_id):
+    """``gym.make_vec`` of a goal id gives its native vector env: ``Dict`` observations as a
+    dict of batch arrays, bit for bit each single env's (next-step autoreset), the relabelling
+    entries among the infos, and ``compute_reward`` of the batch's goals and infos equal to
+    the rewards of every env stepped (what hindsight relabelling relies on)."""
+    n, steps, limit = 3, 90, 25
+    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit)
+    assert type(venv).__name__ == "Planar3PGoalVectorEnv"
+    singles = [gym.make(env_id, max_episode_steps=limit) for _ in range(n)]
+    actions = np.random.default_rng(11).uniform(-1.0, 1.0, (steps, n, 3)).astype(np.float32)
+    obs, _ = venv.reset(seed=8)
+    expected = [env.reset(seed=8 + i)[0] for i, env in enumerate(singles)]
+    assert venv.observation_space.contains(obs)
+    for key in obs:
+        np.testing.assert_array_equal(obs[key], np.stack([o[key] for o in expected]))
+    done, ends = [False] * n, 0
+    for a in actions:
+        stepped = [not d for d in done]
+        obs, rewards, terminated, truncated, infos = venv.step(a)
+        for i, env in enumerate(singles):
+            if done[i]:
+                o, info = env.reset()
+                r, te, tr = 0.0, False, False
+            else:
+                o, r, te, tr, info = env.step(a[i])
+            done[i] = te or tr
+            ends += done[i]
+            for key in o:
+                np.testing.assert_array_equal(obs[key][i], o[key])
+            assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr)
+            for key in venv.info_keys:
+                assert infos[key][i] == info[key], key
+        rows = np.flatnonzero(stepped)
+        relabelled = venv.compute_reward(
+            obs["achieved_goal"][rows],
+            obs["desired_goal"][rows],
+            {key: infos[key][rows] for key in venv.info_keys},
+        )
+        np.testing.assert_array_equal(relabelled, rewards[rows])
+    assert ends >= n
+    venv.close()
+
+
+def test_sb3_adapter_serves_the_goal_ids():
+    """The SB3 adapter on a goal id: the ``Dict`` observations, rewards and dones of SB3's
+    ``DummyVecEnv`` of ``gym.make`` envs, and every env's info carries the relabelling entries
+    (``goal_free_reward``, ``failure``) of its single env at every step, as HER stores them."""
+    pytest.importorskip("stable_baselines3")
+    from stable_baselines3.common.vec_env import DummyVecEnv
+
+    from planar3p_agents.training.vec_adapter import make_native_vec_env
+    from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS
+
+    n, limit = 2, 20
+    native = make_native_vec_env("Planar3PGoalDense-v0", n_envs=n, seed=6)
+    native.venv.max_episode_steps = limit
+    dummy = DummyVecEnv(
+        [lambda: gym.make("Planar3PGoalDense-v0", max_episode_steps=limit) for _ in range(n)]
+    )
+    dummy.seed(6)
+    x, y = native.reset(), dummy.reset()
+    for key in y:
+        np.testing.assert_array_equal(x[key], y[key])
+    ends = 0
+    for a in np.random.default_rng(2).uniform(-1, 1, (50, n, 3)).astype(np.float32):
+        x, y = native.step(a), dummy.step(a)
+        for key in y[0]:
+            np.testing.assert_array_equal(x[0][key], y[0][key])
+        np.testing.assert_array_equal(x[1], y[1])
+        np.testing.assert_array_equal(x[2], y[2])
+        ends += int(x[2].sum())
+        for i in range(n):
+            for key in RELABEL_INFO_KEYS:
+                assert x[3][i][key] == y[3][i][key], key
+    assert ends >= n
+    native.close()

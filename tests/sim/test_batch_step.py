@@ -12,6 +12,7 @@ from projection_helpers import project_rows
 
 import planar3p_gym  # noqa: F401  (registers the ids)
 from planar3p_gym.sim.physics import _wrap
+from planar3p_gym.tasks.kernel import ReachKernel, StepKernel
 from planar3p_gym.tasks.observation import OBS_SIZE
 from planar3p_gym.tasks.reach_step import RESULT_FIELDS, BatchReach, reach_outputs_batch
 
@@ -84,10 +85,10 @@ def test_batch_reach_outputs_are_the_fused_outputs_bit_for_bit():
             a = tuple(float(x) for x in np.clip(a * 1.3, -1, 1))
             s = env.sim.step_unchecked(*(x * env.design.max_speed for x in a))
             rows.append((*s.rho, *s.rho_dot, *s.pose, *s.twist, *s.leg_angles, *env.sim.geometry))
-            targets.append(env._target)
+            targets.append(env.episode.target)
             actions.append(a)
             assemblies.append(int(rng.choice((-1, 1))))  # both termination branches
-    reach = env._reach_step
+    reach = env.kernel.reach
     batch = BatchReach(reach)
     n = len(rows)
     states = np.array(rows).T.copy()  # (23, N)
@@ -119,7 +120,9 @@ def test_fused_reach_step_agrees_with_the_general_step():
     ``dm`` into ``ref dm / m^2``, which the reward's bound adds (weighted)."""
     fused, general = gym.make("Planar3P-v0"), gym.make("Planar3P-v0")
     w = fused.unwrapped.reward_weights
-    general.unwrapped._reach_step = None
+    compiled = general.unwrapped.kernel
+    assert isinstance(compiled, ReachKernel)
+    general.unwrapped.kernel = StepKernel(compiled.task, compiled.settings, compiled.machine)
     rng = np.random.default_rng(0)
     fused.reset(seed=3)
     general.reset(seed=3)

@@ -111,3 +111,33 @@ def test_the_same_generator_state_draws_the_same_machine():
 def test_bad_ranges_are_refused_naming_the_field(kwargs, name):
     with pytest.raises(ValueError, match=name):
         DynamicsRandomization(**kwargs)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    mass=st.floats(0.0, 0.9),
+    inertia=st.floats(0.0, 0.9),
+    leg=st.floats(0.0, 0.01),
+    slider=st.floats(0.0, 20.0),
+    joint=st.floats(0.0, 0.01),
+)
+def test_no_drawn_machine_needs_a_shorter_step_than_the_longest_step(
+    seed, mass, inertia, leg, slider, joint
+):
+    """``longest_step`` bounds the viscous limits of every machine the ranges can draw (the
+    worst draw is the lightest, shortest, most damped one), so a step below it integrates them
+    all; and the check refuses a step just above it and accepts one just below."""
+    from planar3p_gym.sim.dynamics import viscous_step_limits
+
+    r = DynamicsRandomization(
+        mass=mass, inertia=inertia, leg_length=leg, slider_viscous=slider, joint_viscous=joint
+    )
+    limit = r.longest_step(NOMINAL)
+    machine = r.sample(NOMINAL, np.random.default_rng(seed))
+    assert min(viscous_step_limits(machine.design, machine.dynamics)) >= limit * (1 - 1e-12)
+    if math.isfinite(limit):
+        with pytest.raises(ValueError, match="control_frequency must exceed"):
+            r.check_step(NOMINAL, 1.0 / limit * (1 - 1e-9), 1)
+        r.check_step(NOMINAL, 1.0 / limit * (1 + 1e-9), 1)
+        r.check_step(NOMINAL, 0.5 / limit, 3)  # (three steps of a third)

@@ -46,7 +46,7 @@ class HoldTask(ReachTask):
     def observation_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         return np.zeros(1, np.float32), np.array([self.horizon], np.float32)
 
-    def observation_extra(self, step: int) -> list[float]:
+    def observation_extra(self, step: int, state: Any, measures: Any) -> list[float]:
         return [float(max(self.horizon - step, 0))]
 
     def is_success(self, state: Any, errors: tuple[float, float]) -> bool:

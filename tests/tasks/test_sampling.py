@@ -278,3 +278,47 @@ def test_a_given_assembly_mode_needs_a_given_start_and_a_sign():
     for kwargs in ({"start": start, "assembly": 0.5}, {"assembly": 1.0}):
         with pytest.raises(ValueError, match="assembly must be"):
             task.sample_pair(DESIGN, (1, 1, -1), np.random.default_rng(1), CFG, **kwargs)
+
+
+# ------------------------------------------------------------------ detours in every mode
+NO_DETOURS = (1, 1, 1)  # the straight slider line solves every pair of this mode
+
+
+def test_detour_fraction_in_a_mode_without_detours_is_refused_when_the_env_is_made():
+    """Every reset spent its 200-start budget (1-1.8 s), then silently returned an ordinary
+    pair; now the setting is refused, when the env is made and in a running env."""
+    import gymnasium as gym
+
+    import planar3p_gym  # noqa: F401
+
+    assert not task.has_detours(Design.fig8(), NO_DETOURS, task.TaskConfig())
+    assert task.has_detours(Design.fig8(), (1, 1, -1), task.TaskConfig())
+    for env_id in ("Planar3P-v0", "Planar3PGoal-v0"):
+        with pytest.raises(ValueError, match=r"detour_fraction \(0\.5\).*\(1, 1, 1\)"):
+            gym.make(env_id, working_mode=NO_DETOURS, task_config={"detour_fraction": 0.5})
+    env = gym.make("Planar3P-v0", working_mode=NO_DETOURS).unwrapped
+    with pytest.raises(ValueError, match="detour_fraction"):
+        env.set_task_config({"detour_fraction": 1.0})
+    assert env.task_config.detour_fraction == 0.0
+
+
+def test_under_random_modes_a_mode_without_detours_draws_its_pair_at_once(monkeypatch):
+    """With ``working_mode="random"`` the modes with detours keep them; the others draw an
+    ordinary pair without searching (no detour search runs in them)."""
+    import gymnasium as gym
+
+    import planar3p_gym  # noqa: F401
+
+    searched = []
+    search = task._detour_pair
+    monkeypatch.setattr(
+        task, "_detour_pair", lambda d, m, *a: searched.append(tuple(m)) or search(d, m, *a)
+    )
+    env = gym.make("Planar3P-v0", working_mode="random", task_config={"detour_fraction": 1.0})
+    design, cfg = Design.fig8(), task.TaskConfig()
+    every = [tuple(m) for m in kinematics.ALL_MODES.tolist()]
+    lacking = {m for m in every if not task.has_detours(design, m, cfg)}  # (cached from here)
+    searched.clear()  # (the fixed-seed searches of the checks)
+    modes = [env.reset(seed=seed)[1]["working_mode"] for seed in range(40)]
+    assert set(modes) & lacking and set(modes) - lacking  # both kinds were drawn
+    assert searched and not set(searched) & lacking

@@ -14,8 +14,9 @@ import planar3p_gym
 from planar3p_agents.controllers.tracking import TrackingController
 from planar3p_agents.studies.goal_track_baselines import run_tracking_episodes, summarize_tracking
 from planar3p_gym.machine import kinematics
+from planar3p_gym.tasks.kernel import StepKernel
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
-from planar3p_gym.tasks.track import TRACKING_METRICS
+from planar3p_gym.tasks.track import TRACKING_METRICS, TrackKernel
 from planar3p_gym.tasks.track_references import parse_reference
 
 KINDS = ("segments", "figure_eight")
@@ -180,3 +181,42 @@ def test_goal_track_baselines_script(tmp_path, capsys):
     assert len(data) == 6
     assert "figure_eight" in capsys.readouterr().out
     assert module.main(["--episodes", "0"]) == 2
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_the_compiled_tracking_kernel_agrees_with_the_reference(kind):
+    """Over 1,500 random steps: the same ends and metrics' course, the observation equal or
+    one float32 rounding apart, margins, errors and rewards within a few float64 rounding
+    errors of the reference kernel's (the bound of the reach kernel's test,
+    ``tests/sim/test_batch_step.py``: a barrier below its reference margin turns a margin's
+    difference ``dm`` into ``ref dm / m^2``, which the reward's bound adds, weighted)."""
+    eps = np.finfo(np.float64).eps
+    compiled, reference = make(kind), make(kind)
+    assert isinstance(compiled.unwrapped.kernel, TrackKernel)
+    k = reference.unwrapped.kernel
+    reference.unwrapped.kernel = StepKernel(k.task, k.settings, k.machine)
+    w = compiled.unwrapped.reward_weights
+    compiled.reset(seed=5)
+    reference.reset(seed=5)
+    for a in np.random.default_rng(1).uniform(-1, 1, (1500, 3)).astype(np.float32):
+        o1, r1, te1, tr1, i1 = compiled.step(a)
+        o2, r2, te2, tr2, i2 = reference.step(a)
+        assert (te1, tr1, i1["termination_reason"]) == (te2, tr2, i2["termination_reason"])
+        np.testing.assert_allclose(o1, o2, rtol=2 * np.finfo(np.float32).eps, atol=1e-12)
+        for key in ("position_error", "orientation_error", "parallel_margin", "serial_margin"):
+            assert abs(i1[key] - i2[key]) <= 64 * eps, key
+        for key in TRACKING_METRICS:
+            assert abs(i1[key] - i2[key]) <= 64 * eps * max(1.0, abs(i2[key])), key
+        assert i1["pose"] == i2["pose"] and i1["rho"] == i2["rho"]  # the same physics
+        slope = sum(
+            ref / m**2
+            for m, ref in (
+                (i2["parallel_margin"], w.parallel_margin_ref),
+                (i2["serial_margin"], w.serial_margin_ref),
+            )
+            if m < ref
+        )
+        assert abs(r1 - r2) <= 64 * eps * (max(1.0, abs(r2)) + 2.0 * w.singularity * slope)
+        if te1 or tr1:
+            compiled.reset()
+            reference.reset()

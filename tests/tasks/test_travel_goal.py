@@ -18,7 +18,7 @@ from planar3p_gym.tasks.observation import FINE_ERROR_SCALE, OBS_SIZE, TRAVEL_GO
 def _tail_expected(env, obs):
     """The joint-space block recomputed from the episode's target and the observed travels."""
     base = env.unwrapped
-    target_rho = kinematics.inverse(base.design, base._target, base._mode).rho
+    target_rho = kinematics.inverse(base.design, base.target, base.working_mode).rho
     fine = np.tanh((target_rho - obs[:3].astype(np.float64)) / FINE_ERROR_SCALE)
     return np.concatenate([target_rho, fine]).astype(np.float32)
 
@@ -95,7 +95,7 @@ def test_native_vector_env_gives_the_single_envs_joint_space_goal():
         for _ in range(5):
             obs, *_ = venv.step(np.full((3, 3), 0.5, dtype=np.float32))
         for i, env in enumerate(venv.envs):
-            np.testing.assert_array_equal(obs[i], env._obs)
+            np.testing.assert_array_equal(obs[i], env.episode.obs)
             np.testing.assert_array_equal(obs[i, OBS_SIZE:], _tail_expected(env, obs[i]))
         venv.close()
 

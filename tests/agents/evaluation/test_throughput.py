@@ -91,12 +91,14 @@ def test_one_run_reports_every_id_and_size_and_the_targets(tmp_path, capsys, mon
     refs = ["Reacher-v5"] if reacher else []
     assert set(got["single"]["rates"]) == set(ids + refs + ([throughput.NOOP] if reacher else []))
     assert all(len(v) == 2 and min(v) > 0 for v in got["single"]["rates"].values())
+    pre = got["single"]["presampled"]["rates"]  # beside benchmark_step: pre-sampled actions
+    assert pre.keys() == got["single"]["rates"].keys() and all(min(v) > 0 for v in pre.values())
     assert set(got["vector"]) == {"1", "2"}
     for size in got["vector"].values():
         labels = set(ids) | {"CartPole-v1 native"}
         labels |= {"Reacher-v5 single", "Reacher-v5 sync"} if reacher else set()
         assert set(size["rates"]) == labels
-        assert size["kind"]["Planar3P-v0"] == "native" and size["kind"]["Planar3PGoal-v0"] == "sync"
+        assert size["kind"]["Planar3P-v0"] == size["kind"]["Planar3PGoal-v0"] == "native"
         assert size["x_cartpole_native"]["CartPole-v1 native"] == 1.0
     assert set(got["resets"]) == set(ids + refs)
     assert all(r["resets"] == 4 and r["median_us"] > 0 for r in got["resets"].values())
@@ -114,9 +116,9 @@ def test_one_run_reports_every_id_and_size_and_the_targets(tmp_path, capsys, mon
     }
     rows = got["targets"]
     assert {r["id"] for r in rows} == set(ids)
-    # 64 envs were not asked for: that target is listed, not measured
-    vector64 = [r for r in rows if "x64" in r["target"]]
-    assert [r["id"] for r in vector64] == ["Planar3P-v0"] and vector64[0]["met"] is None
+    # 256 envs were not asked for: those targets are listed, not measured
+    vector = [r for r in rows if "x256" in r["target"]]
+    assert [r["id"] for r in vector] == ids and all(r["met"] is None for r in vector)
     for r in rows:
         if r["met"] is not None:
             above = r["measured"] >= r["bound"]
@@ -130,26 +132,23 @@ def test_targets_rows_cover_each_id_and_judge_the_bounds():
     mod = load_script()
     results = {
         "single": {"x_reacher": {"Planar3P-v0": 3.5, "Planar3PTrack-v0": 1.5}},
-        "vector": {"64": {"x_reacher_sync": {"Planar3P-v0": 9.0, "Planar3PTrack-v0": 7.0}}},
-        "floor": {"Planar3P-v0": {"step_over_floor": 4.0}},
-        "resets": {
-            "Planar3P-v0": {"median_us": 151.0, "p99.9_us": 900.0},
-            "Planar3PTrack-v0": {"median_us": 800.0, "p99.9_us": 30_000.0},
+        "vector": {
+            "256": {"x_reacher_sync": {"Planar3P-v0": 19.0, "Planar3PTrack-v0": 8.5}},
+            "64": {"x_reacher_sync": {"Planar3P-v0": 30.0, "Planar3PTrack-v0": 1.0}},
         },
+        "floor": {"Planar3P-v0": {"step_over_floor": 4.0}},
     }
-    rows = mod.targets(results, ["Planar3P-v0", "Planar3PTrack-v0"], [64])
-    met = {(r["id"], r["target"]): r["met"] for r in rows}
-    x64 = "native vector env x64 / Reacher-v5 SyncVectorEnv x64"
-    assert met[("Planar3P-v0", "single env, resets included, x Reacher-v5")] is True
-    assert met[("Planar3PTrack-v0", "single env, resets included, x Reacher-v5")] is False
-    assert met[("Planar3P-v0", x64)] is True
-    assert met[("Planar3PTrack-v0", x64)] is False
-    assert met[("Planar3P-v0", "full step / pymunk's own step")] is True
-    assert met[("Planar3PTrack-v0", "full step / pymunk's own step")] is None  # not measured
-    assert met[("Planar3P-v0", "seeded reset median (us)")] is False  # 150 us for Planar3P-v0
-    assert met[("Planar3PTrack-v0", "seeded reset median (us)")] is True  # 1 ms for the task ids
-    assert met[("Planar3PTrack-v0", "seeded reset p99.9 (us)")] is False
-    assert ("Planar3P-v0", "seeded reset p99.9 (us)") not in met
+    rows = mod.targets(results, ["Planar3P-v0", "Planar3PTrack-v0"], [64, 256])
+    met = {(r["id"], r["target"], r["bound"]): r["met"] for r in rows}
+    single = "single env (gym.make), resets included, x Reacher-v5"
+    x256 = "native vector env x256 / Reacher-v5 SyncVectorEnv x256"
+    assert met[("Planar3P-v0", single, 2.0)] is True
+    assert met[("Planar3PTrack-v0", single, 2.0)] is False
+    assert met[("Planar3P-v0", x256, 20.0)] is False  # v0's own bound, at 256 envs
+    assert met[("Planar3PTrack-v0", x256, 8.0)] is True
+    assert met[("Planar3P-v0", "full step / pymunk's own step", 5.0)] is True
+    assert met[("Planar3PTrack-v0", "full step / pymunk's own step", 5.0)] is None
+    assert len(rows) == 6  # three targets per id
 
 
 def test_write_json_atomic_replaces_whole_files_only(tmp_path):

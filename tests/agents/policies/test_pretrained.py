@@ -146,6 +146,20 @@ def test_a_corrupted_shipped_file_is_refused(tmp_path, monkeypatch, suffix) -> N
         load_policy(f"pretrained:{name}", env=gym.make("Planar3P-v0"))
 
 
+@pytest.mark.parametrize("text", ["{", '{"name": "x"}'])
+def test_a_tampered_provenance_record_is_a_checksum_mismatch(tmp_path, monkeypatch, text) -> None:
+    """An altered provenance.json (not JSON, or without its run) was reported as an "unknown
+    pretrained model"; it is a shipped file that fails its checksum."""
+    name = SHIPPED[0]
+    copy = _shipped_copy(tmp_path)
+    shipped_model(name, copy).provenance.write_text(text)
+    monkeypatch.setattr(policy_spec, "PRETRAINED_DIR", copy)
+    with pytest.raises(PolicyError, match=r"checksum mismatch for shipped file .*provenance\.json"):
+        policy_spec.parse_policy_spec(f"pretrained:{name}")
+    with pytest.raises(PolicyError, match="checksum mismatch"):
+        load_policy(f"pretrained:{name}")
+
+
 def test_a_shipped_file_replaced_by_code_is_never_unpickled(tmp_path, monkeypatch) -> None:
     name = SHIPPED[0]
     copy = _shipped_copy(tmp_path)

@@ -109,10 +109,6 @@ def test_optuna_search_samples_within_the_space(tmp_path: Path, local_ray) -> No
         (dict(search={"n_epochs": {"choice": [1]}}, seeds=[0, 1]), "one seed"),
         (dict(metric="loss"), "metric"),
         (dict(timesteps=float("inf")), "n_timesteps"),
-        (
-            dict(env_id="Planar3PGoalDense-v0", options=RunOptions(vec_env="native")),
-            "no native vector env",
-        ),
     ],
 )
 def test_bad_sweeps_are_refused_before_anything_runs(change, message, tmp_path: Path) -> None:

@@ -24,9 +24,9 @@ STRICT = {"position_tolerance": 0.001}
 
 def _options(env: gym.Env) -> dict:
     env.reset(seed=3)
-    start = np.array(env.unwrapped._spec["start"], dtype=np.float64)
+    start = np.array(env.unwrapped.episode.spec["start"], dtype=np.float64)
     target = start + np.array([OFFSET, 0.0, 0.0])
-    return {"start": start, "target": target, "working_mode": env.unwrapped._mode}
+    return {"start": start, "target": target, "working_mode": env.unwrapped.episode.mode}
 
 
 @pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v0"])
