@@ -297,6 +297,19 @@ def test_every_registered_id_has_its_media():
     assert not too_big, f"GIFs above 400 kB: {too_big}"
 
 
+def test_shipped_gifs_play_at_their_frame_rate():
+    """Every shipped GIF shows each frame for a real time (a delay of 0 plays as fast as the
+    browser can, or at its default) and holds its last picture at least a second."""
+    from gif_helpers import gif_delays
+
+    problems = []
+    for path in sorted((DOCS / "_static" / "envs").glob("*.gif")):
+        delays, loop = gif_delays(path)
+        if min(delays) < 20 or delays[-1] < 1000 or loop != 0:
+            problems.append(f"{path.name}: delays {delays[:3]}...{delays[-1:]} ms, loop {loop}")
+    assert not problems, "run `planar3p docs-media`:\n" + "\n".join(problems)
+
+
 def _media(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, "scripts/docs_media.py", *args],

@@ -140,7 +140,14 @@ def record(part: Part, seed: int) -> dict[str, tuple[Path, dict[str, Any]]]:
         maker = _maker(spec, part.task_suite, seed)
         gifs[spec] = (
             path,
-            record_gif(part.env_id, maker, part.episode.reset_options(), path, seed),
+            record_gif(
+                part.env_id,
+                maker,
+                part.episode.reset_options(),
+                path,
+                seed,
+                title=f"{policy_label(spec)} on {part.env_id}",
+            ),
         )
     return gifs
 

@@ -9,6 +9,7 @@ from pathlib import Path
 import gymnasium as gym
 import imageio.v2 as imageio
 import pytest
+from gif_helpers import gif_delays
 from script_loader import command
 
 from planar3p_agents.commands import demo
@@ -24,31 +25,31 @@ def mode_change_episode():
     return make_task_suite("mode-change", 1, seed=0).episodes[0]
 
 
-def test_record_gif_plays_the_fixed_episode(tmp_path, mode_change_episode, monkeypatch):
-    """The planner reaches the target (a certified mode change); the frames handed to the GIF
-    writer are the reset, every ``frame_every``-th step, the last one, and 12 copies of it (a
-    pause), at the render size, shown at ``render_fps / frame_every`` (50 / 3 Hz)."""
-    saved = {}
-
-    def capture(path, frames, **kwargs):
-        saved.update(path=path, frames=list(frames), **kwargs)
-
-    monkeypatch.setattr(imageio, "mimsave", capture)
+def test_record_gif_plays_the_fixed_episode(tmp_path, mode_change_episode):
+    """The planner reaches the target (a certified mode change); the GIF holds the reset,
+    every ``frame_every``-th step and the last one, each shown 60 ms (``render_fps /
+    frame_every`` = 50 / 3 Hz), the last held 1 s more: read back, the delays add up to that
+    (Pillow may merge identical frames, adding their delays), and it loops."""
     env_id = TASK_SUITES["mode-change"].env_id
+    path = tmp_path / "planner.gif"
     outcome = record_gif(
         env_id,
         lambda env: load_policy("planner", env),
         mode_change_episode.reset_options(),
-        tmp_path / "planner.gif",
+        path,
         frame_every=3,
     )
     assert outcome["success"] and outcome["reason"] == "success"
     assert outcome["position_error_mm"] <= 2.0  # the task's position tolerance, 2 mm
     steps = outcome["steps"]
-    assert len(saved["frames"]) == 1 + steps // 3 + (steps % 3 != 0) + 12
-    assert saved["frames"][0].shape == (GIF_SIZE[1], GIF_SIZE[0], 3)
-    assert saved["duration"] == pytest.approx(3 / 50)
-    assert saved["loop"] == 0
+    rendered = 1 + steps // 3 + (steps % 3 != 0)
+    delays, loop = gif_delays(path)
+    assert sum(delays) == 60 * rendered + 1000
+    assert all(d % 60 == 0 and d > 0 for d in delays[:-1])
+    assert delays[-1] >= 1060
+    assert loop == 0
+    first = imageio.mimread(path, memtest=False)[0]
+    assert first.shape[:2] == (GIF_SIZE[1], GIF_SIZE[0])
 
 
 def test_record_gif_reports_a_timeout(tmp_path, mode_change_episode):
