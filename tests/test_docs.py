@@ -10,7 +10,9 @@
 * The README's headline table is the one the benchmark data gives
   (``python docs/_scripts/gen_results.py --readme-table``).
 * Every registered id has its frame and GIF (``scripts/docs_media.py``), and that script checks
-  its arguments before any work.
+  its arguments before any work; the shipped GIFs play at their frame rate.
+* The built site shows no unrendered markup: no literal backticks and no ``{role}`` text
+  outside code blocks (a code span broken across a line that starts with ``- `` does that).
 
 The Sphinx build itself (warnings as errors) is ``make docs``, which ``make test`` runs.
 """
@@ -19,10 +21,12 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+import os
 import re
 import shlex
 import subprocess
 import sys
+from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
@@ -96,8 +100,12 @@ def run_python_blocks(path: Path) -> int:
 
 
 @pytest.mark.parametrize("path", PAGES, ids=_rel)
-def test_python_blocks_run(path):
+def test_python_blocks_run(path, capsys):
+    """Each block runs, and none prints ``None`` as the label of other values (``None 0.25``:
+    ``info["termination_reason"]`` printed at a time limit looks broken)."""
     run_python_blocks(path)
+    printed = capsys.readouterr().out.splitlines()
+    assert not [line for line in printed if line.startswith("None ")], printed
 
 
 def test_model_card_blocks_run():
@@ -367,4 +375,103 @@ def test_repository_paths_named_in_the_pages_exist():
             if not (ROOT / token).exists():
                 line = text.count("\n", 0, m.start()) + 1
                 problems.append(f"{_rel(path)}:{line}: {token} does not exist")
+    assert not problems, "\n".join(problems)
+
+
+# --- the built site -----------------------------------------------------------------------
+
+#: Where the site's text comes from: a build older than any of these is rebuilt.
+SITE_SOURCES = ("docs", "planar3p_gym", "agents", "README.md", "CHANGELOG.md")
+#: A MyST role left as text, ``{mod}`planar3p_gym...```.
+RAW_ROLE = re.compile(r"\{[a-z]+(?::[a-z]+)*\}`")
+
+
+def _newest_source() -> float:
+    newest = 0.0
+    for name in SITE_SOURCES:
+        path = ROOT / name
+        files = [path] if path.is_file() else path.rglob("*")
+        for f in files:
+            if "_build" not in f.parts and f.suffix in (".md", ".py", ".json", ".csv", ".yml"):
+                newest = max(newest, f.stat().st_mtime)
+    return newest
+
+
+@pytest.fixture(scope="module")
+def built_site(tmp_path_factory) -> Path:
+    """The HTML site: ``make docs``'s (``make test`` builds it first) when it is newer than
+    every source, else a build of its own (the same command, about a minute)."""
+    html = DOCS / "_build" / "html"
+    index = html / "index.html"
+    if index.exists() and index.stat().st_mtime >= _newest_source():
+        return html
+    out = tmp_path_factory.mktemp("site")
+    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "MPLBACKEND": "Agg"}
+    cmd = [sys.executable, "-m", "sphinx", "-q", "-b", "html", "-d", str(out / "doctrees")]
+    r = subprocess.run(
+        [*cmd, str(DOCS), str(out / "html")], capture_output=True, text=True, env=env, cwd=ROOT
+    )
+    assert r.returncode == 0, r.stderr[-3000:]
+    return out / "html"
+
+
+class _Text(HTMLParser):
+    """A page's text outside code blocks: ``prose`` (outside any code) and ``code`` (inline
+    code spans)."""
+
+    BLOCKS = frozenset({"pre", "script", "style", "textarea"})
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.block = self.inline = 0
+        self.prose: list[str] = []
+        self.code: list[str] = []
+
+    def handle_starttag(self, tag, attrs):
+        self.block += tag in self.BLOCKS
+        self.inline += tag == "code"
+
+    def handle_endtag(self, tag):
+        self.block -= tag in self.BLOCKS
+        self.inline -= tag == "code"
+
+    def handle_data(self, data):
+        if not self.block:
+            (self.code if self.inline else self.prose).append(data)
+
+
+def unrendered_markup(html: str) -> list[str]:
+    """Markup a page shows as text: backticks in its prose (a code span that did not parse)
+    and roles anywhere outside code blocks (``{mod}`x``` as text)."""
+    parser = _Text()
+    parser.feed(html)
+    prose, code = "".join(parser.prose), "".join(parser.code)
+    found = [prose[max(0, m.start() - 40) : m.end() + 40] for m in re.finditer("`+", prose)]
+    found += [
+        t[max(0, m.start() - 30) : m.end() + 30]
+        for t in (prose, code)
+        for m in RAW_ROLE.finditer(t)
+    ]
+    return [" ".join(f.split()) for f in found]
+
+
+def test_unrendered_markup_is_found():
+    """The check finds what a broken code span leaves (literal double backticks, a raw role
+    inside a code span) and lets code blocks and rendered code through."""
+    broken = (
+        "<p>``-w_pose * e - w_singularity * barrier</p><ul><li><p>w_action<code>"
+        "<span>({mod}`planar3p_gym.tasks.rewards`):</span></code></p></li></ul>"
+    )
+    assert len(unrendered_markup(broken)) == 2
+    fine = "<p>The <code>`x`</code> role</p><pre>echo `date` {mod}`x`</pre>"
+    assert unrendered_markup(fine) == []
+
+
+def test_built_pages_show_no_unrendered_markup(built_site):
+    problems = []
+    for page in sorted(built_site.rglob("*.html")):
+        rel = page.relative_to(built_site)
+        if rel.parts[0] in ("_sources", "_static", "_images"):
+            continue
+        problems += [f"{rel}: {t!r}" for t in unrendered_markup(page.read_text(encoding="utf-8"))]
     assert not problems, "\n".join(problems)
