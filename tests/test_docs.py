@@ -475,3 +475,21 @@ def test_built_pages_show_no_unrendered_markup(built_site):
             continue
         problems += [f"{rel}: {t!r}" for t in unrendered_markup(page.read_text(encoding="utf-8"))]
     assert not problems, "\n".join(problems)
+
+
+def test_probing_a_reference_prints_nothing_of_the_import():
+    """The build probes references by importing them; gymnasium.utils.play (named by the
+    keyboard mapping's docstring) warned "matplotlib is not installed" once pyplot ran
+    headless, though matplotlib is installed."""
+    code = (
+        "import matplotlib; matplotlib.use('Agg'); import matplotlib.pyplot\n"
+        "import p3docs\n"
+        "assert p3docs._import_dotted('gymnasium.utils.play.play') is not None\n"
+    )
+    path = [str(SCRIPTS_DIR), str(ROOT), os.environ.get("PYTHONPATH", "")]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(path)}
+    r = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert r.returncode == 0, r.stderr
+    assert "not installed" not in r.stderr, r.stderr

@@ -1,4 +1,4 @@
-"""Throughput of every id against Reacher-v5 and CartPole (issue 24, item 4), in one run.
+"""Throughput of every id against Reacher-v5 and CartPole, in one run.
 
 Sections (``--sections``, all by default), each measured in interleaved rounds (every
 configuration once per round, the order rotated; ratios are medians of per-round ratios to

@@ -1,8 +1,10 @@
-"""Media of the documentation's environment pages: for every id registered by
-``import planar3p_gym`` (ids starting with ``Planar3P``), a rendered frame
-(``<out>/<id>.png``), a short animated GIF of an episode played by the id's analytic
-controller (``<out>/<id>.gif``) and what the GIF shows (``<out>/<id>.json``, read by the page
-generator for the caption).
+"""Media of the documentation's environment pages: a frame, an animated GIF of an episode and
+its caption for every registered id.
+
+For every id registered by ``import planar3p_gym`` (ids starting with ``Planar3P``): a
+rendered frame (``<out>/<id>.png``), a short animated GIF of an episode played by the id's
+analytic controller under a title line naming the controller and the id (``<out>/<id>.gif``)
+and what the GIF shows (``<out>/<id>.json``, read by the page generator for the caption).
 
     planar3p docs-media [--out docs/_static/envs] [--ids ID ...] [--seed 0]
                         [--size 320x240] [--frame-every 3] [--max-steps 150]

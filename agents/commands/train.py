@@ -18,6 +18,7 @@ Library: planar3p_agents.training.run (plan_run, execute).
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import fields
 from pathlib import Path
 
@@ -28,10 +29,10 @@ from planar3p_agents.commands.parser import CliParser, UsageError
 DEFAULT_RUN_DIR = "runs/<algo>-<env>-s<seed>"
 #: What --vec-env picks, by choice.
 VEC_ENV_HELP = (
-    "vectorised env class: auto = SubprocVecEnv when --n-envs > 1, else DummyVecEnv; dummy = "
-    "DummyVecEnv; subproc = SubprocVecEnv; native = all envs in this process through the "
-    "native vector env (ids with a native vector entry point: Planar3P-v0 and the "
-    "flat-observation task ids)"
+    "vectorised env class: auto = native where the id has a native vector env, else "
+    "SubprocVecEnv when --n-envs > 1, else DummyVecEnv; dummy = DummyVecEnv; subproc = "
+    "SubprocVecEnv; native = all envs in this process through the native vector env (ids with "
+    "a native vector entry point: Planar3P-v0 and the flat-observation task ids)"
 )
 
 
@@ -135,7 +136,16 @@ def options(args: argparse.Namespace):  # -> RunOptions
     )
 
 
+def _status(text: str) -> None:
+    """A status line of the run on stderr, at once (the progress bars go there too)."""
+    print(f"planar3p train: {text}", file=sys.stderr, flush=True)
+
+
 def run(args: argparse.Namespace) -> int:
+    _status(
+        f"{args.algo.upper()} on {args.env}, seed {args.seed}: checking the hyperparameters, "
+        "the environments and the model ..."
+    )
     from planar3p_agents.training.run import execute, plan_run
 
     try:
@@ -155,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
-    metrics = execute(plan)
+    metrics = execute(plan, status=_status)
     final = metrics["final_evaluation"]
     print(
         f"{plan.cfg.algo.upper()} seed {plan.cfg.seed}: {metrics['timesteps']} steps in "

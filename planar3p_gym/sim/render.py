@@ -9,6 +9,8 @@ Works headless (``SDL_VIDEODRIVER=dummy``) for ``rgb_array``.
 - :class:`Renderer` draws a :class:`Frame`, with its status as a table in the corner (labels
   in one column, values right-aligned in the next; :func:`overlay_layout`).
 - :func:`with_title` puts a title line (the policy and the id) above a rendered picture.
+- :func:`default_video_driver` picks SDL's ``dummy`` video driver where no display exists,
+  before pygame starts its display (SDL would print ``XDG_RUNTIME_DIR is invalid``).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from __future__ import annotations
 import math
 import os
 import re
+import sys
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -24,7 +27,15 @@ import numpy as np
 
 from planar3p_gym.machine.design import Design
 
-__all__ = ["TITLE_HEIGHT", "Frame", "Renderer", "overlay_layout", "split_row", "with_title"]
+__all__ = [
+    "TITLE_HEIGHT",
+    "Frame",
+    "Renderer",
+    "default_video_driver",
+    "overlay_layout",
+    "split_row",
+    "with_title",
+]
 
 
 @dataclass(frozen=True)
@@ -66,6 +77,17 @@ TITLE_HEIGHT = 20
 _GAP, _PAD, _LINE = 10, 4, 16
 #: A status line "label value": the value starts at the first number.
 _ROW = re.compile(r"^(?P<label>.*?)\s*(?P<value>[-+]?\.?\d.*)$")
+
+
+def default_video_driver() -> None:
+    """Set ``SDL_VIDEODRIVER=dummy`` on a Unix without a display (neither ``DISPLAY`` nor
+    ``WAYLAND_DISPLAY``), unless a driver is already chosen: SDL would probe X11 and Wayland
+    first and print ``error: XDG_RUNTIME_DIR is invalid`` before falling back. Nothing can
+    be shown there anyway; it has to run before pygame starts its display."""
+    if sys.platform in ("win32", "darwin"):
+        return
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 
 
 def split_row(line: str) -> tuple[str, str]:
@@ -142,6 +164,7 @@ class Renderer:
         if mode not in ("rgb_array", "human"):
             raise ValueError(f"render mode must be 'rgb_array' or 'human', got {mode!r}")
         os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+        default_video_driver()
         import pygame  # local import: rendering is optional at run time
 
         self._pg = pygame

@@ -119,3 +119,53 @@ def test_demo_compares_the_reach_policy_with_the_strongest_baseline_and_the_pape
     assert demo.REACH_BASELINE in STRONGEST_REACH_BASELINES
     reach = demo.parts(Path("out"), demo.REACH_POLICY, demo.MODE_CHANGE_POLICY, 0)[0]
     assert reach.policies == [demo.REACH_POLICY, demo.REACH_BASELINE, demo.ANALYTIC]
+
+
+def _summary(policy: str, suite: str, rate: float) -> dict:
+    return {
+        "policy": policy,
+        "suite": suite,
+        "episodes": 20,
+        "success_rate": rate,
+        "success_ci": (max(0.0, rate - 0.2), min(1.0, rate + 0.1)),
+        "median_time_over_bound": 11.64,
+        "p90_time_over_bound": 12.5,
+        "median_time_to_success": 6.04,
+        "singularity_crossings": 12,
+    }
+
+
+@pytest.mark.parametrize("task", [False, True])
+def test_demo_tables_fit_an_80_column_terminal(task):
+    """The demo's policies on its suites: every line of the table and its legend is under 80
+    columns (the full benchmark table, 264 characters wide, wrapped in a terminal)."""
+    policies = (
+        [demo.MODE_CHANGE_POLICY, demo.ANALYTIC, "planner"]
+        if task
+        else [demo.REACH_POLICY, demo.REACH_BASELINE, demo.ANALYTIC]
+    )
+    suites = ["mode-change"] if task else ["standard", "hard", "far"]
+    rows = [_summary(p, s, r) for p in policies for s in suites for r in (0.1, 1.0)]
+    table = demo.brief_table(rows, task=task)
+    assert max(len(line) for line in table.splitlines()) < 80
+    assert all(p in table for p in policies) and "100 [80, 100]" in table
+
+
+def test_demo_keeps_the_loaders_notes_about_its_own_models_to_itself(tmp_path, capsys):
+    """The shipped reach policy was trained with environment arguments; the benchmark's loader
+    notes that on stderr ("warning: ..."), which the demo's user has nothing to do about: the
+    notes go to the demo's ``warn``, and nothing is printed."""
+    from planar3p_agents.commands import benchmark
+
+    notes = []
+    job = benchmark.prepare(
+        [demo.REACH_POLICY, demo.REACH_BASELINE],
+        ["standard"],
+        episodes=1,
+        seed=0,
+        out=tmp_path / "b",
+        command="test",
+        warn=notes.append,
+    )
+    job.close()
+    assert notes and "warning" not in capsys.readouterr().err

@@ -4,6 +4,8 @@ dummy video driver (``SDL_VIDEODRIVER=dummy`` is set in conftest.py)."""
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import warnings
 
 import gymnasium as gym
@@ -17,6 +19,7 @@ from planar3p_gym.sim.render import (
     TITLE_HEIGHT,
     Frame,
     Renderer,
+    default_video_driver,
     overlay_layout,
     split_row,
     with_title,
@@ -181,3 +184,40 @@ def test_title_line_goes_above_the_picture():
     band = out[:TITLE_HEIGHT]
     assert len(np.unique(band.reshape(-1, 3), axis=0)) > 2  # text drawn on the band
     assert with_title(picture, "x" * 500).shape == out.shape
+
+
+@pytest.mark.parametrize(
+    ("env", "expected"),
+    [
+        ({}, "dummy"),  # no display: the dummy driver
+        ({"DISPLAY": ":0"}, None),  # a display: SDL's own choice
+        ({"WAYLAND_DISPLAY": "wayland-0"}, None),
+        ({"SDL_VIDEODRIVER": "x11"}, "x11"),  # the user's choice is kept
+    ],
+)
+def test_default_video_driver_only_where_no_display(monkeypatch, env, expected):
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER"):
+        monkeypatch.delenv(name, raising=False)
+    for name, value in env.items():
+        monkeypatch.setenv(name, value)
+    monkeypatch.setattr(sys, "platform", "linux")
+    default_video_driver()
+    assert os.environ.get("SDL_VIDEODRIVER") == expected
+
+
+def test_check_env_in_human_mode_prints_nothing_from_sdl_headless():
+    """Gymnasium's check_env on a human-mode env without a display and without
+    SDL_VIDEODRIVER: SDL printed "XDG_RUNTIME_DIR is invalid" before the default driver."""
+    env = {k: v for k, v in os.environ.items() if k not in ("SDL_VIDEODRIVER", "DISPLAY")}
+    env.pop("WAYLAND_DISPLAY", None)
+    env.pop("XDG_RUNTIME_DIR", None)
+    code = (
+        "import gymnasium as gym, planar3p_gym\n"
+        "from gymnasium.utils.env_checker import check_env\n"
+        "check_env(gym.make('Planar3P-v0', render_mode='human').unwrapped)\n"
+    )
+    r = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
+    )
+    assert r.returncode == 0, r.stderr
+    assert "XDG_RUNTIME_DIR" not in r.stdout + r.stderr
