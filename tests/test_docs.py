@@ -279,6 +279,27 @@ def test_readme_is_short_and_its_headline_table_is_the_data():
     )
 
 
+def test_headline_figure_is_the_data_and_is_shown():
+    """The headline figure's numbers (written beside it with the PNG by
+    ``python docs/_scripts/gen_results.py --headline-figure``) are the benchmark data's, and
+    the README and the results page show it."""
+    import json
+
+    import gen_results
+
+    saved = json.loads(gen_results.HEADLINE_FIGURE_DATA.read_text())
+    assert saved == gen_results.headline_scores(), (
+        "the headline figure differs from the benchmark data; run "
+        "`python docs/_scripts/gen_results.py --headline-figure`"
+    )
+    assert gen_results.HEADLINE_FIGURE.is_file()
+    kinds = {e["kind"] for e in saved}
+    assert kinds == {"learned", "strongest baseline", "paper's controller"}
+    assert all(lo <= p <= hi for e in saved for p, lo, hi in [e["score"]])
+    assert "(docs/figures/results_headline.png)" in (ROOT / "README.md").read_text()
+    assert "(figures/results_headline.png)" in (DOCS / "results.md").read_text()
+
+
 def test_readme_lists_every_registered_id():
     import p3docs
 
