@@ -300,6 +300,33 @@ def test_headline_figure_is_the_data_and_is_shown():
     assert "(figures/results_headline.png)" in (DOCS / "results.md").read_text()
 
 
+def test_the_demo_figures_are_generated_from_its_data():
+    """The installation page quotes the demo's figures through the generated fragment only
+    (they went stale when typed), and the demo data is a run of the demo as it is now: its
+    parts' policies, suites, episodes and seed."""
+    import json
+
+    import gen_results
+
+    from planar3p_agents.commands import benchmark, demo
+
+    text = (DOCS / "installation.md").read_text()
+    assert "_generated/demo_figures.md" in text
+    assert not re.search(r"\d\.\d\dx|\d+ % (each|against)", text), "a typed demo figure"
+    parts = {
+        p.out.name: (p.policies, p.suites)
+        for p in demo.parts(Path("demo"), demo.REACH_POLICY, demo.MODE_CHANGE_POLICY, 0)
+    }
+    assert set(parts) == {"reach", "mode-change"}
+    for part, (policies, suites) in parts.items():
+        settings = json.loads((gen_results.DEMO_DATA / f"{part}.json").read_text())["settings"]
+        assert list(settings["policies"]) == policies and settings["suites"] == suites, part
+        assert settings["episodes"] == benchmark.QUICK_EPISODES and settings["seed"] == 0
+        assert settings["command"].startswith("planar3p demo")
+    figures = gen_results.demo_figures()
+    assert demo.REACH_POLICY in figures and "x the speed bound" in figures
+
+
 def test_readme_lists_every_registered_id():
     import p3docs
 

@@ -515,6 +515,46 @@ def headline_figure(entries: list[dict[str, Any]], path: Path) -> Path:
     return path
 
 
+#: The demo's summaries (``summary.json`` of each part of ``planar3p demo``, copied here from
+#: ``results/demo/<part>/benchmark/``): the figures the installation page quotes.
+DEMO_DATA = P.BENCHMARK / "demo"
+
+
+def _demo(part: str) -> dict[tuple[str, str], dict[str, Any]]:
+    data = json.loads((DEMO_DATA / f"{part}.json").read_text())
+    return {(s["policy"], s["suite"]): s for s in data["summaries"]}
+
+
+def demo_figures() -> str:
+    """What the demo printed, as the installation page says it (generated, never typed):
+    success and median time over the speed bound of the reach part on ``standard``, success
+    and median time to success of the working-mode change."""
+    from planar3p_agents.commands import demo
+
+    reach, change = _demo("reach"), _demo("mode-change")
+    learned, base = reach[demo.REACH_POLICY, "standard"], reach[demo.REACH_BASELINE, "standard"]
+    paper = reach[demo.ANALYTIC, "standard"]
+    mc = {p: change[p, demo.MODE_CHANGE] for p in (demo.MODE_CHANGE_POLICY, "planner")}
+
+    def pct(s: dict[str, Any]) -> str:
+        return f"{100 * s['success_rate']:.0f} %"
+
+    def ratio(s: dict[str, Any]) -> str:
+        return f"{s['median_time_over_bound']:.2f}x"
+
+    n = learned["episodes"]
+    return (
+        f"On the demo's episodes ({n} per suite, seed 0), on `standard`: "
+        f"`{demo.REACH_POLICY}` {pct(learned)} at a median {ratio(learned)} the speed bound, "
+        f"`{demo.REACH_BASELINE}` {pct(base)} at {ratio(base)}, the paper's controller "
+        f"{pct(paper)} at {ratio(paper)}. Working-mode change: `{demo.MODE_CHANGE_POLICY}` "
+        f"{pct(mc[demo.MODE_CHANGE_POLICY])} (median "
+        f"{mc[demo.MODE_CHANGE_POLICY]['median_time_to_success']:.2f} s to success), the "
+        f"planner {pct(mc['planner'])} ({mc['planner']['median_time_to_success']:.2f} s). "
+        "(Generated from `docs/benchmark/demo`, the summaries of a run of `planar3p demo`.)\n"
+    )
+
+
 def headline_rows() -> list[dict[str, Any]]:
     """The headline's lines, read from the studies' files: per line its task, suite, id,
     what was learned, the learned scores (IQM across seeds, normalized scores, time over the
@@ -809,6 +849,7 @@ def generate() -> list[Path]:
         (P.GENERATED / "studies_toctree.md", toctree),
         (P.GENERATED / "studies_table.md", index),
         (P.GENERATED / "headline_table.md", headline_table()),
+        (P.GENERATED / "demo_figures.md", demo_figures()),
     ):
         if P.write_if_changed(path, text):
             written.append(path)
