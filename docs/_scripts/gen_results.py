@@ -478,10 +478,14 @@ def headline_figure(entries: list[dict[str, Any]], path: Path) -> Path:
 
     tasks = list(dict.fromkeys(f"{e['task']} ({e['suite']})" for e in entries))
     metrics = [m for m in FIGURE_METRICS if any(e["metric"] == m for e in entries)]
-    names = {"success": "success", "time": "time (speed over the bound)", "return": "return"}
+    names = {
+        "success": "normalized\nsuccess score",
+        "time": "normalized time score\n(speed over the bound)",
+        "return": "normalized\nreturn score",
+    }
     widths = [0.6 if m == "return" else 1.0 for m in metrics]  # return: the tracking lines only
     fig, axes = plt.subplots(
-        1, len(metrics), figsize=(3.6 * sum(widths) + 3.4, 0.42 * len(tasks) + 1.4),
+        1, len(metrics), figsize=(2.5 * sum(widths) + 3.2, 0.36 * len(tasks) + 1.5),
         sharey=True, squeeze=False, gridspec_kw={"width_ratios": widths},
     )  # fmt: skip
     for ax, m in zip(axes[0], metrics, strict=True):
@@ -493,7 +497,7 @@ def headline_figure(entries: list[dict[str, Any]], path: Path) -> Path:
             ax.plot([p], [y], marker, ms=5, color=colour)
         ax.axvline(100.0, color="grey", lw=0.8, ls="--")
         ax.axvline(0.0, color="grey", lw=0.8, ls=":")
-        ax.set_xlabel(f"normalized {names[m]} score")
+        ax.set_xlabel(names[m], fontsize=9)
         ax.grid(axis="x", alpha=0.3)
         ax.set_ylim(len(tasks) - 0.5, -0.5)
     axes[0, 0].set_yticks(range(len(tasks)), tasks, fontsize=8)
