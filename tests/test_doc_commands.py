@@ -101,7 +101,7 @@ REPO_ENTRIES = ("agents", "docs", "scripts", "planar3p_gym", "tests", "Makefile"
 
 
 def program(words: list[str]) -> str:
-    """The command's program: ``planar3p X`` and ``python scripts/x.py`` give ``X``,
+    """The command's program: ``planar3p NAME`` and the script file of NAME give ``NAME``,
     ``python -m rl_zoo3.train`` gives ``rl_zoo3.train``."""
     if words[0] == "planar3p" and len(words) > 1:
         return words[1]

@@ -18,7 +18,6 @@ Library: planar3p_agents.training.run (plan_run, execute).
 from __future__ import annotations
 
 import argparse
-import sys
 from dataclasses import fields
 from pathlib import Path
 
@@ -137,8 +136,8 @@ def options(args: argparse.Namespace):  # -> RunOptions
 
 
 def _status(text: str) -> None:
-    """A status line of the run on stderr, at once (the progress bars go there too)."""
-    print(f"planar3p train: {text}", file=sys.stderr, flush=True)
+    """A status line of the run, at once, on stdout (stderr keeps bad input to one line)."""
+    print(f"planar3p train: {text}", flush=True)
 
 
 def run(args: argparse.Namespace) -> int:

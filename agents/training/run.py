@@ -206,26 +206,52 @@ def _check_native(cfg: TrainConfig) -> None:
         raise ValueError(f"--vec-env native: {exc}") from exc
 
 
+def _native_fits(cfg: TrainConfig) -> bool:
+    """Whether the native vector env takes the run's environment arguments, has the single
+    environment's spaces and steps with its actions (``action_type="on-off-discrete"``, one
+    ``Discrete`` index, it does not: SB3's classes run that)."""
+    import gymnasium as gym
+
+    from planar3p_agents.training.vec_adapter import make_native_vec_env
+
+    try:
+        venv = make_native_vec_env(cfg.env_id, n_envs=1, env_kwargs=cfg.env_kwargs)
+    except (TypeError, ValueError):
+        return False
+    single = gym.make(cfg.env_id, **cfg.env_kwargs)
+    try:
+        if not (
+            venv.action_space == single.action_space
+            and venv.observation_space == single.observation_space
+        ):
+            return False
+        venv.seed(0)
+        venv.reset()
+        try:  # one step with the single environment's kind of action
+            venv.step(np.array([single.action_space.sample()]))
+        except (TypeError, ValueError):
+            return False
+        return True
+    finally:
+        venv.close()
+        single.close()
+
+
 def vec_env_kind(cfg: TrainConfig, choice: str) -> str:
     """The vectorised environment of ``choice`` (one of :data:`VEC_ENVS`) for ``cfg``:
     ``native``, ``subproc`` or ``dummy``. ``auto`` is ``native`` where the id has a native
-    vector env that takes the run's environment arguments (all environments in this process:
-    no worker processes to start, the fastest here), else ``subproc`` for several
-    environments, else ``dummy``. An explicit ``native`` that cannot be made raises
-    ``ValueError``."""
+    vector env that takes the run's environment arguments with the same spaces (all
+    environments in this process: no worker processes to start, the fastest here), else
+    ``subproc`` for several environments, else ``dummy``. An explicit ``native`` that cannot
+    be made raises ``ValueError``."""
     if choice == "native":
         _check_native(cfg)
         return "native"
     if choice == "auto":
         import gymnasium as gym
 
-        if gym.spec(cfg.env_id).vector_entry_point is not None:
-            try:
-                _check_native(cfg)
-            except ValueError:
-                pass  # e.g. arguments the native vector env does not take: SB3's classes
-            else:
-                return "native"
+        if gym.spec(cfg.env_id).vector_entry_point is not None and _native_fits(cfg):
+            return "native"
         return "subproc" if cfg.n_envs > 1 else "dummy"
     return choice
 
