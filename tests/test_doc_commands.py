@@ -23,6 +23,7 @@ the test suite itself) is listed in :data:`NOT_RUN` with the reason; any other m
 from __future__ import annotations
 
 import glob
+import json
 import os
 import subprocess
 import sys
@@ -35,11 +36,12 @@ from test_docs import PAGES, ROOT, SHELL_LANGS, _commands, _rel, fences, model_c
 ALWAYS = ("docs/pretrained.md",)
 #: Run every page's commands.
 ALL = os.environ.get("PLANAR3P_DOC_COMMANDS") == "1"
-#: Off-policy algorithms: their smallest run must pass ``learning_starts`` (one goal episode,
-#: 100 steps, is stored before hindsight relabelling samples).
+#: Off-policy algorithms: their smallest run must pass ``learning_starts``, and hindsight
+#: relabelling samples only once every environment has stored a whole episode (the goal ids:
+#: 100 steps; up to 8 environments).
 OFF_POLICY_SMALLEST = (
-    ["--timesteps", "256"],
-    ["learning_starts=128", "batch_size=32", "buffer_size=1000"],
+    ["--timesteps", "1100"],
+    ["learning_starts=1000", "batch_size=32", "buffer_size=2000"],
 )
 #: Commands that cannot run in a test, by their first words, with the reason.
 NOT_RUN = {
@@ -249,9 +251,12 @@ def test_documented_commands_run(where, commands, tmp_path):
         if not_run(words):
             continue
         argv = smallest(words)
-        if "--resume" in argv:
-            first = _run([w for w in argv if w != "--resume"], cwd)
+        if "--resume" in argv:  # the run it continues, with a checkpoint, then a longer total
+            first = _run([w for w in argv if w != "--resume"] + ["--checkpoint-freq", "32"], cwd)
             assert first.returncode == 0, f"{where}: {' '.join(argv)}\n{first.stderr[-2000:]}"
+            run_dir = cwd / argv[argv.index("--run-dir") + 1]
+            done = json.loads((run_dir / "metrics.json").read_text())["timesteps"]
+            argv[argv.index("--timesteps") + 1] = str(done + 64)
         r = _run(argv, cwd)
         assert r.returncode == 0, (
             f"{where}: {' '.join(argv)}\n{r.stdout[-1500:]}\n{r.stderr[-2500:]}"
@@ -284,10 +289,10 @@ def test_budgets_are_cut_and_outputs_moved():
     assert argv[argv.index("--seeds") + 1 : argv.index("--seeds") + 3] == ["0", "--timesteps"]
     assert argv[argv.index("--timesteps") + 1] == "64"
     argv = smallest("planar3p train --algo sac --params gamma=0.9 --seed 1".split())
-    assert argv[argv.index("--timesteps") + 1] == "256"
+    assert argv[argv.index("--timesteps") + 1] == "1100"
     assert argv[argv.index("--params") + 1 : argv.index("--params") + 3] == [
         "gamma=0.9",
-        "learning_starts=128",
+        "learning_starts=1000",
     ]
     argv = smallest("python -m rl_zoo3.enjoy --algo ppo -f agents/zoo/pretrained/x -n 2000".split())
     assert argv[argv.index("-f") + 1] == "agents/zoo/pretrained/x"  # read, not moved

@@ -114,6 +114,8 @@ def test_every_script_is_a_thin_call_of_its_subcommand() -> None:
         assert "sys.path" not in text and "spec_from_file_location" not in text, name
         assert "from planar3p_agents.cli import main" in text, name
         assert f'main(["{command}", *sys.argv[1:]])' in text, name
+        # SubprocVecEnv's workers import the main module again: it must not run the command
+        assert 'if __name__ == "__main__":' in text, name
     for path in (ROOT / "agents").rglob("*.py"):
         assert "sys.path" not in path.read_text(), path
 
