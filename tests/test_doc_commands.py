@@ -66,7 +66,16 @@ BUDGETS = {
 }
 #: Budget options a program has that a page may not set: added, at their smallest.
 EXTRA = {
-    "train": ["--final-eval-episodes", "1", "--eval-episodes", "1", "--no-progress-bar"],
+    # an evaluation in the run (evaluations.npz: plot-learning reads it), of one episode
+    "train": [
+        "--final-eval-episodes",
+        "1",
+        "--eval-episodes",
+        "1",
+        "--eval-freq",
+        "32",
+        "--no-progress-bar",
+    ],
     "benchmark": ["--episodes", "1", "--bootstrap", "20", "--no-progress"],
     "bench-env": [
         "--rounds",
