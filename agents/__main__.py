@@ -2,4 +2,5 @@
 
 from planar3p_agents.cli import main
 
-raise SystemExit(main())
+if __name__ == "__main__":  # not on a worker's import (SubprocVecEnv, Ray)
+    raise SystemExit(main())

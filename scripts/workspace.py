@@ -5,4 +5,5 @@ import sys
 
 from planar3p_agents.cli import main
 
-raise SystemExit(main(["workspace", *sys.argv[1:]]))
+if __name__ == "__main__":  # not on a worker's import (SubprocVecEnv, Ray)
+    raise SystemExit(main(["workspace", *sys.argv[1:]]))

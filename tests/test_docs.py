@@ -10,7 +10,9 @@
 * The README's headline table is the one the benchmark data gives
   (``python docs/_scripts/gen_results.py --readme-table``).
 * Every registered id has its frame and GIF (``scripts/docs_media.py``), and that script checks
-  its arguments before any work.
+  its arguments before any work; the shipped GIFs play at their frame rate.
+* The built site shows no unrendered markup: no literal backticks and no ``{role}`` text
+  outside code blocks (a code span broken across a line that starts with ``- `` does that).
 
 The Sphinx build itself (warnings as errors) is ``make docs``, which ``make test`` runs.
 """
@@ -19,10 +21,12 @@ from __future__ import annotations
 
 import functools
 import importlib.util
+import os
 import re
 import shlex
 import subprocess
 import sys
+from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
@@ -96,8 +100,12 @@ def run_python_blocks(path: Path) -> int:
 
 
 @pytest.mark.parametrize("path", PAGES, ids=_rel)
-def test_python_blocks_run(path):
+def test_python_blocks_run(path, capsys):
+    """Each block runs, and none prints ``None`` as the label of other values (``None 0.25``:
+    ``info["termination_reason"]`` printed at a time limit looks broken)."""
     run_python_blocks(path)
+    printed = capsys.readouterr().out.splitlines()
+    assert not [line for line in printed if line.startswith("None ")], printed
 
 
 def test_model_card_blocks_run():
@@ -271,6 +279,54 @@ def test_readme_is_short_and_its_headline_table_is_the_data():
     )
 
 
+def test_headline_figure_is_the_data_and_is_shown():
+    """The headline figure's numbers (written beside it with the PNG by
+    ``python docs/_scripts/gen_results.py --headline-figure``) are the benchmark data's, and
+    the README and the results page show it."""
+    import json
+
+    import gen_results
+
+    saved = json.loads(gen_results.HEADLINE_FIGURE_DATA.read_text())
+    assert saved == gen_results.headline_scores(), (
+        "the headline figure differs from the benchmark data; run "
+        "`python docs/_scripts/gen_results.py --headline-figure`"
+    )
+    assert gen_results.HEADLINE_FIGURE.is_file()
+    kinds = {e["kind"] for e in saved}
+    assert kinds == {"learned", "strongest baseline", "paper's controller"}
+    assert all(lo <= p <= hi for e in saved for p, lo, hi in [e["score"]])
+    assert "(docs/figures/results_headline.png)" in (ROOT / "README.md").read_text()
+    assert "(figures/results_headline.png)" in (DOCS / "results.md").read_text()
+
+
+def test_the_demo_figures_are_generated_from_its_data():
+    """The installation page quotes the demo's figures through the generated fragment only
+    (they went stale when typed), and the demo data is a run of the demo as it is now: its
+    parts' policies, suites, episodes and seed."""
+    import json
+
+    import gen_results
+
+    from planar3p_agents.commands import benchmark, demo
+
+    text = (DOCS / "installation.md").read_text()
+    assert "_generated/demo_figures.md" in text
+    assert not re.search(r"\d\.\d\dx|\d+ % (each|against)", text), "a typed demo figure"
+    parts = {
+        p.out.name: (p.policies, p.suites)
+        for p in demo.parts(Path("demo"), demo.REACH_POLICY, demo.MODE_CHANGE_POLICY, 0)
+    }
+    assert set(parts) == {"reach", "mode-change"}
+    for part, (policies, suites) in parts.items():
+        settings = json.loads((gen_results.DEMO_DATA / f"{part}.json").read_text())["settings"]
+        assert list(settings["policies"]) == policies and settings["suites"] == suites, part
+        assert settings["episodes"] == benchmark.QUICK_EPISODES and settings["seed"] == 0
+        assert settings["command"].startswith("planar3p demo")
+    figures = gen_results.demo_figures()
+    assert demo.REACH_POLICY in figures and "x the speed bound" in figures
+
+
 def test_readme_lists_every_registered_id():
     import p3docs
 
@@ -295,6 +351,19 @@ def test_every_registered_id_has_its_media():
     assert not missing, f"run `python scripts/docs_media.py`; missing: {missing}"
     too_big = [p.name for p in media.glob("*.gif") if p.stat().st_size > 400 * 1024]
     assert not too_big, f"GIFs above 400 kB: {too_big}"
+
+
+def test_shipped_gifs_play_at_their_frame_rate():
+    """Every shipped GIF shows each frame for a real time (a delay of 0 plays as fast as the
+    browser can, or at its default) and holds its last picture at least a second."""
+    from gif_helpers import gif_delays
+
+    problems = []
+    for path in sorted((DOCS / "_static" / "envs").glob("*.gif")):
+        delays, loop = gif_delays(path)
+        if min(delays) < 20 or delays[-1] < 1000 or loop != 0:
+            problems.append(f"{path.name}: delays {delays[:3]}...{delays[-1:]} ms, loop {loop}")
+    assert not problems, "run `planar3p docs-media`:\n" + "\n".join(problems)
 
 
 def _media(*args: str) -> subprocess.CompletedProcess:
@@ -355,3 +424,120 @@ def test_repository_paths_named_in_the_pages_exist():
                 line = text.count("\n", 0, m.start()) + 1
                 problems.append(f"{_rel(path)}:{line}: {token} does not exist")
     assert not problems, "\n".join(problems)
+
+
+# --- the built site -----------------------------------------------------------------------
+
+#: Where the site's text comes from: a build older than any of these is rebuilt.
+SITE_SOURCES = ("docs", "planar3p_gym", "agents", "README.md", "CHANGELOG.md")
+#: A MyST role left as text, ``{mod}`planar3p_gym...```.
+RAW_ROLE = re.compile(r"\{[a-z]+(?::[a-z]+)*\}`")
+
+
+def _newest_source() -> float:
+    newest = 0.0
+    for name in SITE_SOURCES:
+        path = ROOT / name
+        files = [path] if path.is_file() else path.rglob("*")
+        for f in files:
+            if "_build" not in f.parts and f.suffix in (".md", ".py", ".json", ".csv", ".yml"):
+                newest = max(newest, f.stat().st_mtime)
+    return newest
+
+
+@pytest.fixture(scope="module")
+def built_site(tmp_path_factory) -> Path:
+    """The HTML site: ``make docs``'s (``make test`` builds it first) when it is newer than
+    every source, else a build of its own (the same command, about a minute)."""
+    html = DOCS / "_build" / "html"
+    index = html / "index.html"
+    if index.exists() and index.stat().st_mtime >= _newest_source():
+        return html
+    out = tmp_path_factory.mktemp("site")
+    env = {**os.environ, "SDL_VIDEODRIVER": "dummy", "MPLBACKEND": "Agg"}
+    cmd = [sys.executable, "-m", "sphinx", "-q", "-b", "html", "-d", str(out / "doctrees")]
+    r = subprocess.run(
+        [*cmd, str(DOCS), str(out / "html")], capture_output=True, text=True, env=env, cwd=ROOT
+    )
+    assert r.returncode == 0, r.stderr[-3000:]
+    return out / "html"
+
+
+class _Text(HTMLParser):
+    """A page's text outside code blocks: ``prose`` (outside any code) and ``code`` (inline
+    code spans)."""
+
+    BLOCKS = frozenset({"pre", "script", "style", "textarea"})
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.block = self.inline = 0
+        self.prose: list[str] = []
+        self.code: list[str] = []
+
+    def handle_starttag(self, tag, attrs):
+        self.block += tag in self.BLOCKS
+        self.inline += tag == "code"
+
+    def handle_endtag(self, tag):
+        self.block -= tag in self.BLOCKS
+        self.inline -= tag == "code"
+
+    def handle_data(self, data):
+        if not self.block:
+            (self.code if self.inline else self.prose).append(data)
+
+
+def unrendered_markup(html: str) -> list[str]:
+    """Markup a page shows as text: backticks in its prose (a code span that did not parse)
+    and roles anywhere outside code blocks (``{mod}`x``` as text)."""
+    parser = _Text()
+    parser.feed(html)
+    prose, code = "".join(parser.prose), "".join(parser.code)
+    found = [prose[max(0, m.start() - 40) : m.end() + 40] for m in re.finditer("`+", prose)]
+    found += [
+        t[max(0, m.start() - 30) : m.end() + 30]
+        for t in (prose, code)
+        for m in RAW_ROLE.finditer(t)
+    ]
+    return [" ".join(f.split()) for f in found]
+
+
+def test_unrendered_markup_is_found():
+    """The check finds what a broken code span leaves (literal double backticks, a raw role
+    inside a code span) and lets code blocks and rendered code through."""
+    broken = (
+        "<p>``-w_pose * e - w_singularity * barrier</p><ul><li><p>w_action<code>"
+        "<span>({mod}`planar3p_gym.tasks.rewards`):</span></code></p></li></ul>"
+    )
+    assert len(unrendered_markup(broken)) == 2
+    fine = "<p>The <code>`x`</code> role</p><pre>echo `date` {mod}`x`</pre>"
+    assert unrendered_markup(fine) == []
+
+
+def test_built_pages_show_no_unrendered_markup(built_site):
+    problems = []
+    for page in sorted(built_site.rglob("*.html")):
+        rel = page.relative_to(built_site)
+        if rel.parts[0] in ("_sources", "_static", "_images"):
+            continue
+        problems += [f"{rel}: {t!r}" for t in unrendered_markup(page.read_text(encoding="utf-8"))]
+    assert not problems, "\n".join(problems)
+
+
+def test_probing_a_reference_prints_nothing_of_the_import():
+    """The build probes references by importing them; gymnasium.utils.play (named by the
+    keyboard mapping's docstring) warned "matplotlib is not installed" once pyplot ran
+    headless, though matplotlib is installed."""
+    code = (
+        "import matplotlib; matplotlib.use('Agg'); import matplotlib.pyplot\n"
+        "import p3docs\n"
+        "assert p3docs._import_dotted('gymnasium.utils.play.play') is not None\n"
+    )
+    path = [str(SCRIPTS_DIR), str(ROOT), os.environ.get("PYTHONPATH", "")]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(path)}
+    r = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120
+    )
+    assert r.returncode == 0, r.stderr
+    assert "not installed" not in r.stderr, r.stderr

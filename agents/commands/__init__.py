@@ -1,7 +1,7 @@
 """The subcommands of the ``planar3p`` command line (:mod:`planar3p_agents.cli`), one module
 each, and their table :data:`COMMANDS`.
 
-Every command module has a docstring (its first line is the command's summary in
+Every command module has a docstring (its first paragraph, one sentence, is the summary in
 ``planar3p --help``, the whole is its ``--help`` description) and three functions:
 
 * ``add_arguments(parser)``: the options, on a
@@ -52,5 +52,7 @@ def load(name: str) -> ModuleType:
 
 
 def summary(module: ModuleType) -> str:
-    """The first line of a command module's docstring."""
-    return (module.__doc__ or "").strip().splitlines()[0]
+    """The first paragraph of a command module's docstring, on one line, without the
+    reStructuredText literal marks (``x`` shows as x in a terminal)."""
+    first = (module.__doc__ or "").strip().split("\n\n")[0]
+    return " ".join(first.replace("``", "").split())

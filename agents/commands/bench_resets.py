@@ -6,8 +6,8 @@ them (ms), and the seeds of the slowest resets.  A full collection traverses eve
 process (about 100 ms once numba is loaded) and lands in whichever reset triggers it;
 ``--freeze-gc`` calls :func:`gc.freeze` after making the envs (and :func:`gc.unfreeze` at the
 end), which leaves the objects alive then out of those traversals: the difference between the
-two runs is what the collector, not the resets' own work, costs.  The target of issue 27 is a
-p99.9 below 100 ms over 10,000 seeds on a quiet machine; this script measures, it asserts
+two runs is what the collector, not the resets' own work, costs.  The target is a p99.9
+below 100 ms over 10,000 seeds on a quiet machine; this script measures, it asserts
 nothing (timings depend on the machine, so no test times anything).
 
 Each id is made once with ``gym.make`` (the construction is not timed) and reset once unseeded

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -199,10 +199,12 @@ def prepare(
     hold_force_fraction: float = 0.25,
     bootstrap: int = DEFAULT_BOOTSTRAP,
     device: str = "cpu",
+    warn: Callable[[str], None] | None = None,
 ) -> Job:
     """Check a benchmark through and load its policies and suites, writing nothing:
     :class:`~planar3p_agents.commands.parser.UsageError` for an --out holding earlier results
-    (unless ``force``), an unknown or unloadable policy, or suites that cannot be made."""
+    (unless ``force``), an unknown or unloadable policy, or suites that cannot be made.
+    ``warn`` receives the loader's notes (default: a ``warning:`` line on stderr each)."""
     import gymnasium as gym
 
     import planar3p_gym
@@ -216,8 +218,15 @@ def prepare(
     try:
         target = bm.check_output_dir(out, force)
         envs = {n: make_task_env(n) if n in TASK_SUITES else env for n in suites}
+        notes = {} if warn is None else {"warn": warn}
         per_suite, meta = bm.load_suite_policies(
-            list(policies), list(suites), envs, seed=seed, device=device, play_envs=play_envs
+            list(policies),
+            list(suites),
+            envs,
+            seed=seed,
+            device=device,
+            play_envs=play_envs,
+            **notes,
         )
         built = bm.build_suites(
             list(suites),

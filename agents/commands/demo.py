@@ -22,6 +22,8 @@ nothing; a minute or two on a laptop-class CPU.  Writes <out>/reach/ and <out>/m
 from __future__ import annotations
 
 import argparse
+import math
+import textwrap
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -129,6 +131,59 @@ def _maker(spec: str, suite: str | None, seed: int):
     return lambda env: load_policy(spec, env=env, seed=seed)
 
 
+def _cell(value: float, digits: int, scale: float = 1.0) -> str:
+    return "-" if not math.isfinite(value) else f"{scale * value:.{digits}f}"
+
+
+#: What the columns of :func:`brief_table` hold, printed below it.
+BRIEF_LEGEND = {
+    False: "success: % of n episodes [95 % interval]; time/bound: time to success over the "
+    "episode's speed bound, median/90th percentile; crossings: singularity crossings",
+    True: "success: % of n episodes [95 % interval]; time s: median time to success; "
+    "crossings: singularity crossings",
+}
+
+
+def brief_table(summaries: list[dict[str, Any]], task: bool) -> str:
+    """The part's results as a narrow plain-text table (under 80 columns for the demo's
+    policy names), with its legend: policy, suite, episodes, success % with its 95 % Wilson
+    interval, then the median time over the speed bound with its 90th percentile (reach) or
+    the median time to success, s (the mode change), and the singularity crossings. The full
+    table is the report's."""
+    timing = "time s" if task else "time/bound"
+    head = ("policy", "suite", "n", "success", timing, "crossings")
+    rows = [head]
+    for s in summaries:
+        lo, hi = s["success_ci"]
+        time_cell = (
+            _cell(s["median_time_to_success"], 2)
+            if task
+            else f"{_cell(s.get('median_time_over_bound', math.nan), 2)}/"
+            f"{_cell(s.get('p90_time_over_bound', math.nan), 2)}"
+        )
+        rows.append(
+            (
+                s["policy"],
+                s["suite"],
+                str(s["episodes"]),
+                f"{_cell(s['success_rate'], 0, 100)} [{_cell(lo, 0, 100)}, {_cell(hi, 0, 100)}]",
+                time_cell,
+                str(s["singularity_crossings"]),
+            )
+        )
+    widths = [max(len(r[i]) for r in rows) for i in range(len(head))]
+    lines = [
+        "  ".join(
+            c.ljust(w) if i < 2 else c.rjust(w)
+            for i, (c, w) in enumerate(zip(r, widths, strict=True))
+        )
+        for r in rows
+    ]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    legend = textwrap.fill(BRIEF_LEGEND[task], 79, initial_indent="  ", subsequent_indent="  ")
+    return "\n".join(line.rstrip() for line in lines) + "\n" + legend
+
+
 def record(part: Part, seed: int) -> dict[str, tuple[Path, dict[str, Any]]]:
     """GIFs of the part's episode played by its first two policies: spec -> (path, outcome)."""
     from planar3p_agents.evaluation.episode_gif import record_gif
@@ -140,7 +195,14 @@ def record(part: Part, seed: int) -> dict[str, tuple[Path, dict[str, Any]]]:
         maker = _maker(spec, part.task_suite, seed)
         gifs[spec] = (
             path,
-            record_gif(part.env_id, maker, part.episode.reset_options(), path, seed),
+            record_gif(
+                part.env_id,
+                maker,
+                part.episode.reset_options(),
+                path,
+                seed,
+                title=f"{policy_label(spec)} on {part.env_id}",
+            ),
         )
     return gifs
 
@@ -150,9 +212,10 @@ def _print(out: Path, gifs: dict[str, tuple[Path, dict[str, Any]]]) -> None:
     print(f"  per episode:   {out / 'benchmark' / 'episodes.csv'}")
     print(f"  plots:         {out / 'benchmark'}/*.png")
     for spec, (path, outcome) in gifs.items():
+        print(f"  animation:     {path}")
         print(
-            f"  animation:     {path}  ({spec}: {outcome['reason']} after "
-            f"{outcome['steps']} steps, final error {outcome['position_error_mm']:.1f} mm)"
+            f"                 {spec}: {outcome['reason']} after {outcome['steps']} steps, "
+            f"final error {outcome['position_error_mm']:.1f} mm"
         )
 
 
@@ -174,13 +237,17 @@ def run(args: argparse.Namespace) -> int:
                     out=part.out / "benchmark",
                     force=True,  # the demo's own directory: a rerun replaces its results
                     command=args.command_line,
+                    # The loader's notes concern the project's own shipped models on its own
+                    # suites (e.g. the environment arguments they were trained with): not the
+                    # user's to act on; the report records the settings.
+                    warn=lambda text: None,
                 )
             )
         done = []
         for part, job in zip(plan, jobs, strict=True):
             print(f"{part.title}: benchmarking {', '.join(part.policies)} ...", flush=True)
             result = benchmark.execute(job)
-            print(result.table)
+            print(brief_table(result.summaries, task=part.task_suite is not None))
             if result.status != 0:
                 print(f"{part.title}: {result.error}")
                 return result.status

@@ -1,8 +1,10 @@
-"""Media of the documentation's environment pages: for every id registered by
-``import planar3p_gym`` (ids starting with ``Planar3P``), a rendered frame
-(``<out>/<id>.png``), a short animated GIF of an episode played by the id's analytic
-controller (``<out>/<id>.gif``) and what the GIF shows (``<out>/<id>.json``, read by the page
-generator for the caption).
+"""Media of the documentation's environment pages: a frame, an animated GIF of an episode and
+its caption for every registered id.
+
+For every id registered by ``import planar3p_gym`` (ids starting with ``Planar3P``): a
+rendered frame (``<out>/<id>.png``), a short animated GIF of an episode played by the id's
+analytic controller under a title line naming the controller and the id (``<out>/<id>.gif``)
+and what the GIF shows (``<out>/<id>.json``, read by the page generator for the caption).
 
     planar3p docs-media [--out docs/_static/envs] [--ids ID ...] [--seed 0]
                         [--size 320x240] [--frame-every 3] [--max-steps 150]
@@ -140,10 +142,15 @@ def record(env_id: str, controller: str | None, args: argparse.Namespace) -> dic
     import imageio.v2 as imageio
     import numpy as np
 
+    from planar3p_agents.evaluation.episode_gif import write_gif
+    from planar3p_gym.sim.render import TITLE_HEIGHT, with_title
+
     with gym.make(env_id, render_mode="rgb_array", render_size=args.frame_size) as env:
         env.reset(seed=args.seed)
         imageio.imwrite(args.out / f"{env_id}.png", env.render())
-    env = gym.make(env_id, render_mode="rgb_array", render_size=args.size)
+    # The GIF's frames are --size with the title line (controller and id) on top.
+    size = (args.size[0], args.size[1] - TITLE_HEIGHT)
+    env = gym.make(env_id, render_mode="rgb_array", render_size=size)
     try:
         task = getattr(env.unwrapped.task, "name", "")
         action_type = getattr(env.unwrapped, "action_type", "continuous")
@@ -171,9 +178,10 @@ def record(env_id: str, controller: str | None, args: argparse.Namespace) -> dic
         fps = env.metadata["render_fps"] / args.frame_every
     finally:
         env.close()
-    frames.extend([frames[-1]] * max(1, round(fps)))  # hold the last picture about a second
+    frames = [with_title(f, f"{name} on {env_id}") for f in frames]
     gif = args.out / f"{env_id}.gif"
-    imageio.mimsave(gif, frames, duration=1.0 / fps, loop=0)
+    delays = write_gif(gif, frames, fps)  # the last picture held about a second
+    fps = 1000.0 / delays[0]  # the rate shown (the GIF's delays are whole 10 ms)
     kb = gif.stat().st_size / 1024
     if done:
         reason = info.get("termination_reason") or "time limit"

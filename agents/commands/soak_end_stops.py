@@ -1,5 +1,5 @@
-"""Soak the end stops (issue 27): random actions on every registered id, counting the steps that
-leave the stroke, exceed the slider rate limit or leave the loop open, and the breakdowns.
+"""Soak the end stops: random actions on every registered id, counting the steps that leave
+the stroke, exceed the slider rate limit or leave the loop open, and the breakdowns.
 
 Examples::
 

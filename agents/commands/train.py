@@ -28,10 +28,10 @@ from planar3p_agents.commands.parser import CliParser, UsageError
 DEFAULT_RUN_DIR = "runs/<algo>-<env>-s<seed>"
 #: What --vec-env picks, by choice.
 VEC_ENV_HELP = (
-    "vectorised env class: auto = SubprocVecEnv when --n-envs > 1, else DummyVecEnv; dummy = "
-    "DummyVecEnv; subproc = SubprocVecEnv; native = all envs in this process through the "
-    "native vector env (ids with a native vector entry point: Planar3P-v0 and the "
-    "flat-observation task ids)"
+    "vectorised env class: auto = native where the id has a native vector env, else "
+    "SubprocVecEnv when --n-envs > 1, else DummyVecEnv; dummy = DummyVecEnv; subproc = "
+    "SubprocVecEnv; native = all envs in this process through the native vector env (ids with "
+    "a native vector entry point: Planar3P-v0 and the flat-observation task ids)"
 )
 
 
@@ -135,7 +135,16 @@ def options(args: argparse.Namespace):  # -> RunOptions
     )
 
 
+def _status(text: str) -> None:
+    """A status line of the run, at once, on stdout (stderr keeps bad input to one line)."""
+    print(f"planar3p train: {text}", flush=True)
+
+
 def run(args: argparse.Namespace) -> int:
+    _status(
+        f"{args.algo.upper()} on {args.env}, seed {args.seed}: checking the hyperparameters, "
+        "the environments and the model ..."
+    )
     from planar3p_agents.training.run import execute, plan_run
 
     try:
@@ -155,7 +164,7 @@ def run(args: argparse.Namespace) -> int:
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
-    metrics = execute(plan)
+    metrics = execute(plan, status=_status)
     final = metrics["final_evaluation"]
     print(
         f"{plan.cfg.algo.upper()} seed {plan.cfg.seed}: {metrics['timesteps']} steps in "

@@ -21,6 +21,7 @@ import inspect
 import json
 import time
 import warnings
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -58,12 +59,14 @@ __all__ = [
     "execute",
     "latest_checkpoint",
     "plan_run",
+    "vec_env_kind",
 ]
 
-#: Vectorised-environment choices: ``auto`` = ``SubprocVecEnv`` when ``n_envs > 1``; ``native``
-#: = all environments in one process through the native vector env
-#: (:func:`planar3p_agents.training.vec_adapter.make_native_vec_env`; ids with a native vector
-#: env).
+#: Vectorised-environment choices: ``native`` = all environments in one process through the
+#: native vector env (:func:`planar3p_agents.training.vec_adapter.make_native_vec_env`; ids
+#: with a native vector env); ``auto`` = ``native`` where the id has one and takes the run's
+#: environment arguments, else ``SubprocVecEnv`` when ``n_envs > 1``, else ``DummyVecEnv``
+#: (:func:`vec_env_kind`).
 VEC_ENVS = ("auto", "dummy", "subproc", "native")
 
 
@@ -121,6 +124,9 @@ class RunPlan:
     #: ``cfg.task_schedule`` checked against the run's environment
     #: (:mod:`planar3p_agents.training.task_schedule`).
     task_schedule: list[tuple[int, dict[str, Any]]] | None = None
+    #: The vectorised environment the run uses (``options.vec_env`` resolved,
+    #: :func:`vec_env_kind`): ``native``, ``subproc`` or ``dummy``.
+    vec_env: str = "dummy"
 
 
 def latest_checkpoint(run_dir: Path) -> tuple[Path, int]:
@@ -198,6 +204,56 @@ def _check_native(cfg: TrainConfig) -> None:
         make_native_vec_env(cfg.env_id, n_envs=1, env_kwargs=cfg.env_kwargs).close()
     except (TypeError, ValueError) as exc:
         raise ValueError(f"--vec-env native: {exc}") from exc
+
+
+def _native_fits(cfg: TrainConfig) -> bool:
+    """Whether the native vector env takes the run's environment arguments, has the single
+    environment's spaces and steps with its actions (``action_type="on-off-discrete"``, one
+    ``Discrete`` index, it does not: SB3's classes run that)."""
+    import gymnasium as gym
+
+    from planar3p_agents.training.vec_adapter import make_native_vec_env
+
+    try:
+        venv = make_native_vec_env(cfg.env_id, n_envs=1, env_kwargs=cfg.env_kwargs)
+    except (TypeError, ValueError):
+        return False
+    single = gym.make(cfg.env_id, **cfg.env_kwargs)
+    try:
+        if not (
+            venv.action_space == single.action_space
+            and venv.observation_space == single.observation_space
+        ):
+            return False
+        venv.seed(0)
+        venv.reset()
+        try:  # one step with the single environment's kind of action
+            venv.step(np.array([single.action_space.sample()]))
+        except (TypeError, ValueError):
+            return False
+        return True
+    finally:
+        venv.close()
+        single.close()
+
+
+def vec_env_kind(cfg: TrainConfig, choice: str) -> str:
+    """The vectorised environment of ``choice`` (one of :data:`VEC_ENVS`) for ``cfg``:
+    ``native``, ``subproc`` or ``dummy``. ``auto`` is ``native`` where the id has a native
+    vector env that takes the run's environment arguments with the same spaces (all
+    environments in this process: no worker processes to start, the fastest here), else
+    ``subproc`` for several environments, else ``dummy``. An explicit ``native`` that cannot
+    be made raises ``ValueError``."""
+    if choice == "native":
+        _check_native(cfg)
+        return "native"
+    if choice == "auto":
+        import gymnasium as gym
+
+        if gym.spec(cfg.env_id).vector_entry_point is not None and _native_fits(cfg):
+            return "native"
+        return "subproc" if cfg.n_envs > 1 else "dummy"
+    return choice
 
 
 def _check_model(cfg: TrainConfig) -> Any:
@@ -345,8 +401,7 @@ def plan_run(
     )
     _check_env(cfg.env_id, cfg.env_kwargs)
     schedule = _task_schedule(cfg)
-    if options.vec_env == "native":
-        _check_native(cfg)
+    vec_env = vec_env_kind(cfg, options.vec_env)
     model = _check_model(cfg)
     done = resume_from[1] if resume_from else 0
     if cfg.n_timesteps <= done:
@@ -360,7 +415,9 @@ def plan_run(
             f"--timesteps {cfg.n_timesteps} would train nothing: {cfg.algo.upper()} starts "
             f"learning after learning_starts = {starts} steps"
         )
-    return RunPlan(cfg, run_dir, options, resume_from, command, task_schedule=schedule)
+    return RunPlan(
+        cfg, run_dir, options, resume_from, command, task_schedule=schedule, vec_env=vec_env
+    )
 
 
 def _record_resume(path: Path, total: int, done: int, command: str) -> None:
@@ -375,10 +432,12 @@ def _record_resume(path: Path, total: int, done: int, command: str) -> None:
 
 
 def _make_envs(cfg: TrainConfig, vec_env: str, stats: Path | None) -> tuple[Any, Any]:
+    """The training and the evaluation environments; ``vec_env`` is resolved
+    (:func:`vec_env_kind`)."""
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecNormalize
 
-    subproc = vec_env == "subproc" or (vec_env == "auto" and cfg.n_envs > 1)
+    subproc = vec_env == "subproc"
     factory = EnvFactory(cfg.env_id, cfg.env_kwargs)
     if vec_env == "native":  # episode statistics come from the adapter (no Monitor)
         from planar3p_agents.training.vec_adapter import make_native_vec_env
@@ -413,27 +472,36 @@ def _make_envs(cfg: TrainConfig, vec_env: str, stats: Path | None) -> tuple[Any,
     return venv, eval_env
 
 
-def evaluate(model: Any, eval_env: Any, episodes: int) -> dict[str, Any]:
+def evaluate(
+    model: Any, eval_env: Any, episodes: int, progress: str | None = None
+) -> dict[str, Any]:
     """Deterministic evaluation with SB3's ``evaluate_policy``: success rate, returns, final
     position error (mm) and orientation error (deg), episode lengths and how episodes ended
-    (read from the env's ``info`` at each episode's end)."""
+    (read from the env's ``info`` at each episode's end). With ``progress`` (its label), a
+    progress bar over the episodes on stderr (tqdm)."""
     from stable_baselines3.common.evaluation import evaluate_policy
+    from tqdm import tqdm
 
     ends: list[dict[str, Any]] = []
+    bar = tqdm(total=episodes, desc=progress, unit="episode", disable=progress is None)
 
     def record_end(local: dict[str, Any], _globals: dict[str, Any]) -> None:
         if local["done"]:
             ends.append(local["info"])
+            bar.update(1)
 
-    returns, lengths = evaluate_policy(
-        model,
-        eval_env,
-        n_eval_episodes=episodes,
-        deterministic=True,
-        return_episode_rewards=True,
-        callback=record_end,
-        warn=False,
-    )
+    try:
+        returns, lengths = evaluate_policy(
+            model,
+            eval_env,
+            n_eval_episodes=episodes,
+            deterministic=True,
+            return_episode_rewards=True,
+            callback=record_end,
+            warn=False,
+        )
+    finally:
+        bar.close()
     reasons: dict[str, int] = {}
     for info in ends:
         reason = info.get("termination_reason") or "time_limit"
@@ -494,8 +562,11 @@ def _kickstart(plan: RunPlan, model: Any, venv: Any, eval_env: Any) -> dict[str,
     return {**asdict(report), "evaluation": evaluate(model, eval_env, opt.eval_episodes)}
 
 
-def execute(plan: RunPlan) -> dict[str, Any]:
-    """Train as planned and write the run directory; returns the metrics (``metrics.json``)."""
+def execute(plan: RunPlan, status: Callable[[str], None] | None = None) -> dict[str, Any]:
+    """Train as planned and write the run directory; returns the metrics (``metrics.json``).
+    ``status`` (e.g. ``print``) receives a line at each stage: the environments made, the
+    training started, the final evaluation, the end."""
+    say = status or (lambda text: None)
     import torch
     from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback
     from stable_baselines3.common.vec_env import VecNormalize, sync_envs_normalization
@@ -513,7 +584,9 @@ def execute(plan: RunPlan) -> dict[str, Any]:
         candidate = run_dir / checkpoint_path(done_steps, "vecnormalize")
         stats = candidate if candidate.exists() else None
     run_dir.mkdir(parents=True, exist_ok=True)
-    venv, eval_env = _make_envs(cfg, opt.vec_env, stats)
+    kinds = {"native": "native vector env", "subproc": "SubprocVecEnv", "dummy": "DummyVecEnv"}
+    say(f"making {cfg.n_envs} training environment(s) ({kinds[plan.vec_env]}) ...")
+    venv, eval_env = _make_envs(cfg, plan.vec_env, stats)
     if checkpoint is not None:
         model = algo_cls.load(str(checkpoint), env=venv, tensorboard_log=str(run_dir / "tb"))
         buffer = run_dir / checkpoint_path(done_steps, "replay_buffer")
@@ -567,21 +640,31 @@ def execute(plan: RunPlan) -> dict[str, Any]:
 
         callback_list.append(TaskScheduleCallback(plan.task_schedule, verbose=opt.verbose))
     callbacks = CallbackList(callback_list)
-    start = time.perf_counter()
-    model.learn(
-        total_timesteps=cfg.n_timesteps - done_steps,
-        callback=callbacks,
-        progress_bar=opt.progress_bar,
-        reset_num_timesteps=checkpoint is None,
-        tb_log_name=cfg.algo.upper(),
+    say(
+        f"training {cfg.n_timesteps - done_steps} steps; an evaluation of {opt.eval_episodes} "
+        f"episodes every {opt.eval_freq} steps; run directory {run_dir}"
     )
+    start = time.perf_counter()
+    with warnings.catch_warnings():
+        # SB3's progress bar is tqdm's rich one, which warns "rich is experimental/alpha"
+        # on every run: not the user's to act on.
+        warnings.filterwarnings("ignore", message="rich is experimental")
+        model.learn(
+            total_timesteps=cfg.n_timesteps - done_steps,
+            callback=callbacks,
+            progress_bar=opt.progress_bar,
+            reset_num_timesteps=checkpoint is None,
+            tb_log_name=cfg.algo.upper(),
+        )
     wall = time.perf_counter() - start
     model.save(str(run_dir / "model.zip"))
     if isinstance(venv, VecNormalize):
         venv.save(str(run_dir / "vecnormalize.pkl"))
         sync_envs_normalization(venv, eval_env)  # (no obs_rms with norm_obs=False: skipped)
+    say(f"final evaluation: {opt.final_eval_episodes} episodes ...")
+    label = "final evaluation" if opt.progress_bar else None
     metrics = {
-        "final_evaluation": evaluate(model, eval_env, opt.final_eval_episodes),
+        "final_evaluation": evaluate(model, eval_env, opt.final_eval_episodes, progress=label),
         "timesteps": int(model.num_timesteps),
         "timesteps_this_session": int(model.num_timesteps - done_steps),
         "wall_time_s": wall,

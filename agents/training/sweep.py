@@ -368,10 +368,11 @@ def results_markdown(rows: Sequence[Mapping[str, Any]], spec: SweepSpec) -> str:
         "|---|---|---:|---:|---:|---:|---:|---|---|",
     ]
     for r in rows:
+        params = f"`{r['params']}`" if r["params"] else ""  # an empty `` shows as two backticks
         lines.append(
             f"| {r['trial']} | {r['config']} | {r['training_seed']} | {r['timesteps']} "
             f"| {_fmt(r['final_success_rate'])} | {_fmt(r['final_mean_return'], 1)} "
-            f"| {_fmt(r['wall_time_s'], 0)} | `{r['params']}` | {r['status']} |"
+            f"| {_fmt(r['wall_time_s'], 0)} | {params} | {r['status']} |"
         )
     lines += [
         "",

@@ -5,7 +5,7 @@
 call, without ``gym.make``'s wrappers.  SB3's conventions are kept: an ended episode is reset
 within the same step (the vector env's ``SAME_STEP`` autoreset).
 
-**What ``step`` passes as ``infos``** (a list of ``num_envs`` dicts, as SB3's ``VecEnv``
+What ``step`` passes as ``infos`` (a list of ``num_envs`` dicts, as SB3's ``VecEnv``
 requires), built without a per-environment dict for the episodes that go on:
 
 - an environment whose episode goes on gets an empty dict ``{}`` (a new one each step), or,

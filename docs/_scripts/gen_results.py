@@ -7,11 +7,13 @@ tables (``seeds*.md`` of ``scripts/seed_report.py``), the figures, and the secti
 (``docs/_notes/studies/<study>.md``: what was trained, why, the caveats) is included at the
 top when there is one; a study without a note gets a page all the same.
 
-The headline table (learned against the strongest baselines, with intervals across training
-seeds) is generated from the same files: :data:`HEADLINE` names, for each line, the study, the
-pooled policy of its seed table and the suite; the numbers are read, never written here.  The
-README carries the same table (``python docs/_scripts/gen_results.py --readme-table`` prints
-it; ``tests/test_docs.py`` checks that the README's copy matches the data).
+The headline (learned against the strongest baselines, with intervals across training seeds:
+narrow tables, the verdicts below them, and a figure of the normalized scores) is generated
+from the same files: :data:`HEADLINE` names, for each line, the study, the pooled policy of its
+seed table and the suite; the numbers are read, never written here.  The README carries the
+same tables (``python docs/_scripts/gen_results.py --readme-table`` prints them) and figure
+(``--headline-figure`` writes ``docs/figures/results_headline.png`` and the numbers it draws);
+``tests/test_docs.py`` checks that both match the data.
 """
 
 from __future__ import annotations
@@ -352,40 +354,215 @@ def _fmt_ratio(x: float) -> str:
     return f"{x:.2f}x" if math.isfinite(x) else "–"
 
 
-def reference_baselines(study: dict[str, Any], suite: str) -> str:
+def reference_baseline_rows(study: dict[str, Any], suite: str) -> tuple[list[list[str]], str]:
     """The paper's controller and the suite's strongest baselines
     (:func:`planar3p_agents.evaluation.normalized_scores.best_baselines`) as played by the
-    reference study of ``suite``: success %, median time over the speed bound, normalized
-    scores."""
+    reference study of ``suite``: one row each (policy, success %, median time over the speed
+    bound, normalized scores), and a note when the reference study drew other episodes of the
+    suite than ``study``."""
     for name in REFERENCE_STUDIES:
         ref = _study(name)
         rows = [r for r in _episodes(ref["folder"]) if r["suite"] == suite]
         if rows:
             break
     else:
-        return "–"
-    cells = []
+        return [], ""
+    out = []
     for policy in dict.fromkeys(("analytic-simultaneous", *NS.best_baselines(suite))):
         sel = [r for r in rows if r["policy"] == policy]
         if not sel:
             continue
         scores = _scores(sel, suite)
-        parts = [f"`{policy}`"]
-        if "success" in scores:
-            parts.append(
-                f"{100.0 * np.mean([NS.episode_values(r)['success'] for r in sel]):.0f} %,"
-            )
-        if "time" in scores:
-            parts.append(f"{_fmt_ratio(_median_over_bound(sel))},")
-        parts.append(_fmt_scores(scores, intervals=False))
-        cells.append(" ".join(parts))
+        success = (
+            f"{100.0 * np.mean([NS.episode_values(r)['success'] for r in sel]):.0f} %"
+            if "success" in scores
+            else "–"
+        )
+        ratio = _fmt_ratio(_median_over_bound(sel)) if "time" in scores else "–"
+        out.append([f"`{policy}`", success, ratio, _fmt_scores(scores, intervals=False)])
     same = _suite_episodes(ref, suite) == _suite_episodes(study, suite)
-    note = "" if same else f" (`{ref['name']}`'s draw of the suite)"
-    return "; ".join(cells) + note
+    return out, "" if same else f"`{ref['name']}`'s draw of the suite"
 
 
-def headline_rows() -> list[list[str]]:
-    """The headline table's rows, read from the studies' files."""
+#: The headline figure (PNG, for the README and the results page) and the numbers it draws
+#: (JSON, compared with the data by the tests); ``--headline-figure`` writes both.
+HEADLINE_FIGURE = FIGURES / "results_headline.png"
+HEADLINE_FIGURE_DATA = FIGURES / "results_headline.json"
+#: The normalized scores the figure shows, by the headline's metric: success and the time
+#: score (speed over the bound) where the suite has one, the return where it has neither.
+FIGURE_METRICS = ("success", "time", "return")
+
+
+def _reference_rows(suite: str) -> list[dict[str, str]]:
+    """The episodes of ``suite`` in the first reference study that played it."""
+    for name in REFERENCE_STUDIES:
+        rows = [r for r in _episodes(_study(name)["folder"]) if r["suite"] == suite]
+        if rows:
+            return rows
+    return []
+
+
+def _episode_bootstrap(
+    rows: list[dict[str, str]], suite: str, metric: str
+) -> tuple[float, float, float]:
+    """One policy's normalized ``metric`` score on ``suite`` (the mean over its episodes) and
+    its 95 % percentile-bootstrap interval over the episodes (a baseline is one run: its
+    uncertainty is the episodes')."""
+    values = np.array([NS.episode_values(r)[metric] for r in rows], dtype=np.float64)
+    rng = np.random.default_rng(0)
+    means = values[rng.integers(0, len(values), (RESAMPLES, len(values)))].mean(axis=1)
+
+    def score(v: float) -> float:
+        return NS.get_normalized_score(suite, float(v), metric)
+
+    return score(values.mean()), score(np.percentile(means, 2.5)), score(np.percentile(means, 97.5))
+
+
+def headline_scores() -> list[dict[str, Any]]:
+    """What the headline figure draws, one entry per headline line, metric and policy: the
+    learned policy's IQM normalized score across its training seeds with the 95 %
+    stratified-bootstrap interval, and, from the suite's reference study, the strongest
+    baseline on that metric and the paper's controller, each with its interval over the
+    episodes. Scores: 0 = the random policy, 100 = the suite's best baseline."""
+    out = []
+    for h in HEADLINE:
+        study = _study(h["study"])
+        rows = [
+            x
+            for x in _episodes(study["folder"])
+            if x["suite"] == h["suite"] and group_label(x["policy"]) == h["policy"]
+        ]
+        learned = _scores(rows, h["suite"])
+        ref_rows = _reference_rows(h["suite"])
+        for metric in FIGURE_METRICS:
+            if metric not in learned:
+                continue
+            line = {"task": h["task"], "suite": h["suite"], "metric": metric}
+            p, lo, hi = learned[metric]
+            out.append({**line, "policy": h["policy"], "kind": "learned", "score": [p, lo, hi]})
+            baselines = {}
+            for policy in NS.best_baselines(h["suite"]):
+                sel = [r for r in ref_rows if r["policy"] == policy]
+                if sel:
+                    baselines[policy] = _episode_bootstrap(sel, h["suite"], metric)
+            if baselines:
+                best = max(baselines, key=lambda b: baselines[b][0])
+                out.append({**line, "policy": best, "kind": "strongest baseline",
+                            "score": list(baselines[best])})  # fmt: skip
+            paper = [r for r in ref_rows if r["policy"] == "analytic-simultaneous"]
+            if paper:
+                s = _episode_bootstrap(paper, h["suite"], metric)
+                out.append({**line, "policy": "analytic-simultaneous", "kind": "paper's controller",
+                            "score": list(s)})  # fmt: skip
+    for e in out:
+        e["score"] = [round(float(v), 1) for v in e["score"]]
+    return out
+
+
+#: How the figure draws each kind of policy: colour, marker, offset within the line.
+FIGURE_STYLE = {
+    "learned": ("C0", "o", -0.22),
+    "strongest baseline": ("C2", "s", 0.0),
+    "paper's controller": ("C7", "D", 0.22),
+}
+
+
+def headline_figure(entries: list[dict[str, Any]], path: Path) -> Path:
+    """Draw the headline figure from :func:`headline_scores`' entries: one panel per metric,
+    one line per headline task, each policy's score as a point with its 95 % interval as a
+    bar (rliable's interval-estimate plot)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tasks = list(dict.fromkeys(f"{e['task']} ({e['suite']})" for e in entries))
+    metrics = [m for m in FIGURE_METRICS if any(e["metric"] == m for e in entries)]
+    names = {
+        "success": "normalized\nsuccess score",
+        "time": "normalized time score\n(speed over the bound)",
+        "return": "normalized\nreturn score",
+    }
+    widths = [0.6 if m == "return" else 1.0 for m in metrics]  # return: the tracking lines only
+    fig, axes = plt.subplots(
+        1, len(metrics), figsize=(2.5 * sum(widths) + 3.2, 0.36 * len(tasks) + 1.5),
+        sharey=True, squeeze=False, gridspec_kw={"width_ratios": widths},
+    )  # fmt: skip
+    for ax, m in zip(axes[0], metrics, strict=True):
+        for e in (e for e in entries if e["metric"] == m):
+            colour, marker, dy = FIGURE_STYLE[e["kind"]]
+            y = tasks.index(f"{e['task']} ({e['suite']})") + dy
+            p, lo, hi = e["score"]
+            ax.plot([lo, hi], [y, y], lw=4, alpha=0.45, color=colour, solid_capstyle="butt")
+            ax.plot([p], [y], marker, ms=5, color=colour)
+        ax.axvline(100.0, color="grey", lw=0.8, ls="--")
+        ax.axvline(0.0, color="grey", lw=0.8, ls=":")
+        ax.set_xlabel(names[m], fontsize=9)
+        ax.grid(axis="x", alpha=0.3)
+        ax.set_ylim(len(tasks) - 0.5, -0.5)
+    axes[0, 0].set_yticks(range(len(tasks)), tasks, fontsize=8)
+    handles = [
+        plt.Line2D([], [], color=c, marker=mk, lw=4, alpha=0.6, label=k)
+        for k, (c, mk, _) in FIGURE_STYLE.items()
+    ]
+    fig.legend(handles=handles, loc="upper center", ncol=3, fontsize=8, frameon=False)
+    fig.text(
+        0.5, 0.005,
+        "0 = random policy, 100 = the suite's best baseline; learned: IQM across training "
+        "seeds, 95 % stratified-bootstrap interval; baselines: 95 % interval over episodes",
+        ha="center", va="bottom", fontsize=7,
+    )  # fmt: skip
+    fig.tight_layout(rect=(0, 0.03, 1, 0.95))
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+#: The demo's summaries (``summary.json`` of each part of ``planar3p demo``, copied here from
+#: ``results/demo/<part>/benchmark/``): the figures the installation page quotes.
+DEMO_DATA = P.BENCHMARK / "demo"
+
+
+def _demo(part: str) -> dict[tuple[str, str], dict[str, Any]]:
+    data = json.loads((DEMO_DATA / f"{part}.json").read_text())
+    return {(s["policy"], s["suite"]): s for s in data["summaries"]}
+
+
+def demo_figures() -> str:
+    """What the demo printed, as the installation page says it (generated, never typed):
+    success and median time over the speed bound of the reach part on ``standard``, success
+    and median time to success of the working-mode change."""
+    from planar3p_agents.commands import demo
+
+    reach, change = _demo("reach"), _demo("mode-change")
+    learned, base = reach[demo.REACH_POLICY, "standard"], reach[demo.REACH_BASELINE, "standard"]
+    paper = reach[demo.ANALYTIC, "standard"]
+    mc = {p: change[p, demo.MODE_CHANGE] for p in (demo.MODE_CHANGE_POLICY, "planner")}
+
+    def pct(s: dict[str, Any]) -> str:
+        return f"{100 * s['success_rate']:.0f} %"
+
+    def ratio(s: dict[str, Any]) -> str:
+        return f"{s['median_time_over_bound']:.2f}x"
+
+    n = learned["episodes"]
+    return (
+        f"On the demo's episodes ({n} per suite, seed 0), on `standard`: "
+        f"`{demo.REACH_POLICY}` {pct(learned)} at a median {ratio(learned)} the speed bound, "
+        f"`{demo.REACH_BASELINE}` {pct(base)} at {ratio(base)}, the paper's controller "
+        f"{pct(paper)} at {ratio(paper)}. Working-mode change: `{demo.MODE_CHANGE_POLICY}` "
+        f"{pct(mc[demo.MODE_CHANGE_POLICY])} (median "
+        f"{mc[demo.MODE_CHANGE_POLICY]['median_time_to_success']:.2f} s to success), the "
+        f"planner {pct(mc['planner'])} ({mc['planner']['median_time_to_success']:.2f} s). "
+        "(Generated from `docs/benchmark/demo`, the summaries of a run of `planar3p demo`.)\n"
+    )
+
+
+def headline_rows() -> list[dict[str, Any]]:
+    """The headline's lines, read from the studies' files: per line its task, suite, id,
+    what was learned, the learned scores (IQM across seeds, normalized scores, time over the
+    speed bound), the baselines' rows and notes, the verdict and the study."""
     out = []
     for h in HEADLINE:
         study = _study(h["study"])
@@ -394,7 +571,6 @@ def headline_rows() -> list[list[str]]:
         if len(hit) != 1:
             raise LookupError(f"{h['study']}/{h['seeds']}: no row {h['policy']} on {h['suite']}")
         r = hit[0]
-        learned = f"{r['iqm']} {UNITS[h['metric']]} (seeds: {r['per_seed']})"
         rows = [
             x
             for x in _episodes(study["folder"])
@@ -402,47 +578,69 @@ def headline_rows() -> list[list[str]]:
         ]
         if not rows:
             raise LookupError(f"{h['study']}: no episodes of {h['policy']} on {h['suite']}")
-        env = suite_env(study, h["suite"])
+        baselines, draw = reference_baseline_rows(study, h["suite"])
         out.append(
-            [
-                f"{h['task']} (`{h['suite']}`, `{env}`)",
-                h["learned"],
-                learned,
-                _fmt_scores(_scores(rows, h["suite"]), intervals=True),
-                _fmt_ratio(_median_over_bound(rows)),
-                reference_baselines(study, h["suite"]),
-                h.get("note", ""),
-                h["study"],
-            ]
+            {
+                "task": h["task"],
+                "suite": f"`{h['suite']}`, `{suite_env(study, h['suite'])}`",
+                "learned": h["learned"],
+                "iqm": f"{r['iqm']} {UNITS[h['metric']]} (seeds: {r['per_seed']})",
+                "scores": _fmt_scores(_scores(rows, h["suite"]), intervals=True),
+                "ratio": _fmt_ratio(_median_over_bound(rows)),
+                "baselines": baselines,
+                "draw": draw,
+                "verdict": h.get("note", ""),
+                "study": h["study"],
+            }
         )
     return out
 
 
+#: The headline's tables: the learned policies, then the baselines on the same suites (the
+#: sentences, what was learned and the verdicts, follow them as a list).
 HEADLINE_HEADER = [
-    "task (suite, id)",
-    "learned policy",
+    "task",
+    "suite, id",
     "learned: IQM [95% CI] across seeds",
-    "normalized score: IQM [95% CI] across seeds",
-    "time / speed bound (median)",
-    "baselines: success, time / speed bound, normalized score",
-    "verdict",
+    "normalized score: IQM [95% CI]",
+    "time / speed bound",
     "study",
 ]
+BASELINES_HEADER = ["suite", "baseline", "success", "time / speed bound", "normalized score"]
 
 
 def headline_table(readme: bool = False) -> str:
-    """The headline table as Markdown.  The study column links to the study's page (site) or,
-    for the README (read on the forge, where the generated pages do not exist), to the study's
-    ``report.md``."""
-    rows = headline_rows()
-    for row in rows:
-        name = row[-1]
+    """The headline as Markdown: two narrow tables (the learned policies; the paper's
+    controller and the strongest baselines on the same suites, once per suite; the README
+    has the first only) and below them, per task, what was learned and the verdict.  The
+    study column links to the study's page (site) or, for the README (read on the forge,
+    where the generated pages do not exist), to the study's ``report.md``."""
+    lines = headline_rows()
+    learned, baselines, said, shown = [], [], [], set()
+    for n, line in enumerate(lines, 1):
+        name = line["study"]
         if readme:
             folder = "" if name == "baselines" else f"{name}/"
-            row[-1] = f"[{name}](docs/benchmark/{folder}report.md)"
+            link = f"[{name}](docs/benchmark/{folder}report.md)"
         else:
-            row[-1] = f"[{name}](results/{study_page_name(name)}.md)"
-    return P.md_table(HEADLINE_HEADER, rows)
+            link = f"[{name}](results/{study_page_name(name)}.md)"
+        task = f"{n}. {line['task']}"
+        learned.append([task, line["suite"], line["iqm"], line["scores"], line["ratio"], link])
+        if (line["suite"], line["draw"]) not in shown:  # a suite's baselines once
+            shown.add((line["suite"], line["draw"]))
+            where = line["suite"] + (f" ({line['draw']})" if line["draw"] else "")
+            for i, row in enumerate(line["baselines"]):
+                baselines.append([where if i == 0 else "", *row])
+        draw = f" Baselines: {line['draw']}." if line["draw"] else ""
+        said.append(f"{n}. **{line['task']}**: {line['learned']}; {line['verdict']}.{draw}")
+    parts = ["**Learned policies**", P.md_table(HEADLINE_HEADER, learned)]
+    if not readme:  # the README keeps its own table of the strongest reach baselines
+        parts += [
+            "**The paper's controller and the strongest baselines on the same suites**",
+            P.md_table(BASELINES_HEADER, baselines),
+        ]
+    parts += ["**What was learned, and the verdict**", "\n".join(said)]
+    return "\n\n".join(parts) + "\n"
 
 
 def _shift_headings(text: str, by: int) -> str:
@@ -655,6 +853,7 @@ def generate() -> list[Path]:
         (P.GENERATED / "studies_toctree.md", toctree),
         (P.GENERATED / "studies_table.md", index),
         (P.GENERATED / "headline_table.md", headline_table()),
+        (P.GENERATED / "demo_figures.md", demo_figures()),
     ):
         if P.write_if_changed(path, text):
             written.append(path)
@@ -677,9 +876,21 @@ def main() -> None:
         action="store_true",
         help="print the headline table with links for the README",
     )
+    ap.add_argument(
+        "--headline-figure",
+        action="store_true",
+        help=f"write the headline figure and its numbers ({HEADLINE_FIGURE.name}, "
+        f"{HEADLINE_FIGURE_DATA.name} in docs/figures)",
+    )
     args = ap.parse_args()
     if args.readme_table:
         print(headline_table(readme=True), end="")
+        return
+    if args.headline_figure:
+        entries = headline_scores()
+        HEADLINE_FIGURE_DATA.write_text(json.dumps(entries, indent=1) + "\n")
+        print(HEADLINE_FIGURE_DATA)
+        print(headline_figure(entries, HEADLINE_FIGURE))
         return
     for p in generate():
         print(p)

@@ -19,6 +19,7 @@ import inspect
 import pkgutil
 import re
 import sys
+import warnings
 from functools import cache
 from pathlib import Path
 from types import ModuleType
@@ -114,7 +115,12 @@ def _import_dotted(name: str) -> tuple[Any, ModuleType | None] | None:
     parts = name.split(".")
     for i in range(len(parts), 0, -1):
         try:
-            mod = importlib.import_module(".".join(parts[:i]))
+            # Probing a reference imports the module it names; what that import prints is
+            # not the reader's business (gymnasium.utils.play warns "matplotlib is not
+            # installed" when pyplot already runs headless, though it is installed).
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                mod = importlib.import_module(".".join(parts[:i]))
         except ImportError:
             continue
         except Exception:

@@ -75,13 +75,13 @@ class Planar3PEnv(gym.Env):
     travels and ``tanh`` of the travel errors over 1 cm).
 
     ## Rewards
-    ``-w_pose * e - w_precision * (1 - exp(-d / s)) - w_singularity * barrier
-    - w_action * effort + w_success * success - w_failure * failure``
-    (:mod:`planar3p_gym.tasks.rewards`): ``d = |dp| + L_ref |dtheta|`` (m), ``e = d / L_ref``; the
-    precision term sharpens the signal within a few ``s`` (5 mm) of the target; the barrier
-    is ``ref/m - 1`` for each margin ``m`` below its reference (capped);
-    effort is the mean squared action; failure is a singularity crossing or a physics
-    breakdown.  Weighted terms are in ``info["reward_terms"]`` and sum to the reward.
+    The reward of a step is ``-w_pose * e - w_precision * (1 - exp(-d / s)) - w_singularity *
+    barrier - w_action * effort + w_success * success - w_failure * failure``
+    (:mod:`planar3p_gym.tasks.rewards`): ``d = |dp| + L_ref |dtheta|`` (m), ``e = d / L_ref``;
+    the precision term sharpens the signal within a few ``s`` (5 mm) of the target; the
+    barrier is ``ref/m - 1`` for each margin ``m`` below its reference (capped); effort is the
+    mean squared action; failure is a singularity crossing or a physics breakdown.  Weighted
+    terms are in ``info["reward_terms"]`` and sum to the reward.
 
     ## Starting State
     Start and target are drawn from ``self.np_random``: reachable in the episode's working mode

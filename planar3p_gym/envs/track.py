@@ -34,8 +34,8 @@ class Planar3PTrackEnv(Planar3PEnv):
     ``(x_dot, y_dot, theta_dot)`` (m/s, m/s, rad/s) at 31-33.
 
     ## Rewards
-    Per step, against the reference: ``-w_pose e - w_precision (1 - exp(-d / s))
-    - w_singularity barrier - w_action effort - w_failure [failure]`` (the terms of
+    Per step, against the reference: ``-w_pose e - w_precision (1 - exp(-d / s)) -
+    w_singularity barrier - w_action effort - w_failure [failure]`` (the terms of
     :mod:`planar3p_gym.tasks.rewards`, no success bonus), ``d = |dp| + L_ref |dtheta|`` (m).
 
     ## Starting State

@@ -5,19 +5,37 @@ singularity proximity visible: each leg's line is extended across the view (wher
 lines meet, or run parallel, the platform is singular) and the legs are coloured from green
 (far) to red (near) by the parallel margin, outlined in orange near a serial singularity.
 Works headless (``SDL_VIDEODRIVER=dummy``) for ``rgb_array``.
+
+- :class:`Renderer` draws a :class:`Frame`, with its status as a table in the corner (labels
+  in one column, values right-aligned in the next; :func:`overlay_layout`).
+- :func:`with_title` puts a title line (the policy and the id) above a rendered picture.
+- :func:`default_video_driver` picks SDL's ``dummy`` video driver where no display exists,
+  before pygame starts its display (SDL would print ``XDG_RUNTIME_DIR is invalid``).
 """
 
 from __future__ import annotations
 
 import math
 import os
+import re
+import sys
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from planar3p_gym.machine.design import Design
 
-__all__ = ["Frame", "Renderer"]
+__all__ = [
+    "TITLE_HEIGHT",
+    "Frame",
+    "Renderer",
+    "default_video_driver",
+    "overlay_layout",
+    "split_row",
+    "with_title",
+]
 
 
 @dataclass(frozen=True)
@@ -71,6 +89,73 @@ _RAIL_COLOURS = ((70, 110, 200), (60, 160, 120), (190, 120, 60))
 _INK = (40, 40, 40)
 _TARGET = (150, 80, 200)
 _PLATFORM = (55, 60, 85)
+#: Font size of the overlay and the title, pixels.
+_FONT_PX = 18
+#: Height of the title line :func:`with_title` adds, pixels.
+TITLE_HEIGHT = 20
+#: Gap between the label and the value columns, and the table's inner margin, pixels.
+_GAP, _PAD, _LINE = 10, 4, 16
+#: A status line "label value": the value starts at the first number.
+_ROW = re.compile(r"^(?P<label>.*?)\s*(?P<value>[-+]?\.?\d.*)$")
+
+
+def default_video_driver() -> None:
+    """Set ``SDL_VIDEODRIVER=dummy`` on a Unix without a display (neither ``DISPLAY`` nor
+    ``WAYLAND_DISPLAY``), unless a driver is already chosen: SDL would probe X11 and Wayland
+    first and print ``error: XDG_RUNTIME_DIR is invalid`` before falling back. Nothing can
+    be shown there anyway; it has to run before pygame starts its display."""
+    if sys.platform in ("win32", "darwin"):
+        return
+    if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+
+
+def split_row(line: str) -> tuple[str, str]:
+    """``(label, value)`` of a status line, split where its value (the first number) starts:
+    ``"position error   12.3 mm"`` gives ``("position error", "12.3 mm")``; a line without a
+    number is all label."""
+    m = _ROW.match(line.strip())
+    if m is None or not m.group("label"):
+        return line.strip(), ""
+    return m.group("label"), m.group("value")
+
+
+def overlay_layout(
+    rows: Sequence[tuple[str, str]], width_of: Callable[[str], int], x0: int = 8, y0: int = 6
+) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+    """Where the status table's text goes: for every ``(label, value)`` row, the top-left
+    pixel of the label and of the value. Labels start at ``x0``; values are right-aligned
+    on one edge, at least :data:`_GAP` pixels right of the widest label; rows are
+    :data:`_LINE` pixels apart from ``y0``. ``width_of`` gives a text's width in pixels."""
+    label_w = max((width_of(label) for label, _ in rows), default=0)
+    value_w = max((width_of(value) for _, value in rows), default=0)
+    right = x0 + label_w + _GAP + value_w
+    return [
+        ((x0, y0 + _LINE * n), (right - width_of(value), y0 + _LINE * n))
+        for n, (_, value) in enumerate(rows)
+    ]
+
+
+def _font(pygame: Any) -> Any:
+    """The overlay's font (pygame's default face at :data:`_FONT_PX`)."""
+    pygame.font.init()
+    return pygame.font.SysFont(None, _FONT_PX)
+
+
+def with_title(picture: np.ndarray, title: str) -> np.ndarray:
+    """``picture`` (an ``(H, W, 3)`` uint8 frame) with a title line of :data:`TITLE_HEIGHT`
+    pixels above it (``(H + TITLE_HEIGHT, W, 3)``), e.g. the policy and the id of a
+    recorded episode; the title is cut at the picture's width."""
+    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+    import pygame
+
+    w = picture.shape[1]
+    band = pygame.Surface((w, TITLE_HEIGHT))
+    band.fill(_PLATFORM)
+    img = _font(pygame).render(title, True, _BG)
+    band.blit(img, (8, (TITLE_HEIGHT - img.get_height()) // 2))
+    top = np.transpose(pygame.surfarray.array3d(band), (1, 0, 2))
+    return np.concatenate([top, np.asarray(picture, dtype=np.uint8)], axis=0)
 
 
 def _margin_colour(margin: float, ref: float = 0.05) -> tuple[int, int, int]:
@@ -99,6 +184,7 @@ class Renderer:
         if mode not in ("rgb_array", "human"):
             raise ValueError(f"render mode must be 'rgb_array' or 'human', got {mode!r}")
         os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+        default_video_driver()
         import pygame  # local import: rendering is optional at run time
 
         self._pg = pygame
@@ -106,8 +192,7 @@ class Renderer:
         self.size = size
         self.mode = mode
         self.fps = fps
-        pygame.font.init()
-        self._font = pygame.font.SysFont(None, 18)
+        self._font = _font(pygame)
         self._window = None
         self._clock = None
         if mode == "human":
@@ -234,18 +319,31 @@ class Renderer:
             pg.draw.line(surf, colour, (g[0] - r, g[1]), (g[0] + r, g[1]), 1)
             pg.draw.line(surf, colour, (g[0], g[1] - r), (g[0], g[1] + r), 1)
 
-    def _draw_text(self, frame: Frame) -> None:
-        lines = [
-            f"t = {frame.time:5.2f} s",
-            f"parallel margin {frame.parallel_margin:.3f}",
-            f"serial margin   {frame.serial_margin:.3f}",
+    def _rows(self, frame: Frame) -> list[tuple[str, str]]:
+        """The status table: time, margins, forces, then the frame's own lines."""
+        rows = [
+            ("t", f"{frame.time:.2f} s"),
+            ("parallel margin", f"{frame.parallel_margin:.3f}"),
+            ("serial margin", f"{frame.serial_margin:.3f}"),
         ]
         if frame.forces is not None:
-            lines.append("forces " + " ".join(f"{f:5.1f}" for f in frame.forces) + " N")
-        lines.extend(frame.text)
-        for n, line in enumerate(lines):
-            img = self._font.render(line, True, _INK)
-            self.surface.blit(img, (8, 6 + 16 * n))
+            rows.append(("forces", " ".join(f"{f:.1f}" for f in frame.forces) + " N"))
+        rows.extend(split_row(line) for line in frame.text)
+        return rows
+
+    def _draw_text(self, frame: Frame) -> None:
+        """The status table on a light box, so that the lines behind it do not cross it."""
+        pg, font = self._pg, self._font
+        rows = self._rows(frame)
+        places = overlay_layout(rows, lambda t: font.size(t)[0] if t else 0)
+        right = max(vx + font.size(v)[0] for (_, (vx, _)), (_, v) in zip(places, rows, strict=True))
+        box = pg.Surface((right - 8 + 2 * _PAD, _LINE * len(rows) + 2 * _PAD), pg.SRCALPHA)
+        box.fill((*_BG, 215))
+        self.surface.blit(box, (8 - _PAD, 6 - _PAD))
+        for ((lx, ly), (vx, vy)), (label, value) in zip(places, rows, strict=True):
+            self.surface.blit(font.render(label, True, _INK), (lx, ly))
+            if value:
+                self.surface.blit(font.render(value, True, _INK), (vx, vy))
 
     def render(self, frame: Frame) -> np.ndarray | None:
         """Draw ``frame``; return an ``(H, W, 3)`` uint8 array (``rgb_array``) or show it."""

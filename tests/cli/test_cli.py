@@ -18,7 +18,7 @@ import pytest
 from script_loader import ROOT, SCRIPTS
 
 from planar3p_agents import cli
-from planar3p_agents.commands import COMMANDS, load
+from planar3p_agents.commands import COMMANDS, load, summary
 from planar3p_gym import atomic_files
 
 # ------------------------------------------------------------------------------- helpers
@@ -116,6 +116,8 @@ def test_every_script_is_a_thin_call_of_its_subcommand() -> None:
         assert "sys.path" not in text and "spec_from_file_location" not in text, name
         assert "from planar3p_agents.cli import main" in text, name
         assert f'main(["{command}", *sys.argv[1:]])' in text, name
+        # SubprocVecEnv's workers import the main module again: it must not run the command
+        assert 'if __name__ == "__main__":' in text, name
     for path in (ROOT / "agents").rglob("*.py"):
         assert "sys.path" not in path.read_text(), path
 
@@ -133,6 +135,18 @@ def test_top_level_help_lists_every_command(capsys) -> None:
         assert f"\n  {name} " in out
     assert cli.main([]) == 2  # no command: the help, on stderr
     assert "commands:" in capsys.readouterr().err
+
+
+def test_top_level_help_gives_each_summary_whole(capsys) -> None:
+    """Each command's summary is its docstring's first paragraph, a whole sentence, shown
+    whole (not cut at the docstring's first line break), and names no internal issue."""
+    assert cli.main(["--help"]) == 0
+    flat = " ".join(capsys.readouterr().out.split())
+    for name in COMMANDS:
+        text = summary(load(name))
+        assert text.endswith((".", ".)")), f"{name}: {text!r}"
+        assert f"{name} {text}" in flat, name
+        assert not re.search(r"\bissues? \d", load(name).__doc__ or ""), name
 
 
 @pytest.mark.parametrize("name", list(COMMANDS))
@@ -158,7 +172,7 @@ def test_train_help_says_what_the_code_does(capsys) -> None:
     flat = " ".join(capsys.readouterr().out.split())
     assert all(a.upper() in flat and a in flat for a in ALGORITHMS)
     assert "--env ENV registered environment id (default: Planar3P-v0)" in flat
-    assert "auto = SubprocVecEnv when --n-envs > 1, else DummyVecEnv" in flat
+    assert "auto = native where the id has a native vector env, else SubprocVecEnv" in flat
 
 
 def test_benchmark_help_states_each_default_once(capsys) -> None:

@@ -9,6 +9,7 @@ from pathlib import Path
 import gymnasium as gym
 import imageio.v2 as imageio
 import pytest
+from gif_helpers import gif_delays
 from script_loader import command
 
 from planar3p_agents.commands import demo
@@ -24,31 +25,31 @@ def mode_change_episode():
     return make_task_suite("mode-change", 1, seed=0).episodes[0]
 
 
-def test_record_gif_plays_the_fixed_episode(tmp_path, mode_change_episode, monkeypatch):
-    """The planner reaches the target (a certified mode change); the frames handed to the GIF
-    writer are the reset, every ``frame_every``-th step, the last one, and 12 copies of it (a
-    pause), at the render size, shown at ``render_fps / frame_every`` (50 / 3 Hz)."""
-    saved = {}
-
-    def capture(path, frames, **kwargs):
-        saved.update(path=path, frames=list(frames), **kwargs)
-
-    monkeypatch.setattr(imageio, "mimsave", capture)
+def test_record_gif_plays_the_fixed_episode(tmp_path, mode_change_episode):
+    """The planner reaches the target (a certified mode change); the GIF holds the reset,
+    every ``frame_every``-th step and the last one, each shown 60 ms (``render_fps /
+    frame_every`` = 50 / 3 Hz), the last held 1 s more: read back, the delays add up to that
+    (Pillow may merge identical frames, adding their delays), and it loops."""
     env_id = TASK_SUITES["mode-change"].env_id
+    path = tmp_path / "planner.gif"
     outcome = record_gif(
         env_id,
         lambda env: load_policy("planner", env),
         mode_change_episode.reset_options(),
-        tmp_path / "planner.gif",
+        path,
         frame_every=3,
     )
     assert outcome["success"] and outcome["reason"] == "success"
     assert outcome["position_error_mm"] <= 2.0  # the task's position tolerance, 2 mm
     steps = outcome["steps"]
-    assert len(saved["frames"]) == 1 + steps // 3 + (steps % 3 != 0) + 12
-    assert saved["frames"][0].shape == (GIF_SIZE[1], GIF_SIZE[0], 3)
-    assert saved["duration"] == pytest.approx(3 / 50)
-    assert saved["loop"] == 0
+    rendered = 1 + steps // 3 + (steps % 3 != 0)
+    delays, loop = gif_delays(path)
+    assert sum(delays) == 60 * rendered + 1000
+    assert all(d % 60 == 0 and d > 0 for d in delays[:-1])
+    assert delays[-1] >= 1060
+    assert loop == 0
+    first = imageio.mimread(path, memtest=False)[0]
+    assert first.shape[:2] == (GIF_SIZE[1], GIF_SIZE[0])
 
 
 def test_record_gif_reports_a_timeout(tmp_path, mode_change_episode):
@@ -118,3 +119,53 @@ def test_demo_compares_the_reach_policy_with_the_strongest_baseline_and_the_pape
     assert demo.REACH_BASELINE in STRONGEST_REACH_BASELINES
     reach = demo.parts(Path("out"), demo.REACH_POLICY, demo.MODE_CHANGE_POLICY, 0)[0]
     assert reach.policies == [demo.REACH_POLICY, demo.REACH_BASELINE, demo.ANALYTIC]
+
+
+def _summary(policy: str, suite: str, rate: float) -> dict:
+    return {
+        "policy": policy,
+        "suite": suite,
+        "episodes": 20,
+        "success_rate": rate,
+        "success_ci": (max(0.0, rate - 0.2), min(1.0, rate + 0.1)),
+        "median_time_over_bound": 11.64,
+        "p90_time_over_bound": 12.5,
+        "median_time_to_success": 6.04,
+        "singularity_crossings": 12,
+    }
+
+
+@pytest.mark.parametrize("task", [False, True])
+def test_demo_tables_fit_an_80_column_terminal(task):
+    """The demo's policies on its suites: every line of the table and its legend is under 80
+    columns (the full benchmark table, 264 characters wide, wrapped in a terminal)."""
+    policies = (
+        [demo.MODE_CHANGE_POLICY, demo.ANALYTIC, "planner"]
+        if task
+        else [demo.REACH_POLICY, demo.REACH_BASELINE, demo.ANALYTIC]
+    )
+    suites = ["mode-change"] if task else ["standard", "hard", "far"]
+    rows = [_summary(p, s, r) for p in policies for s in suites for r in (0.1, 1.0)]
+    table = demo.brief_table(rows, task=task)
+    assert max(len(line) for line in table.splitlines()) < 80
+    assert all(p in table for p in policies) and "100 [80, 100]" in table
+
+
+def test_demo_keeps_the_loaders_notes_about_its_own_models_to_itself(tmp_path, capsys):
+    """The shipped reach policy was trained with environment arguments; the benchmark's loader
+    notes that on stderr ("warning: ..."), which the demo's user has nothing to do about: the
+    notes go to the demo's ``warn``, and nothing is printed."""
+    from planar3p_agents.commands import benchmark
+
+    notes = []
+    job = benchmark.prepare(
+        [demo.REACH_POLICY, demo.REACH_BASELINE],
+        ["standard"],
+        episodes=1,
+        seed=0,
+        out=tmp_path / "b",
+        command="test",
+        warn=notes.append,
+    )
+    job.close()
+    assert notes and "warning" not in capsys.readouterr().err

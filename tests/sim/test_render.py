@@ -4,14 +4,26 @@ dummy video driver (``SDL_VIDEODRIVER=dummy`` is set in conftest.py)."""
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 import warnings
 
 import gymnasium as gym
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from planar3p_gym import ENV_ID, Design
-from planar3p_gym.sim.render import Frame, Renderer
+from planar3p_gym.sim.render import (
+    TITLE_HEIGHT,
+    Frame,
+    Renderer,
+    default_video_driver,
+    overlay_layout,
+    split_row,
+    with_title,
+)
 
 #: The status text occupies the top-left corner; mechanism changes must show outside it.
 TEXT_BOX = (slice(0, 140), slice(0, 260))
@@ -126,3 +138,86 @@ def test_renderer_draws_extreme_frames():
     r.close()
     with pytest.raises(ValueError):
         Renderer(d, (160, 120), "ascii")
+
+
+@given(
+    st.lists(
+        st.tuples(st.text(max_size=20), st.text(max_size=12)),
+        min_size=1,
+        max_size=8,
+    )
+)
+def test_overlay_values_share_one_right_edge_clear_of_the_labels(rows):
+    """Values end on one edge, and each starts at least the gap right of the widest label
+    (no "parallel margin0.069"); rows go down one line each (a font of 7 px per character)."""
+    width_of = lambda t: 7 * len(t)  # noqa: E731
+    places = overlay_layout(rows, width_of)
+    widest = max(width_of(label) for label, _ in rows)
+    ends = {vx + width_of(value) for (_, (vx, _)), (_, value) in zip(places, rows, strict=True)}
+    assert len(ends) == 1
+    for (lx, ly), (vx, vy) in places:
+        assert lx == 8 and ly == vy
+        assert vx >= lx + widest + 10
+    assert [ly for (_, ly), _ in places] == [6 + 16 * n for n in range(len(rows))]
+
+
+@pytest.mark.parametrize(
+    ("line", "row"),
+    [
+        ("position error   12.3 mm", ("position error", "12.3 mm")),
+        ("orientation error   -1.5 deg", ("orientation error", "-1.5 deg")),
+        ("extra", ("extra", "")),
+        ("42 steps", ("42 steps", "")),
+    ],
+)
+def test_status_lines_split_into_label_and_value(line, row):
+    assert split_row(line) == row
+
+
+def test_title_line_goes_above_the_picture():
+    """The title adds a band of TITLE_HEIGHT pixels with text in it; the picture below is
+    unchanged, and a title longer than the picture is cut, not an error."""
+    picture = np.full((50, 120, 3), 250, np.uint8)
+    out = with_title(picture, "certified-line on Planar3P-v0")
+    assert out.shape == (50 + TITLE_HEIGHT, 120, 3) and out.dtype == np.uint8
+    assert np.array_equal(out[TITLE_HEIGHT:], picture)
+    band = out[:TITLE_HEIGHT]
+    assert len(np.unique(band.reshape(-1, 3), axis=0)) > 2  # text drawn on the band
+    assert with_title(picture, "x" * 500).shape == out.shape
+
+
+@pytest.mark.parametrize(
+    ("env", "expected"),
+    [
+        ({}, "dummy"),  # no display: the dummy driver
+        ({"DISPLAY": ":0"}, None),  # a display: SDL's own choice
+        ({"WAYLAND_DISPLAY": "wayland-0"}, None),
+        ({"SDL_VIDEODRIVER": "x11"}, "x11"),  # the user's choice is kept
+    ],
+)
+def test_default_video_driver_only_where_no_display(monkeypatch, env, expected):
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER"):
+        monkeypatch.delenv(name, raising=False)
+    for name, value in env.items():
+        monkeypatch.setenv(name, value)
+    monkeypatch.setattr(sys, "platform", "linux")
+    default_video_driver()
+    assert os.environ.get("SDL_VIDEODRIVER") == expected
+
+
+def test_check_env_in_human_mode_prints_nothing_from_sdl_headless():
+    """Gymnasium's check_env on a human-mode env without a display and without
+    SDL_VIDEODRIVER: SDL printed "XDG_RUNTIME_DIR is invalid" before the default driver."""
+    env = {k: v for k, v in os.environ.items() if k not in ("SDL_VIDEODRIVER", "DISPLAY")}
+    env.pop("WAYLAND_DISPLAY", None)
+    env.pop("XDG_RUNTIME_DIR", None)
+    code = (
+        "import gymnasium as gym, planar3p_gym\n"
+        "from gymnasium.utils.env_checker import check_env\n"
+        "check_env(gym.make('Planar3P-v0', render_mode='human').unwrapped)\n"
+    )
+    r = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=300
+    )
+    assert r.returncode == 0, r.stderr
+    assert "XDG_RUNTIME_DIR" not in r.stdout + r.stderr

@@ -534,3 +534,53 @@ def test_final_evaluation_matches_a_plain_rollout() -> None:
     assert got["mean_episode_length"] == np.mean(lengths)
     assert got["median_position_error_mm"] == pytest.approx(np.median(pos) * 1000, rel=1e-12)
     assert sum(got["end_reasons"].values()) == 4
+
+
+@pytest.mark.parametrize(
+    ("env_id", "n_envs", "choice", "kind"),
+    [
+        ("Planar3P-v0", 4, "auto", "native"),  # the id has a native vector env
+        ("Planar3PModeChange-v0", 1, "auto", "native"),
+        ("Planar3PGoal-v0", 4, "auto", "subproc"),  # Dict observations: none
+        ("Planar3PGoal-v0", 1, "auto", "dummy"),
+        ("Planar3PRealOnOff-v0", 4, "auto", "native"),  # MultiDiscrete: the same spaces
+        # one Discrete index: the native vector env keeps three commands, so SB3's classes
+        ("Planar3PRealOnOff-v0", 4, "auto-discrete", "subproc"),
+        ("Planar3P-v0", 4, "subproc", "subproc"),  # an explicit choice stands
+        ("Planar3P-v0", 4, "dummy", "dummy"),
+    ],
+)
+def test_auto_picks_the_native_vector_env_where_the_id_has_one(env_id, n_envs, choice, kind):
+    from types import SimpleNamespace
+
+    from planar3p_agents.training.run import vec_env_kind
+
+    kwargs = {"action_type": "on-off-discrete"} if choice == "auto-discrete" else {}
+    cfg = SimpleNamespace(env_id=env_id, env_kwargs=kwargs, n_envs=n_envs)
+    assert vec_env_kind(cfg, choice.split("-")[0]) == kind
+
+
+def test_a_run_says_what_it_does_from_the_start(tmp_path: Path, capsys, monkeypatch) -> None:
+    """The first status line comes before the run is planned (the checks build environments
+    and a model, seconds of silence); then a line per stage, and the final evaluation shows a
+    progress bar over its episodes."""
+    from planar3p_agents.training import run as run_module
+
+    def refuse(*args, **kwargs):
+        raise ValueError("stopped for the test")
+
+    with monkeypatch.context() as m:
+        m.setattr(run_module, "plan_run", refuse)
+        assert train_script.main(_smoke_args("ppo", tmp_path / "a", steps=64)) == 2
+    out, err = capsys.readouterr()
+    assert out.startswith("planar3p train: PPO on Planar3P-v0, seed 0: checking"), out
+    assert err.count("\n") == 1  # bad input: one line on stderr, as ever
+
+    args = [a for a in _smoke_args("ppo", tmp_path / "b", steps=64) if a != "--no-progress-bar"]
+    assert train_script.main(args) == 0
+    out, err = capsys.readouterr()
+    stages = ["checking", "training environment(s) (native vector env)", "training 64 steps"]
+    stages += ["final evaluation: 2 episodes"]
+    at = [out.find(s) for s in stages]
+    assert -1 not in at and at == sorted(at), out
+    assert "2/2" in err  # the final evaluation's bar
