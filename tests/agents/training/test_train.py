@@ -541,8 +541,8 @@ def test_final_evaluation_matches_a_plain_rollout() -> None:
     [
         ("Planar3P-v0", 4, "auto", "native"),  # the id has a native vector env
         ("Planar3PModeChange-v0", 1, "auto", "native"),
-        ("Planar3PGoal-v0", 4, "auto", "subproc"),  # Dict observations: none
-        ("Planar3PGoal-v0", 1, "auto", "dummy"),
+        ("Planar3PGoal-v0", 4, "auto", "native"),  # Dict observations too
+        ("Planar3PGoal-v0", 1, "auto", "native"),
         ("Planar3PRealOnOff-v0", 4, "auto", "native"),  # MultiDiscrete: the same spaces
         # one Discrete index: the native vector env keeps three commands, so SB3's classes
         ("Planar3PRealOnOff-v0", 4, "auto-discrete", "subproc"),
