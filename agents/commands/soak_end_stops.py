@@ -37,7 +37,7 @@ from planar3p_agents.commands import checks
 from planar3p_agents.commands.parser import CliParser, UsageError
 from planar3p_gym.sim.projection import MAX_CLOSURE_ERROR, LoopProjector
 
-#: Every registered id (issue 27's list).
+#: Every registered id.
 IDS = tuple(spec.id for spec in planar3p_gym.ENV_SPECS)
 POLICIES = ("uniform", "bang-bang")
 #: Allowed travel past an end of the stroke (m).

@@ -78,7 +78,7 @@ __all__ = [
     "baselines_for",
 ]
 
-#: The strongest reach baselines (issue 25, item 1), in report order: what a reviewer would try
+#: The strongest reach baselines, in report order: what a reviewer would try
 #: before believing that a learned reach policy is fast.  The benchmark plays them on the reach,
 #: goal and built-machine reach suites, and the best of them scores 100 in the normalized scores.
 STRONGEST_REACH_BASELINES: tuple[str, ...] = (

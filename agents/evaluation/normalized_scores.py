@@ -81,7 +81,7 @@ __all__ = [
 SCORE_METRICS: tuple[str, ...] = ("success", "time", "return")
 #: The policy that scores 0.
 RANDOM_POLICY = "random"
-#: The baselines whose best value scores 100 on the reaching suites (item 1 of issue 25: the
+#: The baselines whose best value scores 100 on the reaching suites (the
 #: strongest baselines).
 BEST_BASELINES: tuple[str, ...] = STRONGEST_REACH_BASELINES
 #: The suites where other baselines are the strongest: the task's own (the certified planner of

@@ -19,7 +19,7 @@ task), ``analytic-feedforward`` (tracking: the reference velocity fed forward),
 ``planner`` (mode change), ``crossing`` (assembly change), ``analytic-on-off`` (on-off
 motors) and ``zero``.
 
-The built machine's suites (``real-*``, issue 26) draw each episode's machine at the
+The built machine's suites (``real-*``) draw each episode's machine at the
 benchmark's reset (``reset(seed=seed + index, options=spec)``): the machines are those of the
 benchmark's seeds, held out from the suite's episode draws and from training's resets.
 ``real-reach-true-state`` plays the same episodes and machines with the true state observed
@@ -74,8 +74,8 @@ class TaskSuiteDef:
 
 
 #: The goal-conditioned suites' baselines: the analytic controller as shipped, the strongest
-#: baselines of the reach (tuned gain, slider line, certified planner, certified line; issue 25,
-#: item 1) and the random policy (the 0 of the normalized scores), through the goal adapter.
+#: baselines of the reach (tuned gain, slider line, certified planner, certified
+#: line) and the random policy (the 0 of the normalized scores), through the goal adapter.
 GOAL_BASELINES = ("analytic-simultaneous", *STRONGEST_REACH_BASELINES, "random")
 #: The task suites, in report order.
 TASK_SUITES: dict[str, TaskSuiteDef] = {

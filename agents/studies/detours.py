@@ -1,6 +1,6 @@
 """Which reach pairs can be reached at their speed bound: the straight slider line and the
 two-segment slider paths through a grid of waypoints, certified (the logic of
-``scripts/detours.py``; issue 25, why the ``hard`` suite's time target is out of reach).
+``scripts/detours.py``: why the ``hard`` suite's time target is out of reach).
 
 The speed bound of an episode, ``max_i |rho_i(target) - rho_i(start)| / max_speed``, is the
 time of every slider path on which each slider moves monotonically and the one with the

@@ -96,7 +96,7 @@ class Planar3PAssemblyChangeEnv(Planar3PEnv):
       compiled constrained-dynamics step (:mod:`planar3p_gym.sim.recovery`); trajectories
       change from such a step on, where they used to end in ``"physics_breakdown"`` or gain
       energy.
-    - v0 (0.2.0, issue 24): the same distribution of episodes, drawn faster: poses are proposed
+    - v0 (0.2.0): the same distribution of episodes, drawn faster: poses are proposed
       from the region that holds every reachable pose (:mod:`planar3p_gym.tasks.pose_proposal`);
       a seed draws other episodes than before.
     - v0 (0.2.0): the observation's 31 entries, the errors and the margins from the reach

@@ -45,7 +45,7 @@ lines, the end stops being separate ``SlideJoint`` limits whose impulse is dropp
 slider leaves the stop (a groove's own ends keep a stale impulse after an impact, and with one
 substep a slider resting on the stop then bounced between two states).
 
-Imperfections (``dynamics=``, :class:`~planar3p_gym.sim.dynamics.MachineDynamics`; issue 26's
+Imperfections (``dynamics=``, :class:`~planar3p_gym.sim.dynamics.MachineDynamics`; the
 machine as built): Coulomb friction of the sliders and joints as bounded-force velocity
 constraints added before the servos, viscous friction as explicit forces per physics step
 (:meth:`Planar3PSim._apply_viscous`; the hot loop then runs through pymunk's public API), a

@@ -61,7 +61,7 @@ def test_quick_run_writes_tables_and_figures(tmp_path: Path, capsys) -> None:
     ],
 )
 def test_bad_arguments_exit_2_and_write_nothing(argv, message, tmp_path: Path, capsys) -> None:
-    """Issue 13 item 4: these raised tracebacks (some after writing into docs/) or fell back
+    """These raised tracebacks (some after writing into docs/) or fell back
     to defaults silently."""
     out = tmp_path / "docs"
     assert workspace_script.main([*argv, "--quick", "--no-pin", "--out", str(out)]) == 2

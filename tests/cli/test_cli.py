@@ -1,7 +1,7 @@
 """The ``planar3p`` command line (planar3p_agents.cli, planar3p_agents.commands): every subcommand
 has a help that shows its defaults; bad arguments and impossible output locations exit 2 with one
-line naming the flag, before any work, writing nothing and leaving no process behind (issue 27
-items 4 and 9); the files of scripts/ are thin calls of it (issue 22 item 6)."""
+line naming the flag, before any work, writing nothing and leaving no process behind;
+the files of scripts/ are thin calls of it."""
 
 from __future__ import annotations
 
@@ -105,7 +105,7 @@ def no_work(monkeypatch):
 
 
 def test_every_script_is_a_thin_call_of_its_subcommand() -> None:
-    """Issue 22 item 6: one command line; scripts/ call it, with no sys.path edits, and demo.py
+    """One command line; scripts/ call it, with no sys.path edits, and demo.py
     runs no script by its file path."""
     # (scripts/soak_physics.py is a measurement of the repository, not a command)
     files = sorted(p.stem for p in (ROOT / "scripts").glob("*.py") if p.stem != "soak_physics")
@@ -185,7 +185,7 @@ def test_benchmark_help_states_each_default_once(capsys) -> None:
 
 # ----------------------------------------------------------------------- bad input, exit 2
 
-#: Issue 27 item 4, each reported defect: (argv, the flag the one line must name).  ``{ro}``
+#: Each reported defect: (argv, the flag the one line must name).  ``{ro}``
 #: is a directory that cannot be written, ``{file}`` an existing file, ``{tmp}`` a fresh
 #: directory.
 SWEEP = ["sweep", "--algo", "ppo", "--seeds", "0"]

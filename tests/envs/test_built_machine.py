@@ -1,4 +1,4 @@
-"""The built machine in the environment (issue 26): randomised dynamics, encoder observations,
+"""The built machine in the environment: randomised dynamics, encoder observations,
 latency and on-off motors; the realistic ids."""
 
 from __future__ import annotations

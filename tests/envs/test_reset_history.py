@@ -1,4 +1,4 @@
-"""Issue 24, item 2: a seeded reset forgets the environment's history.  The simulation is kept
+"""A seeded reset forgets the environment's history.  The simulation is kept
 across episodes and moved (:meth:`planar3p_gym.sim.physics.Planar3PSim.reset`), and the
 episode samplers keep pools: an environment reset with seed ``s`` after any history must be,
 bit for bit, a new environment reset with seed ``s`` (observations, rewards, episode ends and

@@ -1,4 +1,4 @@
-"""Issue 27, items 2 and 3: resets that never hang and never stall.
+"""Resets that never hang and never stall.
 
 No test here measures time (timings belong to ``scripts/bench_resets.py``): the work of a
 reset is counted instead (poses screened, direct-kinematics solves), deterministically, and the

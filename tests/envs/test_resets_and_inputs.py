@@ -1,4 +1,4 @@
-"""Issue 13: resets that never fail on valid settings, and bad input rejected with ValueError.
+"""Resets that never fail on valid settings, and bad input rejected with ValueError.
 
 Each test reproduces a reported failure (the seeds below hit the former failure paths) and
 checks that it now behaves.

@@ -1,4 +1,4 @@
-"""Issue 27, items 5, 6, 7 and 9 (end names): one argument check for the whole package.
+"""One argument check for the whole package.
 
 Every argument, reset option, action and goal is checked by :mod:`planar3p_gym.checks`: Python
 and NumPy numbers alike, booleans, complex numbers and strings rejected, ``ValueError`` (never

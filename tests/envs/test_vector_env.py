@@ -283,7 +283,7 @@ def test_sb3_adapter_matches_dummy_vec_env():
     [("Planar3P-v0", "scalar"), ("Planar3P-v0", "numpy"), ("Planar3PModeChange-v0", "auto")],
 )
 def test_render_gives_each_single_envs_frame(env_id, batch):
-    """The vector env renders (issue 27, item 9): a frame per environment, each the frame
+    """The vector env renders: a frame per environment, each the frame
     the single environment renders after the same seeded reset and actions."""
     kwargs = {"batch": batch} if env_id == "Planar3P-v0" else {}
     venv = gym.make_vec(

@@ -1,4 +1,4 @@
-"""The end stops hold on every registered id (issue 27, item 1).
+"""The end stops hold on every registered id.
 
 On every step either the episode ends with ``"physics_breakdown"`` or the simulated state has
 every travel within ``[-0.5 mm, stroke + 0.5 mm]``, every slider rate within the projection's
@@ -67,7 +67,7 @@ def assert_step_holds(env: gym.Env, info: dict, tolerance: float = STROKE_TOLERA
 
 # ---------------------------------------------------------------------------- the reproductions
 def test_assembly_change_seed_9_stays_on_its_stroke():
-    """Issue 27: ``reset(seed=9)`` then 16 steps of ``[-1, 1, -1]`` near a parallel
+    """``reset(seed=9)`` then 16 steps of ``[-1, 1, -1]`` near a parallel
     singularity put the travels at (0.97, 1.09, 1.28) m on a 0.3 m stroke at up to 86 m/s."""
     env = make(planar3p_gym.ASSEMBLY_CHANGE_ENV_ID)
     env.reset(seed=9)
@@ -79,7 +79,7 @@ def test_assembly_change_seed_9_stays_on_its_stroke():
 
 
 def test_v0_bang_bang_seed_22_stays_on_its_stroke():
-    """Issue 27: ``Planar3P-v0``, ``reset(seed=22)``, bang-bang actions from
+    """``Planar3P-v0``, ``reset(seed=22)``, bang-bang actions from
     ``default_rng(22)``: slider 1 reached 0.321 m (2.1 cm past its stop) at step 85."""
     env = make(planar3p_gym.ENV_ID)
     env.reset(seed=22)

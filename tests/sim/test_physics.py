@@ -127,7 +127,7 @@ def test_built_state_is_the_exact_inverse_kinematics():
 
 
 def test_a_closed_simulation_is_freed_by_reference_counting():
-    """close() (issue 27's reset tails): the model no longer needs the garbage collector,
+    """close(): the model no longer needs the garbage collector,
     stays readable, refuses to step, and closing twice is harmless."""
     import gc
     import weakref

@@ -1,7 +1,7 @@
 """Tests of the post-stabilisation projection (planar3p_gym.sim.projection) and of the projected
 model ``Planar3P-v0`` (``projection=True`` with the projected solver settings).
 
-Targets (issue 12): loop-closure error at most 1e-9 m on every step, near singularities too;
+Targets: loop-closure error at most 1e-9 m on every step, near singularities too;
 the simulated pose within 1e-6 m (``|(dx, dy, L_ref dtheta)|``) of the exact direct kinematics
 of the simulated travels wherever the parallel margin is at least 0.02; no energy gained from
 the projection in a free swing.  The physical behaviour tests of ``tests/sim/test_physics.py``
@@ -192,7 +192,7 @@ def test_random_soak_closes_the_loop_on_every_step():
     Except on the few steps where the projection reports that it failed (closure error inf:
     an environment's episode ends there with ``"physics_breakdown"``): they come in the runs
     where the solver's step near a parallel singularity left the chain far open, which the
-    projection used to turn into a silent jump of the sliders (issue 27: in 6 of these 16
+    projection used to turn into a silent jump of the sliders (in 6 of these 16
     runs by up to 29 cm, at up to 21 m/s, 23 cm past an end stop).  Every other step keeps
     its sliders on their stroke and within the rate limit (tests/sim/test_end_stops.py)."""
     kin = ScalarKinematics(DESIGN)

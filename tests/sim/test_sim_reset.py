@@ -1,4 +1,4 @@
-"""Issue 24, item 2: :meth:`Planar3PSim.reset` moves the bodies of the kept pymunk space (and
+""":meth:`Planar3PSim.reset` moves the bodies of the kept pymunk space (and
 gives it a new machine's numbers) and is then, bit for bit, the simulation a new build at that
 pose gives, whatever came before."""
 

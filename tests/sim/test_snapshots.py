@@ -1,4 +1,4 @@
-"""State snapshots (issue 13 item 5): ``Planar3PSim.get_state/set_state`` and
+"""State snapshots: ``Planar3PSim.get_state/set_state`` and
 ``Planar3PEnv.get_state/set_state`` restore bit for bit; ``copy.deepcopy`` and ``pickle`` of
 a simulation or an (unwrapped) environment work through them."""
 

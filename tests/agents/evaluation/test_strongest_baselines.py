@@ -1,4 +1,4 @@
-"""The strongest baselines (issue 25): the slider line, the certified planner, the tuned analytic
+"""The strongest baselines: the slider line, the certified planner, the tuned analytic
 controllers; the speed bound of an episode; the normalized scores and their score matrix."""
 
 from __future__ import annotations

@@ -100,7 +100,7 @@ def test_script_on_task_suites_and_replay(tmp_path, bench, capsys):
     rows = read_csv(out / "episodes.csv")
     assert {(r["policy"], r["suite"]) for r in rows} == {
         ("analytic-simultaneous", "goal"),
-        ("analytic-tuned", "goal"),  # issue 25: the strongest reach baselines on the goal ids
+        ("analytic-tuned", "goal"),  # the strongest reach baselines on the goal ids
         ("slider-line", "goal"),
         ("certified", "goal"),
         ("certified-line", "goal"),
@@ -108,7 +108,7 @@ def test_script_on_task_suites_and_replay(tmp_path, bench, capsys):
         ("random", "track-segments"),
         ("analytic-simultaneous", "track-segments"),
         ("analytic-feedforward", "track-segments"),
-        ("analytic-feedforward-tuned", "track-segments"),  # (issue 25: tuned on seed 1000)
+        ("analytic-feedforward-tuned", "track-segments"),  # (tuned on seed 1000)
         ("zero", "track-segments"),
     }
     assert all(r["tracking_rms_error"] for r in rows if r["suite"] == "track-segments")

@@ -95,7 +95,7 @@ def _feedforward_rms(env_id: str, steps: int = 250) -> float:
     return float(info["tracking_rms_error"])
 
 
-# ------------------------------------------------------------------ trusted files (issue 13)
+# ------------------------------------------------------------------ trusted files
 class _RunsCode:
     """Unpickling this writes a marker file: stands for any code a pickle can run."""
 
@@ -258,7 +258,7 @@ def test_shipped_models_report_their_training_arguments(tmp_path):
     assert run_env_kwargs(model) is None
 
 
-# ---------------------------------------------- the id a model was trained on (issue 22, 8)
+# ---------------------------------------------- the id a model was trained on
 def test_a_pretrained_model_is_refused_on_another_id() -> None:
     """``load_policy`` refuses a model trained on another id, naming both ids, before it
     loads anything (here the mode-change policy, whose observation would not even fit)."""

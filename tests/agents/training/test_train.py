@@ -87,7 +87,7 @@ def test_smoke_training_writes_complete_loadable_run(algo: str, tmp_path: Path) 
 
 
 def test_dqn_trains_on_the_on_off_machine_and_the_benchmark_plays_it(tmp_path: Path, bench) -> None:
-    """Issue 26 item 4: DQN on the Discrete(27) on-off machine, end to end: a complete run,
+    """DQN on the Discrete(27) on-off machine, end to end: a complete run,
     and the benchmark plays the model on the real-on-off suite (MultiDiscrete) in the suite's
     environment made with the model's action encoding."""
     run = tmp_path / "dqn"
@@ -178,7 +178,7 @@ def test_bad_input_fails_before_training(argv, message, tmp_path: Path, capsys) 
 def test_crash_paths_exit_2_with_one_line_and_write_nothing(
     argv, message, tmp_path: Path, capsys
 ) -> None:
-    """Issue 13 item 3: each of these used to raise a traceback, leave an empty run directory
+    """Each of these used to raise a traceback, leave an empty run directory
     behind, or be accepted (512 checkpoints for --checkpoint-freq -1)."""
     run = tmp_path / "run"
     assert train_script.main([*argv, "--run-dir", str(run)]) == 2

@@ -1,4 +1,4 @@
-"""No shipped file carries a trace of the machine it was made on (issue 22, item 7): no absolute
+"""No shipped file carries a trace of the machine it was made on: no absolute
 path (``/work/``, ``/home/``, ``/root/``, ``/tmp/``, ``C:\\``) and not this machine's host name, in
 the text files, the strings of the JSON and YAML files, the ``data`` JSON inside each model zip
 (its serialised entries decoded) and the strings of every pickle (read, never run)."""

@@ -200,7 +200,7 @@ def test_rl_zoo3_enjoy_plays_the_shipped_policy() -> None:
     assert int(episodes.group(1)) >= 3 and float(rate.group(1)) >= 50.0
 
 
-# ------------------------------------------------- the rl-zoo3 route checked (issue 27, 8)
+# ------------------------------------------------- the rl-zoo3 route checked
 def _tampered(tmp_path: Path, name: str = "ppo_reach_scratch") -> tuple[Path, Any]:
     copy = tmp_path / "pretrained"
     shutil.copytree(PRETRAINED_DIR, copy)
