@@ -121,7 +121,8 @@ HEADLINE: list[dict[str, str]] = [
         "metric": "success",
         "learned": "PPO from scratch + travel shaping, trained on the exact machine",
         "note": "the recipe barely learns now that the end stops hold (22-74 % per seed before "
-        "the fix); the shipped policy, trained before the fix, scores 69 %",
+        "the fix; not yet retrained on the physics that survives the crossing); the shipped "
+        "policy, trained before the fix, scores 71 % on today's physics",
     },
     {
         "task": "tracking, segments",
@@ -231,6 +232,7 @@ STUDY_ORDER = [
     "assembly-change",
     "assembly-change-exact",
     "assembly-change-retrained",
+    "assembly-change-recovered",
     "track-learned",
     "goal-learned",
     "goal-sac-her",
