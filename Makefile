@@ -6,7 +6,7 @@ VENV   ?= .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup demo test lint bench clean docs
+.PHONY: setup demo test lint bench clean clean-numba docs
 
 setup: $(STAMP)
 
@@ -40,5 +40,10 @@ bench: $(STAMP)
 	$(PY) scripts/bench_kinematics.py
 	$(PY) scripts/bench_env.py
 
-clean:
+# numba's on-disk cache checks only the file of the function it compiled, not the files of the
+# compiled functions that one calls: after editing a compiled module, drop every cache.
+clean-numba:
+	find planar3p_gym agents -name '*.nbi' -delete -o -name '*.nbc' -delete
+
+clean: clean-numba
 	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache
