@@ -34,6 +34,7 @@ from planar3p_gym.machine.statics import holding_forces_of_rows
 from planar3p_gym.tasks.pose_proposal import pose_proposal, propose
 
 __all__ = [
+    "PAIR_KINDS",
     "SCHEDULABLE_FIELDS",
     "PoseSampler",
     "TaskConfig",
@@ -41,6 +42,7 @@ __all__ = [
     "check_detours",
     "check_mode",
     "check_pose",
+    "draw_pair",
     "has_detours",
     "has_pairs",
     "path_is_clear",
@@ -363,6 +365,19 @@ DRAW_MANY_REFILLS = 50
 REFILL_BATCHES = 2000
 
 
+#: The kinds of pair :func:`draw_pair` reports: drawn by the ordinary rules, near-singular
+#: (``near_singular_fraction``), needing a detour (``detour_fraction``), an ordinary pair drawn
+#: because the search for the requested kind ran out of its budget, or given by the caller.
+PAIR_KINDS = (
+    "ordinary",
+    "near_singular",
+    "detour",
+    "near_singular_not_found",
+    "detour_not_found",
+    "given",
+)
+
+
 def sample_pair(
     design: Design,
     mode: ArrayLike,
@@ -374,8 +389,25 @@ def sample_pair(
     max_tries: int = 100,
     assembly: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """A ``(start, target)`` pair for the task; either may be given (already validated), a
-    given start with its assembly mode (``sign det A``, computed if ``None``).
+    """The ``(start, target)`` of :func:`draw_pair` (same arguments), without its kind."""
+    s, t, _ = draw_pair(design, mode, rng, cfg, start, target, sampler, max_tries, assembly)
+    return s, t
+
+
+def draw_pair(
+    design: Design,
+    mode: ArrayLike,
+    rng: np.random.Generator,
+    cfg: TaskConfig,
+    start: np.ndarray | None = None,
+    target: np.ndarray | None = None,
+    sampler: PoseSampler | None = None,
+    max_tries: int = 100,
+    assembly: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, str]:
+    """A ``(start, target, kind)`` for the task; either pose may be given (already validated),
+    a given start with its assembly mode (``sign det A``, computed if ``None``); ``kind`` is one
+    of :data:`PAIR_KINDS` ("given" with both poses given).
 
     The target has the start's assembly mode, is at least ``min_distance`` away and, with
     ``clear_path``, is joined to the start by a straight path clear of singularities.
@@ -383,20 +415,24 @@ def sample_pair(
     With neither given, draws until a pair is found (after ``max_tries`` failed starts it
     checks, once, that the working mode has pairs at all: :func:`check_mode`), at most
     ``PAIR_TRIES_FACTOR * max_tries`` starts (a budget; then ``ValueError``); a given start or
-    target that cannot be paired in ``max_tries`` tries raises ``ValueError``.
+    target that cannot be paired in ``max_tries`` tries raises ``ValueError``.  A requested
+    near-singular or detour pair whose search runs out of its budget is replaced by an ordinary
+    pair, reported as such (``kind`` ``"near_singular_not_found"`` / ``"detour_not_found"``).
     """
     if start is not None and target is not None:
-        return start, target
+        return start, target, "given"
     if assembly is not None and (start is None or assembly not in (1.0, -1.0)):
         raise ValueError(
             f"assembly must be +1 or -1 and comes with a given start, got {assembly!r}"
         )
     sampler = sampler if sampler is not None else PoseSampler(design, mode, cfg)
     free = start is None and target is None
+    kind = "ordinary"
     if free and cfg.near_singular_fraction > 0 and rng.random() < cfg.near_singular_fraction:
         pair = _near_singular_pair(design, mode, rng, cfg, sampler)
         if pair is not None:
-            return pair
+            return (*pair, "near_singular")
+        kind = "near_singular_not_found"
     elif free and cfg.detour_fraction > 0 and rng.random() < cfg.detour_fraction:
         # (A mode without such pairs draws an ordinary pair at once, not after the budget.)
         pair = (
@@ -405,7 +441,8 @@ def sample_pair(
             else None
         )
         if pair is not None:
-            return pair
+            return (*pair, "detour")
+        kind = "detour_not_found"
     for attempt in range(max_tries * PAIR_TRIES_FACTOR if free else max_tries):
         if attempt == max_tries:
             check_mode(design, tuple(int(m) for m in np.asarray(mode).tolist()), cfg)
@@ -419,14 +456,14 @@ def sample_pair(
             det = float(kinematics.assembly_mode(design, s, rho))
         if target is not None:
             if _first_ok(design, s, target[None, :], mode, det, cfg) == 0:
-                return s, target
+                return s, target, kind
             if start is not None:
                 break
             continue
         cands = sampler.draw_many(rng, det, 8)
         first = _first_ok(design, s, cands, mode, det, cfg) if len(cands) else None
         if first is not None:
-            return s, cands[first]
+            return s, cands[first], kind
         if start is None:
             continue
     raise ValueError(
