@@ -84,6 +84,12 @@ def updated_config(cfg: TaskConfig, changes: Mapping[str, Any]) -> TaskConfig:
 #: apart on any path across the workspace, and keep a candidate batch's check small in memory.
 MAX_PATH_POINTS = 1000
 
+#: Search-box poses whose volume a default batch of :func:`sample_poses` covers.
+DEFAULT_BATCH = 4096
+#: Poses a refill of :class:`PoseSampler` aims for by default: the candidates of one try of
+#: :func:`sample_pair`.  A working mode whose default batch yields fewer draws a multiple of it.
+MIN_YIELD = 8
+
 
 @dataclass(frozen=True)
 class TaskConfig:
@@ -213,7 +219,7 @@ def sample_poses(
     mode: ArrayLike,
     rng: np.random.Generator,
     cfg: TaskConfig,
-    batch: int = 4096,
+    batch: int = DEFAULT_BATCH,
     max_batches: int = 200,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Acceptable poses drawn by rejection: ``(poses (M, 3), assembly (M,))``, ``M >= 1``.
@@ -297,6 +303,7 @@ class PoseSampler:
         self.cfg = cfg
         self._pools: dict[float, deque[tuple[int, np.ndarray]]] = {1.0: deque(), -1.0: deque()}
         self._count = 0  # poses pooled so far: the order of the next one
+        self._batches: dict[int, int] = {}  # refill_batch by need
 
     def clear(self) -> None:
         """Forget the pooled poses."""
@@ -317,42 +324,89 @@ class PoseSampler:
         first = min((pool[0][0] for pool in self._pools.values() if pool), default=self._count)
         self._pools[float(det)].appendleft((first - 1, np.asarray(pose, dtype=np.float64)))
 
-    def _refill(self, rng: np.random.Generator) -> None:
+    def _refill(self, rng: np.random.Generator, need: int = MIN_YIELD) -> None:
+        # A larger batch draws from the same uniform proposal and keeps the acceptable poses:
+        # the pool stays an i.i.d. sequence of uniform acceptable poses, in fewer, larger calls.
+        batch = self._batches.get(need)
+        if batch is None:  # (the yield depends on fields a running environment keeps)
+            batch = self._batches[need] = refill_batch(self.design, self.mode, self.cfg, need)
         try:
-            poses, dets = sample_poses(self.design, self.mode, rng, self.cfg)
+            poses, dets = sample_poses(self.design, self.mode, rng, self.cfg, batch=batch)
         except ValueError:
             # Rare in a mode whose acceptable poses are sparse: if the mode has poses at all
             # (check_mode raises if not), keep drawing from the same stream (a bounded number
             # of batches: ValueError if even those find none).
             check_mode(self.design, self.mode, self.cfg)
             poses, dets = sample_poses(
-                self.design, self.mode, rng, self.cfg, max_batches=REFILL_BATCHES
+                self.design, self.mode, rng, self.cfg, batch=batch, max_batches=REFILL_BATCHES
             )
         for pose, det in zip(poses, dets.tolist(), strict=True):
             self._pools[det].append((self._count, pose))
             self._count += 1
 
-    def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, float]:
-        """The next pose and its assembly mode."""
+    def draw(self, rng: np.random.Generator, need: int = MIN_YIELD) -> tuple[np.ndarray, float]:
+        """The next pose and its assembly mode (a refill aims for ``need`` poses)."""
         up, down = self._pools[1.0], self._pools[-1.0]
         if not (up or down):
-            self._refill(rng)
+            self._refill(rng, need)
         if up and (not down or up[0][0] < down[0][0]):
             return up.popleft()[1], 1.0
         return down.popleft()[1], -1.0
 
-    def draw_many(self, rng: np.random.Generator, assembly: float, n: int) -> np.ndarray:
+    def draw_many(
+        self, rng: np.random.Generator, assembly: float, n: int, need: int = MIN_YIELD
+    ) -> np.ndarray:
         """Up to ``n`` next poses of assembly mode ``assembly``, shape (m, 3); ``m == 0`` when
         none turned up in :data:`DRAW_MANY_REFILLS` refills (the assembly mode is rare or empty
-        in this working mode: the caller draws another start)."""
+        in this working mode: the caller draws another start).  A refill draws batches enough
+        for about ``need`` poses (:func:`refill_batch`)."""
         pool = self._pools.get(assembly)
         if pool is None:  # not an assembly mode (+-1): no pose has it
             return np.empty((0, 3))
         for _ in range(DRAW_MANY_REFILLS):
             if pool:
                 return np.array([pool.popleft()[1] for _ in range(min(n, len(pool)))])
-            self._refill(rng)
+            self._refill(rng, need)
         return np.empty((0, 3))
+
+
+#: The largest multiple of the default batch a refill draws (a bound on its memory).
+MAX_BATCH_FACTOR = 32
+#: Batches of :func:`sample_poses` (fixed seed) over which :func:`pose_yield` averages.
+YIELD_BATCHES = 32
+
+
+def pose_yield(design: Design, mode: ArrayLike, cfg: TaskConfig) -> float:
+    """The mean number of acceptable poses in a default batch of :func:`sample_poses` in working
+    ``mode``, over :data:`YIELD_BATCHES` batches drawn with a fixed internal seed (the
+    episode's random stream is not touched; cached)."""
+    key = replace(cfg, **{f: getattr(_DEFAULT_CONFIG, f) for f in SCHEDULABLE_FIELDS})
+    return _pose_yield(design, tuple(int(m) for m in np.asarray(mode).tolist()), key)
+
+
+@lru_cache(maxsize=256)
+def _pose_yield(design: Design, mode: tuple[int, int, int], cfg: TaskConfig) -> float:
+    rng = np.random.default_rng(0)
+    found = 0
+    for _ in range(YIELD_BATCHES):
+        try:
+            found += len(sample_poses(design, mode, rng, cfg, max_batches=1)[0])
+        except ValueError:
+            continue
+    return found / YIELD_BATCHES
+
+
+def refill_batch(design: Design, mode: ArrayLike, cfg: TaskConfig, need: int) -> int:
+    """The batch (in search-box poses, :func:`sample_poses`) a :class:`PoseSampler` refill
+    draws for about ``need`` poses: the default batch times the smallest power of two, up to
+    :data:`MAX_BATCH_FACTOR`, whose expected yield (:func:`pose_yield`) reaches ``need``; the
+    default batch in a mode whose yield is unknown (0).  In a mode whose default batch yields
+    ``MIN_YIELD`` poses or more, a default refill is one default batch."""
+    mean = pose_yield(design, mode, cfg)
+    factor = 1
+    while mean > 0 and mean * factor < need and factor < MAX_BATCH_FACTOR:
+        factor *= 2
+    return DEFAULT_BATCH * factor
 
 
 #: Refills :meth:`PoseSampler.draw_many` tries before it gives up (returns no pose).
@@ -479,7 +533,7 @@ PAIR_TRIES_FACTOR = 20
 
 #: Candidate targets screened per start by :func:`_near_singular_pair`, and starts tried.
 NEAR_SINGULAR_CANDIDATES = 64
-NEAR_SINGULAR_STARTS = 200
+NEAR_SINGULAR_STARTS = 100
 
 
 def _near_singular_pair(
@@ -578,6 +632,11 @@ def check_detours(design: Design, modes: list[tuple[int, int, int]], cfg: TaskCo
     )
 
 
+#: The candidates of this many starts a refill of :func:`_pair_by_rejection` aims for: its
+#: searches go through many starts, and fewer, larger batches cost less per pose.
+SEARCH_STOCK = 8
+
+
 def _pair_by_rejection(
     design: Design,
     rng: np.random.Generator,
@@ -591,8 +650,8 @@ def _pair_by_rejection(
     among ``candidates`` targets of the start's assembly mode at least ``min_distance`` away,
     trying up to ``starts`` starts; ``None`` if none."""
     for _ in range(starts):
-        s, det = sampler.draw(rng)
-        cands = sampler.draw_many(rng, det, candidates)
+        s, det = sampler.draw(rng, need=SEARCH_STOCK * candidates)
+        cands = sampler.draw_many(rng, det, candidates, need=SEARCH_STOCK * candidates)
         if not len(cands):
             continue
         cands = cands[

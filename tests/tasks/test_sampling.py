@@ -389,3 +389,28 @@ def test_the_episode_spec_names_the_pair_kind_and_replays_it(env_id, monkeypatch
         with pytest.raises(ValueError, match=match):
             env.reset(options=options)
         assert env.unwrapped.episode_spec == before
+
+
+# ------------------------------------------------------------------ refill batches by yield
+def test_refills_are_sized_by_the_mode_s_yield():
+    """A default refill is one default batch in every mode whose batch yields MIN_YIELD poses
+    (the default streams are those of one batch a refill); a sparse mode's refill is the
+    smallest power-of-two multiple expected to yield them; a larger need asks for more, up to
+    MAX_BATCH_FACTOR; a batch of a multiple is uniform over the same acceptable poses."""
+    design, cfg = Design.fig8(), task.TaskConfig()
+    for mode in (tuple(m) for m in kinematics.ALL_MODES.tolist()):
+        mean = task.pose_yield(design, mode, cfg)
+        assert mean > 0
+        for need in (task.MIN_YIELD, 256, 10**6):
+            factor = task.refill_batch(design, mode, cfg, need) // task.DEFAULT_BATCH
+            assert factor & (factor - 1) == 0 and 1 <= factor <= task.MAX_BATCH_FACTOR
+            assert mean * factor >= need or factor == task.MAX_BATCH_FACTOR
+            assert factor == 1 or mean * factor / 2 < need
+        if mean >= task.MIN_YIELD:
+            assert task.refill_batch(design, mode, cfg, task.MIN_YIELD) == task.DEFAULT_BATCH
+    sparse = (1, -1, 1)
+    assert task.pose_yield(design, sparse, cfg) < task.MIN_YIELD
+    big = task.refill_batch(design, sparse, cfg, task.MIN_YIELD)
+    poses, _ = task.sample_poses(design, sparse, np.random.default_rng(0), cfg, batch=big)
+    ok, _ = task._acceptable(design, poses, np.asarray(sparse, float), cfg)
+    assert ok.all() and len(poses) >= 1
