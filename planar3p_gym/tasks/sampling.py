@@ -532,8 +532,8 @@ PAIR_TRIES_FACTOR = 20
 
 
 #: Candidate targets screened per start by :func:`_near_singular_pair`, and starts tried.
-NEAR_SINGULAR_CANDIDATES = 64
-NEAR_SINGULAR_STARTS = 100
+NEAR_SINGULAR_CANDIDATES = 32
+NEAR_SINGULAR_STARTS = 200
 
 
 def _near_singular_pair(
