@@ -573,17 +573,26 @@ def _near_singular_pair(
 
 
 #: Candidate targets screened per start by :func:`_detour_pair`, and starts tried.
-DETOUR_CANDIDATES = 64
+DETOUR_CANDIDATES = 32
 DETOUR_STARTS = 200
+#: Starts one reset's detour search tries (a budget on the reset's time: a start follows the
+#: slider line of its clear candidates, some 3 ms; about 3 % of the searches need more, and
+#: then draw an ordinary pair, reported as ``"detour_not_found"``).
+DETOUR_RESET_STARTS = 12
 
 
 def _detour_pair(
-    design: Design, mode: ArrayLike, rng: np.random.Generator, cfg: TaskConfig, sampler: PoseSampler
+    design: Design,
+    mode: ArrayLike,
+    rng: np.random.Generator,
+    cfg: TaskConfig,
+    sampler: PoseSampler,
+    starts: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """A pair meeting every rule of an ordinary pair that the straight line in slider space
     does not solve (:func:`planar3p_gym.machine.slider_line.slider_line_reaches`): by rejection over
-    :data:`DETOUR_CANDIDATES` targets per start; ``None`` after :data:`DETOUR_STARTS` starts
-    (no such pairs: the caller draws an ordinary pair)."""
+    :data:`DETOUR_CANDIDATES` targets per start; ``None`` after ``starts`` starts
+    (:data:`DETOUR_RESET_STARTS` by default: the caller draws an ordinary pair)."""
 
     def detour(s: np.ndarray, det: float, cands: np.ndarray) -> np.ndarray:
         ok = (
@@ -595,7 +604,8 @@ def _detour_pair(
             ok[ok] = ~slider_line_reaches(design, s, cands[ok], mode)
         return ok
 
-    return _pair_by_rejection(design, rng, cfg, sampler, detour, DETOUR_CANDIDATES, DETOUR_STARTS)
+    budget = DETOUR_RESET_STARTS if starts is None else starts
+    return _pair_by_rejection(design, rng, cfg, sampler, detour, DETOUR_CANDIDATES, budget)
 
 
 def has_detours(design: Design, mode: ArrayLike, cfg: TaskConfig) -> bool:
@@ -615,7 +625,8 @@ _DEFAULT_CONFIG = TaskConfig()
 @lru_cache(maxsize=256)
 def _has_detours(design: Design, mode: tuple[int, int, int], cfg: TaskConfig) -> bool:
     sampler = PoseSampler(design, mode, cfg)
-    return _detour_pair(design, mode, np.random.default_rng(0), cfg, sampler) is not None
+    rng = np.random.default_rng(0)
+    return _detour_pair(design, mode, rng, cfg, sampler, DETOUR_STARTS) is not None
 
 
 def check_detours(design: Design, modes: list[tuple[int, int, int]], cfg: TaskConfig) -> None:

@@ -352,7 +352,7 @@ def test_a_search_that_runs_out_is_reported_not_hidden(monkeypatch):
     says so; given poses are "given"."""
     design, mode = Design.fig8(), (1, 1, -1)
     monkeypatch.setattr(task, "NEAR_SINGULAR_STARTS", 0)
-    monkeypatch.setattr(task, "DETOUR_STARTS", 0)
+    monkeypatch.setattr(task, "DETOUR_RESET_STARTS", 0)
     for cfg, kind in (
         (task.TaskConfig(near_singular_fraction=1.0), "near_singular_not_found"),
         (task.TaskConfig(detour_fraction=1.0), "detour_not_found"),
