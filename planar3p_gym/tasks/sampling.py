@@ -337,8 +337,9 @@ class PoseSampler:
             # (check_mode raises if not), keep drawing from the same stream (a bounded number
             # of batches: ValueError if even those find none).
             check_mode(self.design, self.mode, self.cfg)
+            batches = max(1, REFILL_BATCHES * DEFAULT_BATCH // batch)  # (the same volume)
             poses, dets = sample_poses(
-                self.design, self.mode, rng, self.cfg, batch=batch, max_batches=REFILL_BATCHES
+                self.design, self.mode, rng, self.cfg, batch=batch, max_batches=batches
             )
         for pose, det in zip(poses, dets.tolist(), strict=True):
             self._pools[det].append((self._count, pose))
@@ -572,12 +573,13 @@ def _near_singular_pair(
     )
 
 
-#: Candidate targets screened per start by :func:`_detour_pair`, and starts tried.
+#: Candidate targets screened per start by :func:`_detour_pair`, and the starts the fixed-seed
+#: search of :func:`has_detours` tries.
 DETOUR_CANDIDATES = 32
 DETOUR_STARTS = 200
-#: Starts one reset's detour search tries (a budget on the reset's time: a start follows the
-#: slider line of its clear candidates, some 3 ms; about 3 % of the searches need more, and
-#: then draw an ordinary pair, reported as ``"detour_not_found"``).
+#: Starts one reset's detour search tries: a budget on the reset's time (each start follows the
+#: slider line of its clear candidates by direct kinematics); a search that runs out draws an
+#: ordinary pair, reported as ``"detour_not_found"`` (the share: docs/throughput.md).
 DETOUR_RESET_STARTS = 12
 
 
