@@ -383,7 +383,13 @@ class GoalTask(ReachTask):
 
     name: ClassVar[str] = "goal"
     travel_goal: ClassVar[bool] = False
-    option_keys: ClassVar[tuple[str, ...]] = ("start", "target", "working_mode", "desired_goal")
+    option_keys: ClassVar[tuple[str, ...]] = (
+        "start",
+        "target",
+        "working_mode",
+        "desired_goal",
+        "pair",
+    )
 
     def __init__(self, reward_type: str = "sparse") -> None:
         self.reward_type = checks.choice(reward_type, "reward_type", REWARD_TYPES)

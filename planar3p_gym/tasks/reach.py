@@ -6,8 +6,12 @@ singularities by default).  Success: within the task's tolerances of the target 
 nearly at rest.
 
 Episode spec: ``{"task": "reach", "working_mode": [s1, s2, s3], "start": [x, y, theta],
-"target": [x, y, theta]}`` (m, m, rad).  Reset options: ``start``, ``target``,
-``working_mode`` (any subset; the rest is drawn).  No task metrics beyond the environment's
+"target": [x, y, theta]}`` (m, m, rad), and ``"pair"``, the kind of pair drawn (one of
+:data:`planar3p_gym.tasks.sampling.PAIR_KINDS`), whenever ``near_singular_fraction`` or
+``detour_fraction`` is positive: a requested kind the search did not find within its budget
+is reported as such, never silently replaced.  Reset options: ``start``, ``target``,
+``working_mode`` (any subset; the rest is drawn), and ``pair`` with both poses given (the kind
+recorded in a replayed spec, carried to the new spec).  No task metrics beyond the environment's
 ``position_error`` / ``orientation_error``.
 """
 
@@ -41,7 +45,7 @@ class ReachTask(Task):
     """Reach a target pose (see the module docstring)."""
 
     name: ClassVar[str] = "reach"
-    option_keys: ClassVar[tuple[str, ...]] = ("start", "target", "working_mode")
+    option_keys: ClassVar[tuple[str, ...]] = ("start", "target", "working_mode", "pair")
     travel_goal: ClassVar[bool] = True
 
     def bind(self, env: Any) -> None:
@@ -49,6 +53,14 @@ class ReachTask(Task):
         self._target: Pose = (0.0, 0.0, 0.0)
 
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
+        kind = options.get("pair")
+        if kind is not None:
+            if kind not in task.PAIR_KINDS:
+                raise ValueError(f"option pair must be one of {task.PAIR_KINDS}, got {kind!r}")
+            if options.get("start") is None or options.get("target") is None:
+                raise ValueError(
+                    "option pair records the kind of a replayed pair: give start and target too"
+                )
         requested = options.get("working_mode")
         if requested is not None and requested not in self.env.modes:
             # bounded and cached (fixed internal seed): a mode without pairs fails here, fast
@@ -83,21 +95,21 @@ class ReachTask(Task):
                     f"{assemblies[0]} vs {assemblies[1]}): no motion joins them without "
                     "crossing a parallel singularity"
                 )
-        start, target = task.sample_pair(
-            design,
-            mode,
-            rng,
-            self.env.task_config,
-            start=start,
-            target=target,
-            sampler=self.pose_sampler(mode),
+        cfg = self.env.task_config
+        start, target, kind = task.draw_pair(
+            design, mode, rng, cfg, start=start, target=target, sampler=self.pose_sampler(mode)
         )
-        return {
+        spec = {
             "task": self.name,
             "working_mode": [int(m) for m in mode],
             "start": pose_list(start),
             "target": pose_list(target),
         }
+        if options.get("pair") is not None:
+            spec["pair"] = options["pair"]
+        elif cfg.near_singular_fraction > 0 or cfg.detour_fraction > 0:
+            spec["pair"] = kind
+        return spec
 
     def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
         tx, ty, tth = spec["target"]

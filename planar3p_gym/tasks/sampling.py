@@ -34,6 +34,7 @@ from planar3p_gym.machine.statics import holding_forces_of_rows
 from planar3p_gym.tasks.pose_proposal import pose_proposal, propose
 
 __all__ = [
+    "PAIR_KINDS",
     "SCHEDULABLE_FIELDS",
     "PoseSampler",
     "TaskConfig",
@@ -41,6 +42,7 @@ __all__ = [
     "check_detours",
     "check_mode",
     "check_pose",
+    "draw_pair",
     "has_detours",
     "has_pairs",
     "path_is_clear",
@@ -81,6 +83,12 @@ def updated_config(cfg: TaskConfig, changes: Mapping[str, Any]) -> TaskConfig:
 #: Upper bound of ``TaskConfig.path_points``: 1000 poses put checks well under a millimetre
 #: apart on any path across the workspace, and keep a candidate batch's check small in memory.
 MAX_PATH_POINTS = 1000
+
+#: Search-box poses whose volume a default batch of :func:`sample_poses` covers.
+DEFAULT_BATCH = 4096
+#: Poses a refill of :class:`PoseSampler` aims for by default: the candidates of one try of
+#: :func:`sample_pair`.  A working mode whose default batch yields fewer draws a multiple of it.
+MIN_YIELD = 8
 
 
 @dataclass(frozen=True)
@@ -211,7 +219,7 @@ def sample_poses(
     mode: ArrayLike,
     rng: np.random.Generator,
     cfg: TaskConfig,
-    batch: int = 4096,
+    batch: int = DEFAULT_BATCH,
     max_batches: int = 200,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Acceptable poses drawn by rejection: ``(poses (M, 3), assembly (M,))``, ``M >= 1``.
@@ -295,6 +303,7 @@ class PoseSampler:
         self.cfg = cfg
         self._pools: dict[float, deque[tuple[int, np.ndarray]]] = {1.0: deque(), -1.0: deque()}
         self._count = 0  # poses pooled so far: the order of the next one
+        self._batches: dict[int, int] = {}  # refill_batch by need
 
     def clear(self) -> None:
         """Forget the pooled poses."""
@@ -315,42 +324,90 @@ class PoseSampler:
         first = min((pool[0][0] for pool in self._pools.values() if pool), default=self._count)
         self._pools[float(det)].appendleft((first - 1, np.asarray(pose, dtype=np.float64)))
 
-    def _refill(self, rng: np.random.Generator) -> None:
+    def _refill(self, rng: np.random.Generator, need: int = MIN_YIELD) -> None:
+        # A larger batch draws from the same uniform proposal and keeps the acceptable poses:
+        # the pool stays an i.i.d. sequence of uniform acceptable poses, in fewer, larger calls.
+        batch = self._batches.get(need)
+        if batch is None:  # (the yield depends on fields a running environment keeps)
+            batch = self._batches[need] = refill_batch(self.design, self.mode, self.cfg, need)
         try:
-            poses, dets = sample_poses(self.design, self.mode, rng, self.cfg)
+            poses, dets = sample_poses(self.design, self.mode, rng, self.cfg, batch=batch)
         except ValueError:
             # Rare in a mode whose acceptable poses are sparse: if the mode has poses at all
             # (check_mode raises if not), keep drawing from the same stream (a bounded number
             # of batches: ValueError if even those find none).
             check_mode(self.design, self.mode, self.cfg)
+            batches = max(1, REFILL_BATCHES * DEFAULT_BATCH // batch)  # (the same volume)
             poses, dets = sample_poses(
-                self.design, self.mode, rng, self.cfg, max_batches=REFILL_BATCHES
+                self.design, self.mode, rng, self.cfg, batch=batch, max_batches=batches
             )
         for pose, det in zip(poses, dets.tolist(), strict=True):
             self._pools[det].append((self._count, pose))
             self._count += 1
 
-    def draw(self, rng: np.random.Generator) -> tuple[np.ndarray, float]:
-        """The next pose and its assembly mode."""
+    def draw(self, rng: np.random.Generator, need: int = MIN_YIELD) -> tuple[np.ndarray, float]:
+        """The next pose and its assembly mode (a refill aims for ``need`` poses)."""
         up, down = self._pools[1.0], self._pools[-1.0]
         if not (up or down):
-            self._refill(rng)
+            self._refill(rng, need)
         if up and (not down or up[0][0] < down[0][0]):
             return up.popleft()[1], 1.0
         return down.popleft()[1], -1.0
 
-    def draw_many(self, rng: np.random.Generator, assembly: float, n: int) -> np.ndarray:
+    def draw_many(
+        self, rng: np.random.Generator, assembly: float, n: int, need: int = MIN_YIELD
+    ) -> np.ndarray:
         """Up to ``n`` next poses of assembly mode ``assembly``, shape (m, 3); ``m == 0`` when
         none turned up in :data:`DRAW_MANY_REFILLS` refills (the assembly mode is rare or empty
-        in this working mode: the caller draws another start)."""
+        in this working mode: the caller draws another start).  A refill draws batches enough
+        for about ``need`` poses (:func:`refill_batch`)."""
         pool = self._pools.get(assembly)
         if pool is None:  # not an assembly mode (+-1): no pose has it
             return np.empty((0, 3))
         for _ in range(DRAW_MANY_REFILLS):
             if pool:
                 return np.array([pool.popleft()[1] for _ in range(min(n, len(pool)))])
-            self._refill(rng)
+            self._refill(rng, need)
         return np.empty((0, 3))
+
+
+#: The largest multiple of the default batch a refill draws (a bound on its memory).
+MAX_BATCH_FACTOR = 32
+#: Batches of :func:`sample_poses` (fixed seed) over which :func:`pose_yield` averages.
+YIELD_BATCHES = 32
+
+
+def pose_yield(design: Design, mode: ArrayLike, cfg: TaskConfig) -> float:
+    """The mean number of acceptable poses in a default batch of :func:`sample_poses` in working
+    ``mode``, over :data:`YIELD_BATCHES` batches drawn with a fixed internal seed (the
+    episode's random stream is not touched; cached)."""
+    key = replace(cfg, **{f: getattr(_DEFAULT_CONFIG, f) for f in SCHEDULABLE_FIELDS})
+    return _pose_yield(design, tuple(int(m) for m in np.asarray(mode).tolist()), key)
+
+
+@lru_cache(maxsize=256)
+def _pose_yield(design: Design, mode: tuple[int, int, int], cfg: TaskConfig) -> float:
+    rng = np.random.default_rng(0)
+    found = 0
+    for _ in range(YIELD_BATCHES):
+        try:
+            found += len(sample_poses(design, mode, rng, cfg, max_batches=1)[0])
+        except ValueError:
+            continue
+    return found / YIELD_BATCHES
+
+
+def refill_batch(design: Design, mode: ArrayLike, cfg: TaskConfig, need: int) -> int:
+    """The batch (in search-box poses, :func:`sample_poses`) a :class:`PoseSampler` refill
+    draws for about ``need`` poses: the default batch times the smallest power of two, up to
+    :data:`MAX_BATCH_FACTOR`, whose expected yield (:func:`pose_yield`) reaches ``need``; the
+    default batch in a mode whose yield is unknown (0).  In a mode whose default batch yields
+    ``MIN_YIELD`` poses or more, a default refill is one default batch."""
+    mean = pose_yield(design, mode, cfg)
+    factor = 1
+    while mean > 0 and mean * factor < need and factor < MAX_BATCH_FACTOR:
+        factor *= 2
+    return DEFAULT_BATCH * factor
 
 
 #: Refills :meth:`PoseSampler.draw_many` tries before it gives up (returns no pose).
@@ -361,6 +418,19 @@ DRAW_MANY_REFILLS = 50
 #: volume of 1.6 million, so some ten are expected here, and the budget runs out with a
 #: probability below 1e-4 of a refill that already came up empty, itself rare).
 REFILL_BATCHES = 2000
+
+
+#: The kinds of pair :func:`draw_pair` reports: drawn by the ordinary rules, near-singular
+#: (``near_singular_fraction``), needing a detour (``detour_fraction``), an ordinary pair drawn
+#: because the search for the requested kind ran out of its budget, or given by the caller.
+PAIR_KINDS = (
+    "ordinary",
+    "near_singular",
+    "detour",
+    "near_singular_not_found",
+    "detour_not_found",
+    "given",
+)
 
 
 def sample_pair(
@@ -374,8 +444,25 @@ def sample_pair(
     max_tries: int = 100,
     assembly: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """A ``(start, target)`` pair for the task; either may be given (already validated), a
-    given start with its assembly mode (``sign det A``, computed if ``None``).
+    """The ``(start, target)`` of :func:`draw_pair` (same arguments), without its kind."""
+    s, t, _ = draw_pair(design, mode, rng, cfg, start, target, sampler, max_tries, assembly)
+    return s, t
+
+
+def draw_pair(
+    design: Design,
+    mode: ArrayLike,
+    rng: np.random.Generator,
+    cfg: TaskConfig,
+    start: np.ndarray | None = None,
+    target: np.ndarray | None = None,
+    sampler: PoseSampler | None = None,
+    max_tries: int = 100,
+    assembly: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, str]:
+    """A ``(start, target, kind)`` for the task; either pose may be given (already validated),
+    a given start with its assembly mode (``sign det A``, computed if ``None``); ``kind`` is one
+    of :data:`PAIR_KINDS` ("given" with both poses given).
 
     The target has the start's assembly mode, is at least ``min_distance`` away and, with
     ``clear_path``, is joined to the start by a straight path clear of singularities.
@@ -383,20 +470,24 @@ def sample_pair(
     With neither given, draws until a pair is found (after ``max_tries`` failed starts it
     checks, once, that the working mode has pairs at all: :func:`check_mode`), at most
     ``PAIR_TRIES_FACTOR * max_tries`` starts (a budget; then ``ValueError``); a given start or
-    target that cannot be paired in ``max_tries`` tries raises ``ValueError``.
+    target that cannot be paired in ``max_tries`` tries raises ``ValueError``.  A requested
+    near-singular or detour pair whose search runs out of its budget is replaced by an ordinary
+    pair, reported as such (``kind`` ``"near_singular_not_found"`` / ``"detour_not_found"``).
     """
     if start is not None and target is not None:
-        return start, target
+        return start, target, "given"
     if assembly is not None and (start is None or assembly not in (1.0, -1.0)):
         raise ValueError(
             f"assembly must be +1 or -1 and comes with a given start, got {assembly!r}"
         )
     sampler = sampler if sampler is not None else PoseSampler(design, mode, cfg)
     free = start is None and target is None
+    kind = "ordinary"
     if free and cfg.near_singular_fraction > 0 and rng.random() < cfg.near_singular_fraction:
         pair = _near_singular_pair(design, mode, rng, cfg, sampler)
         if pair is not None:
-            return pair
+            return (*pair, "near_singular")
+        kind = "near_singular_not_found"
     elif free and cfg.detour_fraction > 0 and rng.random() < cfg.detour_fraction:
         # (A mode without such pairs draws an ordinary pair at once, not after the budget.)
         pair = (
@@ -405,7 +496,8 @@ def sample_pair(
             else None
         )
         if pair is not None:
-            return pair
+            return (*pair, "detour")
+        kind = "detour_not_found"
     for attempt in range(max_tries * PAIR_TRIES_FACTOR if free else max_tries):
         if attempt == max_tries:
             check_mode(design, tuple(int(m) for m in np.asarray(mode).tolist()), cfg)
@@ -419,14 +511,14 @@ def sample_pair(
             det = float(kinematics.assembly_mode(design, s, rho))
         if target is not None:
             if _first_ok(design, s, target[None, :], mode, det, cfg) == 0:
-                return s, target
+                return s, target, kind
             if start is not None:
                 break
             continue
         cands = sampler.draw_many(rng, det, 8)
         first = _first_ok(design, s, cands, mode, det, cfg) if len(cands) else None
         if first is not None:
-            return s, cands[first]
+            return s, cands[first], kind
         if start is None:
             continue
     raise ValueError(
@@ -441,7 +533,7 @@ PAIR_TRIES_FACTOR = 20
 
 
 #: Candidate targets screened per start by :func:`_near_singular_pair`, and starts tried.
-NEAR_SINGULAR_CANDIDATES = 64
+NEAR_SINGULAR_CANDIDATES = 32
 NEAR_SINGULAR_STARTS = 200
 
 
@@ -481,18 +573,28 @@ def _near_singular_pair(
     )
 
 
-#: Candidate targets screened per start by :func:`_detour_pair`, and starts tried.
-DETOUR_CANDIDATES = 64
+#: Candidate targets screened per start by :func:`_detour_pair`, and the starts the fixed-seed
+#: search of :func:`has_detours` tries.
+DETOUR_CANDIDATES = 32
 DETOUR_STARTS = 200
+#: Starts one reset's detour search tries: a budget on the reset's time (each start follows the
+#: slider line of its clear candidates by direct kinematics); a search that runs out draws an
+#: ordinary pair, reported as ``"detour_not_found"`` (the share: docs/throughput.md).
+DETOUR_RESET_STARTS = 12
 
 
 def _detour_pair(
-    design: Design, mode: ArrayLike, rng: np.random.Generator, cfg: TaskConfig, sampler: PoseSampler
+    design: Design,
+    mode: ArrayLike,
+    rng: np.random.Generator,
+    cfg: TaskConfig,
+    sampler: PoseSampler,
+    starts: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """A pair meeting every rule of an ordinary pair that the straight line in slider space
     does not solve (:func:`planar3p_gym.machine.slider_line.slider_line_reaches`): by rejection over
-    :data:`DETOUR_CANDIDATES` targets per start; ``None`` after :data:`DETOUR_STARTS` starts
-    (no such pairs: the caller draws an ordinary pair)."""
+    :data:`DETOUR_CANDIDATES` targets per start; ``None`` after ``starts`` starts
+    (:data:`DETOUR_RESET_STARTS` by default: the caller draws an ordinary pair)."""
 
     def detour(s: np.ndarray, det: float, cands: np.ndarray) -> np.ndarray:
         ok = (
@@ -504,7 +606,8 @@ def _detour_pair(
             ok[ok] = ~slider_line_reaches(design, s, cands[ok], mode)
         return ok
 
-    return _pair_by_rejection(design, rng, cfg, sampler, detour, DETOUR_CANDIDATES, DETOUR_STARTS)
+    budget = DETOUR_RESET_STARTS if starts is None else starts
+    return _pair_by_rejection(design, rng, cfg, sampler, detour, DETOUR_CANDIDATES, budget)
 
 
 def has_detours(design: Design, mode: ArrayLike, cfg: TaskConfig) -> bool:
@@ -524,7 +627,8 @@ _DEFAULT_CONFIG = TaskConfig()
 @lru_cache(maxsize=256)
 def _has_detours(design: Design, mode: tuple[int, int, int], cfg: TaskConfig) -> bool:
     sampler = PoseSampler(design, mode, cfg)
-    return _detour_pair(design, mode, np.random.default_rng(0), cfg, sampler) is not None
+    rng = np.random.default_rng(0)
+    return _detour_pair(design, mode, rng, cfg, sampler, DETOUR_STARTS) is not None
 
 
 def check_detours(design: Design, modes: list[tuple[int, int, int]], cfg: TaskConfig) -> None:
@@ -541,6 +645,11 @@ def check_detours(design: Design, modes: list[tuple[int, int, int]], cfg: TaskCo
     )
 
 
+#: The candidates of this many starts a refill of :func:`_pair_by_rejection` aims for: its
+#: searches go through many starts, and fewer, larger batches cost less per pose.
+SEARCH_STOCK = 8
+
+
 def _pair_by_rejection(
     design: Design,
     rng: np.random.Generator,
@@ -554,8 +663,8 @@ def _pair_by_rejection(
     among ``candidates`` targets of the start's assembly mode at least ``min_distance`` away,
     trying up to ``starts`` starts; ``None`` if none."""
     for _ in range(starts):
-        s, det = sampler.draw(rng)
-        cands = sampler.draw_many(rng, det, candidates)
+        s, det = sampler.draw(rng, need=SEARCH_STOCK * candidates)
+        cands = sampler.draw_many(rng, det, candidates, need=SEARCH_STOCK * candidates)
         if not len(cands):
             continue
         cands = cands[

@@ -414,7 +414,9 @@ class _ListPool:
         self.mode, self.pool = mode, []
 
     def refill(self, rng):
-        poses, dets = sampling.sample_poses(DESIGN, self.mode, rng, CFG)
+        # (batches sized for MIN_YIELD poses: the default one but in the sparse modes)
+        batch = sampling.refill_batch(DESIGN, self.mode, CFG, sampling.MIN_YIELD)
+        poses, dets = sampling.sample_poses(DESIGN, self.mode, rng, CFG, batch=batch)
         self.pool.extend(zip(poses, dets.tolist(), strict=True))
 
     def draw(self, rng):

@@ -134,3 +134,44 @@ def test_detour_fraction_mixes_and_replays():
 def test_bad_detour_fraction_raises(value):
     with pytest.raises(ValueError, match="detour_fraction"):
         task.TaskConfig(detour_fraction=value)
+
+
+def _follow_reference(design, start, targets, mode, steps):
+    """The branch following as it was written in NumPy (the reference of the compiled one)."""
+    m = np.asarray(mode, dtype=np.float64)
+    r0 = kinematics.inverse(design, start, m).rho
+    r1 = kinematics.inverse(design, targets, m).rho
+    t = np.linspace(0.0, 1.0, steps + 1)[1:, None]
+    solutions = kinematics.forward_batch(design, r0 + t[None] * (r1 - r0)[:, None, :])
+    n = len(targets)
+    rows = np.arange(n)
+    pose = np.broadcast_to(start, (n, 3)).copy()
+    previous = pose.copy()
+    followed = np.ones(n, dtype=bool)
+    for k in range(steps):
+        predicted = 2.0 * pose - previous
+        candidates = solutions.poses[:, k]
+        distance = kinematics.pose_distance(
+            predicted[:, None, :], candidates, design.characteristic_length
+        )
+        distance = np.where(solutions.valid[:, k], distance, np.inf)
+        nearest = np.argmin(distance, axis=1)
+        followed &= np.isfinite(distance[rows, nearest])
+        previous, pose = pose, np.where(followed[:, None], candidates[rows, nearest], pose)
+    return pose, followed
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), steps=st.sampled_from([8, 64]))
+def test_the_compiled_branch_following_is_the_numpy_one_to_the_bit(seed, steps):
+    """The compiled loop decides and ends exactly as the NumPy loop it replaced, on pairs of
+    acceptable poses (targets of either assembly mode: lost branches included)."""
+    cfg = task.TaskConfig()
+    sampler = task.PoseSampler(DESIGN, MODE, cfg)
+    rng = np.random.default_rng(seed)
+    start, _ = sampler.draw(rng)
+    targets = np.array([sampler.draw(rng)[0] for _ in range(12)])
+    end, followed = slider_line_end(DESIGN, start, targets, MODE, steps)
+    ref_end, ref_followed = _follow_reference(DESIGN, start, targets, MODE, steps)
+    np.testing.assert_array_equal(followed, ref_followed)
+    np.testing.assert_array_equal(end, ref_end)

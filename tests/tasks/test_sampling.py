@@ -322,3 +322,95 @@ def test_under_random_modes_a_mode_without_detours_draws_its_pair_at_once(monkey
     modes = [env.reset(seed=seed)[1]["working_mode"] for seed in range(40)]
     assert set(modes) & lacking and set(modes) - lacking  # both kinds were drawn
     assert searched and not set(searched) & lacking
+
+
+# ------------------------------------------------------------------ the kind of pair, reported
+@settings(max_examples=6, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_draw_pair_reports_the_kind_it_drew(seed):
+    """``draw_pair``'s kind is what the pair is: a near-singular one passes the near-singular
+    test, an ordinary one the clear-path rule; the poses are those of ``sample_pair``."""
+    design, mode = Design.fig8(), (1, 1, -1)
+    cfg = task.TaskConfig(near_singular_fraction=0.5)
+
+    def draw(fn):
+        rng, sampler = np.random.default_rng(seed), task.PoseSampler(design, mode, cfg)
+        return fn(design, mode, rng, cfg, sampler=sampler)
+
+    s, t, kind = draw(task.draw_pair)
+    np.testing.assert_array_equal(np.array([s, t]), np.array(draw(task.sample_pair)))
+    assert kind in ("near_singular", "ordinary", "near_singular_not_found")
+    _, dets = task._acceptable(design, np.array([s, t]), np.asarray(mode, float), cfg)
+    clear = task.path_is_clear(design, s, t[None, :], mode, dets[0], cfg)[0]
+    assert clear == (kind != "near_singular")
+    if kind == "near_singular":
+        assert _path_checks(design, s, t, mode, cfg) == (True, False)
+
+
+def test_a_search_that_runs_out_is_reported_not_hidden(monkeypatch):
+    """A near-singular or detour search that exhausts its budget gives an ordinary pair and
+    says so; given poses are "given"."""
+    design, mode = Design.fig8(), (1, 1, -1)
+    monkeypatch.setattr(task, "NEAR_SINGULAR_STARTS", 0)
+    monkeypatch.setattr(task, "DETOUR_RESET_STARTS", 0)
+    for cfg, kind in (
+        (task.TaskConfig(near_singular_fraction=1.0), "near_singular_not_found"),
+        (task.TaskConfig(detour_fraction=1.0), "detour_not_found"),
+    ):
+        rng = np.random.default_rng(2)
+        s, t, got = task.draw_pair(design, mode, rng, cfg)
+        assert got == kind
+        _, dets = task._acceptable(design, np.array([s, t]), np.asarray(mode, float), cfg)
+        assert task.path_is_clear(design, s, t[None, :], mode, dets[0], cfg)[0]
+        assert task.draw_pair(design, mode, rng, cfg, start=s, target=t)[2] == "given"
+
+
+@pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3PGoal-v0"])
+def test_the_episode_spec_names_the_pair_kind_and_replays_it(env_id, monkeypatch):
+    """With a share of special pairs the spec says which kind each episode has (a search that
+    ran out included) and a replay keeps it; the default spec has no such entry; a bad or
+    unanchored ``pair`` option is refused before anything changes."""
+    import gymnasium as gym
+
+    import planar3p_gym  # noqa: F401
+
+    assert "pair" not in gym.make(env_id).reset(seed=0)[1]["episode_spec"]
+    env = gym.make(env_id, task_config={"near_singular_fraction": 1.0})
+    spec = env.reset(seed=4)[1]["episode_spec"]
+    assert spec["pair"] == "near_singular"
+    assert env.reset(options=spec)[1]["episode_spec"] == spec
+    monkeypatch.setattr(task, "NEAR_SINGULAR_STARTS", 0)
+    assert env.reset(seed=4)[1]["episode_spec"]["pair"] == "near_singular_not_found"
+    before = env.unwrapped.episode_spec
+    for options, match in (
+        ({**spec, "pair": "easy"}, "option pair must be one of"),
+        ({"pair": "ordinary"}, "give start and target"),
+    ):
+        with pytest.raises(ValueError, match=match):
+            env.reset(options=options)
+        assert env.unwrapped.episode_spec == before
+
+
+# ------------------------------------------------------------------ refill batches by yield
+def test_refills_are_sized_by_the_mode_s_yield():
+    """A default refill is one default batch in every mode whose batch yields MIN_YIELD poses
+    (the default streams are those of one batch a refill); a sparse mode's refill is the
+    smallest power-of-two multiple expected to yield them; a larger need asks for more, up to
+    MAX_BATCH_FACTOR; a batch of a multiple is uniform over the same acceptable poses."""
+    design, cfg = Design.fig8(), task.TaskConfig()
+    for mode in (tuple(m) for m in kinematics.ALL_MODES.tolist()):
+        mean = task.pose_yield(design, mode, cfg)
+        assert mean > 0
+        for need in (task.MIN_YIELD, 256, 10**6):
+            factor = task.refill_batch(design, mode, cfg, need) // task.DEFAULT_BATCH
+            assert factor & (factor - 1) == 0 and 1 <= factor <= task.MAX_BATCH_FACTOR
+            assert mean * factor >= need or factor == task.MAX_BATCH_FACTOR
+            assert factor == 1 or mean * factor / 2 < need
+        if mean >= task.MIN_YIELD:
+            assert task.refill_batch(design, mode, cfg, task.MIN_YIELD) == task.DEFAULT_BATCH
+    sparse = (1, -1, 1)
+    assert task.pose_yield(design, sparse, cfg) < task.MIN_YIELD
+    big = task.refill_batch(design, sparse, cfg, task.MIN_YIELD)
+    poses, _ = task.sample_poses(design, sparse, np.random.default_rng(0), cfg, batch=big)
+    ok, _ = task._acceptable(design, poses, np.asarray(sparse, float), cfg)
+    assert ok.all() and len(poses) >= 1
