@@ -9,7 +9,6 @@ the interface of Gymnasium-Robotics' ``GoalEnv`` that hindsight relabelling (SB3
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -17,6 +16,7 @@ from gymnasium import spaces
 from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym.envs.core import Planar3PEnv
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.goal import (
     GOAL_SIZE,
@@ -73,7 +73,7 @@ def flat_observation(obs: dict[str, ArrayLike], length: float) -> NDArray[np.flo
     pos = flat[:, SLICES["position"]]
     orient = flat[:, SLICES["orientation"]]
     t_th = poses_of_goals(goal)[:, 2]
-    d_th = (t_th - np.arctan2(orient[:, 1], orient[:, 0]) + math.pi) % (2.0 * math.pi) - math.pi
+    d_th = wrap_angle(t_th - np.arctan2(orient[:, 1], orient[:, 0]))
     err = goal[:, :2] - pos
     flat[:, SLICES["target_position"]] = goal[:, :2]
     flat[:, SLICES["target_orientation"]] = np.column_stack([np.cos(t_th), np.sin(t_th)])

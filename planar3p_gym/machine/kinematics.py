@@ -30,6 +30,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 
 __all__ = [
@@ -267,16 +268,16 @@ def pose_distance(a: ArrayLike, b: ArrayLike, length: float) -> FloatArray:
     distance is :func:`pose_distance_euclidean`)."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
-    dth = np.abs((b[..., 2] - a[..., 2] + math.pi) % (2.0 * math.pi) - math.pi)
+    dth = np.abs(wrap_angle(b[..., 2] - a[..., 2]))
     return np.hypot(b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]) + length * dth
 
 
 def pose_distance_euclidean(a: ArrayLike, b: ArrayLike, length: float) -> FloatArray:
     """``|(dx, dy, length * dtheta)|`` (m) between poses ``(..., 3)`` (m, m, rad), the angle
-    difference wrapped to ``[-pi, pi)``; ``length`` (m) weighs the rotation.  The Euclidean
+    difference wrapped to ``(-pi, pi]``; ``length`` (m) weighs the rotation.  The Euclidean
     twin of :func:`pose_distance` (which adds ``|dp|`` and ``length * |dtheta|``)."""
     d = np.asarray(b, dtype=np.float64) - np.asarray(a, dtype=np.float64)
-    d[..., 2] = ((d[..., 2] + math.pi) % (2.0 * math.pi) - math.pi) * length
+    d[..., 2] = wrap_angle(d[..., 2]) * length
     return np.linalg.norm(d, axis=-1)
 
 
@@ -1234,7 +1235,7 @@ def _canonical(
     X: FloatArray, Y: FloatArray, T: FloatArray
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Fold poses to ``theta in [0, pi]`` by the rail-line mirror ``(x, -y, -theta)``."""
-    T = np.pi - np.mod(np.pi - T, 2.0 * np.pi)  # (-pi, pi]
+    T = wrap_angle(T)
     flip = T < 0.0
     return X, np.where(flip, -Y, Y), np.where(flip, -T, T)
 

@@ -46,6 +46,7 @@ import numpy as np
 from gymnasium import spaces
 from numba import njit
 
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 
 __all__ = [
@@ -60,7 +61,6 @@ __all__ = [
     "travel_goal_bounds",
     "travel_goal_entries",
     "within_tolerances",
-    "wrap_angle",
     "write_reach_values",
 ]
 
@@ -167,12 +167,6 @@ def observation_space(design: Design) -> spaces.Box:
     """The ``Box`` observation space for ``design``."""
     low, high = bounds(design)
     return spaces.Box(low, high, dtype=np.float32)
-
-
-@njit(cache=True)
-def wrap_angle(angle: float) -> float:
-    """``angle`` (rad) wrapped into ``[-pi, pi)``."""
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
 @njit(cache=True)
