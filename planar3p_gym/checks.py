@@ -32,7 +32,6 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DESIGN_LIMITS",
-    "RESET_OPTIONS",
     "as_finite_float",
     "as_int",
     "check_env_design",
@@ -395,12 +394,9 @@ def design_from(arg: Any, name: str = "design") -> Design:
     return check_env_design(design, name)
 
 
-#: Keys ``reset(options=...)`` of the reach task understands.
-RESET_OPTIONS = ("start", "target", "working_mode")
-
-
-def check_reset_options(options: Any, keys: tuple[str, ...] = RESET_OPTIONS) -> dict[str, Any]:
-    """``reset``'s ``options`` as a plain dict with only ``keys``, or ``ValueError``.
+def check_reset_options(options: Any, keys: tuple[str, ...]) -> dict[str, Any]:
+    """``reset``'s ``options`` as a plain dict with only ``keys`` (a task's
+    :attr:`~planar3p_gym.tasks.base.Task.option_keys` and ``"task"``), or ``ValueError``.
 
     Checks the container and keys and parses ``working_mode``; the poses are checked later
     against the episode's working mode.  Called before the environment is seeded, so a

@@ -44,6 +44,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from planar3p_agents.controllers.base import BatchPolicy
+from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
@@ -51,7 +52,6 @@ __all__ = [
     "MODES",
     "PHASES",
     "AnalyticController",
-    "simple_motion_basis",
 ]
 
 #: Controller modes.
@@ -61,36 +61,6 @@ PHASES = ("rotate", "vertical", "horizontal")
 ROTATE, VERTICAL, HORIZONTAL = 0, 1, 2
 
 FloatArray = NDArray[np.float64]
-
-
-def simple_motion_basis(
-    design: Design,
-    legs_cos: ArrayLike,
-    legs_sin: ArrayLike,
-    cos_theta: ArrayLike,
-    sin_theta: ArrayLike,
-    epsilon: float = 1e-9,
-) -> tuple[FloatArray, FloatArray, FloatArray]:
-    """Slider rates of the three unit simple motions, each of shape ``(..., 3)``.
-
-    Returns ``(horizontal, vertical, rotation)``: the rates (m/s) for a gripper velocity of
-    1 m/s along ``x``, 1 m/s along ``y`` and an angular velocity of 1 rad/s about ``G``, so that
-    ``rho_dot = x_dot * horizontal + y_dot * vertical + theta_dot * rotation``.  ``legs_cos``,
-    ``legs_sin`` are ``cos/sin alpha_i`` ``(..., 3)``; ``cos_theta``, ``sin_theta`` are ``(...)``.
-    ``1 / cos alpha_i`` is evaluated as ``sign(cos) / max(|cos|, epsilon)``: exact wherever
-    ``|cos alpha_i| >= epsilon``, bounded by ``1 / epsilon`` (never infinite) otherwise.
-    """
-    c = np.asarray(legs_cos, dtype=np.float64)
-    s = np.asarray(legs_sin, dtype=np.float64)
-    ct = np.asarray(cos_theta, dtype=np.float64)[..., None]
-    st = np.asarray(sin_theta, dtype=np.float64)[..., None]
-    k = np.asarray(design.joint_offsets, dtype=np.float64)
-    # 1 / cos alpha_i with |cos alpha_i| floored at ``epsilon`` (sign kept; +1 at exactly 0).
-    inv_c = np.where(c < 0.0, -1.0, 1.0) / np.maximum(np.abs(c), epsilon)
-    horizontal = np.ones(np.broadcast_shapes(c.shape, ct.shape))
-    vertical = s * inv_c
-    rotation = k * (s * ct - c * st) * inv_c  # L_iG sin(alpha_i - theta) / cos(alpha_i)
-    return horizontal, np.broadcast_to(vertical, horizontal.shape), rotation
 
 
 class AnalyticController(BatchPolicy):
@@ -259,7 +229,7 @@ class AnalyticController(BatchPolicy):
         orient = obs[:, SLICES["orientation"]]
         err_p = obs[:, SLICES["position_error"]]
         err_th = obs[:, SLICES["orientation_error"]][:, 0]
-        basis = simple_motion_basis(
+        basis = kinematics.simple_motion_basis(
             self.design, cos_a, legs[..., 1], orient[:, 0], orient[:, 1], self.serial_epsilon
         )
         # The twist of each simple motion: columns x_dot, y_dot, theta_dot.
@@ -325,6 +295,7 @@ class AnalyticController(BatchPolicy):
 
 
 def _to_rates(twist: FloatArray, basis: tuple[FloatArray, FloatArray, FloatArray]) -> FloatArray:
-    """Slider rates ``(n, 3)`` of twists ``(n, 3)`` from :func:`simple_motion_basis`."""
+    """Slider rates ``(n, 3)`` of twists ``(n, 3)`` from
+    :func:`~planar3p_gym.machine.kinematics.simple_motion_basis`."""
     hor, ver, rot = basis
     return twist[:, 0:1] * hor + twist[:, 1:2] * ver + twist[:, 2:3] * rot

@@ -12,13 +12,13 @@ Lengths in m, angles in rad, margins dimensionless.
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.slider_line import slider_line_reaches
 from planar3p_gym.tasks import sampling as task
@@ -63,7 +63,7 @@ def sequential_path(starts: ArrayLike, targets: ArrayLike, n_points: int = 64) -
     about ``G`` to the target angle, then vertical, then horizontal translation."""
     s = np.atleast_2d(np.asarray(starts, dtype=np.float64))
     t = np.atleast_2d(np.asarray(targets, dtype=np.float64))
-    dth = (t[:, 2] - s[:, 2] + math.pi) % (2.0 * math.pi) - math.pi
+    dth = wrap_angle(t[:, 2] - s[:, 2])
     w1 = s.copy()
     w1[:, 2] = s[:, 2] + dth
     w2 = w1.copy()

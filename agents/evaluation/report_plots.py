@@ -15,6 +15,7 @@ import numpy as np
 from planar3p_agents.evaluation.episodes import EpisodeResult
 from planar3p_agents.evaluation.reach_suites import Suite
 from planar3p_agents.evaluation.region_maps import ytheta_fields
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 
 __all__ = ["plot_errors", "plot_success", "plot_trajectories"]
@@ -96,7 +97,7 @@ def plot_errors(
 
 
 def _break_wraps(th: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    th = (th + math.pi) % (2.0 * math.pi) - math.pi
+    th = wrap_angle(th)
     jumps = np.flatnonzero(np.abs(np.diff(th)) > math.pi) + 1
     return np.insert(th, jumps, np.nan), np.insert(y, jumps, np.nan)
 

@@ -31,7 +31,15 @@ from planar3p_gym.tasks.observation import (
     travel_goal_entries,
 )
 
-__all__ = ["GoalErrorExtractor", "GoalTravelExtractor", "travel_features"]
+__all__ = ["GoalErrorExtractor", "GoalTravelExtractor", "travel_features", "wrap_angle_torch"]
+
+
+def wrap_angle_torch(angle: th.Tensor) -> th.Tensor:
+    """``angle`` (rad) wrapped into ``(-pi, pi]``: the torch twin of
+    :func:`planar3p_gym.machine.angles.wrap_angle` (same formula; tested against it), for the
+    features computed inside a policy."""
+    return math.pi - th.remainder(math.pi - angle, 2.0 * math.pi)
+
 
 #: Error entries appended: ``dx, dy`` (m), ``dtheta`` (rad) and ``tanh`` of ``(dx, dy,
 #: L dtheta) / FINE_ERROR_SCALE`` (1).
@@ -71,7 +79,7 @@ class GoalErrorExtractor(BaseFeaturesExtractor):
         desired = observations["desired_goal"]
         err = desired[:, :2] - achieved[:, :2]
         d_theta = th.atan2(desired[:, 3], desired[:, 2]) - th.atan2(achieved[:, 3], achieved[:, 2])
-        d_theta = th.remainder(d_theta + math.pi, 2.0 * math.pi) - math.pi
+        d_theta = wrap_angle_torch(d_theta)
         fine = th.tanh(th.cat([err, self.length * d_theta[:, None]], dim=1) / FINE_ERROR_SCALE)
         return th.cat(
             [observations["observation"], achieved, desired, err, d_theta[:, None], fine], dim=1

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym.envs.core import Planar3PEnv
@@ -30,7 +31,7 @@ from planar3p_gym.tasks.goal import (
     pose_of_goal,
     poses_of_goals,
 )
-from planar3p_gym.tasks.observation import FINE_ERROR_SCALE, OBS_SIZE, SLICES
+from planar3p_gym.tasks.observation import OBS_SIZE, SLICES, write_reach_values
 
 __all__ = ["ROBOT_FIELDS", "ROBOT_INDEX", "Planar3PGoalEnv", "flat_observation"]
 
@@ -49,6 +50,21 @@ ROBOT_FIELDS = (
 )
 #: Indices of those blocks in the flat observation (21 entries).
 ROBOT_INDEX = np.concatenate([np.arange(SLICES[f].start, SLICES[f].stop) for f in ROBOT_FIELDS])
+
+
+@njit(cache=True)
+def _write_flat_rows(flat: np.ndarray, targets: np.ndarray, length: float) -> None:
+    """Complete each row of ``flat`` (its robot entries set) for the target poses ``targets``
+    ``(n, 3)`` (m, m, rad) by the observation's one layout,
+    :func:`~planar3p_gym.tasks.observation.write_reach_values`."""
+    pose = np.empty(3)
+    for i in range(flat.shape[0]):
+        f, t = flat[i], targets[i]
+        pose[0], pose[1], pose[2] = f[6], f[7], math.atan2(f[9], f[8])
+        write_reach_values(
+            f, f[0:3], f[3:6], pose, f[8], f[9], f[10:13], f[13:19],
+            t, math.cos(t[2]), math.sin(t[2]), f[26], f[27], length,
+        )  # fmt: skip
 
 
 def flat_observation(obs: dict[str, ArrayLike], length: float) -> NDArray[np.float32]:
@@ -70,18 +86,7 @@ def flat_observation(obs: dict[str, ArrayLike], length: float) -> NDArray[np.flo
         raise ValueError("observation and desired_goal must have the same batch size")
     flat = np.zeros((robot.shape[0], OBS_SIZE))
     flat[:, ROBOT_INDEX] = robot
-    pos = flat[:, SLICES["position"]]
-    orient = flat[:, SLICES["orientation"]]
-    t_th = poses_of_goals(goal)[:, 2]
-    d_th = (t_th - np.arctan2(orient[:, 1], orient[:, 0]) + math.pi) % (2.0 * math.pi) - math.pi
-    err = goal[:, :2] - pos
-    flat[:, SLICES["target_position"]] = goal[:, :2]
-    flat[:, SLICES["target_orientation"]] = np.column_stack([np.cos(t_th), np.sin(t_th)])
-    flat[:, SLICES["position_error"]] = err
-    flat[:, SLICES["orientation_error"]] = d_th[:, None]
-    flat[:, SLICES["fine_error"]] = np.tanh(
-        np.column_stack([err, length * d_th]) / FINE_ERROR_SCALE
-    )
+    _write_flat_rows(flat, poses_of_goals(goal), float(length))
     out = flat.astype(np.float32)
     return out[0] if single else out
 

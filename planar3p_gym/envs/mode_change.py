@@ -76,6 +76,9 @@ class Planar3PModeChangeEnv(Planar3PEnv):
     such term; for training, it does not change the success test).
 
     ## Version History
+    - v0 (0.2.0): every angle is wrapped by one definition into ``(-pi, pi]``
+      (:func:`planar3p_gym.machine.angles.wrap_angle`): the same episodes and ends; numbers
+      differ from before by at most 2 float64 rounding errors.
     - v0 (0.2.0): the simulation survives a parallel singularity: a step that locks there (its
       projection fails, or it makes energy the servos did not put in) is taken again by a
       compiled constrained-dynamics step (:mod:`planar3p_gym.sim.recovery`); trajectories

@@ -12,7 +12,8 @@ Public functions:
 * :func:`forward` / :func:`forward_batch` -- every real pose for given travels (closed form:
   linear elimination, a cubic in ``cos theta``, circle intersection, Newton polish).
 * :func:`jacobians` -- ``A``, ``B`` of ``A p_dot = B rho_dot``.
-* :func:`simple_motion_rates` -- the paper's three simple-motion formulas superposed.
+* :func:`simple_motion_basis` / :func:`simple_motion_rates` -- the paper's three
+  simple-motion formulas, and superposed.
 * :func:`parallel_margin`, :func:`serial_margin`, :func:`assembly_mode` (all three at once:
   :func:`margins`), :func:`classify_singularity` -- singularity measures.
 * :func:`screen_poses` / :func:`screen_paths` -- thresholds on travels and margins, decided as
@@ -30,6 +31,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 
 __all__ = [
@@ -57,6 +59,7 @@ __all__ = [
     "screen_paths",
     "screen_poses",
     "serial_margin",
+    "simple_motion_basis",
     "simple_motion_rates",
     "simple_motion_rates_from_angles",
     "working_mode",
@@ -267,16 +270,16 @@ def pose_distance(a: ArrayLike, b: ArrayLike, length: float) -> FloatArray:
     distance is :func:`pose_distance_euclidean`)."""
     a = np.asarray(a, dtype=np.float64)
     b = np.asarray(b, dtype=np.float64)
-    dth = np.abs((b[..., 2] - a[..., 2] + math.pi) % (2.0 * math.pi) - math.pi)
+    dth = np.abs(wrap_angle(b[..., 2] - a[..., 2]))
     return np.hypot(b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]) + length * dth
 
 
 def pose_distance_euclidean(a: ArrayLike, b: ArrayLike, length: float) -> FloatArray:
     """``|(dx, dy, length * dtheta)|`` (m) between poses ``(..., 3)`` (m, m, rad), the angle
-    difference wrapped to ``[-pi, pi)``; ``length`` (m) weighs the rotation.  The Euclidean
+    difference wrapped to ``(-pi, pi]``; ``length`` (m) weighs the rotation.  The Euclidean
     twin of :func:`pose_distance` (which adds ``|dp|`` and ``length * |dtheta|``)."""
     d = np.asarray(b, dtype=np.float64) - np.asarray(a, dtype=np.float64)
-    d[..., 2] = ((d[..., 2] + math.pi) % (2.0 * math.pi) - math.pi) * length
+    d[..., 2] = wrap_angle(d[..., 2]) * length
     return np.linalg.norm(d, axis=-1)
 
 
@@ -739,16 +742,52 @@ _PAIRS = ((0, 1), (0, 2), (1, 2))
 
 
 # ---------------------------------------------------------------------------- simple motions
+def simple_motion_basis(
+    design: Design,
+    legs_cos: ArrayLike,
+    legs_sin: ArrayLike,
+    cos_theta: ArrayLike,
+    sin_theta: ArrayLike,
+    epsilon: float = 0.0,
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Slider rates of the three unit simple motions, each of shape ``(..., 3)``: the one
+    definition of the paper's simple-motion formulas.
+
+    Returns ``(horizontal, vertical, rotation)``: the rates (m/s) for a gripper velocity of
+    1 m/s along ``x``, 1 m/s along ``y`` and an angular velocity of 1 rad/s about ``G``, so that
+    ``rho_dot = x_dot * horizontal + y_dot * vertical + theta_dot * rotation``, with
+    ``vertical_i = tan(alpha_i)`` and ``rotation_i = L_iG sin(alpha_i - theta) / cos(alpha_i)``.
+    ``legs_cos``, ``legs_sin`` are ``cos/sin alpha_i`` ``(..., 3)``; ``cos_theta``,
+    ``sin_theta`` are ``(...)``.  ``1 / cos alpha_i`` is ``sign(cos) / max(|cos|, epsilon)``:
+    exact wherever ``|cos alpha_i| >= epsilon``; with ``epsilon > 0`` bounded by ``1 / epsilon``
+    at a serial singularity, with ``epsilon = 0`` infinite there.
+    """
+    if not (math.isfinite(epsilon) and epsilon >= 0.0):
+        raise ValueError(f"epsilon must be a finite number >= 0, got {epsilon!r}")
+    c = np.asarray(legs_cos, dtype=np.float64)
+    s = np.asarray(legs_sin, dtype=np.float64)
+    ct = np.asarray(cos_theta, dtype=np.float64)[..., None]
+    st = np.asarray(sin_theta, dtype=np.float64)[..., None]
+    k = np.asarray(design.joint_offsets, dtype=np.float64)
+    # 1 / cos alpha_i with |cos alpha_i| floored at ``epsilon`` (sign kept; +1 at exactly 0).
+    with np.errstate(divide="ignore"):
+        inv_c = np.where(c < 0.0, -1.0, 1.0) / np.maximum(np.abs(c), epsilon)
+    horizontal = np.ones(np.broadcast_shapes(c.shape, ct.shape))
+    vertical = s * inv_c
+    with np.errstate(invalid="ignore"):
+        rotation = k * (s * ct - c * st) * inv_c  # L_iG sin(alpha_i - theta) / cos(alpha_i)
+    return horizontal, np.broadcast_to(vertical, horizontal.shape), rotation
+
+
 def simple_motion_rates_from_angles(
     design: Design, alpha: ArrayLike, theta: ArrayLike, twist: ArrayLike
 ) -> FloatArray:
     """Slider rates (m/s) from measured leg angles ``alpha`` (rad, ``(..., 3)``), platform
-    angle ``theta`` (rad, ``(...)``) and twist ``(x_dot, y_dot, theta_dot)`` (m/s, m/s, rad/s).
-
-    ``rho_dot_i = x_dot + y_dot tan(alpha_i) + theta_dot L_iG sin(alpha_i - theta)/cos(alpha_i)``;
-    infinite where ``cos alpha_i = 0`` (a serial singularity) and the motion needs that leg.
+    angle ``theta`` (rad, ``(...)``) and twist ``(x_dot, y_dot, theta_dot)`` (m/s, m/s, rad/s):
+    :func:`simple_motion_basis` superposed, exact (``epsilon = 0``); infinite where
+    ``cos alpha_i = 0`` (a serial singularity) and the motion needs that leg.
     """
-    c = _consts(_check_design(design))
+    _check_design(design)
     al = _as_triples("alpha", alpha)
     th = _as_float("theta", theta)[..., None]
     if not np.isfinite(th).all():
@@ -756,10 +795,12 @@ def simple_motion_rates_from_angles(
     tw = _as_triples("twist", twist)
     _check_broadcast("alpha", al, "theta[..., None]", th)
     _check_broadcast("alpha", al, "twist", tw)
-    cos_a = np.cos(al)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        vertical = tw[..., 1:2] * np.sin(al) / cos_a
-        rotation = tw[..., 2:3] * c.k * np.sin(al - th) / cos_a
+    _, ver, rot = simple_motion_basis(
+        design, np.cos(al), np.sin(al), np.cos(th[..., 0]), np.sin(th[..., 0])
+    )
+    with np.errstate(invalid="ignore"):
+        vertical = tw[..., 1:2] * ver
+        rotation = tw[..., 2:3] * rot
     vertical = np.where(tw[..., 1:2] == 0.0, 0.0, vertical)
     rotation = np.where(tw[..., 2:3] == 0.0, 0.0, rotation)
     return tw[..., 0:1] + vertical + rotation
@@ -1234,7 +1275,7 @@ def _canonical(
     X: FloatArray, Y: FloatArray, T: FloatArray
 ) -> tuple[FloatArray, FloatArray, FloatArray]:
     """Fold poses to ``theta in [0, pi]`` by the rail-line mirror ``(x, -y, -theta)``."""
-    T = np.pi - np.mod(np.pi - T, 2.0 * np.pi)  # (-pi, pi]
+    T = wrap_angle(T)
     flip = T < 0.0
     return X, np.where(flip, -Y, Y), np.where(flip, -T, T)
 

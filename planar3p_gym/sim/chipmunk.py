@@ -41,13 +41,13 @@ from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.sim.projection import (
     MAX_CLOSURE_ERROR,
     RECOVERY_OFFSET,
     project_in_place,
     project_readout,
     project_row,
-    wrap_angle,
 )
 from planar3p_gym.sim.recovery import excess_energy, recover
 

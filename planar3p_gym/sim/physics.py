@@ -70,6 +70,7 @@ import pymunk
 from numpy.typing import ArrayLike
 
 from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 from planar3p_gym.sim import chipmunk, recovery
 from planar3p_gym.sim.dynamics import (
@@ -78,7 +79,6 @@ from planar3p_gym.sim.dynamics import (
     viscous_step_limits,
 )
 from planar3p_gym.sim.projection import LoopProjector
-from planar3p_gym.sim.projection import wrap_angle as _wrap
 
 __all__ = [
     "BATCH_STEP",
@@ -1131,7 +1131,7 @@ class Planar3PSim:
             self._time,
             pr.rho,
             pr.rho_dot,
-            (pr.pose[0], pr.pose[1], _wrap(pr.pose[2])),
+            (pr.pose[0], pr.pose[1], wrap_angle(pr.pose[2])),
             pr.twist,
             pr.leg_angles,
             self._forces,
@@ -1150,7 +1150,7 @@ class Planar3PSim:
             self._time,
             (s[0], s[1], s[2]),
             (s[3], s[4], s[5]),
-            (s[6], s[7], _wrap(s[8])),
+            (s[6], s[7], wrap_angle(s[8])),
             (s[9], s[10], s[11]),
             (s[12], s[13], s[14]),
             self._forces,
@@ -1324,14 +1324,14 @@ class Planar3PSim:
             if e2 > err2:
                 err2 = e2
             nan_check += bx + by + cx + cy + sy  # max() and > skip NaN; a sum keeps it
-            alphas.append(_wrap(phi))
+            alphas.append(wrap_angle(phi))
         err = math.sqrt(err2) if math.isfinite(nan_check) else math.nan
         self._setpoints = setpoints
         return SimState(
             self._time,
             (rho[0], rho[1], rho[2]),
             (rho_dot[0], rho_dot[1], rho_dot[2]),
-            (gx, gy, _wrap(th)),
+            (gx, gy, wrap_angle(th)),
             (pvx + w * half * s, pvy - w * half * c, w),
             (alphas[0], alphas[1], alphas[2]),
             self._forces,

@@ -81,6 +81,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 
 __all__ = [
@@ -97,7 +98,6 @@ __all__ = [
     "project_in_place",
     "project_readout",
     "project_row",
-    "wrap_angle",
 ]
 
 #: Leg-length error (m) below which the position projection stops.
@@ -159,12 +159,6 @@ class Projected(NamedTuple):
     closure_error: float
     newton_steps: int
     geometry: tuple[float, float, float, float, float, float, float, float]
-
-
-@njit(cache=True)
-def wrap_angle(angle: float) -> float:
-    """Angle (rad) wrapped into ``(-pi, pi]``."""
-    return math.pi - (math.pi - angle) % (2.0 * math.pi)
 
 
 @njit(cache=True)

@@ -26,9 +26,9 @@ from dataclasses import asdict, dataclass, fields
 import numpy as np
 
 from planar3p_gym import checks
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 from planar3p_gym.sim.physics import SimState
-from planar3p_gym.sim.projection import wrap_angle
 
 __all__ = ["REALISTIC_SENSORS", "Encoders", "SensorConfig", "joint_angle_beta", "pose_from_joints"]
 

@@ -78,7 +78,7 @@ from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import Planar3PSim, SimState
 from planar3p_gym.tasks import sampling as task
-from planar3p_gym.tasks.base import ModeTriple, Pose, Task, count_option, mode_option, pose_list
+from planar3p_gym.tasks.base import ModeTriple, Pose, Task, pose_list
 from planar3p_gym.tasks.crossing_checks import (
     CrossingLimits,
     SimFactory,
@@ -164,7 +164,7 @@ class AssemblyChangeTask(TravelShaping, Task):
         travel_shaping: float = 0.0,
     ) -> None:
         self.limits = checks.config_from(limits, CrossingLimits, "crossing_limits")
-        self.pair_tries = count_option(pair_tries, "pair_tries")
+        self.pair_tries = checks.count(pair_tries, "pair_tries")
         self.travel_shaping = check_travel_shaping(travel_shaping)
 
     # ------------------------------------------------------------------ set-up
@@ -285,7 +285,7 @@ class AssemblyChangeTask(TravelShaping, Task):
     # ------------------------------------------------------------------ options and sampling
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         if options.get("working_mode") is not None:
-            options["working_mode"] = mode_option(options["working_mode"], "working_mode")
+            options["working_mode"] = checks.mode_from(options["working_mode"], "working_mode")
             mode = options["working_mode"]
             problem = None if mode in self.modes else self.mode_problem(mode)
             if problem is not None:
@@ -403,7 +403,7 @@ class AssemblyChangeTask(TravelShaping, Task):
         )
 
     def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
-        mode = mode_option(spec["working_mode"], "working_mode")
+        mode = checks.mode_from(spec["working_mode"], "working_mode")
         tx, ty, tth = spec["target"]
         self._target = (float(tx), float(ty), float(tth))
         rho = kinematics.inverse(self.env.design, self._target, mode).rho

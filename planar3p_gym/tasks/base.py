@@ -82,9 +82,6 @@ __all__ = [
     "Task",
     "TaskEnv",
     "copy_spec",
-    "count_option",
-    "finite_numbers",
-    "mode_option",
     "pose_list",
 ]
 
@@ -112,24 +109,6 @@ def copy_spec(value: Any) -> Any:
 def pose_list(pose: Any) -> list[float]:
     """A pose as a JSON-friendly list of three Python floats (exact: float64 round-trips)."""
     return [float(v) for v in np.asarray(pose, dtype=np.float64).reshape(3).tolist()]
-
-
-def finite_numbers(value: Any, size: int, name: str, meaning: str = "") -> np.ndarray:
-    """``value`` as a float64 array of ``size`` finite numbers, or ``ValueError`` naming
-    ``name`` (:func:`planar3p_gym.checks.numbers`)."""
-    return checks.numbers(value, size, name, meaning)
-
-
-def count_option(value: Any, name: str) -> int:
-    """``value`` if it is an integer >= 1 (Python or NumPy, not a bool), else ``ValueError``
-    naming ``name`` (:func:`planar3p_gym.checks.count`)."""
-    return checks.count(value, name)
-
-
-def mode_option(arg: Any, name: str) -> ModeTriple:
-    """A working mode option (three entries of +-1, ints or integral floats, no bools) as
-    ints, or ``ValueError`` naming ``name`` (:func:`planar3p_gym.checks.mode_from`)."""
-    return checks.mode_from(arg, name)
 
 
 class TaskEnv(Protocol):
@@ -360,4 +339,4 @@ class Task:
     @staticmethod
     def finite_pose(pose: Any, name: str) -> np.ndarray:
         """``pose`` as a float64 array of 3 finite numbers, or ``ValueError`` naming ``name``."""
-        return finite_numbers(pose, 3, name, " (x, y, theta)")
+        return checks.numbers(pose, 3, name, " (x, y, theta)")

@@ -15,11 +15,11 @@ from numpy.typing import ArrayLike
 
 from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.scalar_kinematics import ScalarKinematics
 from planar3p_gym.sim.chipmunk import step_projected
 from planar3p_gym.sim.physics import Planar3PSim
-from planar3p_gym.sim.projection import wrap_angle
 from planar3p_gym.tasks.base import ModeTriple
 from planar3p_gym.tasks.motions import minimum_jerk
 from planar3p_gym.tasks.travel_motion import TravelCurve, demonstration_travels, straight_pose_path

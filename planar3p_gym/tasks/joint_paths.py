@@ -24,9 +24,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.statics import holding_forces_at
-from planar3p_gym.tasks.observation import wrap_angle
 
 __all__ = [
     "JointPath",
@@ -378,7 +378,7 @@ def upright_waypoints(
     cands: list[tuple[float, float]] = []  # (y, theta)
     if flip.size == 1:
         i = int(flip[0])
-        dth = (t[2] - s[2] + math.pi) % (2.0 * math.pi) - math.pi
+        dth = wrap_angle(t[2] - s[2])
         fractions = np.linspace(0.0, 1.0, count)
         thetas = np.concatenate(
             [s[2] + fractions * dth, s[2] + fractions * (dth - math.copysign(2 * math.pi, dth))]
@@ -400,7 +400,7 @@ def upright_waypoints(
                         m = int(flip[2])
                         if abs(abs(y + k[m] * sin_th) - legs[m]) > 1e-9:
                             continue
-                    cands.append((y, (th + math.pi) % (2.0 * math.pi) - math.pi))
+                    cands.append((y, wrap_angle(th)))
     if not cands:
         return np.zeros((0, 3))
     yt = np.array(cands)

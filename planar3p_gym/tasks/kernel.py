@@ -26,6 +26,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from gymnasium import spaces
 
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks.observation import (
@@ -33,7 +34,6 @@ from planar3p_gym.tasks.observation import (
     build_observation,
     travel_goal_bounds,
     travel_goal_entries,
-    wrap_angle,
 )
 from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, ReachStep
 from planar3p_gym.tasks.rewards import TERM_NAMES, RewardWeights, weighted_terms

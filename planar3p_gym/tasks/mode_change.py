@@ -70,7 +70,7 @@ from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
-from planar3p_gym.tasks.base import ModeTriple, Pose, Task, count_option, mode_option, pose_list
+from planar3p_gym.tasks.base import ModeTriple, Pose, Task, pose_list
 from planar3p_gym.tasks.joint_paths import (
     JointPath,
     PathLimits,
@@ -137,7 +137,7 @@ class ModeChangeTask(TravelShaping, Task):
     ) -> None:
         self.flips = checks.integer(flips, "flips", low=1, high=3)
         self.limits = checks.config_from(limits, PathLimits, "path_limits")
-        self.pair_tries = count_option(pair_tries, "pair_tries")
+        self.pair_tries = checks.count(pair_tries, "pair_tries")
         self.travel_shaping = check_travel_shaping(travel_shaping)
 
     # ------------------------------------------------------------------ set-up
@@ -183,7 +183,7 @@ class ModeChangeTask(TravelShaping, Task):
     def check_options(self, options: dict[str, Any]) -> dict[str, Any]:
         for key in ("working_mode", "target_working_mode"):
             if options.get(key) is not None:
-                options[key] = mode_option(options[key], key)
+                options[key] = checks.mode_from(options[key], key)
         ms, mt = options.get("working_mode"), options.get("target_working_mode")
         if ms is not None and mt is not None and ms == mt:
             raise ValueError(
@@ -351,10 +351,10 @@ class ModeChangeTask(TravelShaping, Task):
     def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
         tx, ty, tth = spec["target"]
         self._target = (float(tx), float(ty), float(tth))
-        self._target_mode = mode_option(spec["target_working_mode"], "target_working_mode")
+        self._target_mode = checks.mode_from(spec["target_working_mode"], "target_working_mode")
         rho = kinematics.inverse(self.env.design, self._target, self._target_mode).rho
         self._target_rho = (float(rho[0]), float(rho[1]), float(rho[2]))
-        mode = mode_option(spec["working_mode"], "working_mode")
+        mode = checks.mode_from(spec["working_mode"], "working_mode")
         start = np.asarray(spec["start"], dtype=np.float64)
         self.start_travels(kinematics.inverse(self.env.design, start, mode).rho)
         return start, mode

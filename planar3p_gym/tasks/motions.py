@@ -19,6 +19,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks import sampling as task
 
@@ -71,7 +72,7 @@ def min_jerk_commands(
     duration makes the largest command ``peak`` (m/s) or a little less."""
     start, target = np.asarray(start, float), np.asarray(target, float)
     delta = target - start
-    delta[2] = (delta[2] + math.pi) % (2.0 * math.pi) - math.pi
+    delta[2] = wrap_angle(delta[2])
     if not (math.isfinite(peak) and 0.0 < peak <= design.max_speed):
         raise ValueError(f"peak must be in (0, max_speed = {design.max_speed}] m/s, got {peak!r}")
 

@@ -16,7 +16,7 @@ index   name                    meaning                                        u
 19-20   ``target_position``     target gripper point                           m
 21-22   ``target_orientation``  ``cos, sin`` of the target angle               1
 23-24   ``position_error``      target position minus ``G``                    m
-25      ``orientation_error``   target angle minus ``theta``, in ``[-pi, pi]`` rad
+25      ``orientation_error``   target angle minus ``theta``, in ``(-pi, pi]`` rad
 26      ``parallel_margin``     inverse condition number of ``A_bar``          1
 27      ``serial_margin``       ``min_i |cos alpha_i|``                        1
 28-30   ``fine_error``          ``tanh`` of the errors ``dx, dy, L_ref dtheta``  1
@@ -46,6 +46,7 @@ import numpy as np
 from gymnasium import spaces
 from numba import njit
 
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 
 __all__ = [
@@ -60,7 +61,6 @@ __all__ = [
     "travel_goal_bounds",
     "travel_goal_entries",
     "within_tolerances",
-    "wrap_angle",
     "write_reach_values",
 ]
 
@@ -76,7 +76,7 @@ OBS_FIELDS: tuple[tuple[str, int, str], ...] = (
     ("target_position", 2, "target gripper point (m)"),
     ("target_orientation", 2, "cos, sin of the target angle"),
     ("position_error", 2, "target position minus G (m)"),
-    ("orientation_error", 1, "target angle minus theta, wrapped to [-pi, pi] (rad)"),
+    ("orientation_error", 1, "target angle minus theta, wrapped to (-pi, pi] (rad)"),
     ("parallel_margin", 1, "inverse condition number of A_bar, in [0, 1]"),
     ("serial_margin", 1, "min_i |cos alpha_i|, in [0, 1]"),
     ("fine_error", 3, "tanh of (dx, dy, L_ref dtheta) / FINE_ERROR_SCALE"),
@@ -167,12 +167,6 @@ def observation_space(design: Design) -> spaces.Box:
     """The ``Box`` observation space for ``design``."""
     low, high = bounds(design)
     return spaces.Box(low, high, dtype=np.float32)
-
-
-@njit(cache=True)
-def wrap_angle(angle: float) -> float:
-    """``angle`` (rad) wrapped into ``[-pi, pi)``."""
-    return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
 @njit(cache=True)

@@ -26,12 +26,8 @@ from planar3p_gym.checks import as_finite_float
 __all__ = [
     "MAX_WEIGHT",
     "RewardWeights",
-    "action_effort",
     "barrier",
-    "pose_error",
-    "precision_penalty",
     "reward_terms",
-    "singularity_penalty",
     "weighted_terms",
 ]
 
@@ -109,32 +105,6 @@ class RewardWeights:
         return self._array  # type: ignore[attr-defined]
 
 
-def pose_error(position_error: float, orientation_error: float, length: float) -> float:
-    """``(|position error| + length * |orientation error|) / length``, dimensionless.
-
-    Args:
-        position_error: distance from ``G`` to the target point (m).
-        orientation_error: angle to the target orientation (rad).
-        length: characteristic length of the design (m).
-    """
-    return (position_error + length * abs(orientation_error)) / length
-
-
-def precision_penalty(
-    position_error: float, orientation_error: float, length: float, scale: float
-) -> float:
-    """``1 - exp(-(|dp| + length |dtheta|) / scale)`` in ``[0, 1)``: 0 at the target, rising with
-    slope ``1/scale`` per metre of pose distance, saturating far away.
-
-    Args:
-        position_error: distance from ``G`` to the target point (m).
-        orientation_error: angle to the target orientation (rad).
-        length: characteristic length of the design (m).
-        scale: pose distance of the term's knee (m).
-    """
-    return 1.0 - math.exp(-(position_error + length * abs(orientation_error)) / scale)
-
-
 @njit(cache=True)
 def barrier(margin: float, ref: float) -> float:
     """Singularity barrier of one margin (dimensionless): 0 at or above ``ref``, ``ref/margin -
@@ -144,19 +114,6 @@ def barrier(margin: float, ref: float) -> float:
     if margin <= ref / (BARRIER_CAP + 1.0):
         return BARRIER_CAP
     return ref / margin - 1.0
-
-
-def singularity_penalty(
-    parallel_margin: float, serial_margin: float, parallel_ref: float, serial_ref: float
-) -> float:
-    """``(ref/m - 1)`` for each margin ``m`` below its reference, capped: 0 far from
-    singularities, rising like ``1/m`` as a margin shrinks to 0."""
-    return barrier(parallel_margin, parallel_ref) + barrier(serial_margin, serial_ref)
-
-
-def action_effort(action: tuple[float, float, float]) -> float:
-    """Mean of the squared normalised actions, in ``[0, 1]``."""
-    return (action[0] ** 2 + action[1] ** 2 + action[2] ** 2) / 3.0
 
 
 @njit(cache=True)

@@ -60,6 +60,7 @@ import numpy as np
 
 from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
@@ -82,7 +83,6 @@ from planar3p_gym.tasks.track_references import (
     eight_curve,
     parse_reference,
     reference_at,
-    wrap_angle,
 )
 
 __all__ = [

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from planar3p_gym import checks
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.tasks.base import Task, pose_list
 from planar3p_gym.tasks.motions import minimum_jerk
 
@@ -25,7 +26,6 @@ __all__ = [
     "figure_eight",
     "parse_reference",
     "reference_at",
-    "wrap_angle",
 ]
 
 #: Reference kinds.
@@ -36,11 +36,6 @@ CHECK_POINTS = 65
 MIN_DURATION = 0.5
 #: Most waypoints a requested segments reference may have (a budget on its checks).
 MAX_WAYPOINTS = 10_000
-
-
-def wrap_angle(a: np.ndarray) -> np.ndarray:
-    """Angles (rad) wrapped to ``[-pi, pi)``."""
-    return (a + math.pi) % (2.0 * math.pi) - math.pi
 
 
 def figure_eight(

@@ -19,7 +19,7 @@ from planar3p_gym.machine import kinematics
 from planar3p_gym.tasks import motions
 from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.observation import OBS_FIELDS, OBS_SIZE, SLICES
-from planar3p_gym.tasks.rewards import BARRIER_CAP, RewardWeights, singularity_penalty
+from planar3p_gym.tasks.rewards import BARRIER_CAP, RewardWeights, barrier
 
 FAILURES = ("singularity_crossing", "physics_breakdown")
 
@@ -205,8 +205,8 @@ def test_singularity_term_grows_as_the_margin_shrinks(crossing_episode):
     pairs = []
     for *_, info in records[1:]:
         pm, sm = info["parallel_margin"], info["serial_margin"]
-        expected = -w.singularity * singularity_penalty(
-            pm, sm, w.parallel_margin_ref, w.serial_margin_ref
+        expected = -w.singularity * (
+            barrier(pm, w.parallel_margin_ref) + barrier(sm, w.serial_margin_ref)
         )
         assert info["reward_terms"]["singularity"] == pytest.approx(expected, rel=1e-12)
         if sm >= w.serial_margin_ref:
@@ -217,16 +217,16 @@ def test_singularity_term_grows_as_the_margin_shrinks(crossing_episode):
     assert terms[0] < 0.0  # the approach did enter the penalised zone
 
 
-def test_singularity_penalty_function():
+def test_singularity_barrier_function():
     ref = 0.03
     margins = np.linspace(1.0, 0.0, 2001)
-    pen = [singularity_penalty(m, 1.0, ref, 0.1) for m in margins]
+    pen = [barrier(m, ref) for m in margins]
     assert all(b >= a for a, b in itertools.pairwise(pen))
     assert pen[0] == 0.0 and pen[-1] == BARRIER_CAP
-    assert singularity_penalty(ref, 1.0, ref, 0.1) == 0.0
-    assert singularity_penalty(ref / 2, 1.0, ref, 0.1) == pytest.approx(1.0)
-    assert singularity_penalty(1.0, 0.05, ref, 0.1) == pytest.approx(1.0)
-    assert singularity_penalty(0.0, 0.0, ref, 0.1) == 2 * BARRIER_CAP
+    assert barrier(ref, ref) == 0.0
+    assert barrier(ref / 2, ref) == pytest.approx(1.0)
+    assert barrier(0.05, 0.1) == pytest.approx(1.0)
+    assert barrier(0.0, ref) == BARRIER_CAP
 
 
 # ---------------------------------------------------------------------------- determinism

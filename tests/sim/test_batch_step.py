@@ -11,7 +11,7 @@ import numpy as np
 from projection_helpers import project_rows
 
 import planar3p_gym  # noqa: F401  (registers the ids)
-from planar3p_gym.sim.physics import _wrap
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.tasks.kernel import ReachKernel, StepKernel
 from planar3p_gym.tasks.observation import OBS_SIZE
 from planar3p_gym.tasks.reach_step import RESULT_FIELDS, BatchReach, reach_outputs_batch
@@ -61,7 +61,7 @@ def test_batch_projection_is_the_scalar_projection_bit_for_bit():
             assert buf[j, :60].tolist() == out
             assert st.rho[:, j].tolist() == list(pr.rho)
             assert st.rho_dot[:, j].tolist() == list(pr.rho_dot)
-            assert st.pose[:, j].tolist() == [pr.pose[0], pr.pose[1], _wrap(pr.pose[2])]
+            assert st.pose[:, j].tolist() == [pr.pose[0], pr.pose[1], wrap_angle(pr.pose[2])]
             assert st.twist[:, j].tolist() == list(pr.twist)
             assert st.leg_angles[:, j].tolist() == list(pr.leg_angles)
             assert st.closure[j] == pr.closure_error

@@ -24,7 +24,8 @@ from projection_helpers import project_rows, recorded_projections
 from script_loader import load_script
 
 import planar3p_gym
-from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, _wrap
+from planar3p_gym.machine.angles import wrap_angle
+from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT
 from planar3p_gym.sim.projection import STOP_CONTACT
 
 soak = load_script("soak_end_stops")
@@ -167,7 +168,7 @@ def test_batch_projection_follows_the_new_paths_bit_for_bit():
         assert buf[j, :60].tolist() == pr.bodies
         assert st_.rho[:, j].tolist() == list(pr.rho)
         assert st_.rho_dot[:, j].tolist() == list(pr.rho_dot)
-        assert st_.pose[:, j].tolist() == [pr.pose[0], pr.pose[1], _wrap(pr.pose[2])]
+        assert st_.pose[:, j].tolist() == [pr.pose[0], pr.pose[1], wrap_angle(pr.pose[2])]
         assert st_.twist[:, j].tolist() == list(pr.twist)
         assert st_.leg_angles[:, j].tolist() == list(pr.leg_angles)
         assert st_.closure[j] == pr.closure_error

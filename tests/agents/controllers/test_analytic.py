@@ -16,7 +16,6 @@ from planar3p_agents.controllers.analytic import (
     ROTATE,
     VERTICAL,
     AnalyticController,
-    simple_motion_basis,
 )
 from planar3p_agents.controllers.floor import RandomPolicy, ZeroPolicy
 from planar3p_gym import Design
@@ -84,12 +83,12 @@ def test_simultaneous_follows_the_straight_path(env):
     assert worst < 0.003  # metres (pose-distance units), off a 0.1 m long path
 
 
-def test_basis_matches_the_kinematics_formula():
+def test_the_floored_basis_is_exact_away_from_the_floor():
     rng = np.random.default_rng(0)
     alpha = rng.uniform(-1.3, 1.3, (50, 3)) + np.where(rng.random((50, 3)) < 0.5, 0, np.pi)
     theta = rng.uniform(-np.pi, np.pi, 50)
     twist = rng.normal(size=(50, 3))
-    hor, ver, rot = simple_motion_basis(
+    hor, ver, rot = kinematics.simple_motion_basis(
         DESIGN, np.cos(alpha), np.sin(alpha), np.cos(theta), np.sin(theta), epsilon=1e-12
     )
     mine = twist[:, :1] * hor + twist[:, 1:2] * ver + twist[:, 2:] * rot
