@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike
 from planar3p_gym import checks
 from planar3p_gym.checks import as_finite_float, as_int
 from planar3p_gym.machine import kinematics
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 from planar3p_gym.machine.kinematics import pose_distance
 from planar3p_gym.machine.slider_line import slider_line_reaches
@@ -253,7 +254,7 @@ def interpolate(start: np.ndarray, target: np.ndarray, n: int) -> np.ndarray:
     shapes ``(..., 3)`` -> ``(..., n, 3)``."""
     t = _steps(operator.index(n))
     delta = np.subtract(target, start, dtype=np.float64)
-    delta[..., 2] = (delta[..., 2] + math.pi) % (2.0 * math.pi) - math.pi
+    delta[..., 2] = wrap_angle(delta[..., 2])
     return start[..., None, :] + t * delta[..., None, :]
 
 
