@@ -7,8 +7,10 @@ rl-zoo3's ``cli.py``.
     planar3p <command> --help
 
 Installed as the console script ``planar3p`` (``[project.scripts]``); also
-``python -m planar3p_agents`` and the files of ``scripts/`` (one call each).  The commands live in
-:mod:`planar3p_agents.commands` (table :data:`~planar3p_agents.commands.COMMANDS`).
+``python -m planar3p_agents``.  The repository's studies and measurements are not commands:
+they are the files of ``scripts/`` (not installed), which run through :func:`run_command`.
+The commands live in :mod:`planar3p_agents.commands` (table
+:data:`~planar3p_agents.commands.COMMANDS`).
 
 :func:`main` returns the exit status and never exits the interpreter itself: 0 done; 2 bad
 input, reported in one line ``planar3p <command>: error: <message>`` that names the flag, before
@@ -22,20 +24,20 @@ import argparse
 import shlex
 import sys
 import textwrap
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from types import ModuleType
 
 from planar3p_agents.commands import COMMANDS, load, summary
 from planar3p_agents.commands.parser import CliParser, HelpFormatter, ParserExit, UsageError
 
-__all__ = ["DESCRIPTION", "PROG", "main", "parse"]
+__all__ = ["DESCRIPTION", "PROG", "main", "parse", "parse_command", "run_command"]
 
 PROG = "planar3p"
 
 
 DESCRIPTION = (
     "The command line of planar3p-gym: train, sweep, benchmark and ship agents of the 3-PRR "
-    "planar parallel manipulator, and run its studies and measurements."
+    "planar parallel manipulator, and map its workspace."
 )
 
 
@@ -76,12 +78,18 @@ def parse(argv: Sequence[str]) -> tuple[ModuleType, argparse.Namespace]:
     if name not in COMMANDS:
         raise UsageError(f"unknown command {name!r}; choose from {', '.join(COMMANDS)}")
     module = load(name)
-    parser = CliParser(prog=f"{PROG} {name}", description=module.__doc__)
+    return module, parse_command(module, f"{PROG} {name}", argv[1:])
+
+
+def parse_command(module: ModuleType, prog: str, argv: Sequence[str]) -> argparse.Namespace:
+    """The checked arguments ``argv`` of a command module (its ``add_arguments`` and ``check``)
+    run as ``prog``; raises as :func:`parse`."""
+    parser = CliParser(prog=prog, description=module.__doc__)
     module.add_arguments(parser)
-    args = parser.parse_args(argv[1:])
+    args = parser.parse_args(list(argv))
     module.check(args)
-    args.command_line = shlex.join([PROG, *argv])
-    return module, args
+    args.command_line = shlex.join([*prog.split(), *argv])
+    return args
 
 
 def _prog(argv: Sequence[str]) -> str:
@@ -97,9 +105,20 @@ def _error(prog: str, message: object) -> None:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run ``planar3p`` with ``argv`` (default: the process's arguments); the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    prog = _prog(argv)
+    return _guarded(_prog(argv), lambda: parse(argv))
+
+
+def run_command(module: ModuleType, prog: str, argv: Sequence[str]) -> int:
+    """Run a command module (``add_arguments``, ``check``, ``run``) with ``argv`` as ``prog``,
+    with the exit statuses and error lines of :func:`main`; the repository's scripts run
+    through this."""
+    return _guarded(prog, lambda: (module, parse_command(module, prog, argv)))
+
+
+def _guarded(prog: str, parsed: Callable[[], tuple[ModuleType, argparse.Namespace]]) -> int:
+    """Parse, then run, turning bad input, ``--help`` and an interrupt into exit statuses."""
     try:
-        module, args = parse(argv)
+        module, args = parsed()
         return int(module.run(args))
     except ParserExit as done:
         return done.status

@@ -363,7 +363,7 @@ def test_shipped_gifs_play_at_their_frame_rate():
         delays, loop = gif_delays(path)
         if min(delays) < 20 or delays[-1] < 1000 or loop != 0:
             problems.append(f"{path.name}: delays {delays[:3]}...{delays[-1:]} ms, loop {loop}")
-    assert not problems, "run `planar3p docs-media`:\n" + "\n".join(problems)
+    assert not problems, "run `python scripts/docs_media.py`:\n" + "\n".join(problems)
 
 
 def _media(*args: str) -> subprocess.CompletedProcess:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ast
 import inspect
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -182,6 +183,73 @@ def test_the_wheel_lists_every_package_folder():
             rel = init.parent.relative_to(ROOT / folder).parts
             on_disk.add(".".join((top, *rel)))
     assert listed == on_disk
+
+
+#: Names of repository tooling (studies, throughput and soak measurements, documentation media),
+#: which lives in scripts/ and is not installed.
+TOOLING = re.compile(
+    r"stud|throughput|bench_|soak|docs_media|fidelity|detours|track_gains|track_curves"
+    r"|task_baselines|goal_track_baselines"
+)
+#: Tooling still installed: the reset benchmark (a command until it moves to scripts/), the
+#: throughput measures it imports, and the crossing-fidelity measure the crossing controller
+#: imports.  Each leaves this set when it moves.
+STILL_INSTALLED = {
+    "planar3p_agents/commands/bench_resets.py",
+    "planar3p_agents/evaluation/throughput.py",
+    "planar3p_agents/studies/__init__.py",
+    "planar3p_agents/studies/crossing_fidelity.py",
+}
+#: The ``planar3p`` commands: what a user runs (bench-resets until it moves to scripts/).
+USER_COMMANDS = {
+    "train",
+    "sweep",
+    "benchmark",
+    "demo",
+    "seed-report",
+    "plot-learning",
+    "ship",
+    "workspace",
+    "bench-resets",
+}
+
+
+def _installed_files() -> set[str]:
+    """The files the wheel installs, as paths in site-packages: each listed package's modules
+    and its package data (pyproject's ``packages``, ``package-dir`` and ``package-data``),
+    read from the tree as setuptools reads them."""
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    mapping = config["package-dir"]
+    files: set[str] = set()
+    for package in config["packages"]:
+        top, *rest = package.split(".")
+        folder = ROOT / mapping.get(top, top) / Path(*rest)
+        files.update(f"{'/'.join(package.split('.'))}/{m.name}" for m in folder.glob("*.py"))
+    for package, patterns in config["package-data"].items():
+        folder = ROOT / mapping.get(package, package)
+        for pattern in patterns:
+            files.update(
+                f"{package}/{f.relative_to(folder).as_posix()}"
+                for f in folder.glob(pattern)
+                if f.is_file()
+            )
+    return files
+
+
+def test_the_installed_packages_hold_no_repository_tooling():
+    installed = _installed_files()
+    assert "planar3p_gym/envs/core.py" in installed and "planar3p_agents/cli.py" in installed
+    tooling = sorted(f for f in installed if TOOLING.search(f) and f not in STILL_INSTALLED)
+    assert not tooling, tooling
+    assert STILL_INSTALLED <= installed  # a moved one leaves the set
+    assert not any(f.startswith(("scripts/", "tooling/", "docs/")) for f in installed)
+    assert not (ROOT / "scripts" / "__init__.py").exists()  # not a package of the wheel
+
+
+def test_the_command_line_lists_only_user_commands():
+    from planar3p_agents.commands import COMMANDS
+
+    assert set(COMMANDS) == USER_COMMANDS
 
 
 #: Attribute names of the standard library's named tuples (public API despite the underscore).

@@ -32,17 +32,7 @@ COMMANDS: dict[str, str] = {
     "plot-learning": "plot_learning",
     "ship": "ship",
     "workspace": "workspace",
-    "fidelity": "fidelity",
-    "task-baselines": "task_baselines",
-    "goal-track-baselines": "goal_track_baselines",
-    "track-gains": "track_gains",
-    "track-curves": "track_curves",
-    "detours": "detours",
-    "bench-env": "bench_env",
-    "bench-kinematics": "bench_kinematics",
     "bench-resets": "bench_resets",
-    "soak-end-stops": "soak_end_stops",
-    "docs-media": "docs_media",
 }
 
 

@@ -1,4 +1,4 @@
-"""Throughput measurements of the environments (the logic of ``planar3p bench-env``).
+"""Throughput measurements of the environments (the logic of ``python scripts/bench_env.py``).
 
 Every measurement is interleaved: a round measures each configuration of a section once, in
 an order rotated from round to round, so that a load drifting on a shared machine affects

@@ -1,2 +1,2 @@
-"""One-off studies behind the results pages (baselines on the task ids, tracking gains and
-curves, crossing fidelity); they use the library, the library never uses them."""
+"""The crossing-fidelity measure, which the crossing controller imports; the studies that use
+it are scripts of the repository (``scripts/``, not installed)."""

@@ -1,7 +1,8 @@
 """The crossing-fidelity study: play an assembly-change episode while booking the physics --
 the servos' signed work, the mechanical energy, the energy the solver and the projection add,
 and the loop-closure error -- over the episode and within the crossing (used by
-:mod:`planar3p_agents.studies.task_baselines` and ``scripts/task_baselines.py``).
+:mod:`planar3p_agents.controllers.crossing` and the repository's
+``scripts/task_baselines.py``).
 """
 
 from __future__ import annotations

@@ -100,7 +100,7 @@ HEADLINE: list[dict[str, str]] = [
         "metric": "success",
         "learned": "residual PPO on the certified line, 800k steps",
         "note": "100 %, 7 % faster than its base; 3.1x the bound (target 1.10x missed: no "
-        "certified slider path surveyed comes within 2x of the bound, `planar3p detours`)",
+        "certified slider path surveyed comes within 2x of the bound, `python scripts/detours.py`)",
     },
     {
         "task": "working-mode change",

@@ -1,7 +1,7 @@
 """The ``planar3p`` command line (planar3p_agents.cli, planar3p_agents.commands): every subcommand
 has a help that shows its defaults; bad arguments and impossible output locations exit 2 with one
-line naming the flag, before any work, writing nothing and leaving no process behind;
-the files of scripts/ are thin calls of it."""
+line naming the flag, before any work, writing nothing and leaving no process behind; the
+repository's tools (scripts/, not installed) parse their arguments by the same rules."""
 
 from __future__ import annotations
 
@@ -15,13 +15,40 @@ import time
 from pathlib import Path
 
 import pytest
-from script_loader import ROOT, SCRIPTS
+from script_loader import ROOT, SCRIPTS, standalone
 
 from planar3p_agents import cli
 from planar3p_agents.commands import COMMANDS, load, summary
 from planar3p_gym import atomic_files
 
 # ------------------------------------------------------------------------------- helpers
+
+#: The repository's tools, standalone files of scripts/: the name each had as a command ->
+#: its file's stem.  They are not ``planar3p`` commands (not installed).
+TOOLS = {
+    "bench-env": "bench_env",
+    "bench-kinematics": "bench_kinematics",
+    "soak-end-stops": "soak_end_stops",
+    "docs-media": "docs_media",
+    "detours": "detours",
+    "track-gains": "track_gains",
+    "track-curves": "track_curves",
+    "task-baselines": "task_baselines",
+    "goal-track-baselines": "goal_track_baselines",
+    "fidelity": "fidelity",
+}
+
+
+def _run(argv: list[str]) -> int:
+    """Run ``argv`` (``[name, *options]``): a tool's script, else a ``planar3p`` command."""
+    if argv[0] in TOOLS:
+        return standalone(TOOLS[argv[0]]).main(argv[1:])
+    return cli.main(argv)
+
+
+def _prog(name: str) -> str:
+    """The program name in the error line of ``name``."""
+    return f"python scripts/{TOOLS[name]}.py" if name in TOOLS else f"planar3p {name}"
 
 
 def _can_create_in(directory: Path) -> bool:
@@ -71,11 +98,11 @@ WORK = [
     ("planar3p_agents.evaluation.throughput", "single_env_rates"),
     ("planar3p_agents.evaluation.throughput", "interleave"),
     ("planar3p_agents.evaluation.throughput", "startup_times"),
-    ("planar3p_agents.evaluation.kinematics_throughput", "reachable_poses"),
-    ("planar3p_agents.studies.physics_fidelity", "fidelity_report"),
-    ("planar3p_agents.studies.goal_track_baselines", "goal_baseline"),
-    ("planar3p_agents.studies.goal_track_baselines", "tracking_baselines"),
-    ("planar3p_agents.studies.track_curves", "SuitePlayer"),
+    ("tooling.kinematics_throughput", "reachable_poses"),
+    ("tooling.physics_fidelity", "fidelity_report"),
+    ("tooling.goal_track_baselines", "goal_baseline"),
+    ("tooling.goal_track_baselines", "tracking_baselines"),
+    ("tooling.track_curves", "SuitePlayer"),
     ("planar3p_agents.training.sweep", "run_sweep"),
     ("planar3p_agents.training.run", "plan_run"),
     ("planar3p_agents.training.run", "execute"),
@@ -104,13 +131,15 @@ def no_work(monkeypatch):
 # ------------------------------------------------------------------------------- help
 
 
-def test_every_script_is_a_thin_call_of_its_subcommand() -> None:
-    """One command line; scripts/ call it, with no sys.path edits, and demo.py
-    runs no script by its file path."""
-    # (scripts/soak_physics.py is a measurement of the repository, not a command)
-    files = sorted(p.stem for p in (ROOT / "scripts").glob("*.py") if p.stem != "soak_physics")
-    assert files == sorted(SCRIPTS)
+def test_every_script_is_a_thin_call_of_its_subcommand_or_a_standalone_tool() -> None:
+    """One command line: a shim of scripts/ calls it, with no sys.path edits; a tool is a
+    standalone script with its own parser, run only as the main module; the installed package
+    edits no sys.path and names no tool as a command."""
+    # (scripts/soak_physics.py is a measurement of the repository with its own argparse)
+    files = sorted(p.stem for p in (ROOT / "scripts").glob("*.py"))
+    assert files == sorted([*SCRIPTS, *TOOLS.values(), "soak_physics"])
     assert sorted(SCRIPTS.values()) == sorted(COMMANDS)
+    assert not set(TOOLS) & set(COMMANDS)
     for name, command in SCRIPTS.items():
         text = (ROOT / "scripts" / f"{name}.py").read_text()
         assert "sys.path" not in text and "spec_from_file_location" not in text, name
@@ -118,8 +147,24 @@ def test_every_script_is_a_thin_call_of_its_subcommand() -> None:
         assert f'main(["{command}", *sys.argv[1:]])' in text, name
         # SubprocVecEnv's workers import the main module again: it must not run the command
         assert 'if __name__ == "__main__":' in text, name
+    for stem in TOOLS.values():
+        text = (ROOT / "scripts" / f"{stem}.py").read_text()
+        assert "sys.path" not in text, stem
+        assert "return script.main(__name__, argv)" in text, stem
+        assert 'if __name__ == "__main__":\n    raise SystemExit(main())' in text, stem
     for path in (ROOT / "agents").rglob("*.py"):
         assert "sys.path" not in path.read_text(), path
+
+
+@pytest.mark.parametrize("name", list(TOOLS))
+def test_every_tool_has_a_help_with_its_defaults(name: str, capsys) -> None:
+    assert _run([name, "--help"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"usage: python scripts/{TOOLS[name]}.py ")
+    assert (standalone(TOOLS[name]).__doc__ or "").strip().splitlines()[0] in out
+    flat = " ".join(out.split())
+    assert "(default: None)" not in flat and "(default: False)" not in flat
+    assert not re.search(r"\(default[^()]*\)\s*\(default", flat), flat
 
 
 def test_console_script_is_declared() -> None:
@@ -261,11 +306,11 @@ def test_bad_input_exits_2_naming_the_flag_before_any_work(
     a_file.write_text("keep")
     argv = [a.format(ro=read_only_dir, file=a_file, tmp=work) for a in argv]
     before, children = _tree(tmp_path), _children()
-    assert cli.main(argv) == 2
+    assert _run(argv) == 2
     captured = capsys.readouterr()
     err = captured.err
     assert err.count("\n") == 1, err  # one line
-    assert err.startswith(f"planar3p {argv[0]}: error: {flag}"), err
+    assert err.startswith(f"{_prog(argv[0])}: error: {flag}"), err
     assert captured.out == ""
     assert _tree(tmp_path) == before and a_file.read_text() == "keep"  # nothing written
     assert _children() <= children  # no process left behind
@@ -334,7 +379,7 @@ def test_detours_finds_its_default_suite_file_from_any_directory(
     """The default --suite-file was relative to the working directory: from anywhere but the
     repository's root the command refused its own default."""
     monkeypatch.chdir(tmp_path)
-    assert cli.main(["detours", "--episodes", "1", "--suites", "standard"]) == 0
+    assert _run(["detours", "--episodes", "1", "--suites", "standard"]) == 0
     assert "| standard | 1 |" in capsys.readouterr().out
 
 
@@ -373,7 +418,7 @@ def test_track_curves_names_a_config_that_is_not_json(tmp_path: Path, capsys, no
     run.mkdir()
     (run / "config.json").write_text("seed: 1\n")
     out = tmp_path / "curves.png"
-    assert cli.main(["track-curves", str(run), "--out", str(out)]) == 2
+    assert _run(["track-curves", str(run), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1
     assert f"{run / 'config.json'} is not JSON (Expecting value: line 1 column 1" in err
@@ -387,34 +432,43 @@ def test_benchmark_seed_is_named(tmp_path: Path, capsys) -> None:
 
 
 def test_unknown_command_and_flags_are_one_line(capsys) -> None:
-    assert cli.main(["bench-kinematic"]) == 2
+    assert cli.main(["bench-kinematics"]) == 2  # a tool of the repository, not a command
     err = capsys.readouterr().err
     assert (
-        err.startswith("planar3p: error: unknown command 'bench-kinematic'")
+        err.startswith("planar3p: error: unknown command 'bench-kinematics'")
         and err.count("\n") == 1
     )
-    assert cli.main(["bench-kinematics", "--batches", "3"]) == 2  # no abbreviations either
+    assert _run(["bench-kinematics", "--batches", "3"]) == 2  # no abbreviations either
     err = capsys.readouterr().err
-    assert err.startswith("planar3p bench-kinematics: error: unrecognized arguments: --batches")
-    assert cli.main(["bench-kinematics", "--batch", "x"]) == 2
+    assert err.startswith(
+        "python scripts/bench_kinematics.py: error: unrecognized arguments: --batches"
+    )
+    assert _run(["bench-kinematics", "--batch", "x"]) == 2
     assert "argument --batch: invalid int value: 'x'" in capsys.readouterr().err
+    assert cli.main(["benchmark", "--episode", "3"]) == 2
+    assert "unrecognized arguments: --episode" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(
-    "command",
+    ("command", "expected"),
     [
-        [sys.executable, "-m", "planar3p_agents", "bench-kinematics", "--batch", "-3"],
-        [sys.executable, str(ROOT / "scripts" / "bench_kinematics.py"), "--batch", "-3"],
+        (
+            [sys.executable, "-m", "planar3p_agents", "benchmark", "--seed", "-1"],
+            "planar3p benchmark: error: --seed must be >= 0, got -1\n",
+        ),
+        (
+            [sys.executable, str(ROOT / "scripts" / "bench_kinematics.py"), "--batch", "-3"],
+            "python scripts/bench_kinematics.py: error: --batch must be between 1 and 1000000,"
+            " got -3\n",
+        ),
     ],
     ids=["python -m planar3p_agents", "scripts/bench_kinematics.py"],
 )
-def test_entry_points_exit_2_in_a_process(command: list[str]) -> None:
-    done = subprocess.run(command, capture_output=True, text=True, timeout=120, cwd=ROOT)
+def test_entry_points_exit_2_in_a_process(command: list[str], expected: str, tmp_path) -> None:
+    # from another directory: a tool finds its helpers beside it, not in the working directory
+    done = subprocess.run(command, capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert done.returncode == 2
-    assert (
-        done.stderr
-        == "planar3p bench-kinematics: error: --batch must be between 1 and 1000000, got -3\n"
-    )
+    assert done.stderr == expected
     assert done.stdout == ""
 
 

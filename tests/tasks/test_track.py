@@ -12,12 +12,12 @@ import pytest
 
 import planar3p_gym
 from planar3p_agents.controllers.tracking import TrackingController
-from planar3p_agents.studies.goal_track_baselines import run_tracking_episodes, summarize_tracking
 from planar3p_gym.machine import kinematics
 from planar3p_gym.tasks.kernel import StepKernel
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 from planar3p_gym.tasks.track import TRACKING_METRICS, TrackKernel
 from planar3p_gym.tasks.track_references import parse_reference
+from tooling.goal_track_baselines import run_tracking_episodes, summarize_tracking
 
 KINDS = ("segments", "figure_eight")
 ID = planar3p_gym.TRACK_ENV_ID

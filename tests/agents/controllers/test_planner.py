@@ -12,7 +12,7 @@ from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.crossing import CrossingController
 from planar3p_agents.controllers.planner import JointPathPlanner
 from planar3p_agents.policies.factory import load_policy
-from planar3p_agents.studies.task_baselines import run_baselines
+from tooling.task_baselines import run_baselines
 
 
 def _play(env, policy, seed):
@@ -72,7 +72,7 @@ def test_bad_input():
 def test_verification_rate_on_the_horizontal_machine():
     """On the id's design (no gravity in the plane) the demonstration motion reaches the
     target on the plain solver too (measured: 25 of 25 pairs for seed 0)."""
-    from planar3p_agents.studies.task_baselines import verification_rate
+    from tooling.task_baselines import verification_rate
 
     r = verification_rate(3, 0, gravity=0.0, projection=False)
     assert r["pairs"] == 3.0 and r["within_1cm"] == 1.0 and r["within_5cm"] == 1.0

@@ -136,7 +136,7 @@ def test_train_script_trains_the_shipped_entry(tmp_path: Path):
         with_stats.predict(obs)[0], model.predict(obs, deterministic=True)[0]
     )
     # Its learning curve in tracking error: step 0 is the controller; kept and reused.
-    from planar3p_agents.studies.track_curves import CACHE, SuitePlayer, run_curve
+    from tooling.track_curves import CACHE, SuitePlayer, run_curve
 
     player = SuitePlayer("track-segments", 1, 0)
     curve = run_curve(run, [player])["track-segments"]
@@ -201,7 +201,7 @@ def test_gain_sweep_plays_the_benchmark_episodes():
     suite episodes; a higher gain shrinks the lag (median RMS error)."""
     from planar3p_agents.evaluation.episodes import evaluate
     from planar3p_agents.evaluation.task_suites import make_task_env, make_task_suite
-    from planar3p_agents.studies.track_gains import gain_sweep
+    from tooling.track_gains import gain_sweep
 
     rows = gain_sweep([6.0, 25.0], 2, 0, ["track-figure-eight"])
     env = make_task_env("track-figure-eight")
@@ -224,7 +224,7 @@ def test_gain_sweep_script_rejects_bad_input(capsys):
 def test_suite_player_plays_the_benchmark_episodes_side_by_side():
     """Batched play gives the benchmark runner's tracking errors exactly."""
     from planar3p_agents.evaluation.episodes import evaluate
-    from planar3p_agents.studies.track_curves import SuitePlayer
+    from tooling.track_curves import SuitePlayer
 
     player = SuitePlayer("track-segments", 2, 0)
     batched = player.play(TrackingController())
@@ -235,7 +235,7 @@ def test_suite_player_plays_the_benchmark_episodes_side_by_side():
 
 
 def test_checkpoints_and_seed_curves(tmp_path: Path):
-    from planar3p_agents.studies.track_curves import checkpoints, seed_curves
+    from tooling.track_curves import checkpoints, seed_curves
 
     run = tmp_path / "run"
     (run / "checkpoints").mkdir(parents=True)

@@ -58,7 +58,9 @@ def test_bad_arguments_exit_2_naming_the_flag_before_any_work(argv, flag, capsys
     assert mod.main(argv) == 2
     captured = capsys.readouterr()
     err = captured.err.strip()
-    assert len(err.splitlines()) == 1 and err.startswith(f"planar3p bench-env: error: {flag}"), err
+    assert len(err.splitlines()) == 1 and err.startswith(
+        f"python scripts/bench_env.py: error: {flag}"
+    ), err
     assert captured.out == ""
 
 

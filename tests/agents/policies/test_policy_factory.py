@@ -28,9 +28,9 @@ from planar3p_agents.controllers.registry import (
 from planar3p_agents.evaluation.task_suites import TASK_SUITES
 from planar3p_agents.policies.factory import PolicyError, load_policy
 from planar3p_agents.policies.spec import BUILTIN_POLICIES, parse_policy_spec
-from planar3p_agents.studies.goal_track_baselines import TRACKING_BASELINES
-from planar3p_agents.studies.task_baselines import STUDY_POLICIES
 from planar3p_gym.envs.registry import ENV_SPECS
+from tooling.goal_track_baselines import TRACKING_BASELINES
+from tooling.task_baselines import STUDY_POLICIES
 
 #: (specification, id) of every baseline on every id it lists, and of each analytic
 #: controller with a retuned gain.

@@ -1,4 +1,4 @@
-"""The survey of certified slider paths at the speed bound (planar3p_agents.studies.detours)."""
+"""The survey of certified slider paths at the speed bound (tooling.detours)."""
 
 from __future__ import annotations
 
@@ -11,17 +11,17 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from script_loader import command
+from script_loader import load_script
 
 from planar3p_agents.evaluation import reach_suites as su
-from planar3p_agents.studies.detours import (
+from planar3p_gym import Design
+from tooling.detours import (
     PairDetours,
     pair_detours,
     suite_summary,
     time_ratios,
     waypoint_fractions,
 )
-from planar3p_gym import Design
 
 DESIGN = Design.fig8()
 travel = st.floats(0.0, 0.3)
@@ -97,14 +97,14 @@ def test_suite_summary_counts():
     assert math.isnan(suite_summary(rows[2:3])["ratio_median"])
 
 
-def test_the_detours_command_prints_a_row_per_suite_and_writes_a_row_per_pair(tmp_path, capsys):
-    """``planar3p detours`` end to end on the committed suite file: one summary row per suite
+def test_the_detours_script_prints_a_row_per_suite_and_writes_a_row_per_pair(tmp_path, capsys):
+    """``scripts/detours.py`` end to end on the committed suite file: one summary row per suite
     and, with --csv, one row per pair (here the first pair of each suite, on a 2-value grid)."""
     out = tmp_path / "out" / "pairs.csv"
-    suites = Path(__file__).parents[3] / "docs" / "benchmark" / "strongest-baselines"
+    suites = Path(__file__).parents[2] / "docs" / "benchmark" / "strongest-baselines"
     argv = ["--suite-file", str(suites / "suites.json"), "--episodes", "1", "--fractions", "0,1"]
     argv += ["--csv", str(out)]
-    assert command("detours").main(argv) == 0
+    assert load_script("detours").main(argv) == 0
     text = capsys.readouterr().out
     assert "| standard | 1 | 1 | 0 | 1 | 1.00 / 1.00 / 1.00 |" in text
     assert "| hard | 1 | 0 | 1 |" in text

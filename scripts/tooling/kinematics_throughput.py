@@ -1,4 +1,4 @@
-"""Throughput of the vectorised kinematics (``planar3p bench-kinematics``).
+"""Throughput of the vectorised kinematics (``python scripts/bench_kinematics.py``).
 
 * :func:`reachable_poses`: reachable poses (uniform over the paper's search rectangle, uniform
   orientation and working mode, travels inside the stroke) with their modes and travels;

@@ -1,6 +1,6 @@
 """How faithful is the physics?  Loop-closure error and pose against the exact kinematics, for
 the unprojected pymunk model (8 substeps x 18 iterations, ``projection=False``) and the
-projected one (``Planar3P-v0``'s physics), side by side (``planar3p fidelity``).
+projected one (``Planar3P-v0``'s physics), side by side (``python scripts/fidelity.py``).
 
 Two measurements per model:
 
