@@ -3,7 +3,7 @@ controller) on the goal-conditioned envs (``Planar3PGoal-v0``, ``Planar3PGoalDen
 
 :func:`planar3p_agents.policies.factory.load_policy` puts every built-in baseline that plays a
 goal id behind this adapter; the analytic controller's measurements there are in
-:mod:`planar3p_agents.studies.goal_track_baselines`."""
+the repository script ``scripts/goal_track_baselines.py``."""
 
 from __future__ import annotations
 

@@ -8,7 +8,7 @@ proportional feedback on the errors to the reference pose,
 mapped to slider rates with the paper's simple-motion formula, with the same uniform
 saturation and serial-singularity brake as
 :class:`planar3p_agents.controllers.analytic.AnalyticController`.  Its measurements on the
-tracking id are in :mod:`planar3p_agents.studies.goal_track_baselines`; by name it is the
+tracking id are in the repository script ``scripts/goal_track_baselines.py``; by name it is the
 baseline ``analytic-feedforward`` of :func:`planar3p_agents.policies.factory.load_policy`.
 """
 

@@ -20,7 +20,7 @@ from residual_helpers import (
     observation_with_errors,
     residual_model,
 )
-from script_loader import command
+from script_loader import command, load_script
 from stable_baselines3 import PPO
 
 import planar3p_gym
@@ -214,7 +214,7 @@ def test_gain_sweep_plays_the_benchmark_episodes():
 
 
 def test_gain_sweep_script_rejects_bad_input(capsys):
-    script = command("track-gains")
+    script = load_script("track_gains")
     for argv in (["--gains", "6,x"], ["--gains", "-1"], ["--episodes", "0"], ["--suites", "goal"]):
         assert script.main([*argv, "--episodes", "1"] if "--episodes" not in argv else argv) == 2
         assert ": error: " in capsys.readouterr().err
