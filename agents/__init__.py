@@ -13,7 +13,6 @@ Installed from the repository's ``agents/`` folder.  The layers, each a subpacka
 * :mod:`planar3p_agents.training` -- hyperparameters (rl-zoo3 YAML), one training run, Ray
   Tune sweeps, task schedules, kick-starting, the SB3 adapter of the native vector env.
 * :mod:`planar3p_agents.zoo` -- shipping a run, the checksum manifest, ``pretrained/``.
-* :mod:`planar3p_agents.studies` -- one-off studies behind the results pages.
 
 Importing this package does not import torch or Stable-Baselines3 (only loading a model does).
 """

@@ -23,7 +23,7 @@ Then the targets table: each target of the issue, the measured value, met or not
 minutes or so (--quick: a few).  Timings depend on the machine and its load; no test
 times anything.
 
-Library: planar3p_agents.evaluation.throughput.
+Library: tooling.throughput.
 """
 
 from __future__ import annotations
@@ -158,7 +158,7 @@ def _median(values: list[float]) -> float:
 
 def _ratios(rates: dict[str, list[float]], reference: str) -> dict[str, float]:
     """Median per-round ratio of every entry of ``rates`` to ``rates[reference]``."""
-    from planar3p_agents.evaluation.throughput import paired_ratio
+    from tooling.throughput import paired_ratio
 
     if reference not in rates:
         return {}
@@ -196,7 +196,7 @@ def _table(
 
 
 def single_section(args: argparse.Namespace, refs: list[str]) -> dict[str, Any]:
-    from planar3p_agents.evaluation import throughput
+    from tooling import throughput
 
     ids = args.ids + refs + ([throughput.NOOP] if REACHER in refs else [])
     print(
@@ -229,7 +229,7 @@ def single_section(args: argparse.Namespace, refs: list[str]) -> dict[str, Any]:
 
 def _vector_envs(n: int, ids: list[str], refs: list[str]) -> dict[str, Any]:
     """The vector envs of ``n`` copies of each id, and the references of the same size."""
-    from planar3p_agents.evaluation import throughput as T
+    from tooling import throughput as T
 
     envs: dict[str, Any] = {}
     try:
@@ -252,7 +252,7 @@ def _vector_measures(
     """One steps/s measurement per env and round (after a warm-up of each env)."""
     import gymnasium as gym
 
-    from planar3p_agents.evaluation import throughput as T
+    from tooling import throughput as T
 
     out = {}
     for k, env in envs.items():
@@ -267,7 +267,7 @@ def _vector_measures(
 
 
 def vector_section(args: argparse.Namespace, refs: list[str]) -> dict[str, Any]:
-    from planar3p_agents.evaluation import throughput as T
+    from tooling import throughput as T
 
     print(
         f"\nvector envs: total env steps/s, {args.duration:g} s x {args.rounds} rounds per size; "
@@ -310,7 +310,7 @@ def vector_section(args: argparse.Namespace, refs: list[str]) -> dict[str, Any]:
 def resets_section(args: argparse.Namespace, refs: list[str]) -> dict[str, Any]:
     import numpy as np
 
-    from planar3p_agents.evaluation import throughput as T
+    from tooling import throughput as T
 
     ids = args.ids + refs
     k = args.resets
@@ -353,7 +353,7 @@ def resets_section(args: argparse.Namespace, refs: list[str]) -> dict[str, Any]:
 
 
 def floor_section(args: argparse.Namespace) -> dict[str, Any]:
-    from planar3p_agents.evaluation import throughput as T
+    from tooling import throughput as T
 
     print(
         f"\nfloor: median full step (gym.make) and pymunk's own step alone (cpSpaceStep on the "
@@ -401,7 +401,7 @@ def floor_section(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def startup_section(args: argparse.Namespace) -> dict[str, Any]:
-    from planar3p_agents.evaluation import throughput as T
+    from tooling import throughput as T
 
     print(
         "\nstart-up: fresh processes, import planar3p_gym, then gym.make(id), reset, one step "
@@ -423,7 +423,7 @@ def startup_section(args: argparse.Namespace) -> dict[str, Any]:
 
 
 def ppo_section(args: argparse.Namespace, refs: list[str]) -> dict[str, Any]:
-    from planar3p_agents.evaluation import throughput as T
+    from tooling import throughput as T
 
     print(
         f"\nPPO: training steps/s, {args.ppo_steps} timesteps x {args.ppo_rounds} rounds, "
@@ -500,7 +500,7 @@ def run(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     import planar3p_gym
-    from planar3p_agents.evaluation import throughput
+    from tooling import throughput
 
     warnings.filterwarnings("ignore", message=".*out of date.*")
     refs = [REACHER] if mujoco_available() else []

@@ -59,10 +59,10 @@ def _describe(values: list[float]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from planar3p_agents.evaluation.throughput import write_json_atomic
     from planar3p_gym import Design
     from planar3p_gym.sim import physics
     from tooling.physics_fidelity import MARGIN, fidelity_report
+    from tooling.throughput import write_json_atomic
 
     report = fidelity_report(args.pairs, args.episodes, args.suites, args.seed)
     design = Design.fig8()

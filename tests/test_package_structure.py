@@ -191,16 +191,10 @@ TOOLING = re.compile(
     r"stud|throughput|bench_|soak|docs_media|fidelity|detours|track_gains|track_curves"
     r"|task_baselines|goal_track_baselines"
 )
-#: Tooling still installed: the reset benchmark (a command until it moves to scripts/), the
-#: throughput measures it imports, and the crossing-fidelity measure the crossing controller
-#: imports.  Each leaves this set when it moves.
-STILL_INSTALLED = {
-    "planar3p_agents/commands/bench_resets.py",
-    "planar3p_agents/evaluation/throughput.py",
-    "planar3p_agents/studies/__init__.py",
-    "planar3p_agents/studies/crossing_fidelity.py",
-}
-#: The ``planar3p`` commands: what a user runs (bench-resets until it moves to scripts/).
+#: Installed modules whose names look like tooling but are what a user imports: the
+#: crossing-fidelity measure of an assembly-change policy (the evaluation layer).
+NOT_TOOLING = {"planar3p_agents/evaluation/crossing_fidelity.py"}
+#: The ``planar3p`` commands: what a user runs.
 USER_COMMANDS = {
     "train",
     "sweep",
@@ -210,7 +204,6 @@ USER_COMMANDS = {
     "plot-learning",
     "ship",
     "workspace",
-    "bench-resets",
 }
 
 
@@ -239,9 +232,9 @@ def _installed_files() -> set[str]:
 def test_the_installed_packages_hold_no_repository_tooling():
     installed = _installed_files()
     assert "planar3p_gym/envs/core.py" in installed and "planar3p_agents/cli.py" in installed
-    tooling = sorted(f for f in installed if TOOLING.search(f) and f not in STILL_INSTALLED)
+    tooling = sorted(f for f in installed if TOOLING.search(f) and f not in NOT_TOOLING)
     assert not tooling, tooling
-    assert STILL_INSTALLED <= installed  # a moved one leaves the set
+    assert NOT_TOOLING <= installed
     assert not any(f.startswith(("scripts/", "tooling/", "docs/")) for f in installed)
     assert not (ROOT / "scripts" / "__init__.py").exists()  # not a package of the wheel
 

@@ -32,7 +32,6 @@ COMMANDS: dict[str, str] = {
     "plot-learning": "plot_learning",
     "ship": "ship",
     "workspace": "workspace",
-    "bench-resets": "bench_resets",
 }
 
 

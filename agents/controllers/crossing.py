@@ -16,7 +16,8 @@ simultaneous simple motions
 
 Calling convention: Stable-Baselines3's ``predict``; a new episode is recognised by
 ``episode_start`` (or :meth:`CrossingController.reset`).  The crossing-fidelity study that
-measures the physics along such a crossing is :mod:`planar3p_agents.studies.crossing_fidelity`.
+measures the physics along such a crossing is
+:mod:`planar3p_agents.evaluation.crossing_fidelity`.
 """
 
 from __future__ import annotations
@@ -27,19 +28,11 @@ import numpy as np
 from numpy.typing import NDArray
 
 from planar3p_agents.controllers.travel_follower import TravelFollower, observed_configuration
-
-# The fidelity study lives in planar3p_agents.studies.crossing_fidelity; its names stay
-# importable from here.
-from planar3p_agents.studies.crossing_fidelity import (
-    CROSSING_MARGIN,
-    crossing_fidelity,
-    mechanical_energy,
-)
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.observation import SLICES
 from planar3p_gym.tasks.travel_motion import TravelCurve, demonstration_travels
 
-__all__ = ["CROSSING_MARGIN", "CrossingController", "crossing_fidelity", "mechanical_energy"]
+__all__ = ["CrossingController"]
 
 
 class CrossingController(TravelFollower):

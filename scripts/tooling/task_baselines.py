@@ -20,9 +20,9 @@ import gymnasium as gym
 import numpy as np
 
 import planar3p_gym  # noqa: F401  (registers the ids)
+from planar3p_agents.evaluation.crossing_fidelity import crossing_fidelity
 from planar3p_agents.evaluation.intervals import success_interval
 from planar3p_agents.policies.factory import load_policy
-from planar3p_agents.studies.crossing_fidelity import crossing_fidelity
 from planar3p_gym.envs.registry import ASSEMBLY_CHANGE_ENV_ID, ENV_ID, MODE_CHANGE_ENV_ID
 
 __all__ = [
@@ -137,7 +137,7 @@ def run_fidelity(
     episodes: int, seed: int, projection: bool, gravity: float | None = None
 ) -> dict[str, float]:
     """Medians and extremes of
-    :func:`planar3p_agents.studies.crossing_fidelity.crossing_fidelity` over ``episodes``
+    :func:`planar3p_agents.evaluation.crossing_fidelity.crossing_fidelity` over ``episodes``
     seeded episodes of ``Planar3PAssemblyChange-v0`` played by the crossing controller, with
     the projected physics (the id's) or the plain solver (8 substeps, 18 iterations).
     ``gravity`` (m/s^2) replaces the design's (the sampler's simulated check is then turned

@@ -36,6 +36,7 @@ TOOLS = {
     "task-baselines": "task_baselines",
     "goal-track-baselines": "goal_track_baselines",
     "fidelity": "fidelity",
+    "bench-resets": "bench_resets",
 }
 
 
@@ -95,9 +96,9 @@ def _tree(root: Path) -> list[str]:
 #: The work each command would start: replaced in the tests of bad input, which must never get
 #: there (module, attribute).
 WORK = [
-    ("planar3p_agents.evaluation.throughput", "single_env_rates"),
-    ("planar3p_agents.evaluation.throughput", "interleave"),
-    ("planar3p_agents.evaluation.throughput", "startup_times"),
+    ("tooling.throughput", "single_env_rates"),
+    ("tooling.throughput", "interleave"),
+    ("tooling.throughput", "startup_times"),
     ("tooling.kinematics_throughput", "reachable_poses"),
     ("tooling.physics_fidelity", "fidelity_report"),
     ("tooling.goal_track_baselines", "goal_baseline"),
@@ -367,7 +368,7 @@ def test_a_json_path_under_a_file_is_named_as_such(tmp_path: Path, capsys) -> No
     """`bench-resets --json <file>/x.json` said "directory <file> does not exist"."""
     a_file = tmp_path / "a_file"
     a_file.write_text("keep")
-    assert cli.main(["bench-resets", "--seeds", "1", "--json", f"{a_file}/x.json"]) == 2
+    assert _run(["bench-resets", "--seeds", "1", "--json", f"{a_file}/x.json"]) == 2
     err = capsys.readouterr().err
     assert f"is under {a_file}, which is not a directory" in err, err
     assert "does not exist" not in err

@@ -490,7 +490,7 @@ def test_bench_resets_rejects_bad_arguments_before_any_reset(argv, flag, capsys,
     assert mod.main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and flag in err
-    assert err.startswith("planar3p bench-resets: error:")
+    assert err.startswith("python scripts/bench_resets.py: error:")
 
 
 def test_bench_resets_prints_the_figures(capsys, tmp_path):
@@ -511,7 +511,7 @@ def test_full_collections_are_counted_and_a_frozen_gc_is_thawed(capsys, tmp_path
     here); ``--freeze-gc`` freezes after making the envs and unfreezes at the end."""
     import gc
 
-    from planar3p_agents.evaluation.throughput import FullCollections
+    from tooling.throughput import FullCollections
 
     gc.disable()  # only the explicit collections below (callbacks still run)
     try:

@@ -9,7 +9,7 @@ from task_helpers import play_episode
 
 import planar3p_gym  # noqa: F401
 from planar3p_agents.controllers.crossing import CrossingController
-from planar3p_agents.studies.crossing_fidelity import _ServoReader, crossing_fidelity
+from planar3p_agents.evaluation.crossing_fidelity import _ServoReader, crossing_fidelity
 from planar3p_gym import Design
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
 from planar3p_gym.machine import kinematics

@@ -1,6 +1,6 @@
 """``scripts/bench_env.py``: bad arguments are rejected before any work (exit 2, one line naming
 the flag); one run writes every requested id and size in its JSON with a targets table;
-results are written atomically; :mod:`planar3p_agents.evaluation.throughput` measures what it
+results are written atomically; :mod:`tooling.throughput` measures what it
 says.  Nothing here times anything against a bound (timings depend on the machine)."""
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from script_loader import load_script as _load_script
 
-from planar3p_agents.evaluation import throughput
 from planar3p_gym.envs.registry import ENV_SPECS
+from tooling import throughput
 
 ALL_IDS = [row.id for row in ENV_SPECS]
 NATIVE = {row.id for row in ENV_SPECS if row.vector_entry_point is not None}
