@@ -41,7 +41,8 @@ __all__ = [
     "Design",
     "max_episode_steps",
 ]
-__version__ = "0.2.0"
+#: The package's version (``pyproject.toml`` reads it from here).
+__version__ = "1.0.0"
 
 
 def max_episode_steps(env_id: str) -> int:

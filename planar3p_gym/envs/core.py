@@ -161,13 +161,14 @@ class Planar3PEnv(gym.Env):
     ``reset(options=spec)`` replays it exactly (:mod:`planar3p_gym.tasks.base`).
 
     ## Version History
-    - v0 (0.2.0): the exact machine (the projected physics; the unprojected model that ran
-      before 0.2.0 is ``projection=False``); the machine as built (``randomization``,
-      ``sensors``, ``latency``, ``action_type``), off by default; poses proposed from the region
-      holding every reachable pose (:mod:`planar3p_gym.tasks.pose_proposal`: a seed draws other
-      episodes, same distribution); a step that locks at a parallel singularity is taken again
-      by a compiled constrained-dynamics step (:mod:`planar3p_gym.sim.recovery`) where it used
-      to break down.  ``travel_goal``, off by default, changes no observation.
+    - v0 (1.0.0): frozen, as every id of 1.0.0: a change of its dynamics, reward, observation or
+      episode stream registers ``-v1`` and keeps ``-v0`` registered.  The exact machine (the
+      projected physics; the unprojected model of 0.1.0 is ``projection=False``); the machine as
+      built (``randomization``, ``sensors``, ``latency``, ``action_type``), off by default;
+      ``travel_goal``, off by default, changes no observation; the changes every id took in
+      1.0.0 (``CHANGELOG.md``, 1.0.0: the projected physics, the constrained-dynamics step at a
+      parallel singularity, poses proposed from the reachable region, one angle wrap, the
+      compiled step outputs).
     - v0 (0.1.0): initial release.
     """
 

@@ -154,20 +154,10 @@ class Planar3PGoalEnv(Planar3PEnv):
     :class:`planar3p_gym.envs.core.Planar3PEnv` except ``task``.
 
     ## Version History
-    - v0 (0.2.0): the simulation survives a parallel singularity: a step that locks there (its
-      projection fails, or it makes energy the servos did not put in) is taken again by a
-      compiled constrained-dynamics step (:mod:`planar3p_gym.sim.recovery`); trajectories
-      change from such a step on, where they used to end in ``"physics_breakdown"`` or gain
-      energy.
-    - v0 (0.2.0): the same distribution of episodes, drawn faster: poses are proposed
-      from the region that holds every reachable pose (:mod:`planar3p_gym.tasks.pose_proposal`);
-      a seed draws other episodes than before.
-    - v0 (0.2.0): a step's observation, margins and reward terms from the reach task's
-      compiled outputs (:class:`planar3p_gym.tasks.goal.GoalKernel`): the same episodes, goals,
-      ends and sparse rewards; margins and the dense reward differ from before by float64
-      rounding.
-    - v0: initial release; later the ``observe_working_mode`` argument (off by default: the
-      observation, rewards and episodes of ``v0`` are unchanged).
+    - v0 (1.0.0): frozen, with the changes every id took in 1.0.0
+      (:class:`~planar3p_gym.envs.core.Planar3PEnv`, Version History); the
+      ``observe_working_mode`` argument, off by default.
+    - v0 (0.1.0): initial release.
     """
 
     def __init__(

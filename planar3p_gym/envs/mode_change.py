@@ -76,22 +76,9 @@ class Planar3PModeChangeEnv(Planar3PEnv):
     such term; for training, it does not change the success test).
 
     ## Version History
-    - v0 (0.2.0): every angle is wrapped by one definition into ``(-pi, pi]``
-      (:func:`planar3p_gym.machine.angles.wrap_angle`): the same episodes and ends; numbers
-      differ from before by at most 2 float64 rounding errors.
-    - v0 (0.2.0): the simulation survives a parallel singularity: a step that locks there (its
-      projection fails, or it makes energy the servos did not put in) is taken again by a
-      compiled constrained-dynamics step (:mod:`planar3p_gym.sim.recovery`); trajectories
-      change from such a step on, where they used to end in ``"physics_breakdown"`` or gain
-      energy.
-    - v0 (0.2.0): the same distribution of episodes, drawn faster: poses are proposed
-      from the region that holds every reachable pose (:mod:`planar3p_gym.tasks.pose_proposal`);
-      a seed draws other episodes than before.
-    - v0 (0.2.0): the observation's 31 entries, the errors and the margins from the reach
-      task's compiled outputs (:class:`planar3p_gym.tasks.kernel.HookKernel`; the task's
-      hooks as before): the same episodes and ends; observations, margins and rewards differ
-      from before by float64 rounding.
-    - v0: initial release.
+    - v0 (1.0.0): frozen, with the changes every id took in 1.0.0
+      (:class:`~planar3p_gym.envs.core.Planar3PEnv`, Version History).
+    - v0 (0.1.0): initial release.
     """
 
     def __init__(

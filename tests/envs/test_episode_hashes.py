@@ -1,15 +1,19 @@
-"""Regression guard: seeded episodes of every registered id replay bit for bit.
+"""Every registered id is frozen: its seeded episodes replay bit for bit.
 
 For each id a random policy (seeded) plays ``STEPS`` steps from ``reset(seed=...)``, resetting
 as episodes end; the observations, rewards, episode ends and the physical quantities of
 ``info`` are hashed.  A change to the physics, a task's sampler, its reward or its observation
-fails here: such a change must be deliberate, and then the hashes below are regenerated once
-(``python tests/envs/test_episode_hashes.py`` prints them) and the change is named in CHANGELOG.md.
+fails here.  Such a change must be deliberate, and then it is a new id: register ``<Name>-vN+1``
+beside the old id (which keeps its hash and stays registered), record the new id's hash
+(``python tests/envs/test_episode_hashes.py`` prints every id's), and name the change in
+CHANGELOG.md and in the env's Version History.  A newly registered id without a recorded hash
+fails too.
 """
 
 from __future__ import annotations
 
 import hashlib
+import re
 
 import gymnasium as gym
 import numpy as np
@@ -23,16 +27,7 @@ STEPS = 120
 SEED = 3
 INFO_KEYS = ("pose", "rho", "rho_dot", "actuator_forces", "closure_error", "parallel_margin")
 
-#: sha256 of each id's stream, recorded with ``python tests/envs/test_episode_hashes.py``; again
-#: when the task sampler took its proposal region (``planar3p_gym/tasks/pose_proposal.py``),
-#: which changed the episodes a seed draws (given the episodes 0.2.0 drew as reset options, every
-#: id but the two built-machine ids, whose machine draw follows the episode's in the stream,
-#: replayed 0.2.0's hashes); the goal, tracking, mode-change and assembly-change ids' again when
-#: they took the reach kernel's compiled outputs (margins, observations and rewards within
-#: float64 rounding of the reference's, ``tests/tasks/test_goal.py``, ``test_track.py`` and
-#: ``test_kernel.py``; the same episodes and ends); the tracking and mode-change ids' again when
-#: every angle took the one wrap (:func:`planar3p_gym.machine.angles.wrap_angle`, into
-#: ``(-pi, pi]``): the same episodes and ends, numbers within 2 float64 rounding errors.
+#: sha256 of each id's stream as released (1.0.0), ``python tests/envs/test_episode_hashes.py``.
 EXPECTED: dict[str, str] = {
     "Planar3P-v0": "807e69d03d68eeb7a4301ff5370efc173af79b6319eadf286bcb7cbc883ba582",
     "Planar3PGoal-v0": "8072aa2888490f26a2f565e77dd880b7b3ebf341882021b8583707efef91f74e",
@@ -74,13 +69,44 @@ def episode_digest(env_id: str, steps: int = STEPS, seed: int = SEED) -> str:
     return h.hexdigest()
 
 
+#: What a developer does when an id's behaviour changes.
+NEW_VERSION = (
+    "register the changed behaviour as a new id ({next_id}) and keep {env_id} registered with "
+    "its old behaviour; record {next_id}'s hash here (python tests/envs/test_episode_hashes.py) "
+    "and name the change in CHANGELOG.md and in the env's Version History"
+)
+
+
+def next_version(env_id: str) -> str:
+    """``Name-vN`` -> ``Name-v(N+1)``."""
+    name, _, version = env_id.rpartition("-v")
+    return f"{name}-v{int(version) + 1}"
+
+
 def test_every_registered_id_has_a_recorded_hash():
-    assert sorted(EXPECTED) == sorted(spec.id for spec in planar3p_gym.ENV_SPECS)
+    registered = {spec.id for spec in planar3p_gym.ENV_SPECS}
+    missing = sorted(registered - set(EXPECTED))
+    assert not missing, f"ids without a recorded episode hash: {missing}; record them here"
+    gone = sorted(set(EXPECTED) - registered)
+    assert not gone, (
+        f"ids no longer registered: {gone}; a released id stays registered (its behaviour "
+        "changes under a new -vN id)"
+    )
+    assert all(re.fullmatch(r"Planar3P\w*-v\d+", env_id) for env_id in registered), registered
 
 
 @pytest.mark.parametrize("env_id", sorted(EXPECTED))
 def test_seeded_episodes_replay_bit_for_bit(env_id):
-    assert episode_digest(env_id) == EXPECTED[env_id]
+    digest = episode_digest(env_id)
+    assert digest == EXPECTED[env_id], (
+        f"{env_id}'s seeded episodes changed (hash {digest}): "
+        + NEW_VERSION.format(env_id=env_id, next_id=next_version(env_id))
+    )
+
+
+def test_the_message_names_the_next_version():
+    assert next_version("Planar3P-v0") == "Planar3P-v1"
+    assert next_version("Planar3PGoalDense-v9") == "Planar3PGoalDense-v10"
 
 
 if __name__ == "__main__":
