@@ -1,8 +1,8 @@
 """planar3p-gym: a 3-PRR planar parallel manipulator as a Gymnasium environment.
 
 Importing the package registers every id of :data:`planar3p_gym.envs.registry.ENV_SPECS`
-(``Planar3P-v0``, the task ids and the built machine's ids) with Gymnasium.  The layers, each
-a subpackage:
+(``Planar3P-v0``, the task ids and the built machine's ids) with Gymnasium;
+:func:`register_task` registers another package's task.  The layers, each a subpackage:
 
 * :mod:`planar3p_gym.machine` -- design, exact kinematics, statics (numpy only);
 * :mod:`planar3p_gym.sim` -- the pymunk model, its projection, rendering;
@@ -24,6 +24,8 @@ from planar3p_gym.envs.registry import (
     REAL_ON_OFF_ENV_ID,
     TRACK_ENV_ID,
     register_all,
+    register_task,
+    registrations,
 )
 from planar3p_gym.machine.design import Design
 
@@ -40,17 +42,21 @@ __all__ = [
     "TRACK_ENV_ID",
     "Design",
     "max_episode_steps",
+    "register_task",
+    "registrations",
 ]
 #: The package's version (``pyproject.toml`` reads it from here).
 __version__ = "1.0.0"
 
 
 def max_episode_steps(env_id: str) -> int:
-    """The time limit of a registered id, in control steps."""
-    for row in ENV_SPECS:
+    """The time limit of a registered id (the package's or :func:`register_task`'s), in control
+    steps."""
+    rows = registrations()
+    for row in rows:
         if row.id == env_id:
             return row.max_episode_steps
-    raise ValueError(f"{env_id!r} is not an id of planar3p_gym: {[r.id for r in ENV_SPECS]}")
+    raise ValueError(f"{env_id!r} is not an id of planar3p_gym: {[r.id for r in rows]}")
 
 
 #: Time limit of ``Planar3P-v0`` in control steps (5 s at the default 50 Hz).

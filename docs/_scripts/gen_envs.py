@@ -1,11 +1,12 @@
-"""One page per registered environment id, generated from the environment class's docstring.
+"""One page per registered environment id, generated from a class docstring.
 
 In the spirit of Gymnasium's page generator (its ``gen_mds.py``): the ids are read from the
-Gymnasium
-registry after ``import planar3p_gym`` (every id starting with ``Planar3P``), each id's class is
-``gymnasium.spec(id).entry_point``, and its page is the class docstring (the sections
-Description, Action Space, Observation Space, Rewards, Starting State, Episode End, Arguments,
-Version History), preceded by the facts read from a made environment (spaces, time limit,
+Gymnasium registry after ``import planar3p_gym`` (every id starting with ``Planar3P``).  An
+id's page is the docstring of its entry point's class, or of its task's class for an id of the
+generic environment that names its task (``kwargs["task"]``, as
+:func:`planar3p_gym.envs.registry.register_task` registers it): the sections Description,
+Action Space, Observation Space, Rewards, Starting State, Episode End, Arguments, Version
+History.  It is preceded by the facts read from a made environment (spaces, time limit,
 registered arguments) and the media of ``scripts/docs_media.py``, and followed by the
 observation layout index by index and the baselines measured by the benchmark
 (``docs/benchmark``).
@@ -64,6 +65,18 @@ def entry_class(env_id: str) -> type:
         return ep  # type: ignore[return-value]
     module, _, attr = ep.partition(":")
     return getattr(importlib.import_module(module), attr)
+
+
+def page_class(env_id: str) -> type:
+    """The class whose docstring is the page of ``env_id``: the task class named by the id's
+    registered ``task`` (``"module:Class"``), else the entry point's class."""
+    import gymnasium as gym
+
+    task = gym.spec(env_id).kwargs.get("task")
+    if isinstance(task, str):
+        module, _, attr = task.partition(":")
+        return getattr(importlib.import_module(module), attr)
+    return entry_class(env_id)
 
 
 def docstring_sections(cls: type) -> tuple[str, str]:
@@ -234,7 +247,7 @@ def env_page(env_id: str) -> tuple[str, dict[str, str]]:
 
     spec = gym.spec(env_id)
     cls = entry_class(env_id)
-    summary, body = docstring_sections(cls)
+    summary, body = docstring_sections(page_class(env_id))
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # Gymnasium's "out of date" note on older versions
         env = gym.make(env_id)

@@ -154,7 +154,7 @@ class Planar3PEnv(gym.Env):
     - ``task``: a :class:`planar3p_gym.tasks.Task`, or the ``"module:Class"`` path of a Task
       class built with ``task_kwargs`` (a dict of its constructor arguments) -- how a
       registration row names a new task without an environment class of its own
-      (:mod:`planar3p_gym.tasks`, "Adding a task").  Default :class:`~planar3p_gym.tasks.
+      (``docs/adding_a_task.md``).  Default :class:`~planar3p_gym.tasks.
       ReachTask`, this docstring's task; other registered ids pass theirs.
 
     ``info["episode_spec"]`` (at reset) is a JSON-serialisable dict describing the episode;
