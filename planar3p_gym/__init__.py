@@ -4,7 +4,7 @@ Importing the package registers every id of :data:`planar3p_gym.envs.registry.EN
 (``Planar3P-v0``, the task ids and the built machine's ids) with Gymnasium;
 :func:`register_task` registers another package's task.  The layers, each a subpackage:
 
-* :mod:`planar3p_gym.machine` -- design, exact kinematics, statics (numpy only);
+* :mod:`planar3p_gym.machine` -- design, exact kinematics, statics (numpy, numba);
 * :mod:`planar3p_gym.sim` -- the pymunk model, its projection, rendering;
 * :mod:`planar3p_gym.tasks` -- what an episode asks of the machine;
 * :mod:`planar3p_gym.envs` -- the Gymnasium environments and their registration table;

@@ -35,7 +35,7 @@ from planar3p_agents.commands.parser import CliParser, UsageError
 ANALYTIC = "analytic-simultaneous"
 #: The strongest of the benchmark's reach baselines
 #: (:data:`planar3p_agents.controllers.registry.STRONGEST_REACH_BASELINES`) on the fixed reach
-#: suites: 100 % on standard and hard, the shortest time over the speed bound.
+#: suites (their scores: docs/benchmark.md).
 REACH_BASELINE = "certified-line"
 MODE_CHANGE = "mode-change"
 MODE_CHANGE_POLICY = "pretrained:ppo_mode_change"

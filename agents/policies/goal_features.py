@@ -107,8 +107,8 @@ class GoalTravelExtractor(GoalErrorExtractor):
     environment's observation would not (it would describe the episode's goal, not the
     relabelled one).  Where either pose does not close in that mode (a relabelled goal from
     another working mode) the block is zeros and the flag 0.  Why it helps: the straight line
-    in slider space reaches 97 % of the ``goal`` suite at 1.17x the speed bound
-    (``slider-line``), a map a policy learns from these features almost linearly, while from
+    in slider space already solves most of the ``goal`` suite (the ``slider-line`` baseline,
+    docs/benchmark.md), a map a policy learns from these features almost linearly, while from
     Cartesian errors it must learn the inverse kinematics first.
 
     Args:

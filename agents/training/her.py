@@ -3,12 +3,11 @@
 SB3's :class:`~stable_baselines3.HerReplayBuffer` with ``copy_info_dict=True`` stores every
 step's whole ``info`` dict and deep-copies one per relabelled sample before it calls the env's
 ``compute_reward``.  A Planar3P goal step's ``info`` has some twenty entries (poses, forces, the
-reward terms), about 0.1 ms per deep copy: with batches of 256 that was 40-45 % of a SAC + HER
-gradient step on this project's goal ids (cProfile of ``Planar3PGoal-v0``, 4 envs, one gradient
-step per 8 transitions).  The goal env's ``compute_reward`` reads two keys only
-(:data:`planar3p_gym.tasks.goal.RELABEL_INFO_KEYS`), so the buffer below stores those (and
-``TimeLimit.truncated``) and nothing else: the relabelled rewards are the same numbers, at a
-small fraction of the cost.
+reward terms), so those copies are a large share of a SAC + HER gradient step on the goal ids
+(the profile: docs/training.md, "Hindsight relabelling").  The goal env's ``compute_reward``
+reads two keys only (:data:`planar3p_gym.tasks.goal.RELABEL_INFO_KEYS`), so the buffer below
+stores those (and ``TimeLimit.truncated``) and nothing else: the relabelled rewards are the
+same numbers, at a small fraction of the cost.
 
 Why a subclass rather than SB3's buffer with ``copy_info_dict=False``: with empty infos the
 failure penalty of a relabelled failing transition would be lost (see

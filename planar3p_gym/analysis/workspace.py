@@ -1,41 +1,20 @@
 """Workspace and singularity analysis of the 3-PRR manipulator (``docs/mechanism.md``, the workspace
-study).
+study), vectorised numpy: no Python loop runs over grid points.
 
-Everything here is vectorised numpy; no Python loop runs over grid points.
+With all rails on ``y = 0`` the leg vectors do not depend on the gripper's ``x``, so each grid
+row's reachable set is a union of exact ``x`` intervals, decided by the same floating-point
+expression as :func:`planar3p_gym.machine.kinematics.inverse` (docs/workspace.md, "How the
+workspace study is computed").
 
-Structure that makes the paper's grid study exact and fast
------------------------------------------------------------
-With all rails on the line ``y = 0`` the leg vectors ``u_i = C_i - B_i`` do not depend on the
-gripper's ``x``: translating ``G`` along ``x`` translates every ``C_i`` and ``B_i`` alike.  For a
-grid row ``y``, an orientation ``theta`` and a working mode ``sigma`` the leg vectors are fixed,
-``u_i = (sigma_i w_i, C_iy)`` with ``C_iy = y + L_iG sin(theta)`` and
-``w_i = sqrt(L_i^2 - C_iy^2)``, and the travels ``rho_i = x + L_iG cos(theta) - a_i - sigma_i w_i``
-are ``x`` plus a constant.  So ``rho in [0, L]^3`` holds exactly on one ``x`` interval
-``[max_i s_i, min_i s_i + L]`` (``s_i = a_i - L_iG cos(theta) + sigma_i w_i``), which is empty when
-the spread ``max s - min s`` exceeds the stroke.  The reachable set of a row is the union of those
-intervals over orientations and modes; it is rasterised onto the ``x`` grid with integer
-bounds that are corrected so that every grid point is decided by *the same floating-point
-expression* as :func:`planar3p_gym.machine.kinematics.inverse` (the result equals the brute-force
-grid test bit for bit).  The margins (and so the usable workspace) and the singularity
-conditions ``det A = 0``, ``det B = 0`` depend on ``(y, theta, sigma)`` only, never on ``x``.
-
-Public API
-----------
-* :func:`orientations`, :func:`search_grid` -- the paper's sampling.
-* :func:`workspace` -- reachable (and usable) grid masks and ``S`` for one design; options for
-  the grid, the orientation count or range, a fixed orientation, a fixed working mode.
-* :func:`stroke_study` -- ``S(L)``, usable ``S(L)`` and dead zones over a list of strokes.
-* :func:`in_constant_orientation_workspace` -- the exact point test for a fixed orientation
-  (swept circles); :func:`constant_orientation_area` -- its exact area (Green's theorem on
-  the arc-and-segment boundary).
-* :func:`reachable_exact`, :func:`exact_workspace` -- reachability over the continuum of
-  orientations (no orientation sampling), from closed-form critical angles.
-* :func:`row_margins`, :func:`margin_levels` -- parallel and serial margins of every
-  ``(y, theta, mode)``; the best parallel margin attainable at each grid point.
-* :func:`label_components`, :func:`dead_zones`, :func:`full_plane` -- holes in the envelope.
+* :func:`orientations`, :func:`search_grid`: the paper's sampling;
+* :func:`workspace`, :func:`stroke_study`: reachable (and usable) grid masks and ``S`` for one
+  design, and ``S(L)`` over strokes;
+* :func:`in_constant_orientation_workspace`, :func:`constant_orientation_area`,
+  :func:`reachable_exact`, :func:`exact_workspace`: exact tests and areas;
+* :func:`row_margins`, :func:`margin_levels`: margins of every ``(y, theta, mode)``;
+* :func:`label_components`, :func:`dead_zones`, :func:`full_plane`: holes in the envelope;
 * :func:`singularity_map`, :func:`parallel_singularity_points`,
-  :func:`serial_singularity_points`, :func:`singularity_segments` -- singularity loci over
-  ``(y, theta)`` and over the plane at a fixed orientation.
+  :func:`serial_singularity_points`, :func:`singularity_segments`: singularity loci.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Exact kinematics of the 3-PRR manipulator (pure numpy, vectorised over leading axes).
+"""Exact kinematics of the 3-PRR manipulator (numpy, vectorised over leading axes; numba).
 
 Conventions (``docs/mechanism.md``): pose ``p = (x, y, theta)`` is the gripper point ``G`` (m) and
 the direction ``theta`` (rad) of ``e = (cos theta, sin theta)`` pointing from ``G`` to the joints,

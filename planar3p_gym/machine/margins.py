@@ -1,30 +1,15 @@
 """The singularity margins of one configuration, defined once and compiled.
 
-Every per-step user of the margins -- the env's general step
-(:class:`~planar3p_gym.machine.scalar_kinematics.ScalarKinematics`) and the compiled reach-step
-outputs (:mod:`planar3p_gym.tasks.reach_step`, which the single env and the native vector env's
-batched step share) -- calls :func:`leg_margins`, one configuration at a time; the workspace
-study's grids (:mod:`planar3p_gym.analysis.workspace`) call :func:`inverse_condition_batch`,
-the same scalar definition in a compiled loop.  The SVD of
-:func:`planar3p_gym.machine.kinematics.parallel_margin` is the mathematical definition they are
-tested against.
+From the leg vectors ``u_i = C_i - B_i`` (m) and ``(cos theta, sin theta)``: the parallel margin
+(``sigma_min / sigma_max`` of ``A_bar``, in ``[0, 1]``, 0 at a parallel singularity, from the
+eigenvalues of ``A_bar^T A_bar`` in closed form), the serial margin (``min_i |cos alpha_i|``)
+and the assembly mode (``sign det A_bar``).  The formulas, and why compiled: docs/kinematics.md,
+"The singularity margins, compiled"; :func:`planar3p_gym.machine.kinematics.parallel_margin`'s
+SVD is the definition they are tested against.
 
-From the leg vectors ``u_i = C_i - B_i`` (m) and ``(cos theta, sin theta)`` of the platform:
-
-* the rows of ``A_bar`` are ``(u_ix, u_iy, k_i (u_iy cos theta - u_ix sin theta) / L_ref) / L_i``
-  (dimensionless; ``k_i`` the joint offsets on the platform, ``L_i`` the leg lengths,
-  ``L_ref`` the characteristic length, all m);
-* the **parallel margin** is ``sigma_min / sigma_max`` of ``A_bar`` in ``[0, 1]`` (0 at a
-  parallel singularity), from the eigenvalues of ``A_bar^T A_bar`` in closed form: the largest
-  by the trigonometric solution of the cubic, the smallest from the sum and product of the
-  other two, which stays accurate near zero (where a parallel singularity is);
-* the **serial margin** is ``min_i |cos alpha_i| = min_i |u_ix| / |u_i|`` in ``[0, 1]``;
-* ``sign(det A_bar)`` labels the assembly mode (0 exactly at a parallel singularity).
-
-Why compiled: these run once per control step of every environment, where numpy's per-call
-overhead on 3x3 arrays costs more than the arithmetic, and over millions of grid points in the
-workspace study, where plain Python would be too slow; numba compiles the one definition for
-both (``cache=True``: compiled once per installation, then loaded from ``__pycache__``).
+* :func:`leg_margins`, :func:`inverse_condition`: one configuration (every per-step user: the
+  env's step, the compiled reach-step outputs);
+* :func:`inverse_condition_batch`: the same definition in a compiled loop (the workspace grids).
 """
 
 from __future__ import annotations

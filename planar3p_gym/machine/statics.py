@@ -9,8 +9,8 @@ its margin.
 
 The formula is defined once, per configuration, in the compiled :func:`_holding_row`;
 :func:`holding_forces_at` loops it over a batch.  It is compiled because the task sampler
-calls it on a few poses per batch, where numpy's per-call overhead was most of a seeded
-reset's cost.
+calls it on a few poses per batch, where numpy's per-call overhead would be most of a
+seeded reset's cost.
 """
 
 from __future__ import annotations

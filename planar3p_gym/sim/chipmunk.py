@@ -1,34 +1,17 @@
 """Chipmunk's C API called from compiled code: one control step of a simulation (or of a batch
 of them) as one compiled call.
 
-pymunk keeps doing the dynamics; what this module removes is the Python around it.  A step of
-the projected model writes the bodies (with the drives' new velocity commands), steps the
-space ``substeps`` times while summing the servos' impulses, reads the bodies back, projects
-them onto the constraint manifold (:func:`planar3p_gym.sim.projection.project_readout`, the one
-definition) and writes them back.  Each of those is a call into Chipmunk; through cffi each
-costs a Python call, so :func:`advance` makes them from numba instead, by address:
+pymunk keeps doing the dynamics; this module removes the Python around it by calling
+Chipmunk's functions from numba by address (why by hand, and how: docs/physics.md, "How the
+simulation modules work").
 
-- ``cpSpaceStep(cpSpace *, double)``, ``cpConstraintGetImpulse(cpConstraint *) -> double`` and
-  ``cpSpaceEachBody(cpSpace *, iterator, void *)`` with pymunk's batch iterators
-  (``pmSpaceBodyGetIteratorFuncBatched`` / ``...SetIteratorFuncBatched``), which read and write
-  every body's position, angle, velocity and angular velocity through a ``pmFloatArray``;
-  ``cpConstraintSetMaxForce`` and ``cpSpaceSetIterations`` for a moving reset's settling
-  (:func:`settle`);
-- the function addresses come from pymunk's own cffi module (:data:`FUNCTIONS`), the object
-  addresses from the pymunk objects (:func:`address`); all are run-time arguments, so the
-  compiled code is cached on disk like the rest of the package.
-
-Why by hand: neither numba's cffi support (out-of-line modules need their C declarations
-registered, and Chipmunk passes ``cpVect`` structs by value) nor ctypes function objects
-(their addresses would be baked into the cache) fit; the calls used here take only pointers,
-doubles and ints, so one ``inttoptr`` + ``call`` intrinsic per C signature
-(``_c_function``) is the whole binding.  :data:`AVAILABLE` is ``False`` when pymunk's
-build does not have these functions with these signatures; the simulation then steps through
-cffi (:class:`~planar3p_gym.sim.physics.Planar3PSim`).
-
-The batch iterators append to the ``pmFloatArray`` from its ``num`` field on; :func:`advance`
-sets it to 0 before each pass (:func:`_store_int32` at the array's address: ``num`` is its
-first field, checked at import).
+* :func:`advance`: one projected control step (write the bodies, step the space, read them
+  back, project them with :func:`planar3p_gym.sim.projection.project_readout`, write them back);
+  :func:`planar3p_gym.sim.chipmunk.advance_batch` over a batch; :func:`settle`;
+* :data:`FUNCTIONS`, :func:`address`: the functions' and objects' addresses (run-time
+  arguments, so the compiled code is cached);
+* :data:`AVAILABLE`: ``False`` where pymunk's build lacks these functions (the simulation then
+  steps through cffi).
 """
 
 from __future__ import annotations

@@ -1,61 +1,18 @@
 """pymunk rigid-body model of the closed chain (no Gymnasium here).
 
-Bodies: 3 sliders, 3 legs (uniform rods), the platform (a uniform rod from ``G`` to ``C_1``);
-gravity along ``-y``.  Joints: each slider rides a groove along its rail whose ends are the
-hard stops of the stroke; revolute (pivot) joints at every ``B_i`` and ``C_i``.  There are no
-collision shapes: the mechanism's parts sit in different planes and never collide.
+Three sliders on grooves (the stroke's hard stops), three legs and the platform joined by
+pivots, gravity along ``-y``, no collision shapes; each slider driven by a force-limited
+velocity servo.  The solver settings, the projection's details and the snapshots are explained
+in docs/physics.md ("How the simulation modules work").
 
-Actuation: each slider is driven by a force-limited velocity servo: a constraint along the rail
-between the slider and a kinematic "drive" body moving at the commanded speed (a pin joint of
-length :data:`SERVO_ARM` lying along the rail), whose impulse is clamped to
-``design.max_force``.  Like a servo drive's velocity loop with position hold, it also removes a
-following error (the slider lagging its integrated command) at no more than
-:data:`SERVO_CORRECTION_SPEED`, and the following error is capped at
-:data:`FOLLOWING_ERROR_LIMIT` (after saturation the drive does not try to catch up more).  Near a
-parallel singularity the servos saturate as a real machine's would.
-
-A model is built from a pose and working mode with the exact inverse kinematics; spaces are
-never copied.  :meth:`Planar3PSim.reset` starts a new episode in the same space by moving the
-bodies (and clearing the solver's accumulated impulses): bit for bit the model a new build
-gives, at a fraction of its cost (``tests/sim/test_sim_reset.py``).
-
-Solver settings: joints drift apart when their bodies rotate (pymunk integrates positions to
-first order), by about ``h^2 omega^2 r / 2`` per physics step ``h``, and each step removes a
-share of the error (``error_bias``).  The platform's pivots ``C_i`` join two turning bodies and
-drift most, so they get a stronger correction (``platform_error_bias``); a stronger one
-everywhere would need more solver iterations to stay stable where holding the mechanism takes
-large forces.  ``tests/sim/test_physics.py`` checks the defaults against the fidelity bound.
-
-Projection (``projection=True``, used by ``Planar3P-v0``): after each control step the bodies
-are projected exactly back onto the constraint manifold (:mod:`planar3p_gym.sim.projection`:
-mass-weighted Newton steps on the three loop equations, velocities onto their tangent space,
-legs rebuilt from their joints) and written back into pymunk, which keeps doing the dynamics
-(gravity, force-limited servos, end stops).  The drift no longer accumulates, so the solver can
-run fewer substeps and iterations (:data:`PROJECTED_SUBSTEPS`, :data:`PROJECTED_ITERATIONS`).
-The reported ``closure_error`` is then the largest leg-length error left by the projection,
-or ``inf`` where the projection failed (no closed state with the sliders on their stroke near
-the simulated one, or a slider moved farther in the step than the rate limit allows: the
-projection's module docstring, "Failure"); the state is then not finite and the environments
-end the episode with ``"physics_breakdown"``.  The projection holds the end stops as
-constraints and bounds the slider rates (``tests/sim/test_end_stops.py``).
-Two details of the model differ with projection, both for what few solver iterations leave:
-the servo's arm is long (:data:`PROJECTED_SERVO_ARM`), so a slider's small excursions off its
-rail do not leak into the servo's direction; and the grooves only keep the sliders on their
-lines, the end stops being separate ``SlideJoint`` limits whose impulse is dropped whenever the
-slider leaves the stop (a groove's own ends keep a stale impulse after an impact, and with one
-substep a slider resting on the stop then bounced between two states).
-
-Imperfections (``dynamics=``, :class:`~planar3p_gym.sim.dynamics.MachineDynamics`; the
-machine as built): Coulomb friction of the sliders and joints as bounded-force velocity
-constraints added before the servos, viscous friction as explicit forces per physics step
-(:meth:`Planar3PSim._apply_viscous`; the hot loop then runs through pymunk's public API), a
-first-order lag of the servo setpoint velocity, a tilted gravity, scaled moments of inertia.
-The ideal machine (the default) adds nothing: the model is the one built without it.
-
-Snapshots: :meth:`Planar3PSim.get_state` / :meth:`Planar3PSim.set_state` restore a simulation
-bit for bit.  pymunk does not expose the solver's warm-start impulses, on which the next steps
-depend, so a snapshot records how the model was built and the commands it was stepped with, and
-restoring rebuilds the model and replays them (time proportional to the steps since the build).
+* :class:`Planar3PSim`: the model, built from a pose and working mode by the exact inverse
+  kinematics; :meth:`Planar3PSim.reset` moves it to a new episode bit for bit as a new build;
+  ``projection=True`` (every id) projects each control step onto the constraint manifold
+  (:mod:`planar3p_gym.sim.projection`);
+* ``dynamics=`` (:class:`~planar3p_gym.sim.dynamics.MachineDynamics`): the machine as built
+  (friction, servo lag, tilted gravity, inertia); the default adds nothing;
+* :meth:`Planar3PSim.get_state` / :meth:`Planar3PSim.set_state`: snapshots, restored bit for
+  bit by rebuilding and replaying the commands.
 """
 
 from __future__ import annotations
@@ -1183,7 +1140,7 @@ class Planar3PSim:
         they never read it) and drops the handles, so the model is freed by reference
         counting as soon as its last reference goes.  The handles are pymunk's private
         ``_data_handle`` attributes (pymunk 7, pinned); without them the objects are only
-        removed from the space and left to the collector as before."""
+        removed from the space and left to the collector."""
         if self._closed:
             return
         self._closed = True

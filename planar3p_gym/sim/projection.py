@@ -1,76 +1,17 @@
 """Post-stabilisation: put a simulated state exactly back on the mechanism's constraint manifold.
 
-pymunk integrates the bodies with an iterative constraint solver, so after each step the closed
-chain is slightly open (the joints drift apart) and its velocities slightly violate the joints.
-:class:`LoopProjector` removes both (a projection method in the sense of post-stabilisation of
-differential-algebraic equations):
+After each pymunk step the closed chain is slightly open and its velocities slightly violate
+the joints; :class:`LoopProjector` removes both by a mass-weighted projection (the derivation,
+the end stops, the rate limit and when it fails: docs/physics.md, "How the simulation modules
+work").
 
-* **Coordinates.** ``q = (rho_1, rho_2, rho_3, Q_x, Q_y, theta)``: the slider travels (m), the
-  position of a reference point ``Q`` of the platform (m) and its angle (rad).  ``Q`` is the
-  centre of mass of the platform with half of each leg's mass lumped at its joint ``C_i``, so
-  the metric below is diagonal.  Sliders sit exactly on their rails; each leg is placed exactly
-  from its two joints ``B_i``, ``C_i``, so only the three loop equations remain.
-* **Loop equations** ``f_i(q) = |C_i - B_i|^2 - L_i^2 = 0`` with ``B_i = (a_i + rho_i, 0)`` and
-  ``C_i = Q + r_i e(theta)``.  Row ``i`` of ``J = (1/2) df/dq`` is
-  ``[-u_ix at rho_i | u_ix, u_iy, r_i (u_iy cos theta - u_ix sin theta)]`` with
-  ``u_i = C_i - B_i``: full rank at parallel singularities (the ``rho`` block is
-  ``-diag(u_ix)``) unless a leg is also perpendicular to its rail.
-* **Metric** ``W = diag(m_rho, m_rho, m_rho, M, M, I_Q)`` (kg, kg m^2): each slider with half
-  of its leg (``m_rho = m_slider + m_leg / 2``), the platform with the other halves (``M``),
-  and the moment of inertia of that lumped platform about ``Q`` (the lumped-mass approximation
-  of the chain's kinetic-energy metric: the legs' rotational inertia is not in it).  A slider
-  whose servo is within its force limit is held by it (the servo is a constraint on its
-  velocity; its weight is infinite), so the correction moves the platform, which is then the
-  exact direct kinematics of the travels, and the servo keeps its travel; a saturated (or
-  released) servo's slider moves with its own mass.  Near a parallel singularity the platform
-  alone cannot close the loop (``J W^-1 J^T`` becomes singular when every slider is held:
-  its determinant relative to the product of its diagonal falls below
-  :data:`HELD_CONDITION`), and near a fold of the direct kinematics the held travels may have
-  no pose nearby (Newton has not converged after :data:`HELD_NEWTON_STEPS`); then the
-  projection starts again with every slider moving with its own mass.
-* **End stops** are constraints of the projection: a slider found past an end of its stroke
-  is put back just into contact with the stop (:data:`STOP_CONTACT`) and held there during
-  the projection, and so is a free slider that the correction would move past a stop (the
-  correction is then solved again from the start with it held: near a parallel singularity
-  the correction with free sliders can move them far along their rails).  Its velocity: zero
-  while its servo's setpoint lies beyond the stop (the servo pushes it onto the stop: it rests
-  there; the velocity the solver leaves after an impact would otherwise make it bounce off
-  and back every step), else only its component away from the stop is kept (it leaves).  A
-  slider held on a stop stays held when the projection starts again with free sliders.
-* **Positions**: Newton steps of the mass-weighted minimal correction
-  ``dq = -W^-1 J^T (J W^-1 J^T)^-1 f / 2`` until every leg-length error is below
-  :data:`POSITION_TOLERANCE` (m), at most :data:`MAX_NEWTON_STEPS`.
-* **Velocities**: ``q_dot`` is projected onto ``J q_dot = 0`` in the same metric,
-  ``q_dot' = q_dot - W^-1 J^T (J W^-1 J^T)^-1 J q_dot`` (the correction is the smallest change
-  of the kinetic energy measured by ``W`` that restores the joints, and never increases it).
-  **Rate limit**: where a slider would then be faster than ``(1 + RATE_ALLOWANCE) max_speed``
-  (:attr:`LoopProjector.rate_limit`), ``q_dot'`` is scaled down as a whole to it (it stays
-  tangent, sliders on a stop stay at rest or leaving, the kinetic energy only falls).
-* **Failure**: where no closed state with the sliders on their stroke is found near the
-  simulated one, the projection says so: :attr:`Projected.closure_error` is ``inf``, which
-  the simulation reports as a non-finite state and the environments as
-  ``"physics_breakdown"``.  That is when, with the sliders on stops held, the correction is
-  too ill-conditioned (every other slider already free: e.g. all three on stops at a
-  parallel singularity) or Newton leaves a leg-length error above :data:`MAX_CLOSURE_ERROR`,
-  and (given the control period ``dt``) when a slider ends farther from where it was at the
-  start of the step than the rate limit allows: its drive's setpoint then (known from the
-  readout: its position less the commanded velocity times ``dt``) is within the following
-  error of the slider, so the bound is ``following_error + rate_limit dt`` (21 mm on the
-  default design at 50 Hz; the servos move a slider 4 mm a step).  Near a parallel
-  singularity one step of the solver can leave the chain centimetres to metres open at many
-  m/s; without this test the correction turned that into a silent jump of the sliders.  The
-  failed state is still written back (travels put within the stroke, velocities as
-  simulated under the rate limit); the episode ends there.
-* **Legs** (positions, angles, velocities, angular velocities) are then recomputed from the
-  slider and platform values.
-
-The projection is defined once, in :func:`project_readout` (plain-float arithmetic with
-hand-written 3x3 solves, compiled by numba: it runs once per control step of every
-environment, where numpy's per-call overhead on 3x3 arrays would cost more than the work);
-:class:`LoopProjector` calls it for one simulation (through :func:`project_in_place`), as does
-the compiled control step of :mod:`planar3p_gym.sim.chipmunk`; :func:`project_row` is it for
-one row of a batch, which the native vector env's compiled step
-(:func:`planar3p_gym.sim.chipmunk.advance_batch`) loops over.
+* :func:`project_readout`: the one definition (plain floats, compiled by numba): Newton steps
+  of the minimal correction on the three loop equations, velocities onto their tangent space,
+  end stops held, slider rates limited, legs rebuilt;
+* :class:`LoopProjector` / :func:`project_in_place`: it for one simulation; :func:`project_row`
+  for one row of a batch (the native vector env's compiled step);
+* :class:`Projected`: the result; ``closure_error`` is ``inf`` where no closed state near the
+  simulated one exists (the environments end the episode with ``"physics_breakdown"``).
 """
 
 from __future__ import annotations

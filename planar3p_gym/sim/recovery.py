@@ -1,47 +1,14 @@
 """Constrained dynamics for the control steps pymunk's solver cannot close: a parallel singularity.
 
-Near a parallel singularity the servo-held chain locks (the platform has a free direction while
-the three servos ask for incompatible travels), pymunk's few solver iterations leave the chain
-centimetres open at many m/s, and the projection (:mod:`planar3p_gym.sim.projection`) finds no
-closed state near that one.  :func:`recover` then takes that control step again from its start,
-with a direct (not iterative) solution of the same model, and hands the state back to pymunk:
+Where the projection finds no closed state near pymunk's (the servo-held chain locks at a
+parallel singularity), :func:`recover` takes the control step again from its start with a
+direct solution of the same model and hands the state back to pymunk (the method:
+docs/physics.md, "How the simulation modules work"; why hand-written: the problem is 15
+coordinates, 12 equations and 3 bounded impulses, solved in compiled code once per rare step).
 
-* **Coordinates**: the bodies' own (maximal) coordinates, 15 numbers: each slider's position
-  along its rail, each leg's and the platform's position and angle, with their constant mass
-  matrix (pymunk's masses and moments: :func:`recovery_constants`), so the equations of motion
-  have no velocity terms; the 12 pivot equations at ``B_i`` and ``C_i`` close the loop.
-* **A substep** of ``h`` (s) is a symplectic Euler step of the constrained dynamics: applied
-  forces (gravity, viscous friction) for ``h``; the velocity projected onto the pivots'
-  tangent space in the mass metric; the three rail impulses (servos and end stops) from the
-  exact solution of their box-constrained problem in the space the pivots leave (each servo
-  holds its slider at its target velocity, the command plus the servo's error correction, with
-  at most ``max_force h``; a slider on an end stop is held there against any push into it);
-  positions advanced, a slider that crossed a stop put on it (its velocity into the stop
-  removed: an inelastic impact); positions projected back onto the pivots (Newton steps of the
-  mass-weighted minimal correction) and velocities onto their tangent space.  Both projections
-  are minimal corrections in the kinetic-energy metric: they never add kinetic energy.
-* **Regularisation**: at the singularity the servos' part of the problem is singular (the
-  servos cannot fix the platform's free direction); a servo compliance of
-  :data:`SERVO_COMPLIANCE` times the problem's scale makes it strictly convex, so the solution
-  is unique, and the servos saturate as a real machine's do.  The pivots' matrix gets a
-  relative ridge of :data:`PIVOT_RIDGE` (damped least squares: rank-deficient only with sliders
-  on stops at a singularity).
-* **Substeps**: the control period in :data:`SUBSTEPS` substeps; one whose position projection
-  does not converge is halved (down to ``2 ** -MAX_HALVINGS`` of a substep) and the step size
-  grows back after each success.  A step that still cannot be taken is a real breakdown
-  (:func:`recover` returns ``False``).
-* **Friction** of the machine as built: viscous, as an applied force; a slider's dry friction
-  in its rail impulse's bounds (against the servo's target motion); the joints' dry friction
-  as one clamped impulse per joint and substep after the rail impulses (each removes kinetic
-  energy; a sequential-impulse approximation of the coupled problem).  The servo lag is the
-  caller's (the commands passed are the lagged ones).
-
-The result is a readout (the 60 body values) that the caller projects with the one projection
-(:func:`planar3p_gym.sim.projection.project_readout`) and writes back into pymunk, whose solver
-then re-solves its cached joint impulses (:func:`planar3p_gym.sim.chipmunk.step_projected`).
-Why hand-written: the problem is 15 coordinates, 12 equations and 3 bounded impulses, solved
-in compiled code once per rare step; a general solver library would cost more to call than
-the work (docs/physics.md, "Crossing a parallel singularity").
+* :func:`recover`: the step in adaptive substeps (``False``: a real breakdown);
+* :func:`recovery_constants`: the bodies' masses and moments, pymunk's;
+* :data:`SUBSTEPS`, :data:`SERVO_COMPLIANCE`, :data:`PIVOT_RIDGE`: its settings.
 """
 
 from __future__ import annotations

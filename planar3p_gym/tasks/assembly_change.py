@@ -1,67 +1,18 @@
-"""Assembly-mode change: cross a parallel singularity with the dynamics
-(``Planar3PAssemblyChange-v0``).
+"""Assembly-mode change: the task of ``Planar3PAssemblyChange-v0`` (cross a parallel
+singularity with the dynamics; the id's page is
+:class:`planar3p_gym.envs.assembly_change.Planar3PAssemblyChangeEnv`).
 
-Start and target are in the same working mode but in opposite assembly modes (``sign det A``).
-No motion joins them without passing ``det A = 0``, where the actuators lose control of one
-direction of the platform: the crossing has to use the platform's inertia and gravity within
-the actuator force limits.  Crossing is the goal here, so it does not end the episode; a
-physics breakdown still does (a failure).
+Start and target are in the same working mode and opposite assembly modes; a pair is kept when
+its straight pose path crosses ``det A = 0`` exactly once within the margins and, by default,
+when a simulated demonstration motion gets there.  The feasibility checks, the working modes
+and why the registered machine is horizontal: docs/environments.md, "How the task modules
+work".
 
-**Feasibility (how the sampler checks it).**  Start and target are drawn like the reach task's
-poses (reachable, in stroke away from the end stops, both margins above thresholds, holdable
-with at most 75 % of the actuator force; :mod:`planar3p_gym.tasks.sampling`) in the episode's
-working mode, the target in the other assembly mode.  The pair is kept when
-
-1. *kinematics*: the straight path in pose space between them stays reachable within the
-   stroke (``CrossingLimits.travel_margin`` kept free), keeps every leg's serial margin above
-   ``CrossingLimits.min_serial_margin`` (so no working-mode change happens on the way), and
-   changes ``sign det A`` exactly once (:func:`crossing_path`); and
-2. *dynamics* (``verify=True``, the default): the demonstration motion of
-   :func:`demonstration_travels` -- the travels of that pose path followed slowly with a
-   minimum-jerk time law by the simulated, force-limited servos (:class:`TravelCurve`) --
-   ends, in the simulation the environment uses (same design, control rate, substeps, solver
-   iterations, projection), in the target's assembly mode within
-   ``CrossingLimits.verify_tolerance`` (pose distance) of the target with no physics
-   breakdown (:func:`verify_crossing`).  From there the target is a reach within one assembly
-   mode.  So every sampled episode has been crossed, in the same simulator, by an open-loop
-   command sequence a policy could issue.
-
-Working mode: the default design has poses in both assembly modes (holdable, with margins) only
-in the working modes ``(+1, +1, +1)``, ``(-1, -1, -1)`` and the sparsely populated
-``(+1, -1, +1)``, ``(-1, +1, -1)``; the registered id uses ``(+1, +1, +1)``.
-
-**Gravity.**  At a parallel singularity the platform has a free motion ``n`` the actuators
-cannot resist; a singular pose can be held at rest only where the weight does not push along
-``n``.  On the default design no singular pose of ``(+1, +1, +1)`` with serial margin >= 0.1 is
-such a pose (:func:`gravity_alignment`: ``|cos(n, c)| >= 0.12``), so under gravity the servos
-saturate near ``det A = 0`` and the platform falls across, usually onto another branch of the
-direct kinematics.  With the plain solver (8 substeps, 18 iterations) the demonstration
-motion ended within 1 cm of the target in 0 of 25 + 25 candidate pairs (peak slider rate 0.05
-and 0.2 m/s), so such a design is rejected at construction.  The projected physics
-(``projection=True``) lets half the candidates pass, but its energy balance through those
-crossings is off by about 1 J (the servos do 0.7 J; README, "Crossing fidelity"), so the
-registered id uses the default design mounted horizontally, ``gravity = 0``
-(:func:`planar3p_gym.envs.assembly_change.assembly_change_design`), where both physics agree.
-
-Episode spec: ``{"task": "assembly_change", "working_mode", "start", "target"}``.  Reset options:
-``start``, ``target``, ``working_mode`` (any subset; a requested pair must pass the checks,
-including the simulated demonstration when ``verify`` is on).
-
-Observation: the 31 reach entries, then ``target_travels`` (m, 3 entries),
-``target_assembly`` (+-1), and ``signed_parallel_margin`` (``sign det A`` times the parallel
-margin of the current configuration: it passes through 0 at the crossing).
-
-Metrics in ``info``: ``target_assembly``, ``in_target_assembly`` (``sign det A`` equals the
-target's), ``crossings`` (changes of ``sign det A`` so far).  Success: the reach test (pose
-within tolerances, at rest) in the target's assembly mode.
-
-Reward: the reach reward's terms except the parallel-margin barrier (the task is to pass the
-parallel singularity; the serial-margin barrier stays).
-
-This module holds the task; the feasibility checks are in
-:mod:`planar3p_gym.tasks.crossing_checks`, the demonstration motion in
-:mod:`planar3p_gym.tasks.travel_motion` and the gravity analysis in
-:mod:`planar3p_gym.tasks.singular_gravity` (their names are re-exported here).
+* :class:`AssemblyChangeTask`, :class:`CrossingLimits`: the task and its checks' limits;
+* re-exported for the task's users: :func:`crossing_path`, :func:`verify_crossing`
+  (:mod:`planar3p_gym.tasks.crossing_checks`), :func:`demonstration_travels`,
+  :class:`TravelCurve`, :func:`pose_path_travels` (:mod:`planar3p_gym.tasks.travel_motion`),
+  :func:`gravity_alignment` (:mod:`planar3p_gym.tasks.singular_gravity`), ``SimFactory``.
 """
 
 from __future__ import annotations
@@ -102,9 +53,8 @@ __all__ = [
 ]
 
 #: Candidate pairs tried per working mode at construction to show that episodes exist.  With
-#: 20, a mode whose true rate is 0.28 (the unprojected model under gravity: 60 of 200 in a
-#: longer probe) passes the 50 % bar with a probability of about 3 % (binomial); with the 10
-#: tried before, about 15 %, and one of the random streams did.
+#: 20, a mode whose true feasible rate is 0.28 passes the bar of :data:`MIN_FEASIBLE_RATE`
+#: (0.5) with a probability of about 3 % (binomial).
 BIND_TRIES = 20
 #: ... drawn from this many independent samplers (fixed seeds 0, 1, ...).
 BIND_SEEDS = 5

@@ -1,60 +1,19 @@
 """The task interface: what an environment id asks of the machine.
 
-:class:`planar3p_gym.envs.core.Planar3PEnv` owns the physics (a :class:`~planar3p_gym.sim.physics.
-Planar3PSim`), the action parsing, the configuration measures and the physics-breakdown test;
-a :class:`Task` owns everything that makes an episode a particular problem.  The environment
-calls, in this order:
+:class:`planar3p_gym.envs.core.Planar3PEnv` owns the physics, the action parsing, the
+configuration measures and the physics-breakdown test; a :class:`Task` owns everything that
+makes an episode a particular problem.  The contract every task meets (episode specs that
+replay, validated requests, sampling that never raises, determinism, metrics, reward,
+snapshots, settings, observation) is in ``docs/adding_a_task.md``, "The task contract".
 
-1. :meth:`Task.bind` once in ``Planar3PEnv.__init__``, then :meth:`Task.kernel`.
-2. On ``reset(seed, options)``: :meth:`Task.reset_options` and so :meth:`Task.check_options`
-   (before the environment is seeded: a rejected reset changes nothing), then
-   :meth:`Task.reseed` if a seed was given, then :meth:`Task.episode_spec` (draws everything
-   random from ``env.np_random``), then :meth:`Task.begin` with that spec, which returns the
-   start pose and the working mode the simulation is built from.
-3. On every ``step``, the task's kernel (:meth:`Task.kernel`, :mod:`planar3p_gym.tasks.kernel`),
-   handed the state after the physics step: the reference kernel calls :meth:`Task.reference`
-   for the pose the observation and errors refer to at the new step,
-   :meth:`Task.observation_extra`, :meth:`Task.termination`, :meth:`Task.reward_terms` and
-   :meth:`Task.step_info` (metrics merged into ``info``), each with the state and the measures
-   the environment computed; a compiled kernel is the same definitions compiled.
-
-Contract every task must meet (the fixed benchmark suites and the tests rely on it):
-
-* **Episode spec.**  :meth:`Task.episode_spec` returns a JSON-serialisable ``dict`` (only
-  ``str``, ``int``, ``float``, ``bool``, ``None``, lists and dicts; poses as lists of floats in
-  m, m, rad) that fully describes the episode: it always has ``"task"`` (the task's
-  :attr:`Task.name`), ``"working_mode"`` (three ints) and ``"start"`` (the start pose), plus
-  the task's own keys (e.g. ``"target"`` or a reference trajectory).  The environment puts it
-  in ``info["episode_spec"]`` at reset.  ``reset(options=spec)`` with such a spec (also after a
-  ``json.dumps``/``json.loads`` round trip) replays exactly that episode: same start, same
-  targets or reference, so the same actions give bit-identical observations and rewards.  The
-  keys of a spec are therefore all accepted by :meth:`Task.check_options`, and
-  :attr:`Task.option_keys` lists them (``"task"`` is accepted by every task and must equal
-  :attr:`Task.name`).
-* **Requested episodes are validated.**  An infeasible requested start, target or reference
-  (unreachable, at a singularity, in the wrong assembly mode for the task, ...) raises
-  ``ValueError`` with a message naming the option and the reason.
-* **Sampling never raises.**  ``reset()`` without options never raises on valid settings: when a
-  draw fails a constraint the task draws again (all from ``env.np_random``); a setting under
-  which no episode exists is rejected in the constructor (``ValueError``) instead.
-* **Determinism.**  Every random number comes from the generator passed to
-  :meth:`Task.episode_spec`; caches are dropped in :meth:`Task.reseed`.
-* **Metrics.**  Per-step and episode metrics are in ``info`` under the keys of
-  :attr:`Task.metric_keys`, documented in the task's docstring (e.g. ``tracking_rms_error``,
-  running over the steps so far, so the value in the last ``info`` of an episode is the
-  episode's).  ``info["is_success"]`` and ``info["termination_reason"]`` keep their meaning
-  for every task (``termination_reason`` is one of :attr:`Task.termination_reasons` or None).
-* **Reward.**  :meth:`Task.reward_terms` returns the weighted terms; the reward is their sum
-  and they are reported in ``info["reward_terms"]``.  Every value is finite.
-* **Snapshots.**  ``Planar3PEnv.get_state``/``set_state`` copy the task's attributes (all but
-  ``env``) with ``copy.deepcopy`` unless the task defines ``get_state()``/``set_state(state)``:
-  keep per-episode state in plain, deep-copyable attributes, or define those two methods.
-* **Settings.**  :meth:`Task.arguments` returns the constructor arguments as plain data; it
-  goes into ``env.config()["task_arguments"]`` (run records, snapshot compatibility).
-* **Observation.**  The flat observation is the 31 entries of
-  :mod:`planar3p_gym.tasks.observation`, computed against the current reference pose (the target of
-  a reach), followed by :meth:`Task.observation_extra` (bounds from
-  :meth:`Task.observation_bounds`); tasks with nothing extra keep exactly 31 entries.
+* :class:`Task`: the hooks the environment calls -- :meth:`Task.bind` and :meth:`Task.kernel`
+  at construction; :meth:`Task.reset_options` (:meth:`Task.check_options`),
+  :meth:`Task.reseed`, :meth:`Task.episode_spec` and :meth:`Task.begin` at a reset; per step,
+  through the task's kernel (:mod:`planar3p_gym.tasks.kernel`), :meth:`Task.reference`,
+  :meth:`Task.observation_extra`, :meth:`Task.termination`, :meth:`Task.reward_terms` and
+  :meth:`Task.step_info`;
+* :class:`TaskEnv`: what a task may read of the environment;
+* :func:`copy_spec`, :func:`pose_list`: episode-spec helpers.
 """
 
 from __future__ import annotations

@@ -1,39 +1,17 @@
-"""Goal-conditioned reach: the goal vectors, the vectorised success test and reward.
+"""Goal-conditioned reach: the goal vectors, the vectorised success test and reward (the task of
+``Planar3PGoal-v0`` and ``Planar3PGoalDense-v0``; the ids' page is
+:class:`planar3p_gym.envs.goal.Planar3PGoalEnv`).
 
-A goal is ``(x, y, cos theta, sin theta, v)`` (m, m, 1, 1, m/s), float32: the gripper pose,
-with the angle through ``cos``/``sin`` so that goals have no wrap-around, and a slider speed
-``v``.  The achieved goal carries the fastest slider's speed ``max_i |rho_dot_i|``; the
-environment's desired goals carry ``v = 0``.  Success: position error within
-``position_tolerance`` (m), orientation error within ``orientation_tolerance`` (rad) and
-achieved speed at most the desired speed plus ``rest_speed`` (m/s), i.e. "at the pose and at
-rest" for the environment's own goals.  The orientation error of an achieved goal ``a`` against
-a desired goal ``d`` is ``atan2(a_c d_s - a_s d_c, a_c d_c + a_s d_s)`` (rad, in
-``[-pi, pi]``), independent of the vectors' lengths.
+A goal is ``(x, y, cos theta, sin theta, v)`` (m, m, 1, 1, m/s), float32: the gripper pose and
+a slider speed, so that hindsight relabelling can recompute every reward from the goals alone
+(why, and what ``info`` adds: docs/environments.md, "How the task modules work").  Each formula
+is defined once and compiled; the numpy API loops the same functions over a batch, so
+``env.compute_reward`` equals the returned reward bit for bit.
 
-Why the speed is in the goal: hindsight relabelling (SB3's ``HerReplayBuffer``) recomputes
-rewards from the goals alone (it passes empty ``info`` dicts unless ``copy_info_dict=True``), so
-everything the success test needs must be in the goals; a relabelled goal then means "be at
-that pose no faster than it was passed", and the reward the environment would have returned
-for it is exactly what :func:`goal_reward` gives.
-
-The goal-independent part of the reward is a property of the transition, carried by the step's
-``info``: ``info["goal_free_reward"]`` (the weighted singularity penalty, action effort and
-failure penalty for the dense reward; the failure penalty alone for the sparse one) and
-``info["failure"]`` (the step ended the episode by a singularity crossing or a physics
-breakdown).  With those infos (``copy_info_dict=True``) relabelled rewards are exact; with empty
-infos those terms count as 0 and a failure as absent (the goal-dependent part stays exact).
-
-Each formula is defined once and compiled: :func:`goal_test` (errors and success of a goal
-pair), :func:`goal_reward_value` (the reward of a pair) and :func:`write_achieved_goal` (the
-goal vector of a state).  The environment evaluates the goals it returns once per step with
-them (:meth:`GoalTask.evaluate`, in its termination test; the observation and the reward read
-that evaluation), and the numpy API (:func:`goal_success`, :func:`goal_reward`,
-:func:`goal_errors`) loops the same functions over a batch (:func:`goal_tests`,
-:func:`goal_rewards`), so ``env.compute_reward(obs["achieved_goal"], obs["desired_goal"],
-info)`` equals the returned reward bit for bit, for single goals and batches alike.
-
-Episode spec: the reach spec (``task`` is ``"goal"``) plus, when the goal was requested as a
-vector (``reset(options={"desired_goal": g})``), ``"desired_goal"`` (5 floats).
+* :func:`goal_test`, :func:`goal_reward_value`, :func:`write_achieved_goal`: the compiled
+  definitions; :func:`goal_tests`, :func:`goal_rewards`: their batches;
+* :func:`goal_success`, :func:`goal_reward`, :func:`goal_errors`: the numpy API;
+* :class:`GoalTask`: the reach task with a goal vector; :class:`GoalKernel`: its step outputs.
 """
 
 from __future__ import annotations

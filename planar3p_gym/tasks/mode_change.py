@@ -1,58 +1,16 @@
-"""Working-mode change: reach a target pose in another working mode (``Planar3PModeChange-v0``).
+"""Working-mode change: the task of ``Planar3PModeChange-v0`` (reach a target pose in another
+working mode; the id's page is :class:`planar3p_gym.envs.mode_change.Planar3PModeChangeEnv`).
 
-The start is in working mode ``sigma_s`` and the target in ``sigma_t``, which differ in at least
-one leg (``sign cos alpha_i``); such a leg must swing through the perpendicular to its rail (a
-serial singularity) on the way.  That is allowed here; a parallel-singularity crossing (a change
-of ``sign det A``) and a physics breakdown still end the episode as failures.
+Start and target differ in the working mode of ``flips`` legs, which must pass a serial
+singularity on the way; a pair is kept only with a feasibility certificate
+(:func:`planar3p_gym.tasks.joint_paths.find_joint_path`).  How the sampler certifies a pair and
+which working-mode pairs exist on the default design: docs/environments.md, "How the task
+modules work".
 
-**Feasibility (how the sampler checks it).**  Start and target are drawn like the reach task's
-poses (reachable, in stroke away from the end stops, both margins above thresholds, holdable
-with at most 75 % of the actuator force; :mod:`planar3p_gym.tasks.sampling`), the target in
-``sigma_t`` with the start's assembly mode.  The pair is kept only with a certificate from
-:func:`planar3p_gym.tasks.joint_paths.find_joint_path`: a piecewise-straight path of the
-slider travels (the straight line, or two lines through an intermediate pose with every
-flipping leg upright) along which the direct-kinematics branch that starts at the start pose
-(followed by continuity at ``PathLimits.points`` points per line) stays unambiguous, keeps a
-parallel margin of at least ``PathLimits.min_parallel_margin`` (0.02), needs at most
-``PathLimits.max_holding_force`` (90 %) of the actuator force to be held at rest at every
-point, stays in the stroke, and ends exactly (within 1e-6 m) at the target pose, i.e. in the
-target working mode.  A slow enough motion along that path is a sequence of holdable,
-well-conditioned equilibria through the leg's upright position: the episode is solvable within
-the actuator limits.  (``planar3p_agents.controllers.planner.JointPathPlanner`` follows the same
-certificate.)
-
-Working-mode pairs: the start mode is drawn from the environment's modes; the target mode from
-the modes that differ in ``flips`` legs (default: exactly one) and for which the task found a
-certified pair at construction (a fixed internal seed, so the list never consumes the episode's
-random stream).  On the default design from the default mode ``(+1, +1, -1)`` this is
-``(+1, +1, +1)`` (leg 3 flips): ``(+1, -1, -1)`` has no acceptable pose in the start's assembly
-mode, and ``(-1, +1, -1)`` so few (about 1 random pose in 4,000 meets the margins) that the
-construction-time check finds none.  From ``(+1, +1, -1)``, flipping two or three legs at once
-failed the certificate for all 10 pairs tried per target mode (the straight travel line loses
-its branch, i.e. passes near a parallel singularity, and no upright-leg waypoint helps); with
-``working_mode="random"`` and ``flips=2`` the construction-time check finds no pair either
-(some two-leg flips from ``(-1, -1, -1)`` do pass, but too rarely for it), and the
-constructor says so (``ValueError``).
-
-Episode spec: ``{"task": "mode_change", "working_mode": sigma_s, "start": pose, "target": pose,
-"target_working_mode": sigma_t}``.  Reset options: the same keys (any subset).
-
-Observation: the 31 reach entries (errors against the target pose) followed by
-``target_travels`` (the target's slider travels, m, 3 entries) and ``target_working_mode``
-(``sigma_t``, 3 entries of +-1).
-
-Metrics in ``info``: ``target_working_mode`` (tuple), ``in_target_mode`` (every leg's
-``sign cos alpha_i`` equals ``sigma_t``), ``legs_to_flip`` (number of legs not yet in their
-target mode).  Success: the reach test (pose within tolerances, at rest) and ``in_target_mode``.
-
-Reward: the reach reward's terms (:mod:`planar3p_gym.tasks.rewards`) except that the serial-margin
-barrier is left out (the task requires passing a serial singularity; the parallel-margin
-barrier stays).  With ``travel_shaping = w > 0`` a term ``travel = -w * sum_i |rho_i -
-rho_i^t| / L`` (``rho^t`` the target's travels in ``sigma_t``, ``L`` the design's
-characteristic length) is added: the pose error alone pulls towards the target pose in the
-*current* working mode, the travel term towards the travels that put the leg in ``sigma_t``.
-It changes only the reward (the success test is the same); the default 0 leaves the id's
-reward as documented above.
+* :class:`ModeChangeTask`: the task (sampling, success in the target mode, the reward without
+  the serial barrier, the optional travel term);
+* :func:`leg_modes`, :func:`single_flip_modes`: working modes of a configuration and the modes
+  one or more flips away.
 """
 
 from __future__ import annotations

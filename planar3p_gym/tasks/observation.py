@@ -1,41 +1,13 @@
 """The observation vector of ``Planar3P-v0``: layout, bounds and construction.
 
 A flat ``float32`` vector, SI units, every entry documented and bounded (values are clipped to
-the bounds, which only bind in physically extreme states):
+the bounds, which bind only in physically extreme states); the layout index by index is on every
+id's page (docs/environments.md has it with the reasons for the ``fine_error`` block).
 
-======  ======================  =============================================  ==============
-index   name                    meaning                                        unit
-======  ======================  =============================================  ==============
-0-2     ``rho``                 slider travels ``rho_i``                       m
-3-5     ``rho_dot``             slider travel rates                            m/s
-6-7     ``position``            gripper point ``G = (x, y)``                   m
-8-9     ``orientation``         ``cos theta, sin theta``                       1
-10-11   ``velocity``            velocity of ``G``                              m/s
-12      ``angular_velocity``    ``theta_dot``                                  rad/s
-13-18   ``legs``                ``cos alpha_i, sin alpha_i`` for legs 1, 2, 3  1
-19-20   ``target_position``     target gripper point                           m
-21-22   ``target_orientation``  ``cos, sin`` of the target angle               1
-23-24   ``position_error``      target position minus ``G``                    m
-25      ``orientation_error``   target angle minus ``theta``, in ``(-pi, pi]`` rad
-26      ``parallel_margin``     inverse condition number of ``A_bar``          1
-27      ``serial_margin``       ``min_i |cos alpha_i|``                        1
-28-30   ``fine_error``          ``tanh`` of the errors ``dx, dy, L_ref dtheta``  1
-                                over :data:`FINE_ERROR_SCALE` (1 cm)
-======  ======================  =============================================  ==============
-
-The ``fine_error`` block repeats the pose error on a millimetre scale, saturating beyond a few
-centimetres, so that a learned policy sees the last millimetres as clearly as the first
-decimetres (after observation normalisation the raw errors of a few millimetres are tiny).
-
-With ``travel_goal=True`` (reach task only) the environment appends the goal in joint space,
-:data:`TRAVEL_GOAL_FIELDS`, after any entries of the task:
-
-======  ======================  =============================================  ==============
-+0-2    ``target_rho``          slider travels of the target pose in the       m
-                                episode's working mode (inverse kinematics)
-+3-5    ``fine_travel_error``   ``tanh`` of ``target_rho - rho`` over          1
-                                :data:`FINE_ERROR_SCALE` (1 cm)
-======  ======================  =============================================  ==============
+* :data:`OBS_FIELDS`, :data:`SLICES`, :data:`OBS_SIZE`: the 31 entries (name, size, meaning);
+* :data:`TRAVEL_GOAL_FIELDS`: the joint-space goal ``travel_goal=True`` appends (reach only);
+* :func:`bounds`, :func:`observation_space`: the bounds; :func:`write_reach_values`,
+  :func:`build_observation`: the one construction; :func:`within_tolerances`: the success test.
 """
 
 from __future__ import annotations

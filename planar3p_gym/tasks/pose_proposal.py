@@ -1,29 +1,14 @@
 """Where the task samplers propose poses: a region of ``(x, y, theta)`` that holds every pose
 reachable in a working mode with its travels in a band, far smaller than the search box.
 
-The samplers draw poses uniformly and keep the acceptable ones (:mod:`.sampling`); what they
-keep is uniform over the acceptable poses whatever uniform region they draw from, provided the
-region contains all of them.  Drawing from the search box (``x`` over the search rectangle,
-``0 <= y <= h``, ``theta`` in ``[-pi, pi)``) wastes most draws on poses whose legs cannot reach
-their rails; the region here, a stack of boxes over bins of ``theta``, holds between 5 and 13 %
-of the search box for the paper's design and loses none of the acceptable poses.
+Rejection sampling keeps a uniform distribution over the acceptable poses whatever uniform
+region it draws from, provided the region contains them all; this one, a stack of boxes over
+bins of ``theta`` bounded with the machine's own inverse kinematics, holds 5 to 13 % of the
+search box on the paper's design (the bounds, and why not a library: docs/environments.md,
+"How the task modules work").
 
-For ``theta`` in a bin, leg ``i`` closes with its travel ``rho_i`` in ``[lo, hi]`` only if
-
-- ``|C_iy| <= L_i``, where ``C_iy = y + k_i sin theta``: ``y`` in
-  ``[-L_i - k_i max sin, L_i - k_i min sin]`` (``k_i = L_iG >= 0``, extremes over the bin);
-- ``C_ix = a_i + rho_i + sigma_i w_i``, ``w_i = sqrt(L_i^2 - C_iy^2)``, where ``C_ix = x + k_i
-  cos theta``: ``x`` in ``[a_i + lo + min(sigma_i w_i) - k_i max cos, a_i + hi + max(sigma_i
-  w_i) - k_i min cos]``, the extremes of ``w_i`` over the ``|C_iy|`` the ``y`` interval allows.
-
-The box of a bin is the intersection of these intervals over the three legs and the search
-rectangle.  Bin edges fall on multiples of ``pi / 2``, so ``sin`` and ``cos`` are monotonic in
-every bin and their extremes are at its edges.  :func:`propose` maps uniform numbers to poses
-uniform over the union of the boxes: one number picks ``theta`` by the inverse of the
-piecewise-linear cumulative volume, the others place ``x`` and ``y`` in that bin's box.
-
-Written here rather than taken from a library: it is a dozen lines of the machine's own
-inverse kinematics (``kinematics._leg_travel``), bounded over intervals.
+* :func:`pose_proposal`, :class:`PoseProposal`: the region of a working mode and travel band;
+* :func:`propose`: uniform numbers to poses uniform over it.
 """
 
 from __future__ import annotations

@@ -1,30 +1,17 @@
 """The outputs of one step of the reach task on the projected physics, fused (``Planar3P-v0``).
 
-After :class:`planar3p_gym.sim.physics.Planar3PSim` has projected the state onto the constraint
-manifold it knows the leg vectors ``u_i = C_i - B_i`` (m) and ``cos/sin theta`` at the new pose
-(``sim.geometry``).  :class:`ReachStep` computes from them, in one pass of plain-float
-arithmetic, what the reference kernel (:class:`planar3p_gym.tasks.kernel.StepKernel`) computes
-through
-:class:`~planar3p_gym.machine.scalar_kinematics.ScalarKinematics`,
-:func:`~planar3p_gym.tasks.observation.build_observation`, the task's hooks and
-:func:`~planar3p_gym.tasks.rewards.reward_terms`: the configuration measures, the observation, the
-errors to the target, the termination and the reward terms.  The formulas are those; only
-intermediate values are shared (``cos alpha_i = u_ix / |u_i|`` instead of ``cos(atan2(...))``,
-``|dp|`` as ``sqrt(dx^2 + dy^2)``), so the numbers agree with the reference kernel to float64
-rounding (``tests/sim/test_batch_step.py``).
+From the projection's state array (leg vectors and ``cos/sin theta`` at the new pose),
+:func:`reach_outputs` computes in one compiled pass what the reference kernel
+(:class:`planar3p_gym.tasks.kernel.StepKernel`) computes through the scalar kinematics, the
+observation, the task's hooks and the reward terms, calling the one definition of each formula;
+the numbers agree with the reference to float64 rounding (``tests/sim/test_batch_step.py``;
+details: docs/environments.md, "How the task modules work").
 
-The pass is one compiled call, :func:`reach_outputs`, from the projection's state array (the
-23 numbers the projector keeps as ``LoopProjector.last_state``,
-:class:`planar3p_gym.sim.projection.LoopProjector`), and it calls the one definition of each
-formula (:func:`~planar3p_gym.machine.margins.leg_margins`,
-:func:`~planar3p_gym.tasks.observation.write_reach_values`,
-:func:`~planar3p_gym.tasks.observation.within_tolerances`,
-:func:`~planar3p_gym.tasks.rewards.weighted_terms`).  The reach kernel
-(:class:`planar3p_gym.tasks.kernel.ReachKernel`) and the native vector env's scalar batch call
-it through :meth:`ReachStep.compute`; the vector env's
-compiled step (:func:`planar3p_gym.envs.batch_kernel.reach_batch_step`) through
-:func:`reach_outputs_batch`, the same function in a compiled loop over the batch's projected
-states, so all three give the same numbers bit for bit.
+* :func:`reach_outputs`, :class:`ReachStep`: one step (the reach kernel and the vector env's
+  scalar batch);
+* :func:`reach_outputs_batch`, :class:`BatchReach`: the same function in a compiled loop over a
+  batch (the native vector env's compiled step);
+* :data:`RESULT_FIELDS`, :data:`REASONS`: the layout of the result.
 """
 
 from __future__ import annotations

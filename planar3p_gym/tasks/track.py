@@ -1,53 +1,15 @@
-"""Trajectory tracking: follow a moving reference pose.
+"""Trajectory tracking: the task of ``Planar3PTrack-v0`` (follow a moving reference pose; the
+id's page is :class:`planar3p_gym.envs.track.Planar3PTrackEnv`).
 
-Two kinds of reference (constructor argument ``reference``):
+The references (``"segments"``, ``"figure_eight"``, ``"mixed"``) are drawn, checked along their
+whole length and tracked here; their form and the pose and velocity at a time are in
+:mod:`planar3p_gym.tasks.track_references`.  How each kind is drawn and the episode spec:
+docs/environments.md, "How the task modules work".
 
-* ``"segments"``: smooth random segments.  Waypoints are drawn like reach targets
-  (:func:`planar3p_gym.tasks.sampling.sample_pair`: reachable in the episode's working mode with the
-  task's margins, holdable, same assembly mode, the straight path between consecutive waypoints
-  clear of singularities); each segment follows the straight pose path with the minimum-jerk
-  time law ``s(u) = 10 u^3 - 15 u^4 + 6 u^5`` (velocity and acceleration zero at the
-  waypoints), with a duration making the largest slider rate the exact kinematics needs
-  ``speed_fraction * max_speed``.  Segments are added until they last ``duration`` seconds;
-  the reference then stays at the last waypoint.
-* ``"figure_eight"``: ``x = cx + ax sin phi``, ``y = cy + ay sin 2 phi``,
-  ``theta = ctheta + atheta sin phi`` around an acceptable centre pose; amplitudes are drawn
-  from :data:`EIGHT_AMPLITUDES` (scaled down by :data:`EIGHT_SCALES` until it fits) and the
-  whole closed curve is checked like a reach path (within the stroke with ``travel_margin``,
-  path margins, same assembly mode); the phase advances at
-  ``2 pi / period`` after a smooth ramp of ``ramp`` seconds from rest, and the period makes the
-  largest slider rate ``speed_fraction * max_speed`` at full speed.  Working modes in which
-  eights hardly fit (on the default design (1, -1, 1) and (-1, 1, -1), whose reachable regions
-  are too thin for an eight of more than a few millimetres) are left out of the random draw, and
-  a fixed one is rejected in the constructor.
-* ``"mixed"`` (a training aid): each episode draws one of the two kinds above with equal
-  probability (from the episode's random stream, before its working mode), so one policy can
-  be trained on both; replayed episodes carry their own kind.
-
-The episode starts at rest at the reference's initial pose.  Observation: the 31 entries of
-``Planar3P-v0`` against the current reference pose (target position/orientation = reference,
-errors to it), then the reference velocity ``(x_dot, y_dot, theta_dot)`` (m/s, m/s, rad/s).
-Reward: the reach reward's per-step terms against the reference (pose error, precision term,
-singularity penalty, action effort, failure penalty), no success bonus; the episode ends only by
-failure (singularity crossing, physics breakdown) or the time limit.
-
-Metrics in ``info`` (running over the steps so far; the last ``info`` of an episode holds the
-episode's values; 0 at reset):
-
-* ``tracking_error``: this step's ``|dp| + L_ref |dtheta|`` to the reference (m);
-* ``tracking_rms_error``, ``tracking_max_error``: RMS and maximum of it (m);
-* ``tracking_rms_position_error``, ``tracking_max_position_error``: of ``|dp|`` (m);
-* ``tracking_rms_orientation_error``, ``tracking_max_orientation_error``: of ``|dtheta|`` (rad).
-
-Episode spec: ``{"task": "track", "working_mode": [...], "start": [x, y, theta],
-"reference": R}`` with ``R = {"kind": "segments", "waypoints": [[x, y, theta], ...],
-"durations": [s, ...]}`` or ``{"kind": "figure_eight", "centre": [x, y, theta],
-"amplitude": [ax, ay, atheta], "period": T, "ramp": Tr}`` (m, rad, s).  Reset options:
-``working_mode``, ``start`` (the reference begins there) and ``reference`` (validated:
-``ValueError`` if it leaves the workspace or its margins).
-
-The references themselves (their form and the pose and velocity at a time) are in
-:mod:`planar3p_gym.tasks.track_references`; this module draws, checks and tracks them.
+* :class:`TrackTask`: the task (reference drawn at reset, errors and reward against it, the
+  metrics :data:`TRACKING_METRICS`); :class:`TrackKernel`: its compiled step outputs;
+* :data:`EIGHT_AMPLITUDES`, :data:`EIGHT_SCALES`: the figure-eight's amplitudes and their
+  scale-downs.
 """
 
 from __future__ import annotations
