@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 import operator
 from collections import deque
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import asdict, dataclass, replace
 from functools import lru_cache
 from typing import Any
@@ -388,14 +388,24 @@ def pose_yield(design: Design, mode: ArrayLike, cfg: TaskConfig) -> float:
 
 @lru_cache(maxsize=256)
 def _pose_yield(design: Design, mode: tuple[int, int, int], cfg: TaskConfig) -> float:
+    found = sum(len(poses) for poses, _ in _fixed_seed_batches(design, mode, cfg, YIELD_BATCHES))
+    return found / YIELD_BATCHES
+
+
+def _fixed_seed_batches(
+    design: Design, mode: ArrayLike, cfg: TaskConfig, batches: int
+) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """``(poses, assembly)`` of each of ``batches`` batches of :func:`sample_poses` (one batch
+    each) drawn with the fixed internal seed 0, the batches that found no pose left out: the
+    searches of :func:`pose_yield`, :func:`check_mode` and :func:`assembly_modes` (the episode's
+    random stream is not touched)."""
     rng = np.random.default_rng(0)
-    found = 0
-    for _ in range(YIELD_BATCHES):
+    for _ in range(batches):
         try:
-            found += len(sample_poses(design, mode, rng, cfg, max_batches=1)[0])
+            found = sample_poses(design, mode, rng, cfg, max_batches=1)
         except ValueError:
             continue
-    return found / YIELD_BATCHES
+        yield found
 
 
 def refill_batch(design: Design, mode: ArrayLike, cfg: TaskConfig, need: int) -> int:
@@ -729,15 +739,10 @@ def has_pairs(design: Design, mode: ArrayLike, cfg: TaskConfig) -> bool:
 @lru_cache(maxsize=256)
 def _mode_problem(design: Design, mode: tuple[int, int, int], cfg: TaskConfig) -> str | None:
     """Why ``mode`` has no usable pair (see :func:`check_mode`), or ``None``."""
-    rng = np.random.default_rng(0)
     m = np.asarray(mode, dtype=np.float64)
     pools: dict[float, list[np.ndarray]] = {1.0: [], -1.0: []}
     found = 0
-    for _ in range(CHECK_BATCHES):
-        try:
-            poses, dets = sample_poses(design, m, rng, cfg, max_batches=1)
-        except ValueError:
-            continue
+    for poses, dets in _fixed_seed_batches(design, m, cfg, CHECK_BATCHES):
         found += len(poses)
         for pose, det in zip(poses, dets.tolist(), strict=True):
             others = pools[det]
@@ -775,13 +780,8 @@ def assembly_modes(design: Design, mode: ArrayLike, cfg: TaskConfig) -> frozense
 def _assembly_modes(
     design: Design, mode: tuple[int, int, int], cfg: TaskConfig
 ) -> frozenset[float]:
-    rng = np.random.default_rng(0)
     found: set[float] = set()
-    for _ in range(ASSEMBLY_BATCHES):
-        try:
-            _, asm = sample_poses(design, mode, rng, cfg, max_batches=1)
-        except ValueError:
-            continue
+    for _, asm in _fixed_seed_batches(design, mode, cfg, ASSEMBLY_BATCHES):
         found |= set(asm.tolist())
         if len(found) == 2:
             break
