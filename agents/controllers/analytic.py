@@ -1,38 +1,18 @@
 """The paper's analytic controller: the "simple motions" of ``docs/mechanism.md``.
 
-Solving ``A p_dot = B rho_dot`` row by row gives, wherever ``cos alpha_i != 0``::
+Solving ``A p_dot = B rho_dot`` row by row gives the slider rates of a platform twist from the
+measured leg angles and platform angle alone
+(:func:`planar3p_gym.machine.kinematics.simple_motion_basis`); :class:`AnalyticController`
+turns the observed pose error into a twist with proportional gains and maps it to slider rates,
+saturating uniformly and flooring ``|cos alpha_i|`` at ``serial_epsilon`` (why, and the two
+modes in full: docs/controllers.md, "How the controller modules work").
 
-    rho_dot_i = x_dot + y_dot tan(alpha_i) + theta_dot L_iG sin(alpha_i - theta) / cos(alpha_i)
-
-so the slider rates of a platform twist need only the measured leg angles ``alpha_i`` and the
-platform angle ``theta``.  :class:`AnalyticController` turns the pose error carried by the
-observation into a twist with proportional gains and maps it to slider rates with that formula:
-
-* ``"simultaneous"``: the three simple motions superposed, i.e. exact resolved-rate control
-  ``twist = (k_p e_x, k_p e_y, k_theta e_theta)``; the gripper moves along the straight line
-  in pose space towards the target (as long as the rates do not saturate unevenly, which the
-  uniform scaling below prevents).
-* ``"sequential"``: the paper's way, one simple motion at a time: pure rotation about ``G``
-  until the orientation error is small, then vertical translation, then horizontal
-  translation (all sliders at the gripper's speed).  A small per-environment state machine,
-  with hysteresis, goes back to an earlier phase when its error grows again.
-
-Both modes saturate by scaling the three rates *uniformly* so that the largest is at most
-``speed_fraction * max_speed`` (the direction of the commanded twist is kept), and divide by
-``cos alpha_i`` with ``|cos alpha_i|`` floored at ``serial_epsilon``: exact away from a serial
-singularity and never infinite or NaN at one.  Approaching a serial singularity the rate a leg
-needs grows like ``1 / cos alpha_i``, so the uniform scaling slows the whole motion down in
-proportion: the platform creeps towards the singularity instead of being thrown across it.
-Rates vanish with the errors, which lets the environment's "at rest" success test pass.
-
-Only the observation is used: leg angles and platform orientation (as ``cos``/``sin``), and the
-position and orientation errors (``planar3p_gym.tasks.observation.SLICES``), all among the 31
-entries every flat observation of the package starts with.  The calling convention is
-Stable-Baselines3's ``predict``, for single observations ``(m,)`` or batches ``(n, m)``, with
-``m`` the ``observation_size`` the controller was made for (31, the entries of
-``Planar3P-v0``, by default; :meth:`AnalyticController.from_env` and
-:func:`planar3p_agents.policies.factory.load_policy` take the id's, e.g. 37 on
-``Planar3PModeChange-v0``).
+* ``"simultaneous"`` (:data:`MODES`): the three simple motions superposed (resolved-rate
+  control along the straight pose path);
+* ``"sequential"``: the paper's way, one simple motion at a time (:data:`PHASES`), with
+  hysteresis;
+* calling convention: SB3's ``predict`` on the 31 entries every flat observation starts with
+  (:meth:`AnalyticController.from_env` takes the id's observation size).
 """
 
 from __future__ import annotations

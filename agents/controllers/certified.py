@@ -1,29 +1,16 @@
 """A reach planner that uses what the kinematics can certify (baseline ``certified``).
 
-At the first step of an episode it reads the start (travels, pose, working mode) and the
-target pose from the observation and picks, in this order, the first motion the kinematics
-certifies:
+At the first step of an episode it picks the first motion the kinematics certifies from the
+observed start to the target (in order; the certificates: docs/controllers.md, "How the
+controller modules work"), recorded per environment in ``choices``:
 
-1. ``line``: the straight line in slider space
-   (:class:`planar3p_agents.controllers.slider_line.SliderLineController`'s law), when the
-   direct-kinematics branch followed along it is unambiguous, keeps a parallel margin of
-   ``limits.min_parallel_margin`` and ends at the target
-   (:func:`planar3p_gym.tasks.joint_paths.certify_joint_path`; this implies
-   :func:`planar3p_gym.machine.slider_line.slider_line_reaches`);
-2. ``cartesian``: the paper's simultaneous simple motions
-   (:class:`~planar3p_agents.controllers.analytic.AnalyticController`, gain
-   ``cartesian_gain``), when the straight path in pose space is clear
-   (:func:`planar3p_gym.tasks.sampling.path_is_clear`, the environment's own test);
-3. ``detour``: a travel-space path, the travels (inverse kinematics) of a pose path through one
-   waypoint whose two straight pose segments are clear with parallel margin ``detour_margin``,
-   certified in travel space like 1 (the cheapest such waypoint, by the travel it costs, among
-   a fixed seeded pool of acceptable poses), followed at the largest slider speed with a
-   proportional correction, then the slider line to the target's travels;
-4. ``fallback``: if nothing is certified, the simple motions of 2 anyway.
+* ``line``: the straight line in slider space;
+* ``cartesian``: the simultaneous simple motions, where the straight pose path is clear;
+* ``detour``: a travel-space path through one certified waypoint, then the slider line;
+* ``fallback``: the simple motions anyway.
 
-``choices`` records the kind chosen for each environment's current episode.  Calling
-convention: Stable-Baselines3's ``predict`` (single observations or batches); a new episode is
-recognised by ``episode_start`` or :meth:`CertifiedPlanner.reset`.
+:class:`CertifiedPlanner` follows SB3's ``predict``; a new episode is recognised by
+``episode_start`` or :meth:`CertifiedPlanner.reset`.
 """
 
 from __future__ import annotations

@@ -1,36 +1,15 @@
 """The slider line wherever the kinematics certifies it from where the machine is, with the
 servo's lag predicted (baseline ``certified-line``).
 
-At every step, for each environment, the straight line in slider space from the observed
-travels to the target's travels (inverse kinematics in the observed working mode) is certified
-like :class:`planar3p_agents.controllers.certified.CertifiedPlanner`'s first choice
-(:func:`planar3p_gym.tasks.joint_paths.certify_lines`: in the stroke, the direct-kinematics
-branch unambiguous, parallel margin and holding forces within the planner's limits, ending at
-the target pose).  Where it is certified the controller drives the synchronised, saturating
-line (:func:`planar3p_agents.controllers.slider_line.line_rates`) on the travel error
-*predicted one control period ahead*, ``e - dt * rho_dot``, at the deadbeat gain ``1 / dt``;
-elsewhere the paper's simultaneous simple motions (gain ``cartesian_gain``), which move the
-gripper along the straight pose path, until the line from the current state is certified.
+At every step the straight line in slider space from the observed travels to the target's is
+certified (:func:`planar3p_gym.tasks.joint_paths.certify_lines`); where it is, the controller
+drives the line on the travel error predicted one control period ahead at the deadbeat gain,
+else the simultaneous simple motions.  It keeps no state, so it serves as the base of
+:class:`planar3p_agents.controllers.residual.ResidualLinePolicy`.  Why the prediction, and what
+it gains on the suites: docs/controllers.md, "How the controller modules work".
 
-Why the prediction: a commanded slider rate shows in the observed rate at once but moves the
-travel only during the next control period (from rest, a full-speed command gives
-``rho_dot = 0.22`` m/s and no displacement in its own period, 4.4 mm in the next), so a
-proportional law on the travel error acts on a one-period delay and rings at high gains (the
-``slider-line`` baseline is best near 15-18 1/s).  Subtracting the travel the observed rates
-will still add, ``dt * rho_dot``, and closing the rest in one period settles in two periods
-instead.  Measured on the fixed suites: median time over the speed bound 1.08 instead of 1.15
-on ``standard`` (docs/_notes/studies/residual-line.md).
-
-Unlike the planner, which decides once per episode, it decides again at every step from the
-observation alone: it keeps no state, so it serves as the base of a residual policy
-(:class:`planar3p_agents.controllers.residual.ResidualLinePolicy`), whose features are a
-function of the observation only.  Where the planner commits to the simple motions or to a
-detour for the whole episode, this controller takes the line as soon as the line from the
-current state is certified, which is what makes it faster on the ``hard`` suite.
-
-The line is checked at :data:`DEFAULT_POINTS` points (the planner's episode plan at 100): it
-is certified again at every step from closer by, and a batch of 512 observations costs about
-0.1 s instead of 0.5 s (the residual policy's training evaluates it on every minibatch).
+* :class:`CertifiedLineController`: the controller (SB3's ``predict``);
+* :data:`DEFAULT_POINTS`: the points each line is checked at.
 """
 
 from __future__ import annotations

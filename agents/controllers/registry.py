@@ -1,47 +1,18 @@
 """The built-in baselines: one table of their names, what each is, and the ids it plays on.
 
 :func:`planar3p_agents.policies.factory.load_policy` is the one way to get any of them (and
-any model) for an environment; it looks the name up in :data:`BASELINES`, refuses an id the
-entry does not list (``ValueError`` naming both), builds the policy for the id's observation
-(:func:`planar3p_agents.controllers.layout.observation_layout`) and puts it behind
-:class:`~planar3p_agents.controllers.goal_adapter.GoalAdapter` on the goal ids' ``Dict``
-observation.
+any model) for an environment: it looks the name up in :data:`BASELINES`, refuses an id the
+entry does not list (``ValueError`` naming both) and builds the policy for the id's
+observation.  The table of baselines, the ``:gain=K`` suffix and the tuned gains:
+docs/controllers.md, "How the controller modules work".
 
-======================  ======================================================  ================
-name                    policy                                                  ids
-======================  ======================================================  ================
-analytic-simultaneous   the simple motions superposed (resolved-rate control)   all but on-off
-analytic-sequential     the simple motions one at a time                        all but on-off
-analytic-on-off         the simple motions as on-off motor commands (bang-bang) on-off ids
-analytic-feedforward    simultaneous simple motions + reference velocity        tracking
-slider-line             straight line in slider space, synchronised, saturating reach, goal, real
-analytic-tuned          simultaneous simple motions, gain tuned per suite       reach, goal, real
-analytic-feedforward-   the feed-forward controller, gain tuned per suite       tracking
-tuned
-certified               slider line / simple motions / detour, as certified     reach, goal, real
-certified-line          slider line (servo lag predicted) where certified from   reach, goal, real
-                        the current state, else simple motions, at every step
-planner                 certified travel-space path, then simple motions        mode change
-crossing                dynamic crossing demonstration, then simple motions     assembly change
-random                  uniformly random actions (seeded)                       all
-zero                    zero slider velocity                                    all
-======================  ======================================================  ================
-
-The analytic controllers read the 31 entries every observation starts with (and the tracking
-controller the reference velocity the tracking task appends), so they play every id with slider
-rate actions (``analytic-on-off`` plays the on-off ids, ``Planar3PRealOnOff-v0``); the
-planner and the crossing demonstration need the target's travels and modes only their tasks
-observe.  A name followed by ``:gain=K`` (:data:`ANALYTIC_POLICIES`) sets the position and
-orientation gains to ``K`` (1/s) (``slider-line:gain=K``: its travel gain).
-
-The ``*-tuned`` baselines read their gain for the suite they play
-(:attr:`BaselineContext.suite`) from :data:`planar3p_agents.evaluation.tuning.TUNED_GAINS_FILE`,
-tuned on a separate draw of each suite (:mod:`planar3p_agents.evaluation.tuning`); without a
-suite they take the gain of the id's first suite.
+* :data:`BASELINES`, :class:`Baseline`, :class:`BaselineContext`, :func:`baselines_for`: the
+  table, a row, what a builder is given, the names an id supports;
+* :data:`ANALYTIC_POLICIES`, :data:`BUILTIN_POLICIES`, :data:`STRONGEST_REACH_BASELINES`:
+  groups of names; :data:`CONTINUOUS_IDS`, :data:`ON_OFF_IDS`, :data:`REACH_IDS`: groups of ids.
 
 Adding a baseline: a builder ``(BaselineContext) -> policy on the id's flat observation`` and
-a row of :data:`BASELINES`; nothing else (the name is then known to the policy
-specifications, the benchmark and the command lines).
+a row of :data:`BASELINES`; nothing else.
 """
 
 from __future__ import annotations

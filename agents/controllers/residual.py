@@ -1,41 +1,17 @@
 """Residual policy learning on top of the analytic controllers.
 
 A residual policy (Silver et al. 2018, Johannink et al. 2019) learns a correction to a fixed
-controller instead of the whole action.  The policies here are Stable-Baselines3 actor-critic
-policies whose Gaussian action distribution has the mean
+controller: its Gaussian mean is ``base(obs) + residual_scale * tanh(net(features))``, the head
+starting at zero so that the untrained policy *is* the base controller.  A trained model is an
+ordinary SB3 ``PPO`` model of its id; train without ``VecNormalize``'s observation
+normalisation (the base needs the raw observation).  Details: docs/controllers.md, "How the
+controller modules work".
 
-    ``mean = base(obs) + residual_scale * tanh(net(features))``
-
-with ``base`` an analytic controller evaluated on the raw observation (actions as fractions of
-``max_speed``) and ``net`` the usual MLP head:
-
-* :class:`ResidualTrackPolicy` (``Planar3PTrack-v0``): ``base`` is the feed-forward tracking
-  controller (:class:`planar3p_agents.controllers.tracking.TrackingController`);
-* :class:`ResidualReachPolicy` (``Planar3P-v0``/``-v1``): ``base`` is the benchmark's
-  ``analytic-simultaneous`` controller
-  (:class:`planar3p_agents.controllers.analytic.AnalyticController` with its default gains),
-  the controller the learned policy is compared with;
-* :class:`ResidualLinePolicy` (``Planar3P-v0``/``-v1``): ``base`` is the ``certified-line``
-  baseline (:class:`planar3p_agents.controllers.certified_line.CertifiedLineController`: the
-  slider line, with the servo's lag predicted, wherever it is certified from the current state,
-  else the simple motions), the fastest of the reach baselines.
-
-The head's output layer starts at zero, so the untrained policy's mean *is* the base controller,
-and the correction can never exceed ``residual_scale`` of the slider speed limit per slider.
-PPO's Gaussian noise (``log_std_init``) explores around that mean; the environment clips
-actions to ``[-1, 1]`` as always.
-
-Because the residual lives in the policy, not in a wrapper, a trained model is an ordinary SB3
-``PPO`` model of its environment id: ``scripts/benchmark.py`` plays it on the fixed suites
-exactly like the baselines, and rl-zoo3's ``enjoy`` plays it on the plain id.  The base
-controller needs the raw observation, so the policies do not use ``VecNormalize``'s observation
-normalisation (train with ``normalize: "dict(norm_obs=False, norm_reward=True)"``): the
-features extractors scale the observation by fixed physical scales instead (pose errors per an
-error scale, speeds per ``max_speed``, travels over the stroke) and append the base action.
-
-Only the design's numbers are stored with a model (``policy_kwargs["design"]``, a
-:meth:`planar3p_gym.machine.design.Design.to_dict` mapping, default ``Design.fig8()``): the
-design of the environment it is played in must be the same.
+* :class:`ResidualTrackPolicy` (``Planar3PTrack-v0``): on the feed-forward tracking controller;
+* :class:`ResidualReachPolicy` (``Planar3P-v0``): on ``analytic-simultaneous``;
+* :class:`ResidualLinePolicy` (``Planar3P-v0``): on ``certified-line``;
+* :class:`TrackFeatures`, :class:`ReachFeatures`, :class:`LineFeatures`,
+  :func:`feature_scaling`: their features (fixed physical scales, the base action appended).
 """
 
 from __future__ import annotations

@@ -1,41 +1,16 @@
 """Normalized scores, D4RL-style: per suite, 0 = the random policy, 100 = the best baseline.
 
-Three per-suite values of a policy (from a benchmark's ``episodes.csv`` or its results):
+A policy's per-suite ``success``, ``time`` (``speed_bound / time_to_success``, 0 for a failed
+episode) and ``return`` are mapped to ``100 * (value - random) / (best - random)`` with the
+reference values of :data:`REFERENCE_FILE`; rliable-style statistics over training seeds
+(numpy code of :mod:`planar3p_agents.evaluation.seed_statistics`).  The reference baselines and
+the command lines: docs/benchmark.md, "How the suite and score modules work".
 
-* ``success``: the success rate (0 to 1);
-* ``time``: the mean over the suite's episodes of ``speed_bound / time_to_success`` (0 for a
-  failed episode; 1 would be every episode at the physical limit,
-  :func:`planar3p_agents.evaluation.episodes.speed_bound`), so a policy scores for being fast
-  only where it succeeds;
-* ``return``: the mean episode return (a short training run improves it long before it
-  succeeds).
-
-:func:`get_normalized_score` maps a value to ``100 * (value - random) / (best - random)`` with
-the reference values of :data:`REFERENCE_FILE` (``reference_scores.json`` beside this module):
-per suite and metric, the random policy's value and the best value among the suite's strongest
-baselines (:func:`best_baselines`: on the reach suites, the goal-conditioned ones and the built
-machine's reach, :data:`BEST_BASELINES` = ``analytic-tuned``, ``slider-line``, ``certified``,
-``certified-line`` (the registry's ``STRONGEST_REACH_BASELINES``);
-elsewhere the task's own, :data:`TASK_BEST_BASELINES`), measured by the benchmark on its suites
-of seed 0.  A metric a suite cannot rank (tracking has no success test and no speed bound) has
-no reference there.  Regenerate the file from the benchmarks that played them::
-
-    python -m planar3p_agents.evaluation.normalized_scores references \\
-        docs/benchmark/strongest-baselines/episodes.csv docs/benchmark/tasks/episodes.csv
-
-:func:`score_matrix` gives the raw per-training-seed x per-suite matrix (policies without a
-recorded training seed count as one run), :func:`write_scores` writes it (``scores.csv``) and
-rliable's figures drawn from it (``rliable`` itself does not import with the project's pins, so
-the statistics are :mod:`planar3p_agents.evaluation.seed_statistics`' numpy code):
-interquartile mean with 95 % stratified-bootstrap intervals (``scores_iqm.png``), performance
-profiles (``scores_profiles.png``) and the probability of improvement of every policy over the
-best baseline (``scores_improvement.png``)::
-
-    python -m planar3p_agents.evaluation.normalized_scores matrix RUN/episodes.csv --out RUN
-
-When ``RUN`` holds the benchmark's ``report.md``, ``matrix`` also replaces the report's
-normalized-scores section (:func:`replace_report_section`): after the reference file changes,
-the reports follow it without their episodes being played again.
+* :func:`get_normalized_score`, :func:`load_references`, :func:`make_references`,
+  :func:`best_baselines`: the scores and their references;
+* :func:`score_matrix`, :func:`write_scores`, :func:`probability_of_improvement`,
+  :func:`scores_markdown`, :func:`replace_report_section`: the per-seed matrix, its figures and
+  the report's section (``python -m planar3p_agents.evaluation.normalized_scores``).
 """
 
 from __future__ import annotations

@@ -1,34 +1,14 @@
 """Fixed evaluation suites of ``Planar3P-v0``: generation from a seed, saving and loading.
 
 A suite is an explicit list of episodes ``(start, target, working_mode)`` generated from a seed
-with its own ``numpy`` generator (never the environment's), and played through
-``env.reset(options=...)``, so every policy sees exactly the same episodes.  Episode ``i`` of a
-suite does not depend on how many episodes are asked for (a shorter suite is a prefix of a
-longer one with the same seed).  Every pair is a valid reset option: reachable within the
-stroke, same assembly mode (``sign det A``), not at a singularity.
+with its own generator (never the environment's) and played through ``env.reset(options=...)``,
+so every policy sees exactly the same episodes; a shorter suite is a prefix of a longer one.
+What each suite asks: docs/benchmark.md, "How the suite and score modules work".
 
-* ``standard``: pairs drawn exactly as the environment draws them (``task.sample_pair``):
-  comfortable margins at both ends, straight path in pose space clear of singularities.
-* ``hard``: both ends as comfortable as the environment's own start poses (its parallel and
-  serial margins, travel margin, and at most ``hold_force_fraction`` of the actuator force
-  needed to hold them against gravity), the straight path reachable within the stroke and
-  away from serial singularities, but passing through a parallel singularity (``det A``
-  changes sign along it) or within a parallel margin of ``hard_margin`` of one, so a
-  controller that does not look ahead meets it.  The two ends are in the same connected
-  region of their assembly mode (with margins) on a grid of the configuration space
-  (:class:`planar3p_agents.evaluation.region_maps.RegionMap`), so a detour exists.  On the default
-  design no such path *crosses* ``det A = 0``: in every working mode the parallel singularities are
-  wrapped in a band of poor conditioning, so pairs whose straight path crosses one have
-  ill-conditioned ends (pass a lower ``end_parallel_margin`` and another ``working_mode``, e.g.
-  ``(1, 1, 1)``, for such a stress test).
-* ``far``: pairs whose pose distance ``|dp| + L_ref |dtheta|`` is in the top decile of
-  same-assembly pairs of acceptable poses (ends near opposite sides of the workspace of the
-  working mode); the straight path need not be clear (it may leave the workspace), but both
-  ends are in the same connected region, so the task is solvable.
-
-Every suite uses the environment's default working mode ``(1, 1, -1)`` unless told otherwise.
-Each episode records the diagnostics of its straight and sequential paths
-(:mod:`planar3p_agents.evaluation.path_diagnostics`).  Poses are ``(x, y, theta)`` in (m, m, rad).
+* :data:`SUITE_NAMES`: ``standard`` (as the environment draws), ``hard`` (the straight path
+  passes at or near a parallel singularity), ``far`` (ends far apart);
+* :func:`make_suite`, :func:`make_suites`, :func:`save_suites`, :func:`load_suites`,
+  :class:`Suite`, :class:`EpisodeSpec`: building and storing them.
 """
 
 from __future__ import annotations

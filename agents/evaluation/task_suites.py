@@ -1,32 +1,15 @@
 """Fixed benchmark suites for the task ids (goal-conditioned reach, tracking, mode change,
-assembly change), and the baseline policies of each.
+assembly change, the built machine), and the baseline policies of each.
 
-Every task id describes its episodes by a JSON ``info["episode_spec"]`` at reset, and
-``reset(options=spec)`` replays that episode exactly (the task contract of
-:mod:`planar3p_gym.tasks.base`).  A task suite is therefore generic: episode ``i`` is the
-environment's own draw after ``reset(seed=s_i)``, with ``s_i`` derived from the suite's seed,
-name and ``i`` alone (so a shorter suite is a prefix of a longer one), and the spec is saved in
-``suites.json`` (:class:`~planar3p_agents.evaluation.reach_suites.EpisodeSpec` ``options``) and
-replayed by the runner.  The episodes are thus exactly those the environment samples for
-training, frozen.
+Episode ``i`` of a task suite is the environment's own draw after ``reset(seed=s_i)``, ``s_i``
+derived from the suite's seed, name and ``i`` alone, saved as its episode spec and replayed
+(the task contract); the built machine's suites also draw each episode's machine at the
+benchmark's reset.  The suites in detail: docs/benchmark.md, "How the suite and score modules
+work".
 
-:data:`TASK_SUITES` lists the suites (environment id, its keyword arguments, the baselines
-played by default).  The baselines are names of the one baseline registry,
-:data:`planar3p_agents.controllers.registry.BASELINES` (each supporting the suite's id), built
-like any policy by :func:`planar3p_agents.policies.factory.load_policy` for the suite's
-environment: ``analytic-simultaneous`` (the paper's simultaneous simple motions, on every
-task), ``analytic-feedforward`` (tracking: the reference velocity fed forward),
-``planner`` (mode change), ``crossing`` (assembly change), ``analytic-on-off`` (on-off
-motors) and ``zero``.
-
-The built machine's suites (``real-*``) draw each episode's machine at the
-benchmark's reset (``reset(seed=seed + index, options=spec)``): the machines are those of the
-benchmark's seeds, held out from the suite's episode draws and from training's resets.
-``real-reach-true-state`` plays the same episodes and machines with the true state observed
-(``sensors=None``): what the nominal-model sensing costs, and whether the randomised machine
-can be driven to the target at all; ``real-reach-nominal`` plays the same episodes on the
-nominal machine (the ``Planar3P-v0`` physics), the reference; ``real-mode-change`` is the
-mode change with the built machine's randomisation, sensors and delay.
+* :data:`TASK_SUITES`, :class:`TaskSuiteDef`: the suites (id, arguments, default baselines of
+  :data:`planar3p_agents.controllers.registry.BASELINES`);
+* :func:`make_task_suite`, :func:`make_task_env`, :func:`task_episode_seed`: building them.
 """
 
 from __future__ import annotations

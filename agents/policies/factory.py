@@ -1,43 +1,22 @@
 """The one policy factory: a policy name or a model path, and the environment it is to play,
 -> an object with SB3's ``predict`` for that environment's observations (:func:`load_policy`).
 
-Accepted specifications:
-
-* built-in baselines, the names of :data:`planar3p_agents.controllers.registry.BASELINES`
-  (``analytic-simultaneous``, ``analytic-sequential``, ``analytic-feedforward``, ``planner``,
-  ``crossing``, ``random``, ``zero``), each listing the registered ids it plays on.  On
-  every id it supports a baseline reads that id's observation
-  (:func:`planar3p_agents.controllers.layout.observation_layout`: the 31 entries of
-  ``Planar3P-v0`` and whatever the task appends; on the goal ids' ``Dict`` observation through
-  :class:`~planar3p_agents.controllers.goal_adapter.GoalAdapter`); on an id it does not support
-  it is refused (:class:`PolicyError`, a ``ValueError``, naming the id and the ids it
-  supports).  An analytic name followed by ``:gain=K`` is that controller with position and
-  orientation gains ``K`` (1/s) instead of the default 6;
-* ``pretrained:<name>``: the model shipped with the package in ``agents/zoo/pretrained/<name>/``
-  (:mod:`planar3p_agents.zoo.layout`), with its statistics; its folder is checked against the
-  SHA-256 sums in ``agents/zoo/pretrained/SHA256SUMS`` before anything is loaded
-  (:func:`verify_pretrained`);
-* a path to a Stable-Baselines3 model (``.zip``) saved by PPO, SAC, TD3, A2C or DDPG; the
-  algorithm is read from the file, or forced with a prefix ``ppo:``, ``sac:``, ``td3:``,
-  ``a2c:``, ``ddpg:`` (e.g. ``sac:runs/x/model.zip``).
-
-Model and statistics files are code (:data:`TRUSTED_FILES_NOTE`): loading one can run arbitrary
-commands, so load only files you trust, and nothing is unpickled that the caller did not name.
-Observation statistics (``VecNormalize``) are loaded only when named, with the suffix
-``:stats=PATH.pkl`` (``runs/x/model.zip:stats=runs/x/vecnormalize.pkl``) or the ``vecnormalize``
-argument of :func:`load_policy`; ``:stats=none`` evaluates the model without them.  A model
-with statistics beside it in a known layout (:func:`vecnormalize_candidates`: this project's
-runs, the pretrained layout, rl-zoo3's ``<run>/<env id>/vecnormalize.pkl``) and no ``stats``
-named is refused, because evaluating it without them would silently measure something else.
-
 Every failure to resolve or load a specification raises :class:`PolicyError` (a
-``ValueError``) with a message that says what was wrong.
+``ValueError``) saying what was wrong.  Model and statistics files are code
+(:data:`TRUSTED_FILES_NOTE`): nothing is unpickled that the caller did not name.  The accepted
+specifications and the rules for observation statistics: docs/controllers.md, "How the
+controller modules work".
 
-This module loads (:func:`load_policy`); the parts live in
-:mod:`planar3p_agents.controllers.registry` (the baselines), :mod:`planar3p_agents.policies.spec`
-(specifications and labels), :mod:`planar3p_agents.zoo.manifest` (the checksum manifest) and
-:mod:`planar3p_agents.policies.sb3_models` (SB3 model and statistics files), and their names
-are re-exported here.
+* a built-in baseline (:data:`planar3p_agents.controllers.registry.BASELINES`, optionally
+  ``:gain=K``), refused on an id it does not support;
+* ``pretrained:<name>``: a shipped model, checked against ``SHA256SUMS`` first
+  (:func:`verify_pretrained`);
+* a Stable-Baselines3 ``.zip`` (optionally ``ppo:``/``sac:``/... and ``:stats=PATH.pkl`` or
+  ``:stats=none``).
+
+The parts live in :mod:`planar3p_agents.controllers.registry`,
+:mod:`planar3p_agents.policies.spec`, :mod:`planar3p_agents.zoo.manifest` and
+:mod:`planar3p_agents.policies.sb3_models`; their names are re-exported here.
 """
 
 from __future__ import annotations

@@ -1,41 +1,15 @@
-"""Training machinery for Stable-Baselines3 agents on Planar3P (used by ``scripts/train.py``).
+"""Training machinery for Stable-Baselines3 agents on Planar3P (used by ``planar3p train``).
 
-Hyperparameters come from YAML files in the rl-zoo3 format: a mapping keyed by environment id,
-each entry holding the algorithm's keyword arguments plus the zoo's own keys ``n_timesteps``,
-``policy``, ``n_envs``, ``normalize`` (bool, or a dict / string of VecNormalize kwargs),
-``noise_type``/``noise_std`` (action noise of off-policy algorithms) and ``policy_kwargs``
-(a mapping, or a string such as ``"dict(net_arch=[256, 256])"`` as the zoo writes them).
-Off-policy entries may name ``replay_buffer_class: HerReplayBuffer`` (or the project's
-:class:`~planar3p_agents.training.her.CompactHerReplayBuffer`, the same with only the ``info``
-keys relabelling reads kept) with
-``replay_buffer_kwargs`` (a mapping or a ``dict(...)`` string) for goal-conditioned ids
-(``Planar3PGoal-v0``), as rl-zoo3's files do; ``tqc`` is sb3-contrib's TQC.
-A ``lin_`` prefix on ``learning_rate`` or ``clip_range`` means a linear schedule to 0
-(rl-zoo3's :func:`rl_zoo3.utils.linear_schedule`).
+Hyperparameters come from YAML files in the rl-zoo3 format, read by a small literal parser (no
+``eval``); each run writes one self-contained directory.  The accepted keys, why rl-zoo3's
+``ExperimentManager`` is not used, and the run directory's files: docs/training.md, "How the
+training configuration works".
 
-Why this module does not hand the whole job to rl-zoo3's ``ExperimentManager``: the manager
-runs the YAML's ``policy_kwargs`` / ``normalize`` strings and a command line's ``key:value``
-pairs (``StoreDict``) through ``eval``, builds its own environments, callbacks and log folders, and
-has no place for kick-starting (:mod:`planar3p_agents.training.kickstart`).  Here the zoo's strings
-are read by a small literal parser that accepts ``dict(...)``, literals and ``nn.<activation>``
-only, the command line takes ``key=YAML`` / ``key=JSON`` (no code), and the run directory below is
-the project's.  rl-zoo3's schedule and callbacks are used as they are.
-
-Each run writes one self-contained directory:
-
-=========================  ==================================================================
-``model.zip``              the final model
-``vecnormalize.pkl``       the final model's normalisation statistics (when normalising)
-``best/best_model.zip``    the model with the best evaluation return (EvalCallback) and its
-                           statistics ``best/vecnormalize.pkl`` (rl-zoo3's
-                           ``SaveVecNormalizeCallback`` on each new best)
-``config.json``            resolved hyperparameters, env id and kwargs, seed, command line
-``versions.json``          versions of Python and the libraries
-``metrics.json``           final evaluation (success rate, returns, errors) and wall time
-``evaluations.npz``        the learning curve (EvalCallback: timesteps, returns, successes)
-``checkpoints/``           periodic checkpoints (model, statistics, replay buffer) for resume
-``tb/``                    TensorBoard logs
-=========================  ==================================================================
+* :func:`load_hyperparams`, :func:`parse_overrides`, :func:`parse_env_kwargs`: the YAML entry
+  and the command line's ``key=YAML`` overrides;
+* :class:`TrainConfig`, :class:`EnvFactory`, :func:`policy_class`: a resolved run;
+* :data:`ALGORITHMS`, :data:`OFF_POLICY`, :data:`REPLAY_BUFFERS`, :data:`PROJECT_POLICIES`;
+  :func:`versions`, :func:`import_rl_zoo3`.
 """
 
 from __future__ import annotations

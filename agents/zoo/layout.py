@@ -1,33 +1,14 @@
 """The layout of the shipped policies: where every file of ``pretrained:<name>`` lives.
 
-Each shipped model is stored once, as one rl-zoo3 log folder holding one experiment::
+Each shipped model is one rl-zoo3 log folder under ``agents/zoo/pretrained/<name>/`` with its
+``provenance.json``, every file checked against ``SHA256SUMS`` before loading (the tree and the
+provenance's keys: docs/pretrained.md, "How the zoo is laid out").  This module is the only
+definition of these paths and imports nothing heavy.
 
-    agents/zoo/pretrained/
-        SHA256SUMS                                   checksums of every file of every model folder
-        README.md                                    what each model is, and the retired ones
-        <name>/                                      one experiment (rl-zoo3's ``-f`` folder)
-            provenance.json                          where it came from (below)
-            <algo>/<env id>_1/<env id>.zip           the model
-            <algo>/<env id>_1/<env id>/vecnormalize.pkl   its statistics (if the run normalised)
-            <algo>/<env id>_1/<env id>/config.yml    its hyperparameters (rl-zoo3 format)
-            <algo>/<env id>_1/<env id>/args.yml      algo, env id, env kwargs, seed, name, command
-
-``pretrained:<name>`` (:func:`planar3p_agents.policies.factory.load_policy`) loads the model and
-its statistics after checking the whole folder against ``SHA256SUMS``
-(:func:`planar3p_agents.zoo.manifest.verify_zoo_folder`); rl-zoo3 plays the same files
-(:func:`enjoy_command`) without checking them, so verify first
-(``python scripts/ship_policy.py --verify <name>``).
-
-``provenance.json`` holds ``name``, ``source_run`` (the run directory's name, ``runs/<run>``),
-``source_model`` (the file of the run), ``note``, ``run`` (the run's ``config.json``: ``config``
-with ``algo``, ``env_id``, ``env_kwargs`` and ``seed``, the hyperparameter ``entry``, the training
-``command``), ``metrics``, ``versions`` and, where they apply, ``history`` (what changed since
-training, with the original command) and ``validated_on`` (re-measured figures and the command).
-
-This module is the only definition of these paths: shipping (:mod:`planar3p_agents.zoo.shipping`),
-the manifest (:mod:`planar3p_agents.zoo.manifest`), the policy names
-(:mod:`planar3p_agents.policies.spec`) and the model loader
-(:mod:`planar3p_agents.policies.sb3_models`) all use it.  It imports nothing heavy.
+* :data:`PRETRAINED_DIR`, :data:`PROVENANCE`, :data:`EXPERIMENT_ID`: the places;
+* :class:`ShippedModel`, :func:`shipped_model`, :func:`shipped_model_of`,
+  :func:`shipped_names`, :func:`read_provenance`, :func:`check_name`: a model's files;
+* :func:`enjoy_command`: rl-zoo3's command that plays it.
 """
 
 from __future__ import annotations
