@@ -33,6 +33,7 @@ __all__ = [
     "check_trained_id",
     "load_sb3_model",
     "load_yaml_data",
+    "renamed",
     "run_env_kwargs",
     "same_task",
     "training_record",
@@ -228,26 +229,35 @@ def run_env_kwargs(path: Path) -> dict[str, Any] | None:
     return record.env_kwargs if record is not None else None
 
 
-#: Ids that no longer exist and the id whose machine and task they ran (their models play there).
+#: Ids of development versions that were never released and the id whose machine and task they
+#: ran (their models play there); an id registered now is never renamed.
 RENAMED_IDS: dict[str, str] = {"Planar3P-v1": "Planar3P-v0"}
 
 
-def _entry_point(env_id: str) -> Any:
+def _environment(env_id: str) -> tuple[Any, Any] | None:
+    """The entry point of a registered id and the task its registration names (``None`` where
+    the class has its own), or ``None`` for an unknown id."""
     from gymnasium.envs.registration import registry
 
     spec = registry.get(env_id)
-    return spec.entry_point if spec is not None else None
+    return None if spec is None else (spec.entry_point, spec.kwargs.get("task"))
+
+
+def renamed(trained_id: str) -> str:
+    """``trained_id``, or the id :data:`RENAMED_IDS` gives where ``trained_id`` is not
+    registered."""
+    return trained_id if _environment(trained_id) else RENAMED_IDS.get(trained_id, trained_id)
 
 
 def same_task(trained_id: str, env_id: str) -> bool:
     """Whether a model trained on ``trained_id`` may play ``env_id``: the same id (after
-    :data:`RENAMED_IDS`), or two registrations of the same environment class that differ only
-    in their defaults (``Planar3PGoal-v0`` and ``Planar3PGoalDense-v0``: the reward)."""
-    trained = RENAMED_IDS.get(trained_id, trained_id)
+    :func:`renamed`), or two registrations of the same environment class and task that differ
+    only in their defaults (``Planar3PGoal-v0`` and ``Planar3PGoalDense-v0``: the reward)."""
+    trained = renamed(trained_id)
     if trained == env_id:
         return True
-    entry = _entry_point(trained)
-    return entry is not None and entry == _entry_point(env_id)
+    environment = _environment(trained)
+    return environment is not None and environment == _environment(env_id)
 
 
 def check_trained_id(path: Path, env: Any) -> None:
@@ -258,11 +268,11 @@ def check_trained_id(path: Path, env: Any) -> None:
     record = training_record(path)
     if not env_id or record is None or record.env_id is None or same_task(record.env_id, env_id):
         return
-    renamed = RENAMED_IDS.get(record.env_id)
-    hint = f" (now {renamed})" if renamed else ""
+    now = renamed(record.env_id)
+    hint = f" (now {now})" if now != record.env_id else ""
     raise PolicyError(
         f"model {path} was trained on {record.env_id}{hint} (recorded in {record.source}), "
-        f"the environment is {env_id}: play it on {renamed or record.env_id}"
+        f"the environment is {env_id}: play it on {now}"
     )
 
 
