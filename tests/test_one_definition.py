@@ -1,6 +1,8 @@
 """One definition of each shared formula: a search of the installed packages' sources finds
 the angle wrap, the simple-motion rates, the reward terms and the observation layout each
-defined once, no inline copy of the angle wrap, and no renaming alias of the input checks.
+defined once, no inline copy of the angle wrap, and no renaming alias of the input checks; and
+each task's prose is written once (its env class docstring and its task module's share no run
+of words).
 
 The search is the documented ``grep`` of each pattern below over ``planar3p_gym/`` and
 ``agents/``; :data:`PENDING` names the files another change still takes a copy out of."""
@@ -94,3 +96,45 @@ def test_no_renaming_alias_of_the_checks() -> None:
             ):
                 found.append(f"{_rel(p)}: {node.name}")
     assert not found, f"renaming aliases of planar3p_gym.checks: {found}"
+
+
+#: Words in a run that, shared by two docstrings, counts as prose written twice.
+SHARED_RUN = 8
+
+
+def _runs(text: str, n: int = SHARED_RUN) -> set[tuple[str, ...]]:
+    """Every run of ``n`` consecutive words of ``text`` (lower case, punctuation dropped)."""
+    words = re.findall(r"[a-z0-9_]+", text.lower())
+    return {tuple(words[i : i + n]) for i in range(len(words) - n + 1)}
+
+
+def _task_prose() -> list[tuple[str, str, str]]:
+    """``(id, env class docstring, task module docstring)`` of every registered id."""
+    import importlib
+
+    from planar3p_gym.envs.registry import ENV_SPECS
+
+    out = []
+    for row in ENV_SPECS:
+        module, _, name = row.entry_point.partition(":")
+        cls = getattr(importlib.import_module(module), name)
+        task = importlib.import_module(f"planar3p_gym.tasks.{row.task}")
+        out.append((row.id, cls.__doc__ or "", task.__doc__ or ""))
+    return out
+
+
+PROSE = _task_prose()
+
+
+@pytest.mark.parametrize(("env_id", "env_doc", "task_doc"), PROSE, ids=[p[0] for p in PROSE])
+def test_each_task_s_prose_is_written_once(env_id: str, env_doc: str, task_doc: str) -> None:
+    """The env class docstring (the id's page) says what the id does; its task module's
+    docstring says what the module holds: no run of :data:`SHARED_RUN` words is in both."""
+    shared = sorted(" ".join(run) for run in _runs(env_doc) & _runs(task_doc))
+    assert not shared, f"{env_id}: the env docstring and its task module repeat {shared[:3]}"
+
+
+def test_the_prose_check_finds_a_repeated_sentence() -> None:
+    sentence = "the start is drawn in the working mode of the environment with margins"
+    assert _runs(f"A task. {sentence}.") & _runs(f"{sentence.capitalize()}; another one.")
+    assert not _runs("a b c d e f g") and len(_runs("a b c d e f g h i")) == 2

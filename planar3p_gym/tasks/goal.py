@@ -2,8 +2,9 @@
 ``Planar3PGoal-v0`` and ``Planar3PGoalDense-v0``; the ids' page is
 :class:`planar3p_gym.envs.goal.Planar3PGoalEnv`).
 
-A goal is ``(x, y, cos theta, sin theta, v)`` (m, m, 1, 1, m/s), float32: the gripper pose and
-a slider speed, so that hindsight relabelling can recompute every reward from the goals alone
+A goal holds the gripper pose (its angle as cosine and sine) and a slider speed
+(:func:`goal_of_pose`), so that hindsight relabelling can recompute every reward from the goals
+alone
 (why, and what ``info`` adds: docs/environments.md, "How the task modules work").  Each formula
 is defined once and compiled; the numpy API loops the same functions over a batch, so
 ``env.compute_reward`` equals the returned reward bit for bit.
