@@ -1,11 +1,15 @@
-"""The native vector env's step of the reach task in one compiled call.
+"""The native vector env's step of a task in one compiled call.
 
-:func:`reach_batch_step` runs, for the stepped environments of a batch, the compiled control
-step (:func:`planar3p_gym.sim.chipmunk.advance_batch`: pymunk's step through Chipmunk's C API
-and the projection) and then the reach step's outputs
-(:func:`planar3p_gym.tasks.reach_step.reach_outputs_batch`), the same definitions a single
+Each function runs, for the stepped environments of a batch, the same definitions a single
 environment runs, so that a step of the whole batch crosses from Python into compiled code
-once.
+once:
+
+- :func:`reach_batch_step` (the reach task): the compiled control step
+  (:func:`planar3p_gym.sim.chipmunk.advance_batch`: pymunk's step through Chipmunk's C API and
+  the projection), then the reach step's outputs
+  (:func:`planar3p_gym.tasks.reach_step.reach_outputs_batch`);
+- :func:`goal_batch_step` (the goal task): that step, then the goal test, the rejudged reward
+  terms and the goal reward over the rows (:func:`planar3p_gym.tasks.goal.goal_rows`).
 """
 
 from __future__ import annotations
@@ -14,10 +18,11 @@ import numpy as np
 from numba import njit
 
 from planar3p_gym.sim.chipmunk import advance_batch
+from planar3p_gym.tasks.goal import goal_rows
 from planar3p_gym.tasks.observation import OBS_SIZE
 from planar3p_gym.tasks.reach_step import RESULT_FIELDS, TOLERANCES, reach_outputs_batch
 
-__all__ = ["reach_batch_step"]
+__all__ = ["goal_batch_step", "reach_batch_step"]
 
 _RESULTS = len(RESULT_FIELDS)
 _TOLERANCE_START = TOLERANCES.start
@@ -78,3 +83,37 @@ def reach_batch_step(
         states, target, asm, act, tolerances, reach_consts, weights, low, high, obs_rows, obs, res
     )
     return commands, forces, saturated, states, closure, obs, res
+
+
+@njit(cache=True)
+def goal_batch_step(
+    fns: np.ndarray, handles: np.ndarray, rows: np.ndarray, actions: np.ndarray, vmax: float,
+    h: float, substeps: int, force_limit: float, readouts: np.ndarray, projection: np.ndarray,
+    setpoint_limit: float, targets: np.ndarray, assembly: np.ndarray, env_consts: np.ndarray,
+    reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
+    log: np.ndarray, logged: np.ndarray, desired: np.ndarray, goal_low: np.ndarray,
+    goal_high: np.ndarray, length: float, dense: bool,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """:func:`reach_batch_step`, then :func:`~planar3p_gym.tasks.goal.goal_rows` of its outputs:
+    ``desired`` ``(N, 5)`` float32 (each environment's desired goal), ``goal_low``,
+    ``goal_high`` (the goal space's bounds), ``length`` (the characteristic length, m),
+    ``dense`` (the reward type).
+
+    Returns :func:`reach_batch_step`'s tuple (its results rejudged by the goal test), then the
+    stepped environments' achieved goals ``(n, 5)`` float32, their evaluations ``(4, n)``
+    (position error (m), orientation error (rad), success, goal-independent reward) and their
+    goal rewards ``(n,)``."""
+    commands, forces, saturated, states, closure, obs, res = reach_batch_step(
+        fns, handles, rows, actions, vmax, h, substeps, force_limit, readouts, projection,
+        setpoint_limit, targets, assembly, env_consts, reach_consts, weights, low, high, log,
+        logged,
+    )  # fmt: skip
+    n = rows.shape[0]
+    achieved = np.empty((n, 5), dtype=np.float32)
+    evaluation = np.empty((4, n))
+    rewards = np.empty(n)
+    goal_rows(
+        rows, states, actions, res, desired, env_consts[:, _TOLERANCE_START : _TOLERANCE_START + 3],
+        weights, length, dense, goal_low, goal_high, achieved, evaluation, rewards,
+    )  # fmt: skip
+    return commands, forces, saturated, states, closure, obs, res, achieved, evaluation, rewards

@@ -28,18 +28,22 @@ In numpy mode the projected bodies are written back into pymunk at the start of 
 :attr:`Planar3PVectorEnv.envs` or :meth:`Planar3PVectorEnv.get_state` is used, and a state
 that fails the physics-breakdown test takes the single environment's own (general) step.
 
+**The goal ids** (``Planar3PGoal-v0``, ``Planar3PGoalDense-v0``) take the same batched step
+(``batch="numpy"``; ``"scalar"`` steps them environment by environment) with the goal test,
+the rejudged reward terms and the goal reward in the same compiled call
+(:func:`~planar3p_gym.envs.batch_kernel.goal_batch_step`); their ``Dict`` observations are
+built from the batch arrays (:func:`~planar3p_gym.envs.goal.goal_observation`) and
+:meth:`Planar3PGoalVectorEnv.compute_reward` takes the batch's goals and infos.
+
 **Infos** are arrays over the batch, filled from the compiled outputs' result arrays: no
-per-environment dict is built on the reach task's batched step (the task ids below step
-through each environment's own ``step``, whose ``info`` dict is Gymnasium's contract, and their
-entries are gathered into the arrays).
+per-environment dict is built on a batched step (the ids stepped environment by environment
+gather the entries of each environment's ``info`` dict into the arrays).
 
 **Per-environment step** (every other configuration: the built machine's ids, and the task ids
-``Planar3PTrack-v0``, ``Planar3PModeChange-v0``, ``Planar3PAssemblyChange-v0``,
-``Planar3PGoal-v0`` and ``Planar3PGoalDense-v0`` through the subclasses at the end of this
-module): each environment steps through its own ``step``; what the vector env saves there is
-the per-step overhead of ``gym.make``'s wrappers and of ``SyncVectorEnv``.  The goal ids'
-``Dict`` observations are a dict of batch arrays, and their vector env's ``compute_reward``
-takes the batch's goals and infos.
+``Planar3PTrack-v0``, ``Planar3PModeChange-v0`` and ``Planar3PAssemblyChange-v0`` through the
+subclasses at the end of this module): each environment steps through its own ``step``; what
+the vector env saves there is the per-step overhead of ``gym.make``'s wrappers and of
+``SyncVectorEnv``.
 """
 
 from __future__ import annotations
@@ -54,9 +58,9 @@ from gymnasium.vector.utils import batch_space, create_empty_array
 
 from planar3p_gym import checks
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
-from planar3p_gym.envs.batch_kernel import reach_batch_step
+from planar3p_gym.envs.batch_kernel import goal_batch_step, reach_batch_step
 from planar3p_gym.envs.core import Planar3PEnv
-from planar3p_gym.envs.goal import Planar3PGoalEnv
+from planar3p_gym.envs.goal import Planar3PGoalEnv, goal_observation
 from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
 from planar3p_gym.envs.track import Planar3PTrackEnv
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
@@ -64,7 +68,7 @@ from planar3p_gym.sim import chipmunk, physics
 from planar3p_gym.sim.batch_step import BatchState
 from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, SimState
 from planar3p_gym.tasks import sampling as task_module
-from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS
+from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS, GoalKernel, goal_bounds
 from planar3p_gym.tasks.kernel import ReachKernel
 from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
 from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, BatchReach
@@ -124,7 +128,8 @@ class Planar3PVectorEnv(VectorEnv):
             environment's simulation step and compiled outputs in turn), ``"numpy"`` (pymunk
             per environment, then the projection and the outputs in compiled loops over the
             batch; the name is historical) or ``"auto"`` (``"numpy"`` from
-            :data:`NUMPY_BATCH_MIN` environments); the same numbers either way.  Other
+            :data:`NUMPY_BATCH_MIN` environments); the same numbers either way.  The goal
+            ids take ``"numpy"`` too (``"scalar"``: environment by environment); other
             configurations always step environment by environment.
         autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default, Gymnasium's) or
             ``AutoresetMode.SAME_STEP`` (an ended episode is reset within the same step: its
@@ -198,9 +203,7 @@ class Planar3PVectorEnv(VectorEnv):
         #: How the batch is stepped: None (environment by environment), or the batched step's
         #: mode (``True``: numpy over the batch); the batched step's C handles are rebuilt
         #: from it when the vector env is unpickled.
-        self._numpy_batch: bool | None = (
-            numpy_batch if isinstance(first.kernel, ReachKernel) else None
-        )
+        self._numpy_batch: bool | None = _batch_mode(first, numpy_batch)
         self._core = None if self._numpy_batch is None else _BatchCore(self, self._numpy_batch)
 
     @property
@@ -411,6 +414,23 @@ class Planar3PVectorEnv(VectorEnv):
                     self._core.load(i)
 
 
+def _batch_mode(env: Planar3PEnv, numpy_batch: bool) -> bool | None:
+    """How a batch of ``env`` is stepped: the reach kernel in either mode of the batched
+    step, the goal kernel of the goal env in compiled loops only (``numpy_batch``), anything
+    else (None) environment by environment."""
+    if isinstance(env.kernel, ReachKernel):
+        return numpy_batch
+    if numpy_batch and isinstance(env, Planar3PGoalEnv) and isinstance(env.kernel, GoalKernel):
+        return True
+    return None
+
+
+def _reach_step(kernel: Any) -> Any:
+    """The reach outputs (:class:`~planar3p_gym.tasks.reach_step.ReachStep`) a batched kernel
+    computes (its own, or those of the reach kernel it is built on)."""
+    return kernel.reach if isinstance(kernel, ReachKernel) else kernel.reach.reach
+
+
 def _has_sim(env: Planar3PEnv) -> bool:
     """Whether ``env`` has a simulation (was reset, or restored from a reset one)."""
     try:
@@ -440,7 +460,7 @@ class _BatchCore:
         self.scale = 1.0 / (self.substeps * self.h)
         self.force_limit = 0.999 * env.design.max_force * self.h
         self.breakdown = env.breakdown_distance
-        self.reach = BatchReach(env.kernel.reach)
+        self.reach = BatchReach(_reach_step(env.kernel))
         self.low, self.high = env.kernel.settings.low, env.kernel.settings.high
         #: The projection's constants (LoopProjector.constants), from the first simulation.
         self.constants: np.ndarray | None = None
@@ -449,7 +469,7 @@ class _BatchCore:
         #: ``set_task_config`` shows here with no loop over the environments.
         self.consts = np.zeros((n, 10))
         for i, e in enumerate(venv._envs):
-            e.kernel.reach.share_constants(self.consts[i])
+            _reach_step(e.kernel).share_constants(self.consts[i])
         self.buf = np.zeros((n, _ROW))
         #: Each environment's batch request over its row of :attr:`buf`.
         self.reads = [chipmunk.body_readout(row) for row in self.buf]
@@ -473,6 +493,9 @@ class _BatchCore:
         #: Scalar mode: the arguments of ``env._info`` of each pending environment's last step.
         self.pending_info: list[tuple | None] = [None] * n
         self.last: dict[str, Any] | None = None  # the last batched step's arrays
+        self.info_keys = venv.info_keys
+        #: The goal task's part of the step (the goal env's kernel), else None.
+        self.goal = _GoalRows(self, env) if isinstance(env, Planar3PGoalEnv) else None
 
     # ------------------------------------------------------------------ env <-> batch
     def load(self, i: int) -> None:
@@ -497,6 +520,8 @@ class _BatchCore:
         self.target_cs[:, i] = ep.target_cs
         self.target_rho[i] = ep.target_rho
         self.assembly[i] = ep.assembly
+        if self.goal is not None:
+            self.goal.load(i, env)
         self.pending[i] = False
 
     def sync_all(self) -> None:
@@ -539,6 +564,8 @@ class _BatchCore:
         ep.measures = measures
         errors = (float(o["position_error"][j]), float(o["orientation_error"][j]))
         ep.info = env.kernel.info(ep, state, measures, reason, terms, reason == "success", errors)
+        if self.goal is not None:
+            self.goal.sync(env, ep.info, last, j)
         if bodies:
             chipmunk.write_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
         self.pending[i] = False
@@ -587,8 +614,9 @@ class _BatchCore:
         rewards = np.zeros(n)
         terminated = np.zeros(n, dtype=np.bool_)
         truncated = np.zeros(n, dtype=np.bool_)
+        keys = self.info_keys
         info: dict[str, Any] = {
-            key: np.zeros(n, dtype=_DTYPES.get(key, np.float64)) for key in INFO_KEYS
+            key: np.zeros(n, dtype=_DTYPES.get(key, np.float64)) for key in keys
         }
         info["termination_reason"][:] = None
         if idx.size and self.numpy:
@@ -603,24 +631,31 @@ class _BatchCore:
         done = terminated | truncated
         out: dict[str, Any] = {}
         mask = np.ones(n, dtype=np.bool_)
-        for key in INFO_KEYS:
+        for key in keys:
             out[key] = info[key]
             out["_" + key] = mask
         if venv.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP:
             ended = np.nonzero(done)[0].tolist()
             if ended:  # the last observations and infos, then reset within the step
                 final_obs = np.full(n, None, dtype=object)
-                final_info: dict[str, Any] = {k: info[k].copy() for k in INFO_KEYS}
+                final_info: dict[str, Any] = {k: info[k].copy() for k in keys}
                 for i in ended:
-                    final_obs[i] = venv._obs[i].copy()
+                    final_obs[i] = self._observation(i)
                 for i in ended:
                     self._reset(i, info)
-                final_info.update({"_" + k: done for k in INFO_KEYS})
+                final_info.update({"_" + k: done for k in keys})
                 out["final_obs"], out["_final_obs"] = final_obs, done
                 out["final_info"], out["_final_info"] = final_info, done
         else:
             venv._autoreset[:] = done
-        return venv._obs.copy(), rewards, terminated, truncated, out
+        return venv._observations(), rewards, terminated, truncated, out
+
+    def _observation(self, i: int) -> Any:
+        """A copy of environment ``i``'s observation in the batch."""
+        obs = self.venv._obs
+        if isinstance(obs, dict):
+            return {key: value[i].copy() for key, value in obs.items()}
+        return obs[i].copy()
 
     def _scalar(
         self,
@@ -688,10 +723,10 @@ class _BatchCore:
     def _reset(self, i: int, info: dict[str, Any]) -> None:
         venv = self.venv
         obs, reset_info = venv._envs[i].reset()
-        venv._obs[i] = obs
+        venv._put(i, obs)
         venv._elapsed[i] = 0
         self.load(i)
-        for key in INFO_KEYS:
+        for key in self.info_keys:
             info[key][i] = reset_info[key]
 
     def _physics(self, a: np.ndarray, idx: np.ndarray) -> dict[str, Any]:
@@ -706,12 +741,16 @@ class _BatchCore:
                 self._append_commands(i)
             self.log_steps = 0
         self.log_steps += 1
-        _, forces, saturated, states, closure, obs, res = reach_batch_step(
+        args = (
             chipmunk.FUNCTIONS, self.handle_rows, idx, a, self.vmax, self.h, self.substeps,
             self.force_limit, self.buf, self.constants, FOLLOWING_ERROR_LIMIT, self.targets,
             self.assembly, self.consts, reach.consts, reach.weights.as_array(), reach.low,
             reach.high, self.log, self.logged,
         )  # fmt: skip
+        if self.goal is None:
+            _, forces, saturated, states, closure, obs, res = reach_batch_step(*args)
+        else:
+            _, forces, saturated, states, closure, obs, res = self.goal.advance(args)
         self.venv._elapsed[idx] += 1
         self.time[idx] += self.dt
         self.forces = forces[:, :3] * self.scale
@@ -753,9 +792,12 @@ class _BatchCore:
             goal = travel_goal_entries(obs[:, :3], self.target_rho[idx])
             obs = o["obs"] = np.concatenate([obs, goal], axis=1)
         sel = slice(None) if len(idx) == len(rewards) else idx  # (every env: no gather)
-        venv._obs[sel] = obs
-        rewards[sel] = reward
         reason = o["reason"]
+        if self.goal is None:
+            venv._obs[sel] = obs
+            rewards[sel] = reward
+        else:
+            rewards[sel] = self.goal.outputs(sel, obs, reason, info)
         terminated[sel] = reason > 0
         info["is_success"][sel] = reason == 1
         info["termination_reason"][sel] = _REASONS[reason]
@@ -772,6 +814,7 @@ class _BatchCore:
             "forces": self.forces,
             "saturated": self.saturated,
             "time": self.time[idx],
+            "goal": None if self.goal is None else self.goal.current,
         }
         self.pending[sel] = True
         for j in bad_rows:  # the reference kernel, on the state just computed
@@ -781,13 +824,77 @@ class _BatchCore:
             self._set_sim(env, state, self.last, j, i)
             env.episode.steps = int(venv._elapsed[i])
             ob, r, reason, inf = env.kernel.reference_step(env.episode, state, a[i].tolist())
-            venv._obs[i] = ob
+            if self.goal is None:
+                venv._obs[i] = ob
+            else:
+                ob, r = env.goal_outputs(ob, inf)  # type: ignore[attr-defined]
+                venv._put(i, ob)
             rewards[i] = r
             terminated[i] = reason is not None
-            for key in INFO_KEYS:
+            for key in self.info_keys:
                 info[key][i] = inf[key]
             chipmunk.write_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
+            self._append_commands(i)  # (no sync follows: the record takes this step's now)
             self.pending[i] = False
+
+
+class _GoalRows:
+    """The goal env's part of a batched step (:func:`~planar3p_gym.envs.batch_kernel.
+    goal_batch_step`): each environment's desired goal, the ``Dict`` observations
+    (:func:`~planar3p_gym.envs.goal.goal_observation`), the goal rewards and the relabelling
+    entries of the infos."""
+
+    def __init__(self, core: _BatchCore, env: Planar3PGoalEnv) -> None:
+        self.core = core
+        self.venv = core.venv
+        n = self.venv.num_envs
+        self.desired = np.zeros((n, 5), dtype=np.float32)
+        self.low, self.high = goal_bounds(env.design)
+        self.length = env.design.characteristic_length
+        self.dense = env.reward_type == "dense"
+        self.working_mode = env.observe_working_mode
+        #: The last batched step's achieved goals, evaluations and goal rewards.
+        self.current: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def load(self, i: int, env: Planar3PGoalEnv) -> None:
+        """Take environment ``i``'s desired goal (after a reset or a restored snapshot)."""
+        self.desired[i] = env.goal_task.desired
+
+    def advance(self, args: tuple) -> tuple:
+        """:func:`~planar3p_gym.envs.batch_kernel.goal_batch_step` of the reach step's
+        arguments ``args``; keeps the goal outputs in :attr:`current`."""
+        *reach, achieved, evaluation, rewards = goal_batch_step(
+            *args, self.desired, self.low, self.high, self.length, self.dense
+        )
+        self.current = (achieved, evaluation, rewards)
+        return tuple(reach)
+
+    def outputs(
+        self, sel: Any, flat: np.ndarray, reason: np.ndarray, info: dict[str, Any]
+    ) -> np.ndarray:
+        """Write the stepped environments' (``sel``) ``Dict`` observations of their flat
+        observations ``flat`` and their relabelling entries; returns their goal rewards."""
+        assert self.current is not None
+        achieved, evaluation, rewards = self.current
+        obs = goal_observation(flat, achieved, self.desired[sel], self.working_mode)
+        for key, value in obs.items():
+            self.venv._obs[key][sel] = value
+        info["failure"][sel] = reason == 2
+        info["goal_free_reward"][sel] = evaluation[3]
+        return rewards
+
+    def sync(
+        self, env: Planar3PGoalEnv, info: dict[str, Any], last: dict[str, Any], j: int
+    ) -> None:
+        """Give environment ``env`` (row ``j`` of the ``last`` batched step) its goal
+        evaluation and ``info``'s relabelling entries, as its own step leaves them."""
+        achieved, evaluation, _ = last["goal"]
+        task = env.goal_task
+        task.achieved[:] = achieved[j]
+        pos, ang, success, free = evaluation[:, j].tolist()
+        task.evaluation = (pos, ang, bool(success))
+        info["failure"] = info["termination_reason"] in task.failure_reasons
+        info["goal_free_reward"] = free
 
 
 class Planar3PTrackVectorEnv(Planar3PVectorEnv):
@@ -809,8 +916,9 @@ class Planar3PAssemblyChangeVectorEnv(Planar3PVectorEnv):
 
 
 class Planar3PGoalVectorEnv(Planar3PVectorEnv):
-    """``Planar3PGoal-v0``'s and ``Planar3PGoalDense-v0``'s native vector env (environment by
-    environment): the ``Dict`` observations as a dict of batch arrays, the relabelling entries
+    """``Planar3PGoal-v0``'s and ``Planar3PGoalDense-v0``'s native vector env (the batched
+    step from :data:`NUMPY_BATCH_MIN` environments, module docstring): the ``Dict``
+    observations as a dict of batch arrays, the relabelling entries
     (:data:`planar3p_gym.tasks.goal.RELABEL_INFO_KEYS`) among the infos, and
     :meth:`compute_reward` over the batch."""
 

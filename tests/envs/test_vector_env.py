@@ -376,23 +376,47 @@ def test_the_on_off_id_has_a_native_vector_env_of_its_single_envs():
     venv.close()
 
 
-@pytest.mark.parametrize("env_id", ["Planar3PGoal-v0", "Planar3PGoalDense-v0"])
-def test_the_goal_ids_native_vector_env_is_their_single_envs(env_id):
+@pytest.mark.parametrize(
+    ("env_id", "kwargs", "batch", "options"),
+    [
+        # Environment by environment (scalar), then the batched step's compiled loops.
+        ("Planar3PGoal-v0", {}, "scalar", None),
+        ("Planar3PGoal-v0", {}, "numpy", None),
+        ("Planar3PGoalDense-v0", {}, "numpy", None),
+        ("Planar3PGoalDense-v0", {"observe_working_mode": True}, "auto", None),
+        # Every step a physics breakdown: the reference kernel and the goal env's outputs.
+        ("Planar3PGoalDense-v0", {"breakdown_threshold": 1e-15}, "numpy", None),
+        # A desired goal that is passed at speed: the goal test says success where the reach
+        # test (at rest) does not, so the batched step rejudges the reward terms.
+        ("Planar3PGoalDense-v0", {}, "numpy", "moving"),
+    ],
+)
+def test_the_goal_ids_native_vector_env_is_their_single_envs(env_id, kwargs, batch, options):
     """``gym.make_vec`` of a goal id gives its native vector env: ``Dict`` observations as a
     dict of batch arrays, bit for bit each single env's (next-step autoreset), the relabelling
     entries among the infos, and ``compute_reward`` of the batch's goals and infos equal to
-    the rewards of every env stepped (what hindsight relabelling relies on)."""
-    n, steps, limit = 3, 90, 25
-    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit)
+    the rewards of every env stepped (what hindsight relabelling relies on); the single envs'
+    own attributes (simulation, episode record, goal evaluation) equal theirs on access."""
+    n, steps, limit = 4, 90, 25
+    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit, batch=batch, **kwargs)
     assert type(venv).__name__ == "Planar3PGoalVectorEnv"
-    singles = [gym.make(env_id, max_episode_steps=limit) for _ in range(n)]
+    assert (venv._core is not None) == (batch != "scalar")
+    singles = [gym.make(env_id, max_episode_steps=limit, **kwargs) for _ in range(n)]
     actions = np.random.default_rng(11).uniform(-1.0, 1.0, (steps, n, 3)).astype(np.float32)
-    obs, _ = venv.reset(seed=8)
-    expected = [env.reset(seed=8 + i)[0] for i, env in enumerate(singles)]
+    reset_options = None
+    if options == "moving":  # start at the goal pose, which may be passed at up to 0.2 m/s
+        probe = gym.make(env_id).unwrapped
+        probe.reset(seed=8)
+        pose = probe.sim.state.pose
+        goal = [pose[0], pose[1], np.cos(pose[2]), np.sin(pose[2]), 0.2]
+        reset_options = {"start": pose, "desired_goal": goal}
+        actions *= 0.05
+    obs, _ = venv.reset(seed=8, options=reset_options)
+    expected = [env.reset(seed=8 + i, options=reset_options)[0] for i, env in enumerate(singles)]
     assert venv.observation_space.contains(obs)
     for key in obs:
         np.testing.assert_array_equal(obs[key], np.stack([o[key] for o in expected]))
-    done, ends = [False] * n, 0
+    done, ends, successes = [False] * n, 0, 0
     for a in actions:
         stepped = [not d for d in done]
         obs, rewards, terminated, truncated, infos = venv.step(a)
@@ -409,6 +433,7 @@ def test_the_goal_ids_native_vector_env_is_their_single_envs(env_id):
             assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr)
             for key in venv.info_keys:
                 assert infos[key][i] == info[key], key
+            successes += bool(info["is_success"])
         rows = np.flatnonzero(stepped)
         relabelled = venv.compute_reward(
             obs["achieved_goal"][rows],
@@ -417,6 +442,16 @@ def test_the_goal_ids_native_vector_env_is_their_single_envs(env_id):
         )
         np.testing.assert_array_equal(relabelled, rewards[rows])
     assert ends >= n
+    assert (successes > 0) == (options == "moving")
+    for env, single in zip(venv.envs, singles, strict=True):
+        s = single.unwrapped
+        assert env.sim.get_state() == s.sim.get_state()
+        np.testing.assert_array_equal(env.episode.obs, s.episode.obs)
+        for key, value in s.episode.info.items():
+            if key != "reward_terms":
+                assert env.episode.info[key] == value, key
+        np.testing.assert_array_equal(env.goal_task.achieved, s.goal_task.achieved)
+        assert env.goal_task.evaluation == s.goal_task.evaluation
     venv.close()
 
 
@@ -430,8 +465,9 @@ def test_sb3_adapter_serves_the_goal_ids():
     from planar3p_agents.training.vec_adapter import make_native_vec_env
     from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS
 
-    n, limit = 2, 20
+    n, limit = NUMPY_BATCH_MIN, 20  # (the batched step: SAME_STEP resets, final_obs)
     native = make_native_vec_env("Planar3PGoalDense-v0", n_envs=n, seed=6)
+    assert native.venv._core is not None
     native.venv.max_episode_steps = limit
     dummy = DummyVecEnv(
         [lambda: gym.make("Planar3PGoalDense-v0", max_episode_steps=limit) for _ in range(n)]
@@ -451,5 +487,8 @@ def test_sb3_adapter_serves_the_goal_ids():
         for i in range(n):
             for key in RELABEL_INFO_KEYS:
                 assert x[3][i][key] == y[3][i][key], key
+            if x[2][i]:  # the ended episode's last Dict observation
+                for key, value in y[3][i]["terminal_observation"].items():
+                    np.testing.assert_array_equal(x[3][i]["terminal_observation"][key], value)
     assert ends >= n
     native.close()
