@@ -9,7 +9,10 @@ once:
   the projection), then the reach step's outputs
   (:func:`planar3p_gym.tasks.reach_step.reach_outputs_batch`);
 - :func:`goal_batch_step` (the goal task): that step, then the goal test, the rejudged reward
-  terms and the goal reward over the rows (:func:`planar3p_gym.tasks.goal.goal_rows`).
+  terms and the goal reward over the rows (:func:`planar3p_gym.tasks.goal.goal_rows`);
+- :func:`track_batch_step` (the tracking task): each row's reference pose of the step from its
+  episode's samples, that step, then the reference velocity entries, the rejudged terms and
+  the running tracking errors (:func:`planar3p_gym.tasks.track.track_rows`).
 """
 
 from __future__ import annotations
@@ -21,8 +24,9 @@ from planar3p_gym.sim.chipmunk import advance_batch
 from planar3p_gym.tasks.goal import goal_rows
 from planar3p_gym.tasks.observation import OBS_SIZE
 from planar3p_gym.tasks.reach_step import RESULT_FIELDS, TOLERANCES, reach_outputs_batch
+from planar3p_gym.tasks.track import RUNNING_SIZE, track_rows
 
-__all__ = ["goal_batch_step", "reach_batch_step"]
+__all__ = ["goal_batch_step", "reach_batch_step", "track_batch_step"]
 
 _RESULTS = len(RESULT_FIELDS)
 _TOLERANCE_START = TOLERANCES.start
@@ -117,3 +121,42 @@ def goal_batch_step(
         weights, length, dense, goal_low, goal_high, achieved, evaluation, rewards,
     )  # fmt: skip
     return commands, forces, saturated, states, closure, obs, res, achieved, evaluation, rewards
+
+
+@njit(cache=True)
+def track_batch_step(
+    fns: np.ndarray, handles: np.ndarray, rows: np.ndarray, actions: np.ndarray, vmax: float,
+    h: float, substeps: int, force_limit: float, readouts: np.ndarray, projection: np.ndarray,
+    setpoint_limit: float, targets: np.ndarray, assembly: np.ndarray, env_consts: np.ndarray,
+    reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
+    log: np.ndarray, logged: np.ndarray, samples: np.ndarray, elapsed: np.ndarray,
+    running: np.ndarray, extra_low: np.ndarray, extra_high: np.ndarray,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """:func:`reach_batch_step` against each stepped environment's reference pose at its new
+    step ``elapsed[i] + 1`` (``samples`` ``(N, H, 8)``, each episode's
+    :attr:`~planar3p_gym.tasks.track.TrackTask.samples`; written into ``targets``), then
+    :func:`~planar3p_gym.tasks.track.track_rows` of its outputs (``running`` ``(N, 7)``: each
+    environment's running errors before the step; ``extra_low``, ``extra_high``: the
+    reference velocity entries' bounds).
+
+    Returns :func:`reach_batch_step`'s tuple (its results rejudged), then the stepped
+    environments' reference velocity entries ``(n, 3)`` float32 and running errors after the
+    step ``(n, 7)``."""
+    n = rows.shape[0]
+    steps = elapsed + 1
+    for k in range(n):
+        i = rows[k]
+        for d in range(5):
+            targets[d, i] = samples[i, steps[i], d]
+    commands, forces, saturated, states, closure, obs, res = reach_batch_step(
+        fns, handles, rows, actions, vmax, h, substeps, force_limit, readouts, projection,
+        setpoint_limit, targets, assembly, env_consts, reach_consts, weights, low, high, log,
+        logged,
+    )  # fmt: skip
+    extra = np.empty((n, 3), dtype=np.float32)
+    running_out = np.empty((n, RUNNING_SIZE))
+    track_rows(
+        rows, steps, samples, res, actions, weights, reach_consts[6], extra_low, extra_high,
+        running, extra, running_out,
+    )  # fmt: skip
+    return commands, forces, saturated, states, closure, obs, res, extra, running_out

@@ -39,9 +39,16 @@ built from the batch arrays (:func:`~planar3p_gym.envs.goal.goal_observation`) a
 per-environment dict is built on a batched step (the ids stepped environment by environment
 gather the entries of each environment's ``info`` dict into the arrays).
 
+**The tracking id** (``Planar3PTrack-v0``) takes it as well: each episode's reference samples
+(:attr:`planar3p_gym.tasks.track.TrackTask.samples`, from its reset) are rows of one array,
+indexed by each environment's step inside the compiled call
+(:func:`~planar3p_gym.envs.batch_kernel.track_batch_step`), which also writes the reference
+velocity entries of the observations and keeps the running tracking errors (the metrics of
+each environment's ``info``, built when it is brought up to date).
+
 **Per-environment step** (every other configuration: the built machine's ids, and the task ids
-``Planar3PTrack-v0``, ``Planar3PModeChange-v0`` and ``Planar3PAssemblyChange-v0`` through the
-subclasses at the end of this module): each environment steps through its own ``step``; what
+``Planar3PModeChange-v0`` and ``Planar3PAssemblyChange-v0`` through the subclasses at the end
+of this module): each environment steps through its own ``step``; what
 the vector env saves there is the per-step overhead of ``gym.make``'s wrappers and of
 ``SyncVectorEnv``.
 """
@@ -58,7 +65,7 @@ from gymnasium.vector.utils import batch_space, create_empty_array
 
 from planar3p_gym import checks
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
-from planar3p_gym.envs.batch_kernel import goal_batch_step, reach_batch_step
+from planar3p_gym.envs.batch_kernel import goal_batch_step, reach_batch_step, track_batch_step
 from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.envs.goal import Planar3PGoalEnv, goal_observation
 from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
@@ -74,6 +81,7 @@ from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
 from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, BatchReach
 from planar3p_gym.tasks.rewards import TERM_NAMES
 from planar3p_gym.tasks.sampling import TaskConfig
+from planar3p_gym.tasks.track import RUNNING_SIZE, SAMPLE_CHUNK, TrackKernel
 
 __all__ = [
     "INFO_KEYS",
@@ -129,8 +137,8 @@ class Planar3PVectorEnv(VectorEnv):
             per environment, then the projection and the outputs in compiled loops over the
             batch; the name is historical) or ``"auto"`` (``"numpy"`` from
             :data:`NUMPY_BATCH_MIN` environments); the same numbers either way.  The goal
-            ids take ``"numpy"`` too (``"scalar"``: environment by environment); other
-            configurations always step environment by environment.
+            and tracking ids take ``"numpy"`` too (``"scalar"``: environment by environment);
+            other configurations always step environment by environment.
         autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default, Gymnasium's) or
             ``AutoresetMode.SAME_STEP`` (an ended episode is reset within the same step: its
             last observation is in ``info["final_obs"]``, its last info entries in
@@ -416,11 +424,13 @@ class Planar3PVectorEnv(VectorEnv):
 
 def _batch_mode(env: Planar3PEnv, numpy_batch: bool) -> bool | None:
     """How a batch of ``env`` is stepped: the reach kernel in either mode of the batched
-    step, the goal kernel of the goal env in compiled loops only (``numpy_batch``), anything
-    else (None) environment by environment."""
+    step, the goal kernel of the goal env and the tracking kernel in compiled loops only
+    (``numpy_batch``), anything else (None) environment by environment."""
     if isinstance(env.kernel, ReachKernel):
         return numpy_batch
     if numpy_batch and isinstance(env, Planar3PGoalEnv) and isinstance(env.kernel, GoalKernel):
+        return True
+    if numpy_batch and isinstance(env.kernel, TrackKernel):
         return True
     return None
 
@@ -494,8 +504,12 @@ class _BatchCore:
         self.pending_info: list[tuple | None] = [None] * n
         self.last: dict[str, Any] | None = None  # the last batched step's arrays
         self.info_keys = venv.info_keys
-        #: The goal task's part of the step (the goal env's kernel), else None.
-        self.goal = _GoalRows(self, env) if isinstance(env, Planar3PGoalEnv) else None
+        #: The goal or tracking task's part of the step, else None (the reach task).
+        self.goal: _GoalRows | _TrackRows | None = None
+        if isinstance(env, Planar3PGoalEnv):
+            self.goal = _GoalRows(self, env)
+        elif isinstance(env.kernel, TrackKernel):
+            self.goal = _TrackRows(self, env)
 
     # ------------------------------------------------------------------ env <-> batch
     def load(self, i: int) -> None:
@@ -565,7 +579,7 @@ class _BatchCore:
         errors = (float(o["position_error"][j]), float(o["orientation_error"][j]))
         ep.info = env.kernel.info(ep, state, measures, reason, terms, reason == "success", errors)
         if self.goal is not None:
-            self.goal.sync(env, ep.info, last, j)
+            self.goal.sync(i, env, ep.info, last, j)
         if bodies:
             chipmunk.write_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
         self.pending[i] = False
@@ -750,7 +764,7 @@ class _BatchCore:
         if self.goal is None:
             _, forces, saturated, states, closure, obs, res = reach_batch_step(*args)
         else:
-            _, forces, saturated, states, closure, obs, res = self.goal.advance(args)
+            _, forces, saturated, states, closure, obs, res = self.goal.advance(args, idx)
         self.venv._elapsed[idx] += 1
         self.time[idx] += self.dt
         self.forces = forces[:, :3] * self.scale
@@ -797,7 +811,7 @@ class _BatchCore:
             venv._obs[sel] = obs
             rewards[sel] = reward
         else:
-            rewards[sel] = self.goal.outputs(sel, obs, reason, info)
+            rewards[sel] = self.goal.outputs(sel, idx, o, ~bad, info)
         terminated[sel] = reason > 0
         info["is_success"][sel] = reason == 1
         info["termination_reason"][sel] = _REASONS[reason]
@@ -827,8 +841,7 @@ class _BatchCore:
             if self.goal is None:
                 venv._obs[i] = ob
             else:
-                ob, r = env.goal_outputs(ob, inf)  # type: ignore[attr-defined]
-                venv._put(i, ob)
+                r = self.goal.fallback(i, env, ob, r, inf)
             rewards[i] = r
             terminated[i] = reason is not None
             for key in self.info_keys:
@@ -860,9 +873,10 @@ class _GoalRows:
         """Take environment ``i``'s desired goal (after a reset or a restored snapshot)."""
         self.desired[i] = env.goal_task.desired
 
-    def advance(self, args: tuple) -> tuple:
+    def advance(self, args: tuple, idx: np.ndarray) -> tuple:
         """:func:`~planar3p_gym.envs.batch_kernel.goal_batch_step` of the reach step's
-        arguments ``args``; keeps the goal outputs in :attr:`current`."""
+        arguments ``args`` (the environments ``idx``); keeps the goal outputs in
+        :attr:`current`."""
         *reach, achieved, evaluation, rewards = goal_batch_step(
             *args, self.desired, self.low, self.high, self.length, self.dense
         )
@@ -870,23 +884,34 @@ class _GoalRows:
         return tuple(reach)
 
     def outputs(
-        self, sel: Any, flat: np.ndarray, reason: np.ndarray, info: dict[str, Any]
+        self, sel: Any, idx: np.ndarray, o: dict[str, Any], good: np.ndarray, info: dict
     ) -> np.ndarray:
-        """Write the stepped environments' (``sel``) ``Dict`` observations of their flat
-        observations ``flat`` and their relabelling entries; returns their goal rewards."""
+        """Write the stepped environments' (``idx``, ``sel`` over the batch) ``Dict``
+        observations of their flat observations (the outputs ``o``) and their relabelling
+        entries; returns their goal rewards (the rows not ``good``, whose physics broke
+        down, take :meth:`fallback`)."""
         assert self.current is not None
         achieved, evaluation, rewards = self.current
-        obs = goal_observation(flat, achieved, self.desired[sel], self.working_mode)
+        obs = goal_observation(o["obs"], achieved, self.desired[sel], self.working_mode)
         for key, value in obs.items():
             self.venv._obs[key][sel] = value
-        info["failure"][sel] = reason == 2
+        info["failure"][sel] = o["reason"] == 2
         info["goal_free_reward"][sel] = evaluation[3]
         return rewards
 
+    def fallback(
+        self, i: int, env: Planar3PGoalEnv, flat: np.ndarray, reward: float, info: dict
+    ) -> float:
+        """Environment ``i``'s ``Dict`` observation and goal reward of the reference kernel's
+        step (its flat observation ``flat`` and ``info``), as its own step gives them."""
+        obs, reward = env.goal_outputs(flat, info)
+        self.venv._put(i, obs)
+        return reward
+
     def sync(
-        self, env: Planar3PGoalEnv, info: dict[str, Any], last: dict[str, Any], j: int
+        self, i: int, env: Planar3PGoalEnv, info: dict[str, Any], last: dict[str, Any], j: int
     ) -> None:
-        """Give environment ``env`` (row ``j`` of the ``last`` batched step) its goal
+        """Give environment ``i`` (row ``j`` of the ``last`` batched step) its goal
         evaluation and ``info``'s relabelling entries, as its own step leaves them."""
         achieved, evaluation, _ = last["goal"]
         task = env.goal_task
@@ -897,8 +922,101 @@ class _GoalRows:
         info["goal_free_reward"] = free
 
 
+class _TrackRows:
+    """The tracking task's part of a batched step (:func:`~planar3p_gym.envs.batch_kernel.
+    track_batch_step`): each episode's reference samples (:attr:`TrackTask.samples`, the
+    first :attr:`horizon` steps, one row of :attr:`samples` per environment), the running
+    tracking errors, and the reference velocity entries of the observations."""
+
+    def __init__(self, core: _BatchCore, env: Planar3PEnv) -> None:
+        self.core = core
+        self.venv = core.venv
+        n = self.venv.num_envs
+        settings = env.kernel.settings
+        self.low, self.high = settings.extra_low, settings.extra_high
+        self.horizon = 0
+        self.samples = np.zeros((n, 0, 8))
+        self.running = np.zeros((n, RUNNING_SIZE))
+        #: The last batched step's reference velocity entries and running errors of the
+        #: stepped environments.
+        self.extra: np.ndarray | None = None
+        self.current: np.ndarray | None = None
+
+    def _take(self, i: int, env: Planar3PEnv) -> None:
+        """Copy environment ``i``'s reference samples into its row of :attr:`samples`."""
+        env.task.sample(self.horizon - 1)  # type: ignore[attr-defined]  (extended to it)
+        self.samples[i] = env.task.samples[: self.horizon]  # type: ignore[attr-defined]
+
+    def _grow(self, horizon: int) -> None:
+        """Hold at least ``horizon`` steps of every environment's reference."""
+        self.horizon = max(horizon, 2 * self.horizon, SAMPLE_CHUNK)
+        self.samples = np.zeros((self.venv.num_envs, self.horizon, 8))
+        for i, env in enumerate(self.venv._envs):
+            if _has_sim(env):
+                self._take(i, env)
+
+    def load(self, i: int, env: Planar3PEnv) -> None:
+        """Take environment ``i``'s reference and running errors (after a reset or a restored
+        snapshot)."""
+        if self.horizon == 0:
+            self._grow(SAMPLE_CHUNK)
+        self._take(i, env)
+        self.running[i] = env.task.running  # type: ignore[attr-defined]
+
+    def advance(self, args: tuple, idx: np.ndarray) -> tuple:
+        """:func:`~planar3p_gym.envs.batch_kernel.track_batch_step` of the reach step's
+        arguments ``args`` (the environments ``idx``); keeps the reference velocity entries
+        and the running errors in :attr:`current`."""
+        elapsed = self.venv._elapsed
+        if int(elapsed[idx].max()) + 1 >= self.horizon:
+            self._grow(int(elapsed[idx].max()) + 2)
+        *reach, extra, running = track_batch_step(
+            *args, self.samples, elapsed, self.running, self.low, self.high
+        )
+        self.extra = extra
+        self.current = running
+        return tuple(reach)
+
+    def outputs(
+        self, sel: Any, idx: np.ndarray, o: dict[str, Any], good: np.ndarray, info: dict
+    ) -> np.ndarray:
+        """Write the stepped environments' (``idx``, ``sel`` over the batch) observations
+        (the outputs ``o`` with the reference velocity entries, kept there: :meth:`sync`
+        gives each env its row) and keep the running errors of the rows whose physics held
+        (``good``); returns their rewards."""
+        assert self.current is not None
+        obs = o["obs"] = np.concatenate([o["obs"], self.extra], axis=1)
+        self.venv._obs[sel] = obs
+        self.running[idx[good]] = self.current[good]
+        return o["reward"]
+
+    def fallback(
+        self, i: int, env: Planar3PEnv, flat: np.ndarray, reward: float, info: dict
+    ) -> float:
+        """Environment ``i``'s observation of the reference kernel's step, and its running
+        errors (counted by the task's own metrics)."""
+        self.venv._obs[i] = flat
+        self.running[i] = env.task.running  # type: ignore[attr-defined]
+        return reward
+
+    def sync(
+        self, i: int, env: Planar3PEnv, info: dict[str, Any], last: dict[str, Any], j: int
+    ) -> None:
+        """Give environment ``i`` (row ``j`` of the ``last`` batched step) its reference
+        target, its running errors and ``info``'s tracking metrics, as its own step leaves
+        them."""
+        task = env.task
+        ep = env.episode
+        x, y, theta, c, s = task.sample(ep.steps)[:5].tolist()  # type: ignore[attr-defined]
+        ep.target, ep.target_cs = (x, y, theta), (c, s)
+        task.running[:] = self.running[i]  # type: ignore[attr-defined]
+        errors = (info["position_error"], info["orientation_error"])
+        info.update(task.tracking_info(ep.steps, errors))  # type: ignore[attr-defined]
+
+
 class Planar3PTrackVectorEnv(Planar3PVectorEnv):
-    """``Planar3PTrack-v0``'s native vector env (environment by environment)."""
+    """``Planar3PTrack-v0``'s native vector env (the batched step from
+    :data:`NUMPY_BATCH_MIN` environments, module docstring)."""
 
     env_class = Planar3PTrackEnv
 

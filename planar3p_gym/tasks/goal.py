@@ -59,7 +59,7 @@ from planar3p_gym.tasks.kernel import (
 )
 from planar3p_gym.tasks.observation import SLICES, SPEED_BOUND_FACTOR, bounds
 from planar3p_gym.tasks.reach import COMPILED_HOOKS, ReachTask
-from planar3p_gym.tasks.reach_step import TERMS_START
+from planar3p_gym.tasks.reach_step import TERMS_START, rejudge_row
 from planar3p_gym.tasks.rewards import TERM_NAMES, RewardWeights, weighted_terms
 from planar3p_gym.tasks.sampling import TaskConfig
 
@@ -390,7 +390,6 @@ def goal_free_reward(terms: dict[str, float], reward_type: str) -> float:
 
 #: Indices of the reward terms :func:`goal_free_value` reads, in the reach outputs' results.
 _FREE_TERMS = tuple(TERMS_START + TERM_NAMES.index(k) for k in ("singularity", "action", "failure"))
-_REJUDGE_TERMS = len(TERM_NAMES)
 
 
 @njit(cache=True)
@@ -422,16 +421,7 @@ def goal_rows(
         )  # fmt: skip
         evaluation[0, j], evaluation[1, j], evaluation[2, j] = pos, ang, success
         if success != (res[1, j] == 1):
-            terms = weighted_terms(
-                w, res[2, j], res[3, j], length, res[4, j], res[5, j], actions[i, 0],
-                actions[i, 1], actions[i, 2], success, False,
-            )  # fmt: skip
-            total = 0.0
-            for t in range(_REJUDGE_TERMS):
-                total += terms[t]
-                res[TERMS_START + t, j] = terms[t]
-            res[0, j] = total
-            res[1, j] = 1.0 if success else 0.0
+            rejudge_row(res, j, w, length, actions[i, 0], actions[i, 1], actions[i, 2], success)
         free = goal_free_value(
             res[_FREE_TERMS[0], j], res[_FREE_TERMS[1], j], res[_FREE_TERMS[2], j], dense
         )

@@ -38,8 +38,13 @@ def test_make_vec_gives_the_native_vector_env(env_id):
         ("Planar3P-v0", {"travel_goal": True}, "numpy"),
         ("Planar3P-v0", {"travel_goal": True, "breakdown_threshold": 1e-15}, "scalar"),
         ("Planar3P-v0", {}, "auto"),
-        # The task ids on the projected physics: environment by environment.
-        ("Planar3PTrack-v0", {}, "auto"),
+        # The tracking id: its batched step (each episode's reference samples, the reference
+        # velocity entries, the running errors), through breakdowns too, and env by env.
+        ("Planar3PTrack-v0", {}, "numpy"),
+        ("Planar3PTrack-v0", {"reference": "figure_eight"}, "numpy"),
+        ("Planar3PTrack-v0", {"breakdown_threshold": 1e-15}, "numpy"),
+        ("Planar3PTrack-v0", {}, "scalar"),
+        # The other task ids on the projected physics: environment by environment.
         ("Planar3PModeChange-v0", {}, "auto"),
         ("Planar3PAssemblyChange-v0", {}, "auto"),
         # The machine as built (randomised machine, encoders, delay): environment by environment.
@@ -126,6 +131,7 @@ def test_batched_commands_reach_the_simulations_records_across_the_log():
         ("Planar3P-v0", {}, "numpy"),
         ("Planar3P-v0", {"breakdown_threshold": 1e-15}, "scalar"),
         ("Planar3P-v0", {"breakdown_threshold": 1e-15}, "numpy"),
+        ("Planar3PTrack-v0", {}, "numpy"),
         ("Planar3PTrack-v0", {}, "auto"),
         ("Planar3PReal-v0", {}, "auto"),
     ],
