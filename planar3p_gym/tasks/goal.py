@@ -50,6 +50,7 @@ from planar3p_gym.machine.design import Design
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks.base import Pose
 from planar3p_gym.tasks.kernel import (
+    CompiledKernel,
     Episode,
     KernelSettings,
     ReachKernel,
@@ -595,7 +596,7 @@ def achieved_goal(pose: ArrayLike, rho_dot: ArrayLike) -> NDArray[np.float32]:
     return out
 
 
-class GoalKernel(StepKernel):
+class GoalKernel(CompiledKernel):
     """The goal task's compiled kernel: the reach kernel's compiled outputs
     (:class:`~planar3p_gym.tasks.kernel.ReachKernel`: observation, errors, margins, reward
     terms) with the goal task's success test, on the goals (:meth:`GoalTask.evaluate`, compiled),
@@ -613,21 +614,15 @@ class GoalKernel(StepKernel):
     def config_changed(self, tolerances: tuple[float, float, float]) -> None:
         self.reach.config_changed(tolerances)
 
-    def step(
+    def compiled_step(
         self,
         ep: Episode,
         state: SimState,
-        array: np.ndarray | None,
+        array: np.ndarray,
         action: tuple[float, float, float],
         rng: np.random.Generator,
     ) -> StepOutputs:
-        if (
-            array is None
-            or not state.finite
-            or state.closure_error > self.settings.breakdown_distance
-        ):
-            return super().step(ep, state, array, action, rng)
-        obs, reward, reason, info = self.reach.step(ep, state, array, action, rng)
+        obs, reward, reason, info = self.reach.compiled_step(ep, state, array, action, rng)
         # GoalTask.termination: a crossing first, else success on the goals (evaluated once).
         crossing = reason == "singularity_crossing"
         success = self.task.evaluate(state.pose, state.rho_dot, crossing)[2]

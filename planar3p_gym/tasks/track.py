@@ -67,6 +67,7 @@ from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.base import Pose, Task, pose_list
 from planar3p_gym.tasks.kernel import (
+    CompiledKernel,
     Episode,
     KernelSettings,
     ReachKernel,
@@ -592,7 +593,7 @@ def _peak_of(rho: np.ndarray) -> float:
     return float(np.abs(np.diff(rho, axis=0)).max() * (len(rho) - 1))
 
 
-class TrackKernel(StepKernel):
+class TrackKernel(CompiledKernel):
     """The tracking task's compiled kernel: the reach task's compiled outputs
     (:class:`~planar3p_gym.tasks.kernel.ReachKernel`: observation, errors, margins, reward
     terms) against the step's reference pose, with no success (a step within the tolerances is
@@ -602,6 +603,7 @@ class TrackKernel(StepKernel):
     equal to the reference's to a few float64 rounding errors (``tests/tasks/test_track.py``)."""
 
     task: TrackTask
+    moving_target = True
 
     def __init__(self, task: TrackTask, settings: KernelSettings, machine: Sensing) -> None:
         super().__init__(task, settings, machine)
@@ -611,24 +613,22 @@ class TrackKernel(StepKernel):
     def config_changed(self, tolerances: tuple[float, float, float]) -> None:
         self.reach.config_changed(tolerances)
 
-    def step(
+    def set_target(self, ep: Episode) -> None:
+        """The step's reference pose and its ``cos``/``sin theta`` from the episode's samples
+        (:meth:`TrackTask.sample`)."""
+        x, y, theta, c, s = self.task.sample(ep.steps)[:5].tolist()
+        ep.target, ep.target_cs = (x, y, theta), (c, s)
+
+    def compiled_step(
         self,
         ep: Episode,
         state: SimState,
-        array: np.ndarray | None,
+        array: np.ndarray,
         action: tuple[float, float, float],
         rng: np.random.Generator,
     ) -> StepOutputs:
-        if (
-            array is None
-            or not state.finite
-            or state.closure_error > self.settings.breakdown_distance
-        ):
-            return super().step(ep, state, array, action, rng)
         task = self.task
-        x, y, theta, c, s = task.sample(ep.steps)[:5].tolist()
-        ep.target, ep.target_cs = (x, y, theta), (c, s)
-        obs, reward, reason, info = self.reach.step(ep, state, array, action, rng)
+        obs, reward, reason, info = self.reach.compiled_step(ep, state, array, action, rng)
         if reason == "success":  # (never for this task: within the tolerances, going on)
             reward, reason = self.reach.rejudge(info, action, False), None
         assert ep.measures is not None
