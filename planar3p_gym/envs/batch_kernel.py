@@ -12,7 +12,10 @@ once:
   terms and the goal reward over the rows (:func:`planar3p_gym.tasks.goal.goal_rows`);
 - :func:`track_batch_step` (the tracking task): each row's reference pose of the step from its
   episode's samples, that step, then the reference velocity entries, the rejudged terms and
-  the running tracking errors (:func:`planar3p_gym.tasks.track.track_rows`).
+  the running tracking errors (:func:`planar3p_gym.tasks.track.track_rows`);
+- :func:`mode_batch_step` (the mode-change task): that step, then the success test in the
+  target's working mode and the reward terms with the task's barriers
+  (:func:`planar3p_gym.tasks.mode_change.mode_change_rows`).
 """
 
 from __future__ import annotations
@@ -22,11 +25,12 @@ from numba import njit
 
 from planar3p_gym.sim.chipmunk import advance_batch
 from planar3p_gym.tasks.goal import goal_rows
+from planar3p_gym.tasks.mode_change import mode_change_rows
 from planar3p_gym.tasks.observation import OBS_SIZE
 from planar3p_gym.tasks.reach_step import RESULT_FIELDS, TOLERANCES, reach_outputs_batch
 from planar3p_gym.tasks.track import RUNNING_SIZE, track_rows
 
-__all__ = ["goal_batch_step", "reach_batch_step", "track_batch_step"]
+__all__ = ["goal_batch_step", "mode_batch_step", "reach_batch_step", "track_batch_step"]
 
 _RESULTS = len(RESULT_FIELDS)
 _TOLERANCE_START = TOLERANCES.start
@@ -160,3 +164,27 @@ def track_batch_step(
         running, extra, running_out,
     )  # fmt: skip
     return commands, forces, saturated, states, closure, obs, res, extra, running_out
+
+
+@njit(cache=True)
+def mode_batch_step(
+    fns: np.ndarray, handles: np.ndarray, rows: np.ndarray, actions: np.ndarray, vmax: float,
+    h: float, substeps: int, force_limit: float, readouts: np.ndarray, projection: np.ndarray,
+    setpoint_limit: float, targets: np.ndarray, assembly: np.ndarray, env_consts: np.ndarray,
+    reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
+    log: np.ndarray, logged: np.ndarray, target_modes: np.ndarray, parallel_barrier: bool,
+    serial_barrier: bool,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """:func:`reach_batch_step`, then :func:`~planar3p_gym.tasks.mode_change.mode_change_rows`
+    of its outputs (``target_modes`` ``(N, 3)`` int64: each episode's target working mode;
+    the task's barriers); returns :func:`reach_batch_step`'s tuple, its results rejudged."""
+    out = reach_batch_step(
+        fns, handles, rows, actions, vmax, h, substeps, force_limit, readouts, projection,
+        setpoint_limit, targets, assembly, env_consts, reach_consts, weights, low, high, log,
+        logged,
+    )  # fmt: skip
+    mode_change_rows(
+        rows, out[3], actions, out[6], target_modes, weights, reach_consts[6], parallel_barrier,
+        serial_barrier,
+    )  # fmt: skip
+    return out

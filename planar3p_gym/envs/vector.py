@@ -46,11 +46,15 @@ indexed by each environment's step inside the compiled call
 velocity entries of the observations and keeps the running tracking errors (the metrics of
 each environment's ``info``, built when it is brought up to date).
 
-**Per-environment step** (every other configuration: the built machine's ids, and the task ids
-``Planar3PModeChange-v0`` and ``Planar3PAssemblyChange-v0`` through the subclasses at the end
-of this module): each environment steps through its own ``step``; what
-the vector env saves there is the per-step overhead of ``gym.make``'s wrappers and of
-``SyncVectorEnv``.
+**The mode-change id** (``Planar3PModeChange-v0``, without the travel term) takes it too: the
+success test in the target's working mode and the reward terms with the task's barriers in the
+compiled call (:func:`~planar3p_gym.envs.batch_kernel.mode_batch_step`), its metrics from the
+task's hook when an environment is brought up to date.
+
+**Per-environment step** (every other configuration: the built machine's ids, the task id
+``Planar3PAssemblyChange-v0`` and the mode change with its travel term): each environment
+steps through its own ``step``; what the vector env saves there is the per-step overhead of
+``gym.make``'s wrappers and of ``SyncVectorEnv``.
 """
 
 from __future__ import annotations
@@ -65,7 +69,12 @@ from gymnasium.vector.utils import batch_space, create_empty_array
 
 from planar3p_gym import checks
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
-from planar3p_gym.envs.batch_kernel import goal_batch_step, reach_batch_step, track_batch_step
+from planar3p_gym.envs.batch_kernel import (
+    goal_batch_step,
+    mode_batch_step,
+    reach_batch_step,
+    track_batch_step,
+)
 from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.envs.goal import Planar3PGoalEnv, goal_observation
 from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
@@ -76,7 +85,8 @@ from planar3p_gym.sim.batch_step import BatchState
 from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, SimState
 from planar3p_gym.tasks import sampling as task_module
 from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS, GoalKernel, goal_bounds
-from planar3p_gym.tasks.kernel import ReachKernel
+from planar3p_gym.tasks.kernel import HookKernel, ReachKernel
+from planar3p_gym.tasks.mode_change import ModeChangeTask
 from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
 from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, BatchReach
 from planar3p_gym.tasks.rewards import TERM_NAMES
@@ -136,9 +146,9 @@ class Planar3PVectorEnv(VectorEnv):
             environment's simulation step and compiled outputs in turn), ``"numpy"`` (pymunk
             per environment, then the projection and the outputs in compiled loops over the
             batch; the name is historical) or ``"auto"`` (``"numpy"`` from
-            :data:`NUMPY_BATCH_MIN` environments); the same numbers either way.  The goal
-            and tracking ids take ``"numpy"`` too (``"scalar"``: environment by environment);
-            other configurations always step environment by environment.
+            :data:`NUMPY_BATCH_MIN` environments); the same numbers either way.  The goal,
+            tracking and mode-change ids take ``"numpy"`` too (``"scalar"``: environment by
+            environment); other configurations always step environment by environment.
         autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default, Gymnasium's) or
             ``AutoresetMode.SAME_STEP`` (an ended episode is reset within the same step: its
             last observation is in ``info["final_obs"]``, its last info entries in
@@ -432,13 +442,28 @@ def _batch_mode(env: Planar3PEnv, numpy_batch: bool) -> bool | None:
         return True
     if numpy_batch and isinstance(env.kernel, TrackKernel):
         return True
+    if numpy_batch and _mode_change(env):
+        return True
     return None
+
+
+def _mode_change(env: Planar3PEnv) -> bool:
+    """Whether ``env`` runs the mode-change task's own hooks on the compiled measures, with
+    no travel term (what :class:`_ModeRows` batches)."""
+    task = env.task
+    return (
+        type(task) is ModeChangeTask
+        and isinstance(env.kernel, HookKernel)
+        and not task.travel_shaping
+    )
 
 
 def _reach_step(kernel: Any) -> Any:
     """The reach outputs (:class:`~planar3p_gym.tasks.reach_step.ReachStep`) a batched kernel
     computes (its own, or those of the reach kernel it is built on)."""
-    return kernel.reach if isinstance(kernel, ReachKernel) else kernel.reach.reach
+    if isinstance(kernel, (ReachKernel, HookKernel)):
+        return kernel.reach
+    return kernel.reach.reach
 
 
 def _has_sim(env: Planar3PEnv) -> bool:
@@ -505,11 +530,13 @@ class _BatchCore:
         self.last: dict[str, Any] | None = None  # the last batched step's arrays
         self.info_keys = venv.info_keys
         #: The goal or tracking task's part of the step, else None (the reach task).
-        self.goal: _GoalRows | _TrackRows | None = None
+        self.goal: _GoalRows | _TrackRows | _ModeRows | None = None
         if isinstance(env, Planar3PGoalEnv):
             self.goal = _GoalRows(self, env)
         elif isinstance(env.kernel, TrackKernel):
             self.goal = _TrackRows(self, env)
+        elif _mode_change(env):
+            self.goal = _ModeRows(self, env)
 
     # ------------------------------------------------------------------ env <-> batch
     def load(self, i: int) -> None:
@@ -1014,6 +1041,57 @@ class _TrackRows:
         info.update(task.tracking_info(ep.steps, errors))  # type: ignore[attr-defined]
 
 
+class _ModeRows:
+    """The mode-change task's part of a batched step (:func:`~planar3p_gym.envs.batch_kernel.
+    mode_batch_step`): each episode's target working mode and its observation's extra entries
+    (the target's travels and working mode, fixed over the episode)."""
+
+    def __init__(self, core: _BatchCore, env: Planar3PEnv) -> None:
+        self.venv = core.venv
+        n = self.venv.num_envs
+        self.target_modes = np.zeros((n, 3), dtype=np.int64)
+        self.extra = np.zeros((n, env.observation_space.shape[0] - OBS_SIZE), dtype=np.float32)
+        self.parallel_barrier = bool(env.task.parallel_barrier)
+        self.serial_barrier = bool(env.task.serial_barrier)
+        self.current = None  # (no outputs of its own: the reach outputs hold them)
+
+    def load(self, i: int, env: Planar3PEnv) -> None:
+        """Take environment ``i``'s target working mode and extra entries (from its reset's,
+        or a restored snapshot's, ``info`` and observation)."""
+        self.target_modes[i] = env.episode.info["target_working_mode"]
+        self.extra[i] = env.episode.obs[OBS_SIZE:]
+
+    def advance(self, args: tuple, idx: np.ndarray) -> tuple:
+        """:func:`~planar3p_gym.envs.batch_kernel.mode_batch_step` of the reach step's
+        arguments ``args`` (the environments ``idx``)."""
+        return mode_batch_step(*args, self.target_modes, self.parallel_barrier, self.serial_barrier)
+
+    def outputs(
+        self, sel: Any, idx: np.ndarray, o: dict[str, Any], good: np.ndarray, info: dict
+    ) -> np.ndarray:
+        """Write the stepped environments' (``idx``, ``sel`` over the batch) observations:
+        the outputs ``o`` with the extra entries (kept there: :meth:`sync` gives each env its
+        row); returns their rewards."""
+        obs = o["obs"] = np.concatenate([o["obs"], self.extra[idx]], axis=1)
+        self.venv._obs[sel] = obs
+        return o["reward"]
+
+    def fallback(
+        self, i: int, env: Planar3PEnv, flat: np.ndarray, reward: float, info: dict
+    ) -> float:
+        """Environment ``i``'s observation of the reference kernel's step."""
+        self.venv._obs[i] = flat
+        return reward
+
+    def sync(
+        self, i: int, env: Planar3PEnv, info: dict[str, Any], last: dict[str, Any], j: int
+    ) -> None:
+        """``info``'s mode-change metrics of environment ``i`` (its simulation's state
+        already the step's), as its own step gives them (the task's hook)."""
+        errors = (info["position_error"], info["orientation_error"])
+        info.update(env.task.step_info(env.episode.steps, env.sim.state, errors))
+
+
 class Planar3PTrackVectorEnv(Planar3PVectorEnv):
     """``Planar3PTrack-v0``'s native vector env (the batched step from
     :data:`NUMPY_BATCH_MIN` environments, module docstring)."""
@@ -1022,7 +1100,8 @@ class Planar3PTrackVectorEnv(Planar3PVectorEnv):
 
 
 class Planar3PModeChangeVectorEnv(Planar3PVectorEnv):
-    """``Planar3PModeChange-v0``'s native vector env (environment by environment)."""
+    """``Planar3PModeChange-v0``'s native vector env (the batched step from
+    :data:`NUMPY_BATCH_MIN` environments without the travel term, module docstring)."""
 
     env_class = Planar3PModeChangeEnv
 

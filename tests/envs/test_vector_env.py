@@ -44,8 +44,12 @@ def test_make_vec_gives_the_native_vector_env(env_id):
         ("Planar3PTrack-v0", {"reference": "figure_eight"}, "numpy"),
         ("Planar3PTrack-v0", {"breakdown_threshold": 1e-15}, "numpy"),
         ("Planar3PTrack-v0", {}, "scalar"),
-        # The other task ids on the projected physics: environment by environment.
+        # The mode change's batched step (the success test in the target's working mode, the
+        # reward without the serial barrier), through breakdowns too, and env by env.
+        ("Planar3PModeChange-v0", {}, "numpy"),
+        ("Planar3PModeChange-v0", {"breakdown_threshold": 1e-15}, "numpy"),
         ("Planar3PModeChange-v0", {}, "auto"),
+        # The other task ids on the projected physics: environment by environment.
         ("Planar3PAssemblyChange-v0", {}, "auto"),
         # The machine as built (randomised machine, encoders, delay): environment by environment.
         ("Planar3PReal-v0", {}, "auto"),
@@ -89,6 +93,54 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, ba
         assert env.sim.get_state() == single.unwrapped.sim.get_state()  # commands included
         np.testing.assert_array_equal(env.episode.obs, single.unwrapped.episode.obs)
         assert env.episode.info.keys() == single.unwrapped.episode.info.keys()
+        for key, value in single.unwrapped.episode.info.items():
+            if key != "reward_terms":
+                assert env.episode.info[key] == value, key
+    venv.close()
+
+
+def test_the_mode_change_batch_is_its_single_envs_through_successes():
+    """The mode change's batched step where episodes succeed (the joint-path planner, one per
+    environment, acting on each single env's observation; with the travel term the envs step
+    one by one): bit for bit the single envs' observations, rewards, flags and infos, the
+    metrics of their last ``info`` included."""
+    from planar3p_agents.controllers.planner import JointPathPlanner
+
+    n, limit = NUMPY_BATCH_MIN, 300
+    env_id = "Planar3PModeChange-v0"
+    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit)
+    assert venv._core is not None and venv._core.goal is not None
+    shaped = gym.make_vec(env_id, num_envs=n, travel_shaping=0.5)
+    assert shaped._core is None
+    singles = [gym.make(env_id, max_episode_steps=limit) for _ in range(n)]
+    planners = [JointPathPlanner.from_env(env) for env in singles]
+    venv.reset(seed=100)
+    obs = [env.reset(seed=100 + i)[0] for i, env in enumerate(singles)]
+    start = [True] * n
+    done, successes = [False] * n, 0
+    for _ in range(200):
+        a = np.zeros((n, 3), np.float32)
+        for i in range(n):
+            if not done[i]:
+                a[i] = planners[i].predict(obs[i], episode_start=np.array([start[i]]))[0]
+                start[i] = False
+        got, rewards, terminated, truncated, infos = venv.step(a)
+        for i, env in enumerate(singles):
+            if done[i]:
+                o, info = env.reset()
+                r, te, tr = 0.0, False, False
+                start[i] = True
+            else:
+                o, r, te, tr, info = env.step(a[i])
+                successes += info["is_success"]
+            done[i] = te or tr
+            obs[i] = o
+            np.testing.assert_array_equal(got[i], o)
+            assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr)
+            for key in INFO_KEYS:
+                assert infos[key][i] == info[key], key
+    assert successes >= 2
+    for env, single in zip(venv.envs, singles, strict=True):
         for key, value in single.unwrapped.episode.info.items():
             if key != "reward_terms":
                 assert env.episode.info[key] == value, key
