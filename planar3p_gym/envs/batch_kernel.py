@@ -15,7 +15,11 @@ once:
   the running tracking errors (:func:`planar3p_gym.tasks.track.track_rows`);
 - :func:`mode_batch_step` (the mode-change task): that step, then the success test in the
   target's working mode and the reward terms with the task's barriers
-  (:func:`planar3p_gym.tasks.mode_change.mode_change_rows`).
+  (:func:`planar3p_gym.tasks.mode_change.mode_change_rows`);
+- :func:`assembly_batch_step` (the assembly-change task): that step, then the signed parallel
+  margin entry, the crossings counted, the success test in the target's assembly mode and the
+  reward terms without the parallel barrier
+  (:func:`planar3p_gym.tasks.assembly_change.assembly_rows`).
 """
 
 from __future__ import annotations
@@ -24,13 +28,20 @@ import numpy as np
 from numba import njit
 
 from planar3p_gym.sim.chipmunk import advance_batch
+from planar3p_gym.tasks.assembly_change import assembly_rows
 from planar3p_gym.tasks.goal import goal_rows
 from planar3p_gym.tasks.mode_change import mode_change_rows
 from planar3p_gym.tasks.observation import OBS_SIZE
 from planar3p_gym.tasks.reach_step import RESULT_FIELDS, TOLERANCES, reach_outputs_batch
 from planar3p_gym.tasks.track import RUNNING_SIZE, track_rows
 
-__all__ = ["goal_batch_step", "mode_batch_step", "reach_batch_step", "track_batch_step"]
+__all__ = [
+    "assembly_batch_step",
+    "goal_batch_step",
+    "mode_batch_step",
+    "reach_batch_step",
+    "track_batch_step",
+]
 
 _RESULTS = len(RESULT_FIELDS)
 _TOLERANCE_START = TOLERANCES.start
@@ -188,3 +199,36 @@ def mode_batch_step(
         serial_barrier,
     )  # fmt: skip
     return out
+
+
+@njit(cache=True)
+def assembly_batch_step(
+    fns: np.ndarray, handles: np.ndarray, rows: np.ndarray, actions: np.ndarray, vmax: float,
+    h: float, substeps: int, force_limit: float, readouts: np.ndarray, projection: np.ndarray,
+    setpoint_limit: float, targets: np.ndarray, assembly: np.ndarray, env_consts: np.ndarray,
+    reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
+    log: np.ndarray, logged: np.ndarray, target_assembly: np.ndarray, last_sign: np.ndarray,
+    crossings: np.ndarray, serial_barrier: bool, signed_low: float, signed_high: float,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """:func:`reach_batch_step`, then :func:`~planar3p_gym.tasks.assembly_change.assembly_rows`
+    of its outputs (``target_assembly``, ``last_sign``, ``crossings``: ``(N,)`` int64, each
+    episode's target assembly mode and crossing count before the step; the task's serial
+    barrier; the signed margin entry's bounds).
+
+    Returns :func:`reach_batch_step`'s tuple (its results rejudged), then the stepped
+    environments' signed margin entries ``(n,)`` float32 and their ``(last sign, crossings)``
+    after the step ``(2, n)`` int64."""
+    out = reach_batch_step(
+        fns, handles, rows, actions, vmax, h, substeps, force_limit, readouts, projection,
+        setpoint_limit, targets, assembly, env_consts, reach_consts, weights, low, high, log,
+        logged,
+    )  # fmt: skip
+    n = rows.shape[0]
+    signed = np.empty(n, dtype=np.float32)
+    counts = np.empty((2, n), dtype=np.int64)
+    assembly_rows(
+        rows, out[3], actions, out[6], target_assembly, last_sign, crossings,
+        env_consts[:, _TOLERANCE_START : _TOLERANCE_START + 3], weights, reach_consts[6],
+        serial_barrier, signed_low, signed_high, signed, counts,
+    )  # fmt: skip
+    return (*out, signed, counts)

@@ -46,15 +46,18 @@ indexed by each environment's step inside the compiled call
 velocity entries of the observations and keeps the running tracking errors (the metrics of
 each environment's ``info``, built when it is brought up to date).
 
-**The mode-change id** (``Planar3PModeChange-v0``, without the travel term) takes it too: the
-success test in the target's working mode and the reward terms with the task's barriers in the
-compiled call (:func:`~planar3p_gym.envs.batch_kernel.mode_batch_step`), its metrics from the
-task's hook when an environment is brought up to date.
+**The mode- and assembly-change ids** (``Planar3PModeChange-v0``,
+``Planar3PAssemblyChange-v0``, without the travel term) take it too: the success test in the
+target's working or assembly mode, the crossings counted, the signed margin entry and the reward
+terms with the task's barriers in the compiled call
+(:func:`~planar3p_gym.envs.batch_kernel.mode_batch_step`,
+:func:`~planar3p_gym.envs.batch_kernel.assembly_batch_step`), their metrics from the task's
+hook when an environment is brought up to date.
 
-**Per-environment step** (every other configuration: the built machine's ids, the task id
-``Planar3PAssemblyChange-v0`` and the mode change with its travel term): each environment
-steps through its own ``step``; what the vector env saves there is the per-step overhead of
-``gym.make``'s wrappers and of ``SyncVectorEnv``.
+**Per-environment step** (every other configuration: the built machine's ids, and the mode and
+assembly changes with their travel term): each environment steps through its own ``step``;
+what the vector env saves there is the per-step overhead of ``gym.make``'s wrappers and of
+``SyncVectorEnv``.
 """
 
 from __future__ import annotations
@@ -70,6 +73,7 @@ from gymnasium.vector.utils import batch_space, create_empty_array
 from planar3p_gym import checks
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
 from planar3p_gym.envs.batch_kernel import (
+    assembly_batch_step,
     goal_batch_step,
     mode_batch_step,
     reach_batch_step,
@@ -84,6 +88,7 @@ from planar3p_gym.sim import chipmunk, physics
 from planar3p_gym.sim.batch_step import BatchState
 from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, SimState
 from planar3p_gym.tasks import sampling as task_module
+from planar3p_gym.tasks.assembly_change import AssemblyChangeTask
 from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS, GoalKernel, goal_bounds
 from planar3p_gym.tasks.kernel import HookKernel, ReachKernel
 from planar3p_gym.tasks.mode_change import ModeChangeTask
@@ -146,9 +151,9 @@ class Planar3PVectorEnv(VectorEnv):
             environment's simulation step and compiled outputs in turn), ``"numpy"`` (pymunk
             per environment, then the projection and the outputs in compiled loops over the
             batch; the name is historical) or ``"auto"`` (``"numpy"`` from
-            :data:`NUMPY_BATCH_MIN` environments); the same numbers either way.  The goal,
-            tracking and mode-change ids take ``"numpy"`` too (``"scalar"``: environment by
-            environment); other configurations always step environment by environment.
+            :data:`NUMPY_BATCH_MIN` environments); the same numbers either way.  The task
+            ids take ``"numpy"`` too (``"scalar"``: environment by environment); the built
+            machine's ids always step environment by environment.
         autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default, Gymnasium's) or
             ``AutoresetMode.SAME_STEP`` (an ended episode is reset within the same step: its
             last observation is in ``info["final_obs"]``, its last info entries in
@@ -442,20 +447,19 @@ def _batch_mode(env: Planar3PEnv, numpy_batch: bool) -> bool | None:
         return True
     if numpy_batch and isinstance(env.kernel, TrackKernel):
         return True
-    if numpy_batch and _mode_change(env):
+    if numpy_batch and _hook_rows(env) is not None:
         return True
     return None
 
 
-def _mode_change(env: Planar3PEnv) -> bool:
-    """Whether ``env`` runs the mode-change task's own hooks on the compiled measures, with
-    no travel term (what :class:`_ModeRows` batches)."""
+def _hook_rows(env: Planar3PEnv) -> type | None:
+    """The batched part of ``env``'s task where it runs the mode- or assembly-change task's
+    own hooks on the compiled measures with no travel term (:class:`_ModeRows`,
+    :class:`_AssemblyRows`), else None."""
     task = env.task
-    return (
-        type(task) is ModeChangeTask
-        and isinstance(env.kernel, HookKernel)
-        and not task.travel_shaping
-    )
+    if not isinstance(env.kernel, HookKernel) or task.travel_shaping:  # type: ignore[attr-defined]
+        return None
+    return {ModeChangeTask: _ModeRows, AssemblyChangeTask: _AssemblyRows}.get(type(task))
 
 
 def _reach_step(kernel: Any) -> Any:
@@ -530,13 +534,13 @@ class _BatchCore:
         self.last: dict[str, Any] | None = None  # the last batched step's arrays
         self.info_keys = venv.info_keys
         #: The goal or tracking task's part of the step, else None (the reach task).
-        self.goal: _GoalRows | _TrackRows | _ModeRows | None = None
+        self.goal: _GoalRows | _TrackRows | _ModeRows | _AssemblyRows | None = None
         if isinstance(env, Planar3PGoalEnv):
             self.goal = _GoalRows(self, env)
         elif isinstance(env.kernel, TrackKernel):
             self.goal = _TrackRows(self, env)
-        elif _mode_change(env):
-            self.goal = _ModeRows(self, env)
+        elif (rows := _hook_rows(env)) is not None:
+            self.goal = rows(self, env)
 
     # ------------------------------------------------------------------ env <-> batch
     def load(self, i: int) -> None:
@@ -1092,6 +1096,82 @@ class _ModeRows:
         info.update(env.task.step_info(env.episode.steps, env.sim.state, errors))
 
 
+class _AssemblyRows:
+    """The assembly-change task's part of a batched step (:func:`~planar3p_gym.envs.
+    batch_kernel.assembly_batch_step`): each episode's target assembly mode, crossing count and
+    fixed extra entries (the target's travels and assembly mode), the signed parallel margin
+    entry of each step."""
+
+    def __init__(self, core: _BatchCore, env: Planar3PEnv) -> None:
+        self.venv = core.venv
+        n = self.venv.num_envs
+        self.target_assembly = np.zeros(n, dtype=np.int64)
+        self.last_sign = np.zeros(n, dtype=np.int64)
+        self.crossings = np.zeros(n, dtype=np.int64)
+        self.extra = np.zeros((n, env.observation_space.shape[0] - OBS_SIZE), dtype=np.float32)
+        settings = env.kernel.settings
+        self.signed_low = float(settings.extra_low[-1])
+        self.signed_high = float(settings.extra_high[-1])
+        self.serial_barrier = bool(env.task.serial_barrier)
+        #: The last batched step's signed margin entries and crossing counts.
+        self.signed: np.ndarray | None = None
+        self.current: np.ndarray | None = None
+
+    def load(self, i: int, env: Planar3PEnv) -> None:
+        """Take environment ``i``'s target assembly mode, crossing count and extra entries
+        (after a reset or a restored snapshot)."""
+        task = env.task
+        self.target_assembly[i] = env.episode.info["target_assembly"]
+        self.last_sign[i] = task.last_sign  # type: ignore[attr-defined]
+        self.crossings[i] = task.crossings  # type: ignore[attr-defined]
+        self.extra[i] = env.episode.obs[OBS_SIZE:]
+
+    def advance(self, args: tuple, idx: np.ndarray) -> tuple:
+        """:func:`~planar3p_gym.envs.batch_kernel.assembly_batch_step` of the reach step's
+        arguments ``args`` (the environments ``idx``)."""
+        *reach, signed, counts = assembly_batch_step(
+            *args, self.target_assembly, self.last_sign, self.crossings, self.serial_barrier,
+            self.signed_low, self.signed_high,
+        )  # fmt: skip
+        self.signed, self.current = signed, counts
+        return tuple(reach)
+
+    def outputs(
+        self, sel: Any, idx: np.ndarray, o: dict[str, Any], good: np.ndarray, info: dict
+    ) -> np.ndarray:
+        """Write the stepped environments' (``idx``, ``sel`` over the batch) observations
+        (the outputs ``o`` with the extra entries, kept there: :meth:`sync` gives each env its
+        row) and keep the crossing counts of the rows whose physics held (``good``); returns
+        their rewards."""
+        assert self.current is not None
+        extra = self.extra[idx]
+        extra[:, -1] = self.signed
+        obs = o["obs"] = np.concatenate([o["obs"], extra], axis=1)
+        self.venv._obs[sel] = obs
+        kept = idx[good]
+        self.last_sign[kept] = self.current[0, good]
+        self.crossings[kept] = self.current[1, good]
+        return o["reward"]
+
+    def fallback(
+        self, i: int, env: Planar3PEnv, flat: np.ndarray, reward: float, info: dict
+    ) -> float:
+        """Environment ``i``'s observation of the reference kernel's step."""
+        self.venv._obs[i] = flat
+        return reward
+
+    def sync(
+        self, i: int, env: Planar3PEnv, info: dict[str, Any], last: dict[str, Any], j: int
+    ) -> None:
+        """Give environment ``i`` its crossing count and ``info``'s metrics (the task's
+        hook), as its own step leaves them."""
+        task = env.task
+        task.last_sign = int(self.last_sign[i])  # type: ignore[attr-defined]
+        task.crossings = int(self.crossings[i])  # type: ignore[attr-defined]
+        errors = (info["position_error"], info["orientation_error"])
+        info.update(task.step_info(env.episode.steps, env.sim.state, errors))
+
+
 class Planar3PTrackVectorEnv(Planar3PVectorEnv):
     """``Planar3PTrack-v0``'s native vector env (the batched step from
     :data:`NUMPY_BATCH_MIN` environments, module docstring)."""
@@ -1107,7 +1187,8 @@ class Planar3PModeChangeVectorEnv(Planar3PVectorEnv):
 
 
 class Planar3PAssemblyChangeVectorEnv(Planar3PVectorEnv):
-    """``Planar3PAssemblyChange-v0``'s native vector env (environment by environment)."""
+    """``Planar3PAssemblyChange-v0``'s native vector env (the batched step from
+    :data:`NUMPY_BATCH_MIN` environments without the travel term, module docstring)."""
 
     env_class = Planar3PAssemblyChangeEnv
 

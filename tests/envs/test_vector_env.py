@@ -50,6 +50,12 @@ def test_make_vec_gives_the_native_vector_env(env_id):
         ("Planar3PModeChange-v0", {"breakdown_threshold": 1e-15}, "numpy"),
         ("Planar3PModeChange-v0", {}, "auto"),
         # The other task ids on the projected physics: environment by environment.
+        ("Planar3PAssemblyChange-v0", {}, "numpy"),
+        (
+            "Planar3PAssemblyChange-v0",
+            {"breakdown_threshold": 1e-15, "crossing_limits": {"verify": False}},
+            "numpy",
+        ),
         ("Planar3PAssemblyChange-v0", {}, "auto"),
         # The machine as built (randomised machine, encoders, delay): environment by environment.
         ("Planar3PReal-v0", {}, "auto"),
@@ -99,21 +105,28 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, ba
     venv.close()
 
 
-def test_the_mode_change_batch_is_its_single_envs_through_successes():
-    """The mode change's batched step where episodes succeed (the joint-path planner, one per
-    environment, acting on each single env's observation; with the travel term the envs step
-    one by one): bit for bit the single envs' observations, rewards, flags and infos, the
-    metrics of their last ``info`` included."""
+@pytest.mark.parametrize(
+    ("env_id", "controller"),
+    [("Planar3PModeChange-v0", "planner"), ("Planar3PAssemblyChange-v0", "crossing")],
+)
+def test_the_mode_and_assembly_change_batches_are_their_single_envs_through_successes(
+    env_id, controller
+):
+    """The mode and assembly changes' batched step where episodes succeed (the joint-path
+    planner or the crossing controller, one per environment, acting on each single env's
+    observation; with the travel term the envs step one by one): bit for bit the single envs'
+    observations, rewards, flags and infos, the metrics of their last ``info`` included."""
+    from planar3p_agents.controllers.crossing import CrossingController
     from planar3p_agents.controllers.planner import JointPathPlanner
 
     n, limit = NUMPY_BATCH_MIN, 300
-    env_id = "Planar3PModeChange-v0"
     venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit)
     assert venv._core is not None and venv._core.goal is not None
     shaped = gym.make_vec(env_id, num_envs=n, travel_shaping=0.5)
     assert shaped._core is None
     singles = [gym.make(env_id, max_episode_steps=limit) for _ in range(n)]
-    planners = [JointPathPlanner.from_env(env) for env in singles]
+    kind = JointPathPlanner if controller == "planner" else CrossingController
+    planners = [kind.from_env(env) for env in singles]
     venv.reset(seed=100)
     obs = [env.reset(seed=100 + i)[0] for i, env in enumerate(singles)]
     start = [True] * n
@@ -140,6 +153,8 @@ def test_the_mode_change_batch_is_its_single_envs_through_successes():
             for key in INFO_KEYS:
                 assert infos[key][i] == info[key], key
     assert successes >= 2
+    if env_id == "Planar3PAssemblyChange-v0":
+        assert max(env.episode.info["crossings"] for env in venv.envs) >= 1
     for env, single in zip(venv.envs, singles, strict=True):
         for key, value in single.unwrapped.episode.info.items():
             if key != "reward_terms":
