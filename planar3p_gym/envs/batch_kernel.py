@@ -149,7 +149,7 @@ def track_batch_step(
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`reach_batch_step` against each stepped environment's reference pose at its new
     step ``elapsed[i] + 1`` (``samples`` ``(N, H, 8)``, each episode's
-    :attr:`~planar3p_gym.tasks.track.TrackTask.samples`; written into ``targets``), then
+    ``TrackTask.samples`` (:mod:`planar3p_gym.tasks.track`); written into ``targets``), then
     :func:`~planar3p_gym.tasks.track.track_rows` of its outputs (``running`` ``(N, 7)``: each
     environment's running errors before the step; ``extra_low``, ``extra_high``: the
     reference velocity entries' bounds).

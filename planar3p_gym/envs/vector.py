@@ -40,7 +40,7 @@ per-environment dict is built on a batched step (the ids stepped environment by 
 gather the entries of each environment's ``info`` dict into the arrays).
 
 **The tracking id** (``Planar3PTrack-v0``) takes it as well: each episode's reference samples
-(:attr:`planar3p_gym.tasks.track.TrackTask.samples`, from its reset) are rows of one array,
+(``TrackTask.samples`` of :mod:`planar3p_gym.tasks.track`, from its reset) are rows of one array,
 indexed by each environment's step inside the compiled call
 (:func:`~planar3p_gym.envs.batch_kernel.track_batch_step`), which also writes the reference
 velocity entries of the observations and keeps the running tracking errors (the metrics of

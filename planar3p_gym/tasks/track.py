@@ -107,7 +107,7 @@ __all__ = [
 #: Reference samples computed at a reset (control steps; the registered episode's 500 and
 #: its reset's): :meth:`TrackTask.sample` extends them for longer episodes.
 SAMPLE_CHUNK = 512
-#: Length of :attr:`TrackTask.running` (three sums of squares, three maxima, the count).
+#: Length of ``TrackTask.running`` (three sums of squares, three maxima, the count).
 RUNNING_SIZE = 7
 
 #: The constructor's ``reference`` value that draws either kind per episode.
@@ -330,7 +330,7 @@ class TrackTask(Task):
         return reference_at(ref, step * self.env.dt)
 
     def sample(self, step: int) -> np.ndarray:
-        """The reference at ``step`` control steps: a row of :attr:`samples` (pose (m, m,
+        """The reference at ``step`` control steps: a row of ``samples`` (pose (m, m,
         rad), ``cos theta``, ``sin theta``, velocity (m/s, m/s, rad/s)), the samples extended
         to cover it (at least doubled) where they end before it."""
         have = self.samples.shape[0]
@@ -516,7 +516,7 @@ class TrackTask(Task):
 
     def tracking_info(self, step: int, errors: tuple[float, float]) -> dict[str, Any]:
         """The tracking metrics (:data:`TRACKING_METRICS`) after step ``step``, whose
-        position (m) and orientation (rad) ``errors`` :attr:`running` holds."""
+        position (m) and orientation (rad) ``errors`` ``running`` holds."""
         length = self.env.design.characteristic_length
         values = self.running.tolist()
         sums, maxes, n = values[0:3], values[3:6], values[6]
@@ -546,7 +546,7 @@ def tracking_errors(
 def accumulate_errors(
     running: np.ndarray, position_error: float, orientation_error: float, length: float
 ) -> None:
-    """Count a step's :func:`tracking_errors` into ``running`` (:attr:`TrackTask.running`:
+    """Count a step's :func:`tracking_errors` into ``running`` (``TrackTask.running``:
     the sums of squares, the maxima, the count); a NaN maximum stays NaN, as
     ``np.maximum`` keeps it."""
     errors = tracking_errors(position_error, orientation_error, length)
@@ -568,7 +568,7 @@ def track_rows(
     (``(len(RESULT_FIELDS), n)``) of the environments ``rows`` (int64 ``(n,)``, of a batch of
     ``N``) against their reference poses: for each stepped row ``j`` (environment ``i =
     rows[j]``, at step ``steps[i]``), the reference velocity entries of
-    ``samples[i, steps[i]]`` (``(N, H, 8)``, :attr:`TrackTask.samples`) as float32 clipped to
+    ``samples[i, steps[i]]`` (``(N, H, 8)``, ``TrackTask.samples``) as float32 clipped to
     ``[low, high]`` into ``extra[j]``, a step within the tolerances rejudged as no success
     (:func:`~planar3p_gym.tasks.reach_step.rejudge_row`), and ``running[i]`` (``(N, 7)``)
     with the step's errors counted (:func:`accumulate_errors`) into ``running_out[j]``.
