@@ -305,6 +305,45 @@ def test_vector_snapshot_restores_the_batch(batch):
         np.testing.assert_array_equal(x[1], y[1])
 
 
+@pytest.mark.parametrize(
+    "env_id",
+    [
+        "Planar3PGoal-v0",
+        "Planar3PTrack-v0",
+        "Planar3PModeChange-v0",
+        "Planar3PAssemblyChange-v0",
+    ],
+)
+def test_task_ids_batch_snapshots_and_copies_continue_bit_for_bit(env_id):
+    """The task ids' batched step restored from :meth:`get_state` into another vector env, and
+    a ``copy.deepcopy`` (the batch's per-episode arrays rebuilt from the single envs), continue
+    as the original does, bit for bit, episodes ending and resetting on the way."""
+    import copy
+
+    n = NUMPY_BATCH_MIN
+    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=15)
+    assert venv._core is not None and venv._core.goal is not None
+    venv.reset(seed=3)
+    rng = np.random.default_rng(0)
+    for a in rng.uniform(-1, 1, (20, n, 3)):
+        venv.step(a)
+    twin = gym.make_vec(env_id, num_envs=n, max_episode_steps=15)
+    twin.set_state(venv.get_state())
+    clone = copy.deepcopy(venv)
+
+    def flat(obs):
+        return np.concatenate(list(obs.values()), axis=1) if isinstance(obs, dict) else obs
+
+    for a in rng.uniform(-1, 1, (25, n, 3)):
+        x, y, z = venv.step(a), twin.step(a), clone.step(a)
+        for other in (y, z):
+            np.testing.assert_array_equal(flat(x[0]), flat(other[0]))
+            for k in (1, 2, 3):
+                np.testing.assert_array_equal(x[k], other[k])
+            for key in venv.info_keys:
+                np.testing.assert_array_equal(x[4][key], other[4][key])
+
+
 def test_sb3_adapter_matches_dummy_vec_env():
     """``planar3p_agents.training.vec_adapter.make_native_vec_env`` gives what SB3's ``DummyVecEnv``
     of ``gym.make`` envs gives (same seeds): observations, rewards, dones, terminal observations,
