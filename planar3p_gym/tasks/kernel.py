@@ -508,10 +508,14 @@ class HookKernel(CompiledKernel):
 
     def __init__(self, task: TaskHooks, settings: KernelSettings, machine: Sensing) -> None:
         super().__init__(task, settings, machine)
-        #: The compiled outputs' constants and buffers (their reward and reason are not used).
+        #: The compiled outputs' constants and buffers (their reward and reason are not used
+        #: here; a batched step of the native vector env reads their tolerances).
         self.reach = ReachStep(
             settings.design, settings.low, settings.high, settings.weights, settings.tolerances
         )
+
+    def config_changed(self, tolerances: tuple[float, float, float]) -> None:
+        self.reach.tolerances = tolerances
 
     def compiled_step(
         self,
