@@ -955,9 +955,9 @@ class _GoalRows:
 
 class _TrackRows:
     """The tracking task's part of a batched step (:func:`~planar3p_gym.envs.batch_kernel.
-    track_batch_step`): each episode's reference samples (:attr:`TrackTask.samples`, the
-    first :attr:`horizon` steps, one row of :attr:`samples` per environment), the running
-    tracking errors, and the reference velocity entries of the observations."""
+    track_batch_step`): each episode's reference samples (``TrackTask.samples``, one row of
+    :attr:`samples` per environment, extended as the episode goes on), the running tracking
+    errors, and the reference velocity entries of the observations."""
 
     def __init__(self, core: _BatchCore, env: Planar3PEnv) -> None:
         self.core = core
@@ -965,42 +965,45 @@ class _TrackRows:
         n = self.venv.num_envs
         settings = env.kernel.settings
         self.low, self.high = settings.extra_low, settings.extra_high
-        self.horizon = 0
-        self.samples = np.zeros((n, 0, 8))
+        #: Each environment's reference samples (a row each, ``filled[i]`` of them).
+        self.samples = np.zeros((n, SAMPLE_CHUNK, 8))
+        self.filled = np.zeros(n, dtype=np.int64)
         self.running = np.zeros((n, RUNNING_SIZE))
         #: The last batched step's reference velocity entries and running errors of the
         #: stepped environments.
         self.extra: np.ndarray | None = None
         self.current: np.ndarray | None = None
 
-    def _take(self, i: int, env: Planar3PEnv) -> None:
-        """Copy environment ``i``'s reference samples into its row of :attr:`samples`."""
-        env.task.sample(self.horizon - 1)  # type: ignore[attr-defined]  (extended to it)
-        self.samples[i] = env.task.samples[: self.horizon]  # type: ignore[attr-defined]
-
-    def _grow(self, horizon: int) -> None:
-        """Hold at least ``horizon`` steps of every environment's reference."""
-        self.horizon = max(horizon, 2 * self.horizon, SAMPLE_CHUNK)
-        self.samples = np.zeros((self.venv.num_envs, self.horizon, 8))
-        for i, env in enumerate(self.venv._envs):
-            if _has_sim(env):
-                self._take(i, env)
+    def _fill(self, i: int, env: Planar3PEnv, start: int) -> None:
+        """Copy environment ``i``'s reference samples from step ``start`` on into its row of
+        :attr:`samples` (grown to hold them)."""
+        have = env.task.samples  # type: ignore[attr-defined]
+        if have.shape[0] > self.samples.shape[1]:
+            grown = np.zeros((self.venv.num_envs, max(have.shape[0], 2 * self.samples.shape[1]), 8))
+            grown[:, : self.samples.shape[1]] = self.samples
+            self.samples = grown
+        self.samples[i, start : have.shape[0]] = have[start:]
+        self.filled[i] = have.shape[0]
 
     def load(self, i: int, env: Planar3PEnv) -> None:
         """Take environment ``i``'s reference and running errors (after a reset or a restored
         snapshot)."""
-        if self.horizon == 0:
-            self._grow(SAMPLE_CHUNK)
-        self._take(i, env)
+        self._fill(i, env, 0)
         self.running[i] = env.task.running  # type: ignore[attr-defined]
 
     def advance(self, args: tuple, idx: np.ndarray) -> tuple:
         """:func:`~planar3p_gym.envs.batch_kernel.track_batch_step` of the reach step's
         arguments ``args`` (the environments ``idx``); keeps the reference velocity entries
-        and the running errors in :attr:`current`."""
+        and the running errors in :attr:`current`.  An environment whose samples end before
+        its new step has them extended first (:meth:`TrackTask.sample`, as its own step
+        would)."""
         elapsed = self.venv._elapsed
-        if int(elapsed[idx].max()) + 1 >= self.horizon:
-            self._grow(int(elapsed[idx].max()) + 2)
+        steps = elapsed[idx] + 1
+        for k in np.flatnonzero(steps >= self.filled[idx]).tolist():
+            i = int(idx[k])
+            env = self.venv._envs[i]
+            env.task.sample(int(steps[k]))  # type: ignore[attr-defined]
+            self._fill(i, env, int(self.filled[i]))
         *reach, extra, running = track_batch_step(
             *args, self.samples, elapsed, self.running, self.low, self.high
         )

@@ -104,9 +104,10 @@ __all__ = [
     "tracking_errors",
 ]
 
-#: Reference samples computed at a reset (control steps; the registered episode's 500 and
-#: its reset's): :meth:`TrackTask.sample` extends them for longer episodes.
-SAMPLE_CHUNK = 512
+#: Reference samples computed at a reset (control steps): :meth:`TrackTask.sample` extends
+#: them, doubling, as the episode goes on (a reset computes few; an episode of the registered
+#: 500 steps computes 512 in all).
+SAMPLE_CHUNK = 32
 #: Length of ``TrackTask.running`` (three sums of squares, three maxima, the count).
 RUNNING_SIZE = 7
 

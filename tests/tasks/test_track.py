@@ -97,6 +97,8 @@ def test_reference_samples_are_each_steps_reference_whatever_the_chunks(kind):
         row = [*pose, math.cos(pose[2]), math.sin(pose[2]), *vel]
         np.testing.assert_array_equal(whole[k], row)
     assert t.samples.shape == (SAMPLE_CHUNK, 8)
+    np.testing.assert_array_equal(t.sample(SAMPLE_CHUNK), whole[SAMPLE_CHUNK])
+    assert t.samples.shape[0] == 2 * SAMPLE_CHUNK  # (doubled)
     np.testing.assert_array_equal(t.sample(899), whole[899])
     assert t.samples.shape[0] >= 900
     np.testing.assert_array_equal(t.samples[:900], whole)
