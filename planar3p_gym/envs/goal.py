@@ -33,7 +33,13 @@ from planar3p_gym.tasks.goal import (
 )
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES, write_reach_values
 
-__all__ = ["ROBOT_FIELDS", "ROBOT_INDEX", "Planar3PGoalEnv", "flat_observation"]
+__all__ = [
+    "ROBOT_FIELDS",
+    "ROBOT_INDEX",
+    "Planar3PGoalEnv",
+    "flat_observation",
+    "goal_observation",
+]
 
 #: Blocks of the flat observation (:mod:`planar3p_gym.tasks.observation`) that describe the robot
 #: alone, in order: the ``observation`` entry of the goal env (no goal in it).
@@ -89,6 +95,24 @@ def flat_observation(obs: dict[str, ArrayLike], length: float) -> NDArray[np.flo
     _write_flat_rows(flat, poses_of_goals(goal), float(length))
     out = flat.astype(np.float32)
     return out[0] if single else out
+
+
+def goal_observation(
+    flat: np.ndarray, achieved: np.ndarray, desired: np.ndarray, working_mode: bool
+) -> dict[str, np.ndarray]:
+    """The goal env's ``Dict`` observation of flat observations ``flat`` (``(31,)`` or a batch
+    ``(n, 31)``, float32) and the goals ``achieved``, ``desired`` (``(5,)`` or ``(n, 5)``,
+    taken as they are); with ``working_mode`` the signs of the observed ``cos alpha_i``."""
+    obs = {
+        "observation": flat[..., ROBOT_INDEX],
+        "achieved_goal": achieved,
+        "desired_goal": desired,
+    }
+    if working_mode:
+        # sign(cos alpha_i) of the observed leg angles: the working mode (legs exactly
+        # perpendicular to their rails, a serial singularity the episode ends at, give 0).
+        obs["working_mode"] = np.sign(flat[..., SLICES["legs"]][..., 0::2]).astype(np.float32)
+    return obs
 
 
 class Planar3PGoalEnv(Planar3PEnv):
@@ -240,6 +264,13 @@ class Planar3PGoalEnv(Planar3PEnv):
 
     def step(self, action: Any) -> tuple[dict[str, np.ndarray], float, bool, bool, dict]:
         flat, _, terminated, truncated, info = super().step(action)
+        obs, reward = self.goal_outputs(flat, info)
+        return obs, reward, terminated, truncated, info
+
+    def goal_outputs(self, flat: np.ndarray, info: dict[str, Any]) -> tuple[dict, float]:
+        """The ``Dict`` observation and the goal reward of a step of the flat env (its
+        observation ``flat`` and ``info``, which gains the relabelling entries): also what the
+        native vector env gives a step where the physics broke down."""
         task = self.goal_task
         reason = info["termination_reason"]
         failure = reason in task.failure_reasons
@@ -250,7 +281,7 @@ class Planar3PGoalEnv(Planar3PEnv):
             task.evaluate(info["pose"], info["rho_dot"], True)
         # The goals were evaluated once, by the task's termination test (GoalTask.evaluate):
         # the observation and the reward read that evaluation.
-        return self._observation(flat), task.step_reward(free), terminated, truncated, info
+        return self._observation(flat), task.step_reward(free)
 
     def _dict_obs(self, flat: np.ndarray, info: dict[str, Any]) -> dict[str, np.ndarray]:
         self.goal_task.evaluate(info["pose"], info["rho_dot"], False)
@@ -259,16 +290,9 @@ class Planar3PGoalEnv(Planar3PEnv):
     def _observation(self, flat: np.ndarray) -> dict[str, np.ndarray]:
         """The ``Dict`` observation of the flat one and the task's last goal evaluation."""
         task = self.goal_task
-        obs = {
-            "observation": flat[ROBOT_INDEX],
-            "achieved_goal": task.achieved.copy(),
-            "desired_goal": task.desired.copy(),
-        }
-        if self.observe_working_mode:
-            # sign(cos alpha_i) of the observed leg angles: the working mode (legs exactly
-            # perpendicular to their rails, a serial singularity the episode ends at, give 0).
-            obs["working_mode"] = np.sign(flat[SLICES["legs"]][0::2]).astype(np.float32)
-        return obs
+        return goal_observation(
+            flat, task.achieved.copy(), task.desired.copy(), self.observe_working_mode
+        )
 
     @property
     def goal_pose(self) -> tuple[float, float, float]:

@@ -28,18 +28,36 @@ In numpy mode the projected bodies are written back into pymunk at the start of 
 :attr:`Planar3PVectorEnv.envs` or :meth:`Planar3PVectorEnv.get_state` is used, and a state
 that fails the physics-breakdown test takes the single environment's own (general) step.
 
-**Infos** are arrays over the batch, filled from the compiled outputs' result arrays: no
-per-environment dict is built on the reach task's batched step (the task ids below step
-through each environment's own ``step``, whose ``info`` dict is Gymnasium's contract, and their
-entries are gathered into the arrays).
+**The goal ids** (``Planar3PGoal-v0``, ``Planar3PGoalDense-v0``) take the same batched step
+(``batch="numpy"``; ``"scalar"`` steps them environment by environment) with the goal test,
+the rejudged reward terms and the goal reward in the same compiled call
+(:func:`~planar3p_gym.envs.batch_kernel.goal_batch_step`); their ``Dict`` observations are
+built from the batch arrays (:func:`~planar3p_gym.envs.goal.goal_observation`) and
+:meth:`Planar3PGoalVectorEnv.compute_reward` takes the batch's goals and infos.
 
-**Per-environment step** (every other configuration: the built machine's ids, and the task ids
-``Planar3PTrack-v0``, ``Planar3PModeChange-v0``, ``Planar3PAssemblyChange-v0``,
-``Planar3PGoal-v0`` and ``Planar3PGoalDense-v0`` through the subclasses at the end of this
-module): each environment steps through its own ``step``; what the vector env saves there is
-the per-step overhead of ``gym.make``'s wrappers and of ``SyncVectorEnv``.  The goal ids'
-``Dict`` observations are a dict of batch arrays, and their vector env's ``compute_reward``
-takes the batch's goals and infos.
+**Infos** are arrays over the batch, filled from the compiled outputs' result arrays: no
+per-environment dict is built on a batched step (the ids stepped environment by environment
+gather the entries of each environment's ``info`` dict into the arrays).
+
+**The tracking id** (``Planar3PTrack-v0``) takes it as well: each episode's reference samples
+(``TrackTask.samples`` of :mod:`planar3p_gym.tasks.track`, from its reset) are rows of one array,
+indexed by each environment's step inside the compiled call
+(:func:`~planar3p_gym.envs.batch_kernel.track_batch_step`), which also writes the reference
+velocity entries of the observations and keeps the running tracking errors (the metrics of
+each environment's ``info``, built when it is brought up to date).
+
+**The mode- and assembly-change ids** (``Planar3PModeChange-v0``,
+``Planar3PAssemblyChange-v0``, without the travel term) take it too: the success test in the
+target's working or assembly mode, the crossings counted, the signed margin entry and the reward
+terms with the task's barriers in the compiled call
+(:func:`~planar3p_gym.envs.batch_kernel.mode_batch_step`,
+:func:`~planar3p_gym.envs.batch_kernel.assembly_batch_step`), their metrics from the task's
+hook when an environment is brought up to date.
+
+**Per-environment step** (every other configuration: the built machine's ids, and the mode and
+assembly changes with their travel term): each environment steps through its own ``step``;
+what the vector env saves there is the per-step overhead of ``gym.make``'s wrappers and of
+``SyncVectorEnv``.
 """
 
 from __future__ import annotations
@@ -54,9 +72,15 @@ from gymnasium.vector.utils import batch_space, create_empty_array
 
 from planar3p_gym import checks
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
-from planar3p_gym.envs.batch_kernel import reach_batch_step
+from planar3p_gym.envs.batch_kernel import (
+    assembly_batch_step,
+    goal_batch_step,
+    mode_batch_step,
+    reach_batch_step,
+    track_batch_step,
+)
 from planar3p_gym.envs.core import Planar3PEnv
-from planar3p_gym.envs.goal import Planar3PGoalEnv
+from planar3p_gym.envs.goal import Planar3PGoalEnv, goal_observation
 from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
 from planar3p_gym.envs.track import Planar3PTrackEnv
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
@@ -64,12 +88,15 @@ from planar3p_gym.sim import chipmunk, physics
 from planar3p_gym.sim.batch_step import BatchState
 from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, SimState
 from planar3p_gym.tasks import sampling as task_module
-from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS
-from planar3p_gym.tasks.kernel import ReachKernel
+from planar3p_gym.tasks.assembly_change import AssemblyChangeTask
+from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS, GoalKernel, goal_bounds
+from planar3p_gym.tasks.kernel import HookKernel, ReachKernel
+from planar3p_gym.tasks.mode_change import ModeChangeTask
 from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
 from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, BatchReach
 from planar3p_gym.tasks.rewards import TERM_NAMES
 from planar3p_gym.tasks.sampling import TaskConfig
+from planar3p_gym.tasks.track import RUNNING_SIZE, SAMPLE_CHUNK, TrackKernel
 
 __all__ = [
     "INFO_KEYS",
@@ -124,8 +151,9 @@ class Planar3PVectorEnv(VectorEnv):
             environment's simulation step and compiled outputs in turn), ``"numpy"`` (pymunk
             per environment, then the projection and the outputs in compiled loops over the
             batch; the name is historical) or ``"auto"`` (``"numpy"`` from
-            :data:`NUMPY_BATCH_MIN` environments); the same numbers either way.  Other
-            configurations always step environment by environment.
+            :data:`NUMPY_BATCH_MIN` environments); the same numbers either way.  The task
+            ids take ``"numpy"`` too (``"scalar"``: environment by environment); the built
+            machine's ids always step environment by environment.
         autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default, Gymnasium's) or
             ``AutoresetMode.SAME_STEP`` (an ended episode is reset within the same step: its
             last observation is in ``info["final_obs"]``, its last info entries in
@@ -198,9 +226,7 @@ class Planar3PVectorEnv(VectorEnv):
         #: How the batch is stepped: None (environment by environment), or the batched step's
         #: mode (``True``: numpy over the batch); the batched step's C handles are rebuilt
         #: from it when the vector env is unpickled.
-        self._numpy_batch: bool | None = (
-            numpy_batch if isinstance(first.kernel, ReachKernel) else None
-        )
+        self._numpy_batch: bool | None = _batch_mode(first, numpy_batch)
         self._core = None if self._numpy_batch is None else _BatchCore(self, self._numpy_batch)
 
     @property
@@ -411,6 +437,39 @@ class Planar3PVectorEnv(VectorEnv):
                     self._core.load(i)
 
 
+def _batch_mode(env: Planar3PEnv, numpy_batch: bool) -> bool | None:
+    """How a batch of ``env`` is stepped: the reach kernel in either mode of the batched
+    step, the goal kernel of the goal env and the tracking kernel in compiled loops only
+    (``numpy_batch``), anything else (None) environment by environment."""
+    if isinstance(env.kernel, ReachKernel):
+        return numpy_batch
+    if numpy_batch and isinstance(env, Planar3PGoalEnv) and isinstance(env.kernel, GoalKernel):
+        return True
+    if numpy_batch and isinstance(env.kernel, TrackKernel):
+        return True
+    if numpy_batch and _hook_rows(env) is not None:
+        return True
+    return None
+
+
+def _hook_rows(env: Planar3PEnv) -> type | None:
+    """The batched part of ``env``'s task where it runs the mode- or assembly-change task's
+    own hooks on the compiled measures with no travel term (:class:`_ModeRows`,
+    :class:`_AssemblyRows`), else None."""
+    task = env.task
+    if not isinstance(env.kernel, HookKernel) or task.travel_shaping:  # type: ignore[attr-defined]
+        return None
+    return {ModeChangeTask: _ModeRows, AssemblyChangeTask: _AssemblyRows}.get(type(task))
+
+
+def _reach_step(kernel: Any) -> Any:
+    """The reach outputs (:class:`~planar3p_gym.tasks.reach_step.ReachStep`) a batched kernel
+    computes (its own, or those of the reach kernel it is built on)."""
+    if isinstance(kernel, (ReachKernel, HookKernel)):
+        return kernel.reach
+    return kernel.reach.reach
+
+
 def _has_sim(env: Planar3PEnv) -> bool:
     """Whether ``env`` has a simulation (was reset, or restored from a reset one)."""
     try:
@@ -440,7 +499,7 @@ class _BatchCore:
         self.scale = 1.0 / (self.substeps * self.h)
         self.force_limit = 0.999 * env.design.max_force * self.h
         self.breakdown = env.breakdown_distance
-        self.reach = BatchReach(env.kernel.reach)
+        self.reach = BatchReach(_reach_step(env.kernel))
         self.low, self.high = env.kernel.settings.low, env.kernel.settings.high
         #: The projection's constants (LoopProjector.constants), from the first simulation.
         self.constants: np.ndarray | None = None
@@ -449,7 +508,7 @@ class _BatchCore:
         #: ``set_task_config`` shows here with no loop over the environments.
         self.consts = np.zeros((n, 10))
         for i, e in enumerate(venv._envs):
-            e.kernel.reach.share_constants(self.consts[i])
+            _reach_step(e.kernel).share_constants(self.consts[i])
         self.buf = np.zeros((n, _ROW))
         #: Each environment's batch request over its row of :attr:`buf`.
         self.reads = [chipmunk.body_readout(row) for row in self.buf]
@@ -473,6 +532,15 @@ class _BatchCore:
         #: Scalar mode: the arguments of ``env._info`` of each pending environment's last step.
         self.pending_info: list[tuple | None] = [None] * n
         self.last: dict[str, Any] | None = None  # the last batched step's arrays
+        self.info_keys = venv.info_keys
+        #: The goal or tracking task's part of the step, else None (the reach task).
+        self.goal: _GoalRows | _TrackRows | _ModeRows | _AssemblyRows | None = None
+        if isinstance(env, Planar3PGoalEnv):
+            self.goal = _GoalRows(self, env)
+        elif isinstance(env.kernel, TrackKernel):
+            self.goal = _TrackRows(self, env)
+        elif (rows := _hook_rows(env)) is not None:
+            self.goal = rows(self, env)
 
     # ------------------------------------------------------------------ env <-> batch
     def load(self, i: int) -> None:
@@ -497,6 +565,8 @@ class _BatchCore:
         self.target_cs[:, i] = ep.target_cs
         self.target_rho[i] = ep.target_rho
         self.assembly[i] = ep.assembly
+        if self.goal is not None:
+            self.goal.load(i, env)
         self.pending[i] = False
 
     def sync_all(self) -> None:
@@ -539,6 +609,8 @@ class _BatchCore:
         ep.measures = measures
         errors = (float(o["position_error"][j]), float(o["orientation_error"][j]))
         ep.info = env.kernel.info(ep, state, measures, reason, terms, reason == "success", errors)
+        if self.goal is not None:
+            self.goal.sync(i, env, ep.info, last, j)
         if bodies:
             chipmunk.write_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
         self.pending[i] = False
@@ -587,8 +659,9 @@ class _BatchCore:
         rewards = np.zeros(n)
         terminated = np.zeros(n, dtype=np.bool_)
         truncated = np.zeros(n, dtype=np.bool_)
+        keys = self.info_keys
         info: dict[str, Any] = {
-            key: np.zeros(n, dtype=_DTYPES.get(key, np.float64)) for key in INFO_KEYS
+            key: np.zeros(n, dtype=_DTYPES.get(key, np.float64)) for key in keys
         }
         info["termination_reason"][:] = None
         if idx.size and self.numpy:
@@ -603,24 +676,31 @@ class _BatchCore:
         done = terminated | truncated
         out: dict[str, Any] = {}
         mask = np.ones(n, dtype=np.bool_)
-        for key in INFO_KEYS:
+        for key in keys:
             out[key] = info[key]
             out["_" + key] = mask
         if venv.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP:
             ended = np.nonzero(done)[0].tolist()
             if ended:  # the last observations and infos, then reset within the step
                 final_obs = np.full(n, None, dtype=object)
-                final_info: dict[str, Any] = {k: info[k].copy() for k in INFO_KEYS}
+                final_info: dict[str, Any] = {k: info[k].copy() for k in keys}
                 for i in ended:
-                    final_obs[i] = venv._obs[i].copy()
+                    final_obs[i] = self._observation(i)
                 for i in ended:
                     self._reset(i, info)
-                final_info.update({"_" + k: done for k in INFO_KEYS})
+                final_info.update({"_" + k: done for k in keys})
                 out["final_obs"], out["_final_obs"] = final_obs, done
                 out["final_info"], out["_final_info"] = final_info, done
         else:
             venv._autoreset[:] = done
-        return venv._obs.copy(), rewards, terminated, truncated, out
+        return venv._observations(), rewards, terminated, truncated, out
+
+    def _observation(self, i: int) -> Any:
+        """A copy of environment ``i``'s observation in the batch."""
+        obs = self.venv._obs
+        if isinstance(obs, dict):
+            return {key: value[i].copy() for key, value in obs.items()}
+        return obs[i].copy()
 
     def _scalar(
         self,
@@ -688,10 +768,10 @@ class _BatchCore:
     def _reset(self, i: int, info: dict[str, Any]) -> None:
         venv = self.venv
         obs, reset_info = venv._envs[i].reset()
-        venv._obs[i] = obs
+        venv._put(i, obs)
         venv._elapsed[i] = 0
         self.load(i)
-        for key in INFO_KEYS:
+        for key in self.info_keys:
             info[key][i] = reset_info[key]
 
     def _physics(self, a: np.ndarray, idx: np.ndarray) -> dict[str, Any]:
@@ -706,12 +786,16 @@ class _BatchCore:
                 self._append_commands(i)
             self.log_steps = 0
         self.log_steps += 1
-        _, forces, saturated, states, closure, obs, res = reach_batch_step(
+        args = (
             chipmunk.FUNCTIONS, self.handle_rows, idx, a, self.vmax, self.h, self.substeps,
             self.force_limit, self.buf, self.constants, FOLLOWING_ERROR_LIMIT, self.targets,
             self.assembly, self.consts, reach.consts, reach.weights.as_array(), reach.low,
             reach.high, self.log, self.logged,
         )  # fmt: skip
+        if self.goal is None:
+            _, forces, saturated, states, closure, obs, res = reach_batch_step(*args)
+        else:
+            _, forces, saturated, states, closure, obs, res = self.goal.advance(args, idx)
         self.venv._elapsed[idx] += 1
         self.time[idx] += self.dt
         self.forces = forces[:, :3] * self.scale
@@ -753,9 +837,12 @@ class _BatchCore:
             goal = travel_goal_entries(obs[:, :3], self.target_rho[idx])
             obs = o["obs"] = np.concatenate([obs, goal], axis=1)
         sel = slice(None) if len(idx) == len(rewards) else idx  # (every env: no gather)
-        venv._obs[sel] = obs
-        rewards[sel] = reward
         reason = o["reason"]
+        if self.goal is None:
+            venv._obs[sel] = obs
+            rewards[sel] = reward
+        else:
+            rewards[sel] = self.goal.outputs(sel, idx, o, ~bad, info)
         terminated[sel] = reason > 0
         info["is_success"][sel] = reason == 1
         info["termination_reason"][sel] = _REASONS[reason]
@@ -772,6 +859,7 @@ class _BatchCore:
             "forces": self.forces,
             "saturated": self.saturated,
             "time": self.time[idx],
+            "goal": None if self.goal is None else self.goal.current,
         }
         self.pending[sel] = True
         for j in bad_rows:  # the reference kernel, on the state just computed
@@ -781,36 +869,337 @@ class _BatchCore:
             self._set_sim(env, state, self.last, j, i)
             env.episode.steps = int(venv._elapsed[i])
             ob, r, reason, inf = env.kernel.reference_step(env.episode, state, a[i].tolist())
-            venv._obs[i] = ob
+            if self.goal is None:
+                venv._obs[i] = ob
+            else:
+                r = self.goal.fallback(i, env, ob, r, inf)
             rewards[i] = r
             terminated[i] = reason is not None
-            for key in INFO_KEYS:
+            for key in self.info_keys:
                 info[key][i] = inf[key]
             chipmunk.write_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
+            self._append_commands(i)  # (no sync follows: the record takes this step's now)
             self.pending[i] = False
 
 
+class _GoalRows:
+    """The goal env's part of a batched step (:func:`~planar3p_gym.envs.batch_kernel.
+    goal_batch_step`): each environment's desired goal, the ``Dict`` observations
+    (:func:`~planar3p_gym.envs.goal.goal_observation`), the goal rewards and the relabelling
+    entries of the infos."""
+
+    def __init__(self, core: _BatchCore, env: Planar3PGoalEnv) -> None:
+        self.core = core
+        self.venv = core.venv
+        n = self.venv.num_envs
+        self.desired = np.zeros((n, 5), dtype=np.float32)
+        self.low, self.high = goal_bounds(env.design)
+        self.length = env.design.characteristic_length
+        self.dense = env.reward_type == "dense"
+        self.working_mode = env.observe_working_mode
+        #: The last batched step's achieved goals, evaluations and goal rewards.
+        self.current: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def load(self, i: int, env: Planar3PGoalEnv) -> None:
+        """Take environment ``i``'s desired goal (after a reset or a restored snapshot)."""
+        self.desired[i] = env.goal_task.desired
+
+    def advance(self, args: tuple, idx: np.ndarray) -> tuple:
+        """:func:`~planar3p_gym.envs.batch_kernel.goal_batch_step` of the reach step's
+        arguments ``args`` (the environments ``idx``); keeps the goal outputs in
+        :attr:`current`."""
+        *reach, achieved, evaluation, rewards = goal_batch_step(
+            *args, self.desired, self.low, self.high, self.length, self.dense
+        )
+        self.current = (achieved, evaluation, rewards)
+        return tuple(reach)
+
+    def outputs(
+        self, sel: Any, idx: np.ndarray, o: dict[str, Any], good: np.ndarray, info: dict
+    ) -> np.ndarray:
+        """Write the stepped environments' (``idx``, ``sel`` over the batch) ``Dict``
+        observations of their flat observations (the outputs ``o``) and their relabelling
+        entries; returns their goal rewards (the rows not ``good``, whose physics broke
+        down, take :meth:`fallback`)."""
+        assert self.current is not None
+        achieved, evaluation, rewards = self.current
+        obs = goal_observation(o["obs"], achieved, self.desired[sel], self.working_mode)
+        for key, value in obs.items():
+            self.venv._obs[key][sel] = value
+        info["failure"][sel] = o["reason"] == 2
+        info["goal_free_reward"][sel] = evaluation[3]
+        return rewards
+
+    def fallback(
+        self, i: int, env: Planar3PGoalEnv, flat: np.ndarray, reward: float, info: dict
+    ) -> float:
+        """Environment ``i``'s ``Dict`` observation and goal reward of the reference kernel's
+        step (its flat observation ``flat`` and ``info``), as its own step gives them."""
+        obs, reward = env.goal_outputs(flat, info)
+        self.venv._put(i, obs)
+        return reward
+
+    def sync(
+        self, i: int, env: Planar3PGoalEnv, info: dict[str, Any], last: dict[str, Any], j: int
+    ) -> None:
+        """Give environment ``i`` (row ``j`` of the ``last`` batched step) its goal
+        evaluation and ``info``'s relabelling entries, as its own step leaves them."""
+        achieved, evaluation, _ = last["goal"]
+        task = env.goal_task
+        task.achieved[:] = achieved[j]
+        pos, ang, success, free = evaluation[:, j].tolist()
+        task.evaluation = (pos, ang, bool(success))
+        info["failure"] = info["termination_reason"] in task.failure_reasons
+        info["goal_free_reward"] = free
+
+
+class _TrackRows:
+    """The tracking task's part of a batched step (:func:`~planar3p_gym.envs.batch_kernel.
+    track_batch_step`): each episode's reference samples (``TrackTask.samples``, one row of
+    :attr:`samples` per environment, extended as the episode goes on), the running tracking
+    errors, and the reference velocity entries of the observations."""
+
+    def __init__(self, core: _BatchCore, env: Planar3PEnv) -> None:
+        self.core = core
+        self.venv = core.venv
+        n = self.venv.num_envs
+        settings = env.kernel.settings
+        self.low, self.high = settings.extra_low, settings.extra_high
+        #: Each environment's reference samples (a row each, ``filled[i]`` of them).
+        self.samples = np.zeros((n, SAMPLE_CHUNK, 8))
+        self.filled = np.zeros(n, dtype=np.int64)
+        self.running = np.zeros((n, RUNNING_SIZE))
+        #: The last batched step's reference velocity entries and running errors of the
+        #: stepped environments.
+        self.extra: np.ndarray | None = None
+        self.current: np.ndarray | None = None
+
+    def _fill(self, i: int, env: Planar3PEnv, start: int) -> None:
+        """Copy environment ``i``'s reference samples from step ``start`` on into its row of
+        :attr:`samples` (grown to hold them)."""
+        have = env.task.samples  # type: ignore[attr-defined]
+        if have.shape[0] > self.samples.shape[1]:
+            grown = np.zeros((self.venv.num_envs, max(have.shape[0], 2 * self.samples.shape[1]), 8))
+            grown[:, : self.samples.shape[1]] = self.samples
+            self.samples = grown
+        self.samples[i, start : have.shape[0]] = have[start:]
+        self.filled[i] = have.shape[0]
+
+    def load(self, i: int, env: Planar3PEnv) -> None:
+        """Take environment ``i``'s reference and running errors (after a reset or a restored
+        snapshot)."""
+        self._fill(i, env, 0)
+        self.running[i] = env.task.running  # type: ignore[attr-defined]
+
+    def advance(self, args: tuple, idx: np.ndarray) -> tuple:
+        """:func:`~planar3p_gym.envs.batch_kernel.track_batch_step` of the reach step's
+        arguments ``args`` (the environments ``idx``); keeps the reference velocity entries
+        and the running errors in :attr:`current`.  An environment whose samples end before
+        its new step has them extended first (:meth:`TrackTask.sample`, as its own step
+        would)."""
+        elapsed = self.venv._elapsed
+        steps = elapsed[idx] + 1
+        for k in np.flatnonzero(steps >= self.filled[idx]).tolist():
+            i = int(idx[k])
+            env = self.venv._envs[i]
+            env.task.sample(int(steps[k]))  # type: ignore[attr-defined]
+            self._fill(i, env, int(self.filled[i]))
+        *reach, extra, running = track_batch_step(
+            *args, self.samples, elapsed, self.running, self.low, self.high
+        )
+        self.extra = extra
+        self.current = running
+        return tuple(reach)
+
+    def outputs(
+        self, sel: Any, idx: np.ndarray, o: dict[str, Any], good: np.ndarray, info: dict
+    ) -> np.ndarray:
+        """Write the stepped environments' (``idx``, ``sel`` over the batch) observations
+        (the outputs ``o`` with the reference velocity entries, kept there: :meth:`sync`
+        gives each env its row) and keep the running errors of the rows whose physics held
+        (``good``); returns their rewards."""
+        assert self.current is not None
+        obs = o["obs"] = np.concatenate([o["obs"], self.extra], axis=1)
+        self.venv._obs[sel] = obs
+        self.running[idx[good]] = self.current[good]
+        return o["reward"]
+
+    def fallback(
+        self, i: int, env: Planar3PEnv, flat: np.ndarray, reward: float, info: dict
+    ) -> float:
+        """Environment ``i``'s observation of the reference kernel's step, and its running
+        errors (counted by the task's own metrics)."""
+        self.venv._obs[i] = flat
+        self.running[i] = env.task.running  # type: ignore[attr-defined]
+        return reward
+
+    def sync(
+        self, i: int, env: Planar3PEnv, info: dict[str, Any], last: dict[str, Any], j: int
+    ) -> None:
+        """Give environment ``i`` (row ``j`` of the ``last`` batched step) its reference
+        target, its running errors and ``info``'s tracking metrics, as its own step leaves
+        them."""
+        task = env.task
+        ep = env.episode
+        x, y, theta, c, s = task.sample(ep.steps)[:5].tolist()  # type: ignore[attr-defined]
+        ep.target, ep.target_cs = (x, y, theta), (c, s)
+        task.running[:] = self.running[i]  # type: ignore[attr-defined]
+        errors = (info["position_error"], info["orientation_error"])
+        info.update(task.tracking_info(ep.steps, errors))  # type: ignore[attr-defined]
+
+
+class _ModeRows:
+    """The mode-change task's part of a batched step (:func:`~planar3p_gym.envs.batch_kernel.
+    mode_batch_step`): each episode's target working mode and its observation's extra entries
+    (the target's travels and working mode, fixed over the episode)."""
+
+    def __init__(self, core: _BatchCore, env: Planar3PEnv) -> None:
+        self.venv = core.venv
+        n = self.venv.num_envs
+        self.target_modes = np.zeros((n, 3), dtype=np.int64)
+        self.extra = np.zeros((n, env.observation_space.shape[0] - OBS_SIZE), dtype=np.float32)
+        self.parallel_barrier = bool(env.task.parallel_barrier)
+        self.serial_barrier = bool(env.task.serial_barrier)
+        self.current = None  # (no outputs of its own: the reach outputs hold them)
+
+    def load(self, i: int, env: Planar3PEnv) -> None:
+        """Take environment ``i``'s target working mode and extra entries (from its reset's,
+        or a restored snapshot's, ``info`` and observation)."""
+        self.target_modes[i] = env.episode.info["target_working_mode"]
+        self.extra[i] = env.episode.obs[OBS_SIZE:]
+
+    def advance(self, args: tuple, idx: np.ndarray) -> tuple:
+        """:func:`~planar3p_gym.envs.batch_kernel.mode_batch_step` of the reach step's
+        arguments ``args`` (the environments ``idx``)."""
+        return mode_batch_step(*args, self.target_modes, self.parallel_barrier, self.serial_barrier)
+
+    def outputs(
+        self, sel: Any, idx: np.ndarray, o: dict[str, Any], good: np.ndarray, info: dict
+    ) -> np.ndarray:
+        """Write the stepped environments' (``idx``, ``sel`` over the batch) observations:
+        the outputs ``o`` with the extra entries (kept there: :meth:`sync` gives each env its
+        row); returns their rewards."""
+        obs = o["obs"] = np.concatenate([o["obs"], self.extra[idx]], axis=1)
+        self.venv._obs[sel] = obs
+        return o["reward"]
+
+    def fallback(
+        self, i: int, env: Planar3PEnv, flat: np.ndarray, reward: float, info: dict
+    ) -> float:
+        """Environment ``i``'s observation of the reference kernel's step."""
+        self.venv._obs[i] = flat
+        return reward
+
+    def sync(
+        self, i: int, env: Planar3PEnv, info: dict[str, Any], last: dict[str, Any], j: int
+    ) -> None:
+        """``info``'s mode-change metrics of environment ``i`` (its simulation's state
+        already the step's), as its own step gives them (the task's hook)."""
+        errors = (info["position_error"], info["orientation_error"])
+        info.update(env.task.step_info(env.episode.steps, env.sim.state, errors))
+
+
+class _AssemblyRows:
+    """The assembly-change task's part of a batched step (:func:`~planar3p_gym.envs.
+    batch_kernel.assembly_batch_step`): each episode's target assembly mode, crossing count and
+    fixed extra entries (the target's travels and assembly mode), the signed parallel margin
+    entry of each step."""
+
+    def __init__(self, core: _BatchCore, env: Planar3PEnv) -> None:
+        self.venv = core.venv
+        n = self.venv.num_envs
+        self.target_assembly = np.zeros(n, dtype=np.int64)
+        self.last_sign = np.zeros(n, dtype=np.int64)
+        self.crossings = np.zeros(n, dtype=np.int64)
+        self.extra = np.zeros((n, env.observation_space.shape[0] - OBS_SIZE), dtype=np.float32)
+        settings = env.kernel.settings
+        self.signed_low = float(settings.extra_low[-1])
+        self.signed_high = float(settings.extra_high[-1])
+        self.serial_barrier = bool(env.task.serial_barrier)
+        #: The last batched step's signed margin entries and crossing counts.
+        self.signed: np.ndarray | None = None
+        self.current: np.ndarray | None = None
+
+    def load(self, i: int, env: Planar3PEnv) -> None:
+        """Take environment ``i``'s target assembly mode, crossing count and extra entries
+        (after a reset or a restored snapshot)."""
+        task = env.task
+        self.target_assembly[i] = env.episode.info["target_assembly"]
+        self.last_sign[i] = task.last_sign  # type: ignore[attr-defined]
+        self.crossings[i] = task.crossings  # type: ignore[attr-defined]
+        self.extra[i] = env.episode.obs[OBS_SIZE:]
+
+    def advance(self, args: tuple, idx: np.ndarray) -> tuple:
+        """:func:`~planar3p_gym.envs.batch_kernel.assembly_batch_step` of the reach step's
+        arguments ``args`` (the environments ``idx``)."""
+        *reach, signed, counts = assembly_batch_step(
+            *args, self.target_assembly, self.last_sign, self.crossings, self.serial_barrier,
+            self.signed_low, self.signed_high,
+        )  # fmt: skip
+        self.signed, self.current = signed, counts
+        return tuple(reach)
+
+    def outputs(
+        self, sel: Any, idx: np.ndarray, o: dict[str, Any], good: np.ndarray, info: dict
+    ) -> np.ndarray:
+        """Write the stepped environments' (``idx``, ``sel`` over the batch) observations
+        (the outputs ``o`` with the extra entries, kept there: :meth:`sync` gives each env its
+        row) and keep the crossing counts of the rows whose physics held (``good``); returns
+        their rewards."""
+        assert self.current is not None
+        extra = self.extra[idx]
+        extra[:, -1] = self.signed
+        obs = o["obs"] = np.concatenate([o["obs"], extra], axis=1)
+        self.venv._obs[sel] = obs
+        kept = idx[good]
+        self.last_sign[kept] = self.current[0, good]
+        self.crossings[kept] = self.current[1, good]
+        return o["reward"]
+
+    def fallback(
+        self, i: int, env: Planar3PEnv, flat: np.ndarray, reward: float, info: dict
+    ) -> float:
+        """Environment ``i``'s observation of the reference kernel's step."""
+        self.venv._obs[i] = flat
+        return reward
+
+    def sync(
+        self, i: int, env: Planar3PEnv, info: dict[str, Any], last: dict[str, Any], j: int
+    ) -> None:
+        """Give environment ``i`` its crossing count and ``info``'s metrics (the task's
+        hook), as its own step leaves them."""
+        task = env.task
+        task.last_sign = int(self.last_sign[i])  # type: ignore[attr-defined]
+        task.crossings = int(self.crossings[i])  # type: ignore[attr-defined]
+        errors = (info["position_error"], info["orientation_error"])
+        info.update(task.step_info(env.episode.steps, env.sim.state, errors))
+
+
 class Planar3PTrackVectorEnv(Planar3PVectorEnv):
-    """``Planar3PTrack-v0``'s native vector env (environment by environment)."""
+    """``Planar3PTrack-v0``'s native vector env (the batched step from
+    :data:`NUMPY_BATCH_MIN` environments, module docstring)."""
 
     env_class = Planar3PTrackEnv
 
 
 class Planar3PModeChangeVectorEnv(Planar3PVectorEnv):
-    """``Planar3PModeChange-v0``'s native vector env (environment by environment)."""
+    """``Planar3PModeChange-v0``'s native vector env (the batched step from
+    :data:`NUMPY_BATCH_MIN` environments without the travel term, module docstring)."""
 
     env_class = Planar3PModeChangeEnv
 
 
 class Planar3PAssemblyChangeVectorEnv(Planar3PVectorEnv):
-    """``Planar3PAssemblyChange-v0``'s native vector env (environment by environment)."""
+    """``Planar3PAssemblyChange-v0``'s native vector env (the batched step from
+    :data:`NUMPY_BATCH_MIN` environments without the travel term, module docstring)."""
 
     env_class = Planar3PAssemblyChangeEnv
 
 
 class Planar3PGoalVectorEnv(Planar3PVectorEnv):
-    """``Planar3PGoal-v0``'s and ``Planar3PGoalDense-v0``'s native vector env (environment by
-    environment): the ``Dict`` observations as a dict of batch arrays, the relabelling entries
+    """``Planar3PGoal-v0``'s and ``Planar3PGoalDense-v0``'s native vector env (the batched
+    step from :data:`NUMPY_BATCH_MIN` environments, module docstring): the ``Dict``
+    observations as a dict of batch arrays, the relabelling entries
     (:data:`planar3p_gym.tasks.goal.RELABEL_INFO_KEYS`) among the infos, and
     :meth:`compute_reward` over the batch."""
 

@@ -23,6 +23,7 @@ from dataclasses import asdict
 from typing import Any, ClassVar
 
 import numpy as np
+from numba import njit
 
 from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
@@ -36,6 +37,9 @@ from planar3p_gym.tasks.crossing_checks import (
     crossing_path,
     verify_crossing,
 )
+from planar3p_gym.tasks.observation import within_tolerances
+from planar3p_gym.tasks.reach_step import TERMS_START
+from planar3p_gym.tasks.rewards import weighted_terms
 from planar3p_gym.tasks.singular_gravity import gravity_alignment
 from planar3p_gym.tasks.travel_motion import TravelCurve, demonstration_travels, pose_path_travels
 from planar3p_gym.tasks.travel_shaping import TravelShaping, check_travel_shaping
@@ -45,10 +49,13 @@ __all__ = [
     "CrossingLimits",
     "SimFactory",
     "TravelCurve",
+    "assembly_rows",
+    "count_crossing",
     "crossing_path",
     "demonstration_travels",
     "gravity_alignment",
     "pose_path_travels",
+    "signed_margin",
     "verify_crossing",
 ]
 
@@ -77,6 +84,64 @@ _ONE_ASSEMBLY = "it has acceptable poses of one assembly mode only"
 _CHECK_SIMS: weakref.WeakKeyDictionary[AssemblyChangeTask, Planar3PSim] = (
     weakref.WeakKeyDictionary()
 )
+
+
+@njit(cache=True)
+def signed_margin(sign: float, parallel_margin: float) -> float:
+    """``sign det A`` (a zero counted as +1) times the parallel margin: the observation's
+    signed parallel margin in ``[-1, 1]`` (0 where it is not finite)."""
+    signed = (sign if sign != 0 else 1) * parallel_margin
+    return signed if math.isfinite(signed) else 0.0
+
+
+@njit(cache=True)
+def count_crossing(sign: int, last_sign: int, crossings: int) -> tuple[int, int]:
+    """The assembly mode the platform is in and the crossings counted, after a step whose
+    ``sign det A`` is ``sign`` (a zero, at the singularity, changes nothing)."""
+    if sign != 0 and sign != last_sign:
+        return sign, crossings + 1
+    return last_sign, crossings
+
+
+@njit(cache=True)
+def assembly_rows(
+    rows: np.ndarray, states: np.ndarray, actions: np.ndarray, res: np.ndarray,
+    target_assembly: np.ndarray, last_sign: np.ndarray, crossings: np.ndarray,
+    tolerances: np.ndarray, w: np.ndarray, length: float, serial_barrier: bool,
+    low: float, high: float, signed: np.ndarray, counts: np.ndarray,
+) -> None:  # fmt: skip
+    """The assembly-change task's part of a batched step, after the reach outputs ``res``
+    (``(len(RESULT_FIELDS), n)``) of the environments ``rows`` (int64 ``(n,)``, of a batch of
+    ``N``): for each stepped row ``j`` (environment ``i = rows[j]``, its state ``states[:,
+    j]``), the observation's signed parallel margin (:func:`signed_margin`, float32 clipped to
+    ``[low, high]``) into ``signed[j]``, the crossing counted (:func:`count_crossing` from
+    ``last_sign[i]``, ``crossings[i]``) into ``counts[:, j]``, success in the target's assembly
+    mode ``target_assembly[i]`` (the tolerances ``tolerances[i]``, ``(N, 3)``), and the reason
+    (1 success, else 0: a crossing is no failure here) and the reward terms
+    (:func:`~planar3p_gym.tasks.rewards.weighted_terms`, no parallel barrier) with their sum
+    written back into ``res``, as :meth:`AssemblyChangeTask.termination` and its reward
+    terms give them.  ``actions`` ``(N, 3)``: the clipped actions; ``w``: the reward
+    weights; ``length``: the characteristic length (m)."""
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        sign = int(res[6, j])
+        v = min(np.float32(signed_margin(res[6, j], res[4, j])), np.float32(high))
+        signed[j] = max(v, np.float32(low))
+        counts[0, j], counts[1, j] = count_crossing(sign, last_sign[i], crossings[i])
+        success = sign == target_assembly[i] and within_tolerances(
+            res[2, j], res[3, j], states[3:6, j], tolerances[i, 0], tolerances[i, 1],
+            tolerances[i, 2],
+        )  # fmt: skip
+        terms = weighted_terms(
+            w, res[2, j], res[3, j], length, 1.0, res[5, j] if serial_barrier else 1.0,
+            actions[i, 0], actions[i, 1], actions[i, 2], success, False,
+        )  # fmt: skip
+        total = 0.0
+        for t in range(len(terms)):
+            total += terms[t]
+            res[TERMS_START + t, j] = terms[t]
+        res[0, j] = total
+        res[1, j] = 1.0 if success else 0.0
 
 
 class AssemblyChangeTask(TravelShaping, Task):
@@ -130,8 +195,10 @@ class AssemblyChangeTask(TravelShaping, Task):
         self._target: Pose = (0.0, 0.0, 0.0)
         self._target_rho = (0.0, 0.0, 0.0)
         self._target_asm = 1
-        self._last_sign = 1
-        self._crossings = 0
+        #: The last nonzero ``sign det A`` seen (the assembly mode the platform is in) and the
+        #: crossings counted so far in the episode (:meth:`termination` counts them).
+        self.last_sign = 1
+        self.crossings = 0
         verdicts = {m: self.mode_problem(m) for m in env.modes}
         self.modes = [m for m, problem in verdicts.items() if problem is None]
         if not self.modes:
@@ -359,8 +426,8 @@ class AssemblyChangeTask(TravelShaping, Task):
         rho = kinematics.inverse(self.env.design, self._target, mode).rho
         self._target_rho = (float(rho[0]), float(rho[1]), float(rho[2]))
         self._target_asm = self._assembly(np.asarray(self._target), mode)
-        self._last_sign = -self._target_asm
-        self._crossings = 0
+        self.last_sign = -self._target_asm
+        self.crossings = 0
         start = np.asarray(spec["start"], dtype=np.float64)
         self.start_travels(kinematics.inverse(self.env.design, start, mode).rho)
         return start, mode
@@ -375,12 +442,10 @@ class AssemblyChangeTask(TravelShaping, Task):
     def observation_extra(
         self, step: int, state: SimState, measures: ConfigurationMeasures
     ) -> list[float]:
-        m = measures
-        signed = (m.det_sign if m.det_sign else 1) * m.parallel_margin
         return [
             *self._target_rho,
             float(self._target_asm),
-            signed if math.isfinite(signed) else 0.0,
+            signed_margin(measures.det_sign, measures.parallel_margin),
         ]
 
     def termination(
@@ -391,9 +456,7 @@ class AssemblyChangeTask(TravelShaping, Task):
         assembly: int,
     ) -> str | None:
         sign = measures.det_sign
-        if sign != 0 and sign != self._last_sign:
-            self._crossings += 1
-            self._last_sign = sign
+        self.last_sign, self.crossings = count_crossing(sign, self.last_sign, self.crossings)
         if sign == self._target_asm and self.is_success(state, errors):
             return "success"
         return None
@@ -401,6 +464,6 @@ class AssemblyChangeTask(TravelShaping, Task):
     def step_info(self, step: int, state: SimState, errors: tuple[float, float]) -> dict[str, Any]:
         return {
             "target_assembly": self._target_asm,
-            "in_target_assembly": self._last_sign == self._target_asm,
-            "crossings": self._crossings,
+            "in_target_assembly": self.last_sign == self._target_asm,
+            "crossings": self.crossings,
         }

@@ -29,6 +29,7 @@ from planar3p_gym.machine.design import Design
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks.base import Pose
 from planar3p_gym.tasks.kernel import (
+    CompiledKernel,
     Episode,
     KernelSettings,
     ReachKernel,
@@ -38,7 +39,8 @@ from planar3p_gym.tasks.kernel import (
 )
 from planar3p_gym.tasks.observation import SLICES, SPEED_BOUND_FACTOR, bounds
 from planar3p_gym.tasks.reach import COMPILED_HOOKS, ReachTask
-from planar3p_gym.tasks.rewards import RewardWeights, weighted_terms
+from planar3p_gym.tasks.reach_step import TERMS_START, rejudge_row
+from planar3p_gym.tasks.rewards import TERM_NAMES, RewardWeights, weighted_terms
 from planar3p_gym.tasks.sampling import TaskConfig
 
 __all__ = [
@@ -53,10 +55,12 @@ __all__ = [
     "goal_bounds",
     "goal_errors",
     "goal_free_reward",
+    "goal_free_value",
     "goal_of_pose",
     "goal_reward",
     "goal_reward_value",
     "goal_rewards",
+    "goal_rows",
     "goal_success",
     "goal_test",
     "goal_tests",
@@ -346,11 +350,63 @@ def goal_reward(
     )
 
 
+@njit(cache=True)
+def goal_free_value(singularity: float, action: float, failure: float, dense: bool) -> float:
+    """The one definition of the goal-independent part of the reward from the reach reward's
+    weighted ``singularity``, ``action`` and ``failure`` terms: all three for the dense
+    reward, the failure term alone for the sparse one."""
+    if dense:
+        return singularity + action + failure
+    return failure
+
+
 def goal_free_reward(terms: dict[str, float], reward_type: str) -> float:
-    """The goal-independent part of the reward from the reach reward's weighted terms."""
-    if reward_type == "sparse":
-        return terms["failure"]
-    return terms["singularity"] + terms["action"] + terms["failure"]
+    """The goal-independent part of the reward from the reach reward's weighted terms
+    (:func:`goal_free_value`)."""
+    return goal_free_value(
+        terms["singularity"], terms["action"], terms["failure"], reward_type == "dense"
+    )
+
+
+#: Indices of the reward terms :func:`goal_free_value` reads, in the reach outputs' results.
+_FREE_TERMS = tuple(TERMS_START + TERM_NAMES.index(k) for k in ("singularity", "action", "failure"))
+
+
+@njit(cache=True)
+def goal_rows(
+    rows: np.ndarray, states: np.ndarray, actions: np.ndarray, res: np.ndarray,
+    desired: np.ndarray, tolerances: np.ndarray, w: np.ndarray, length: float, dense: bool,
+    low: np.ndarray, high: np.ndarray, achieved: np.ndarray, evaluation: np.ndarray,
+    rewards: np.ndarray,
+) -> None:  # fmt: skip
+    """The goal task's part of a batched step, after the reach outputs of the environments
+    ``rows`` (int64 ``(n,)``, of a batch of ``N``): for each stepped row ``j`` (environment
+    ``i = rows[j]``), :func:`evaluate_state_goal` of its state (``states`` ``(23, n)``, theta
+    wrapped) against ``desired[i]`` (float32 ``(N, 5)``) with ``tolerances[i]`` (``(N, 3)``:
+    m, rad, m/s), into ``achieved[j]`` (float32 ``(n, 5)``, clipped to ``[low, high]``) and
+    ``evaluation[:3, j]`` (errors (m, rad), success); where that verdict differs from the
+    reach outputs' ``res`` (``(len(RESULT_FIELDS), n)``), its reason, reward terms and their
+    sum are rejudged as :meth:`planar3p_gym.tasks.kernel.ReachKernel.rejudge` does (the
+    weighted terms with the goal's verdict, no failure); then ``evaluation[3, j]``, the
+    goal-independent reward (:func:`goal_free_value` of the terms), and ``rewards[j]``, the
+    goal reward (:func:`goal_reward_value`).  ``actions`` ``(N, 3)`` are the clipped actions,
+    ``w`` the reward weights, ``length`` the characteristic length (m)."""
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        crossing = res[1, j] == 2
+        pos, ang, success = evaluate_state_goal(
+            achieved[j], states[6, j], states[7, j], states[8, j], states[3, j], states[4, j],
+            states[5, j], low, high, desired[i], crossing, tolerances[i, 0], tolerances[i, 1],
+            tolerances[i, 2],
+        )  # fmt: skip
+        evaluation[0, j], evaluation[1, j], evaluation[2, j] = pos, ang, success
+        if success != (res[1, j] == 1):
+            rejudge_row(res, j, w, length, actions[i, 0], actions[i, 1], actions[i, 2], success)
+        free = goal_free_value(
+            res[_FREE_TERMS[0], j], res[_FREE_TERMS[1], j], res[_FREE_TERMS[2], j], dense
+        )
+        evaluation[3, j] = free
+        rewards[j] = goal_reward_value(w, pos, ang, length, success, dense, free)
 
 
 class GoalTask(ReachTask):
@@ -519,7 +575,7 @@ def achieved_goal(pose: ArrayLike, rho_dot: ArrayLike) -> NDArray[np.float32]:
     return out
 
 
-class GoalKernel(StepKernel):
+class GoalKernel(CompiledKernel):
     """The goal task's compiled kernel: the reach kernel's compiled outputs
     (:class:`~planar3p_gym.tasks.kernel.ReachKernel`: observation, errors, margins, reward
     terms) with the goal task's success test, on the goals (:meth:`GoalTask.evaluate`, compiled),
@@ -537,21 +593,15 @@ class GoalKernel(StepKernel):
     def config_changed(self, tolerances: tuple[float, float, float]) -> None:
         self.reach.config_changed(tolerances)
 
-    def step(
+    def compiled_step(
         self,
         ep: Episode,
         state: SimState,
-        array: np.ndarray | None,
+        array: np.ndarray,
         action: tuple[float, float, float],
         rng: np.random.Generator,
     ) -> StepOutputs:
-        if (
-            array is None
-            or not state.finite
-            or state.closure_error > self.settings.breakdown_distance
-        ):
-            return super().step(ep, state, array, action, rng)
-        obs, reward, reason, info = self.reach.step(ep, state, array, action, rng)
+        obs, reward, reason, info = self.reach.compiled_step(ep, state, array, action, rng)
         # GoalTask.termination: a crossing first, else success on the goals (evaluated once).
         crossing = reason == "singularity_crossing"
         success = self.task.evaluate(state.pose, state.rho_dot, crossing)[2]

@@ -9,9 +9,14 @@ takes this one path:
   state and the measures of the episode's machine, observed through the machine's sensing
   (:class:`Sensing`); it also handles the step where the physics broke down (the last good
   observation and errors kept, ``"physics_breakdown"``);
+- :class:`CompiledKernel`, the base of the compiled kernels: the one step prologue (the
+  reference kernel where there is no state array or the physics broke down, the moving
+  reference's target of the step) before the kernel's :meth:`CompiledKernel.compiled_step`;
 - :class:`ReachKernel`, the reach task's compiled kernel on the projected physics
   (:func:`planar3p_gym.tasks.reach_step.reach_outputs` on the simulation's state array), equal
-  to the reference to float64 rounding (``tests/sim/test_batch_step.py``).
+  to the reference to float64 rounding (``tests/sim/test_batch_step.py``); :class:`HookKernel`,
+  the compiled outputs with the task's hooks (and, in their modules, the goal and tracking
+  tasks' kernels).
 
 A task picks its kernel in :meth:`planar3p_gym.tasks.base.Task.kernel` from the
 :class:`KernelSettings` the environment gives it; the environment never tests the task's type.
@@ -42,6 +47,7 @@ if TYPE_CHECKING:
     from planar3p_gym.machine.design import Design
 
 __all__ = [
+    "CompiledKernel",
     "Episode",
     "HookKernel",
     "KernelSettings",
@@ -379,7 +385,55 @@ class StepKernel:
         }
 
 
-class ReachKernel(StepKernel):
+class CompiledKernel(StepKernel):
+    """The base of the kernels with compiled outputs on the simulation's state array: a step
+    takes the reference kernel (:meth:`StepKernel.step`) where there is no state array or the
+    physics broke down (a non-finite state, or a closure error past the breakdown distance),
+    else sets the step's reference target (:meth:`set_target`, for a task whose reference
+    moves) and takes :meth:`compiled_step`."""
+
+    #: Whether the task's reference pose moves over the episode (the target is set at every
+    #: step); a fixed target is the episode's, set at its reset.
+    moving_target: bool = False
+
+    def step(
+        self,
+        ep: Episode,
+        state: SimState,
+        array: np.ndarray | None,
+        action: tuple[float, float, float],
+        rng: np.random.Generator,
+    ) -> StepOutputs:
+        if (
+            array is None
+            or not state.finite
+            or state.closure_error > self.settings.breakdown_distance
+        ):
+            return StepKernel.step(self, ep, state, array, action, rng)
+        if self.moving_target:
+            self.set_target(ep)
+        return self.compiled_step(ep, state, array, action, rng)
+
+    def set_target(self, ep: Episode) -> None:
+        """Set the reference target of step ``ep.steps`` (``ep.target``, m, m, rad; and
+        ``ep.target_cs``, its ``cos``/``sin theta``) from the task's reference."""
+        target = ep.target = self.task.reference(ep.steps)
+        ep.target_cs = (math.cos(target[2]), math.sin(target[2]))
+
+    def compiled_step(
+        self,
+        ep: Episode,
+        state: SimState,
+        array: np.ndarray,
+        action: tuple[float, float, float],
+        rng: np.random.Generator,
+    ) -> StepOutputs:
+        """The outputs of a step whose physics held, from the state array ``array`` and
+        against ``ep.target`` (the arguments of :meth:`StepKernel.step`)."""
+        raise NotImplementedError
+
+
+class ReachKernel(CompiledKernel):
     """The reach task's compiled kernel on the projected physics of the nominal machine: one
     call of :func:`planar3p_gym.tasks.reach_step.reach_outputs` on the simulation's state array
     (the reference kernel where the physics broke down).  The target is fixed over the
@@ -396,20 +450,14 @@ class ReachKernel(StepKernel):
     def config_changed(self, tolerances: tuple[float, float, float]) -> None:
         self.reach.tolerances = tolerances
 
-    def step(
+    def compiled_step(
         self,
         ep: Episode,
         state: SimState,
-        array: np.ndarray | None,
+        array: np.ndarray,
         action: tuple[float, float, float],
         rng: np.random.Generator,
     ) -> StepOutputs:
-        if (
-            array is None
-            or not state.finite
-            or state.closure_error > self.settings.breakdown_distance
-        ):
-            return super().step(ep, state, array, action, rng)
         rs = self.reach
         res = rs.compute(array, state.pose[2], ep.target, ep.target_cs, ep.assembly, action)
         res = res.tolist()
@@ -447,7 +495,7 @@ class ReachKernel(StepKernel):
         return float(sum(terms.values()))
 
 
-class HookKernel(StepKernel):
+class HookKernel(CompiledKernel):
     """The reference kernel's step with its costly part compiled, for a task on the projected
     physics of the nominal machine: the 31 observation entries, the errors and the measures
     (margins, ``sign det A``) come from the reach task's compiled outputs on the simulation's
@@ -456,32 +504,30 @@ class HookKernel(StepKernel):
     in :class:`StepKernel`, on those measures.  Within float64 rounding of the reference: the
     compiled margins share intermediate values instead of recomputing them."""
 
+    moving_target = True
+
     def __init__(self, task: TaskHooks, settings: KernelSettings, machine: Sensing) -> None:
         super().__init__(task, settings, machine)
-        #: The compiled outputs' constants and buffers (their reward and reason are not used).
+        #: The compiled outputs' constants and buffers (their reward and reason are not used
+        #: here; a batched step of the native vector env reads their tolerances).
         self.reach = ReachStep(
             settings.design, settings.low, settings.high, settings.weights, settings.tolerances
         )
 
-    def step(
+    def config_changed(self, tolerances: tuple[float, float, float]) -> None:
+        self.reach.tolerances = tolerances
+
+    def compiled_step(
         self,
         ep: Episode,
         state: SimState,
-        array: np.ndarray | None,
+        array: np.ndarray,
         action: tuple[float, float, float],
         rng: np.random.Generator,
     ) -> StepOutputs:
-        if (
-            array is None
-            or not state.finite
-            or state.closure_error > self.settings.breakdown_distance
-        ):
-            return super().step(ep, state, array, action, rng)
         task = self.task
-        target = ep.target = task.reference(ep.steps)
-        ep.target_cs = (math.cos(target[2]), math.sin(target[2]))
         rs = self.reach
-        res = rs.compute(array, state.pose[2], target, ep.target_cs, ep.assembly, action)
+        res = rs.compute(array, state.pose[2], ep.target, ep.target_cs, ep.assembly, action)
         measures = ConfigurationMeasures(
             float(res[4]), float(res[5]), int(res[6]), state.leg_angles
         )

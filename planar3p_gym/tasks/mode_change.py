@@ -21,6 +21,7 @@ from functools import lru_cache
 from typing import Any, ClassVar
 
 import numpy as np
+from numba import njit
 
 from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
@@ -35,14 +36,60 @@ from planar3p_gym.tasks.joint_paths import (
     find_joint_path,
     first_straight_path,
 )
+from planar3p_gym.tasks.reach_step import TERMS_START
+from planar3p_gym.tasks.rewards import weighted_terms
 from planar3p_gym.tasks.travel_shaping import TravelShaping, check_travel_shaping
 
-__all__ = ["ModeChangeTask", "leg_modes", "single_flip_modes"]
+__all__ = ["ModeChangeTask", "leg_modes", "leg_sign", "mode_change_rows", "single_flip_modes"]
+
+
+@njit(cache=True)
+def leg_sign(alpha: float) -> int:
+    """The working mode of a leg at angle ``alpha`` (rad): ``sign cos alpha`` (+1 when ``cos
+    alpha >= 0``)."""
+    return 1 if math.cos(alpha) >= 0.0 else -1
 
 
 def leg_modes(leg_angles: tuple[float, float, float]) -> ModeTriple:
-    """``sign cos alpha_i`` of each leg (+1 when ``cos alpha_i >= 0``)."""
-    return tuple(1 if math.cos(a) >= 0.0 else -1 for a in leg_angles)  # type: ignore[return-value]
+    """``sign cos alpha_i`` of each leg (:func:`leg_sign`)."""
+    a1, a2, a3 = leg_angles
+    return leg_sign(a1), leg_sign(a2), leg_sign(a3)
+
+
+@njit(cache=True)
+def mode_change_rows(
+    rows: np.ndarray, states: np.ndarray, actions: np.ndarray, res: np.ndarray,
+    target_modes: np.ndarray, w: np.ndarray, length: float, parallel_barrier: bool,
+    serial_barrier: bool,
+) -> None:  # fmt: skip
+    """The mode-change task's part of a batched step, after the reach outputs ``res``
+    (``(len(RESULT_FIELDS), n)``) of the environments ``rows`` (int64 ``(n,)``, of a batch of
+    ``N``): for each stepped row ``j`` (environment ``i = rows[j]``, its state ``states[:, j]``,
+    the leg angles at 12-14), success is the reach test's and every :func:`leg_sign` equal
+    to the target's working mode ``target_modes[i]`` (``(N, 3)``); the reason and the reward
+    terms (:func:`~planar3p_gym.tasks.rewards.weighted_terms` with the task's barriers, the
+    failure penalty on a crossing) and their sum are written back into ``res``, as
+    :meth:`ModeChangeTask.termination` and :meth:`ModeChangeTask.reward_terms` give them.
+    ``actions`` ``(N, 3)``: the clipped actions; ``w``: the reward weights; ``length``: the
+    characteristic length (m)."""
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        crossing = res[1, j] == 2
+        success = res[1, j] == 1
+        for d in range(3):
+            if leg_sign(states[12 + d, j]) != target_modes[i, d]:
+                success = False
+        terms = weighted_terms(
+            w, res[2, j], res[3, j], length, res[4, j] if parallel_barrier else 1.0,
+            res[5, j] if serial_barrier else 1.0, actions[i, 0], actions[i, 1], actions[i, 2],
+            success, crossing,
+        )  # fmt: skip
+        total = 0.0
+        for t in range(len(terms)):
+            total += terms[t]
+            res[TERMS_START + t, j] = terms[t]
+        res[0, j] = total
+        res[1, j] = 2.0 if crossing else (1.0 if success else 0.0)
 
 
 def single_flip_modes(mode: ModeTriple, flips: int = 1) -> list[ModeTriple]:

@@ -43,6 +43,7 @@ __all__ = [
     "leg_measures",
     "reach_outputs",
     "reach_outputs_batch",
+    "rejudge_row",
 ]
 
 
@@ -135,6 +136,29 @@ def reach_outputs(
     res[0], res[1], res[2], res[3] = total, reason, pos_err, dth
     res[4], res[5], res[6] = parallel, serial, sign
     clip_float32(row, low, high, obs)
+
+
+@njit(cache=True)
+def rejudge_row(
+    res: np.ndarray, j: int, w: np.ndarray, length: float, a0: float, a1: float, a2: float,
+    success: bool,
+) -> None:  # fmt: skip
+    """Give column ``j`` of a batch's results ``res`` (``(len(RESULT_FIELDS), n)``, a step
+    that did not cross a singularity) another task's success verdict ``success``: its reason
+    (1 or 0), its reward terms (:func:`~planar3p_gym.tasks.rewards.weighted_terms` of its
+    errors and margins, no failure) and their sum, as
+    :meth:`planar3p_gym.tasks.kernel.ReachKernel.rejudge` gives a single step.  ``w``: the
+    reward weights; ``length``: the characteristic length (m); ``a0, a1, a2``: the clipped
+    action."""
+    terms = weighted_terms(
+        w, res[2, j], res[3, j], length, res[4, j], res[5, j], a0, a1, a2, success, False
+    )
+    total = 0.0
+    for t in range(6):
+        total += terms[t]
+        res[TERMS_START + t, j] = terms[t]
+    res[0, j] = total
+    res[1, j] = 1.0 if success else 0.0
 
 
 class ReachStep:

@@ -19,6 +19,7 @@ import math
 from typing import Any, ClassVar
 
 import numpy as np
+from numba import njit
 
 from planar3p_gym import checks
 from planar3p_gym.machine import kinematics
@@ -28,6 +29,7 @@ from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks import sampling as task
 from planar3p_gym.tasks.base import Pose, Task, pose_list
 from planar3p_gym.tasks.kernel import (
+    CompiledKernel,
     Episode,
     KernelSettings,
     ReachKernel,
@@ -38,6 +40,7 @@ from planar3p_gym.tasks.kernel import (
 from planar3p_gym.tasks.motions import MIN_JERK_PEAK
 from planar3p_gym.tasks.observation import SPEED_BOUND_FACTOR
 from planar3p_gym.tasks.reach import COMPILED_HOOKS
+from planar3p_gym.tasks.reach_step import rejudge_row
 from planar3p_gym.tasks.track_references import (
     CHECK_POINTS,
     MIN_DURATION,
@@ -45,6 +48,7 @@ from planar3p_gym.tasks.track_references import (
     eight_curve,
     parse_reference,
     reference_at,
+    reference_samples,
 )
 
 __all__ = [
@@ -52,10 +56,22 @@ __all__ = [
     "EIGHT_AMPLITUDES",
     "MIXED",
     "REFERENCE_KINDS",
+    "RUNNING_SIZE",
+    "SAMPLE_CHUNK",
     "TRACKING_METRICS",
     "TrackKernel",
     "TrackTask",
+    "accumulate_errors",
+    "track_rows",
+    "tracking_errors",
 ]
+
+#: Reference samples computed at a reset (control steps): :meth:`TrackTask.sample` extends
+#: them, doubling, as the episode goes on (a reset computes few; an episode of the registered
+#: 500 steps computes 512 in all).
+SAMPLE_CHUNK = 32
+#: Length of ``TrackTask.running`` (three sums of squares, three maxima, the count).
+RUNNING_SIZE = 7
 
 #: The constructor's ``reference`` value that draws either kind per episode.
 MIXED = "mixed"
@@ -128,10 +144,14 @@ class TrackTask(Task):
     def bind(self, env: Any) -> None:
         super().bind(env)
         self._ref: dict[str, Any] = {}
-        self._pose_cache: tuple[int, np.ndarray, np.ndarray] | None = None
-        self._sums = [0.0, 0.0, 0.0]
-        self._maxes = [0.0, 0.0, 0.0]
-        self._count = 0
+        #: The episode's reference at its steps so far computed
+        #: (:func:`~planar3p_gym.tasks.track_references.reference_samples`: pose, cos and
+        #: sin theta, velocity), extended by :meth:`sample`.
+        self.samples = np.zeros((0, 8))
+        #: The running tracking errors: the sums of squares and the maxima of the pose,
+        #: position and orientation errors (m^2, m^2, rad^2; m, m, rad), then the steps
+        #: counted (:func:`accumulate_errors`).
+        self.running = np.zeros(RUNNING_SIZE)
         kinds = REFERENCE_KINDS if self.kind == MIXED else (self.kind,)
         self._draw_modes = {kind: self._reference_modes(kind) for kind in kinds}
         self._mode_problems: dict[tuple[str, tuple[int, int, int]], str | None] = {}
@@ -262,10 +282,8 @@ class TrackTask(Task):
 
     def begin(self, spec: dict[str, Any]) -> tuple[np.ndarray, tuple[int, int, int]]:
         self._ref = parse_reference(spec["reference"])
-        self._pose_cache = None
-        self._sums = [0.0, 0.0, 0.0]
-        self._maxes = [0.0, 0.0, 0.0]
-        self._count = 0
+        self.samples = reference_samples(self._ref, self.env.dt, 0, SAMPLE_CHUNK)
+        self.running = np.zeros(RUNNING_SIZE)
         mode = tuple(int(m) for m in spec["working_mode"])
         return np.asarray(spec["start"], dtype=np.float64), mode  # type: ignore[return-value]
 
@@ -274,15 +292,19 @@ class TrackTask(Task):
         """Reference pose and velocity at ``step`` control steps (m, rad; m/s, rad/s)."""
         return reference_at(ref, step * self.env.dt)
 
-    def _current(self, step: int) -> tuple[np.ndarray, np.ndarray]:
-        if self._pose_cache is None or self._pose_cache[0] != step:
-            pose, vel = self._reference_at(self._ref, step)
-            self._pose_cache = (step, pose, vel)
-        return self._pose_cache[1], self._pose_cache[2]
+    def sample(self, step: int) -> np.ndarray:
+        """The reference at ``step`` control steps: a row of ``samples`` (pose (m, m,
+        rad), ``cos theta``, ``sin theta``, velocity (m/s, m/s, rad/s)), the samples extended
+        to cover it (at least doubled) where they end before it."""
+        have = self.samples.shape[0]
+        if step >= have:
+            more = reference_samples(self._ref, self.env.dt, have, max(step + 1, 2 * have))
+            self.samples = np.concatenate([self.samples, more])
+        return self.samples[step]
 
     def reference(self, step: int) -> Pose:
-        p = self._current(step)[0]
-        return float(p[0]), float(p[1]), float(p[2])
+        x, y, theta = self.sample(step)[:3].tolist()
+        return x, y, theta
 
     # ------------------------------------------------------------------ feasibility
     def _limits(self, assembly: float | None) -> dict[str, Any]:
@@ -433,7 +455,7 @@ class TrackTask(Task):
     def observation_extra(
         self, step: int, state: SimState, measures: ConfigurationMeasures
     ) -> list[float]:
-        return self._current(step)[1].tolist()
+        return self.sample(step)[5:].tolist()
 
     def is_success(self, state: SimState, errors: tuple[float, float]) -> bool:
         """Never: a tracking episode runs to its time limit (or a crossing / breakdown), so
@@ -450,25 +472,20 @@ class TrackTask(Task):
         return StepKernel(self, settings, machine)
 
     def step_info(self, step: int, state: SimState, errors: tuple[float, float]) -> dict[str, Any]:
-        pos_err, ang_err = errors
-        err = (
-            pos_err + self.env.design.characteristic_length * abs(ang_err),
-            pos_err,
-            abs(ang_err),
-        )
-        # Plain floats (three numbers: numpy's per-call cost is most of a step's here); the
-        # same IEEE operations as elementwise numpy, NaN kept by the maximum as np.maximum.
-        sums, maxes = self._sums, self._maxes
+        length = self.env.design.characteristic_length
         if step > 0:
-            self._count += 1
-            for i in range(3):
-                e = err[i]
-                sums[i] += e * e
-                maxes[i] = maxes[i] if maxes[i] >= e or maxes[i] != maxes[i] else e
-        n = self._count
+            accumulate_errors(self.running, errors[0], errors[1], length)
+        return self.tracking_info(step, errors)
+
+    def tracking_info(self, step: int, errors: tuple[float, float]) -> dict[str, Any]:
+        """The tracking metrics (:data:`TRACKING_METRICS`) after step ``step``, whose
+        position (m) and orientation (rad) ``errors`` ``running`` holds."""
+        length = self.env.design.characteristic_length
+        values = self.running.tolist()
+        sums, maxes, n = values[0:3], values[3:6], values[6]
         rms = [math.sqrt(v / n) for v in sums] if n else [0.0, 0.0, 0.0]
         return {
-            "tracking_error": err[0] if step > 0 else 0.0,
+            "tracking_error": tracking_errors(errors[0], errors[1], length)[0] if step else 0.0,
             "tracking_rms_error": rms[0],
             "tracking_max_error": maxes[0],
             "tracking_rms_position_error": rms[1],
@@ -478,13 +495,68 @@ class TrackTask(Task):
         }
 
 
+@njit(cache=True)
+def tracking_errors(
+    position_error: float, orientation_error: float, length: float
+) -> tuple[float, float, float]:
+    """The pose error ``|dp| + length |dtheta|`` (m), the position error (m) and ``|dtheta|``
+    (rad) of a step's errors; ``length`` is the characteristic length (m)."""
+    angle = abs(orientation_error)
+    return position_error + length * angle, position_error, angle
+
+
+@njit(cache=True)
+def accumulate_errors(
+    running: np.ndarray, position_error: float, orientation_error: float, length: float
+) -> None:
+    """Count a step's :func:`tracking_errors` into ``running`` (``TrackTask.running``:
+    the sums of squares, the maxima, the count); a NaN maximum stays NaN, as
+    ``np.maximum`` keeps it."""
+    errors = tracking_errors(position_error, orientation_error, length)
+    running[6] += 1.0
+    for i in range(3):
+        e = errors[i]
+        running[i] += e * e
+        m = running[3 + i]
+        running[3 + i] = m if m >= e or m != m else e
+
+
+@njit(cache=True)
+def track_rows(
+    rows: np.ndarray, steps: np.ndarray, samples: np.ndarray, res: np.ndarray,
+    actions: np.ndarray, w: np.ndarray, length: float, low: np.ndarray, high: np.ndarray,
+    running: np.ndarray, extra: np.ndarray, running_out: np.ndarray,
+) -> None:  # fmt: skip
+    """The tracking task's part of a batched step, after the reach outputs ``res``
+    (``(len(RESULT_FIELDS), n)``) of the environments ``rows`` (int64 ``(n,)``, of a batch of
+    ``N``) against their reference poses: for each stepped row ``j`` (environment ``i =
+    rows[j]``, at step ``steps[i]``), the reference velocity entries of
+    ``samples[i, steps[i]]`` (``(N, H, 8)``, ``TrackTask.samples``) as float32 clipped to
+    ``[low, high]`` into ``extra[j]``, a step within the tolerances rejudged as no success
+    (:func:`~planar3p_gym.tasks.reach_step.rejudge_row`), and ``running[i]`` (``(N, 7)``)
+    with the step's errors counted (:func:`accumulate_errors`) into ``running_out[j]``.
+    ``actions`` ``(N, 3)``: the clipped actions; ``w``: the reward weights; ``length``: the
+    characteristic length (m)."""
+    for j in range(rows.shape[0]):
+        i = rows[j]
+        row = samples[i, steps[i]]
+        for d in range(3):
+            v = min(np.float32(row[5 + d]), high[d])
+            extra[j, d] = max(v, low[d])
+        if res[1, j] == 1:  # (never a success for this task: within the tolerances, going on)
+            rejudge_row(res, j, w, length, actions[i, 0], actions[i, 1], actions[i, 2], False)
+        for d in range(RUNNING_SIZE):
+            running_out[j, d] = running[i, d]
+        accumulate_errors(running_out[j], res[2, j], res[3, j], length)
+
+
 def _peak_of(rho: np.ndarray) -> float:
     """Largest ``|d rho / d(parameter)|`` (m per unit parameter) of travels ``(n, 3)`` at ``n``
     evenly spaced parameters spanning a unit interval."""
     return float(np.abs(np.diff(rho, axis=0)).max() * (len(rho) - 1))
 
 
-class TrackKernel(StepKernel):
+class TrackKernel(CompiledKernel):
     """The tracking task's compiled kernel: the reach task's compiled outputs
     (:class:`~planar3p_gym.tasks.kernel.ReachKernel`: observation, errors, margins, reward
     terms) against the step's reference pose, with no success (a step within the tolerances is
@@ -494,6 +566,7 @@ class TrackKernel(StepKernel):
     equal to the reference's to a few float64 rounding errors (``tests/tasks/test_track.py``)."""
 
     task: TrackTask
+    moving_target = True
 
     def __init__(self, task: TrackTask, settings: KernelSettings, machine: Sensing) -> None:
         super().__init__(task, settings, machine)
@@ -503,24 +576,22 @@ class TrackKernel(StepKernel):
     def config_changed(self, tolerances: tuple[float, float, float]) -> None:
         self.reach.config_changed(tolerances)
 
-    def step(
+    def set_target(self, ep: Episode) -> None:
+        """The step's reference pose and its ``cos``/``sin theta`` from the episode's samples
+        (:meth:`TrackTask.sample`)."""
+        x, y, theta, c, s = self.task.sample(ep.steps)[:5].tolist()
+        ep.target, ep.target_cs = (x, y, theta), (c, s)
+
+    def compiled_step(
         self,
         ep: Episode,
         state: SimState,
-        array: np.ndarray | None,
+        array: np.ndarray,
         action: tuple[float, float, float],
         rng: np.random.Generator,
     ) -> StepOutputs:
-        if (
-            array is None
-            or not state.finite
-            or state.closure_error > self.settings.breakdown_distance
-        ):
-            return super().step(ep, state, array, action, rng)
         task = self.task
-        target = ep.target = task.reference(ep.steps)
-        ep.target_cs = (math.cos(target[2]), math.sin(target[2]))
-        obs, reward, reason, info = self.reach.step(ep, state, array, action, rng)
+        obs, reward, reason, info = self.reach.compiled_step(ep, state, array, action, rng)
         if reason == "success":  # (never for this task: within the tolerances, going on)
             reward, reason = self.reach.rejudge(info, action, False), None
         assert ep.measures is not None

@@ -26,6 +26,8 @@ __all__ = [
     "figure_eight",
     "parse_reference",
     "reference_at",
+    "reference_samples",
+    "reference_values",
 ]
 
 #: Reference kinds.
@@ -99,27 +101,59 @@ def parse_reference(ref: Any) -> dict[str, Any]:
 
 def reference_at(ref: dict[str, Any], t: float) -> tuple[np.ndarray, np.ndarray]:
     """Pose and velocity (m, m, rad; m/s, m/s, rad/s) of the parsed reference ``ref`` at
-    time ``t`` (s) from its start."""
+    time ``t`` (s) from its start (:func:`reference_values` at one time)."""
+    poses, velocities = reference_values(ref, np.array([float(t)]))
+    return poses[0], velocities[0]
+
+
+def _phase_time(t: float, ramp: float) -> tuple[float, float]:
+    """The figure-eight's phase time ``g(t)`` (s) and its rate ``g'(t)``, with ``g' =
+    smoothstep(t / ramp)``: from rest to full speed, C^1."""
+    u = min(t / ramp, 1.0)
+    return ramp * (u**3 - 0.5 * u**4) + max(t - ramp, 0.0), 3.0 * u * u - 2.0 * u**3
+
+
+def reference_values(ref: dict[str, Any], times: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Poses and velocities ``(m, 3)`` (m, m, rad; m/s, m/s, rad/s) of the parsed reference
+    ``ref`` at the times ``times`` ``(m,)`` (s) from its start.  The time laws (the
+    minimum-jerk progress of a segment, the phase time of the figure-eight) are evaluated
+    time by time in plain floats, the rest elementwise: each time's numbers are the same
+    floating-point operations whatever the other times."""
+    m = times.shape[0]
     if ref["kind"] == "segments":
         wps = np.asarray(ref["waypoints"])
+        poses, velocities = np.empty((m, 3)), np.empty((m, 3))
+        rest = times.astype(np.float64)  # (a copy: the time into the current segment)
+        todo = np.ones(m, dtype=np.bool_)
         for a, b, dur in zip(wps[:-1], wps[1:], ref["durations"], strict=True):
-            if t < dur:
+            here = todo & (rest < dur)
+            if here.any():
                 delta = b - a
                 delta[2] = wrap_angle(delta[2])
-                s, s_dot = minimum_jerk(t, dur)
-                return a + s * delta, s_dot * delta
-            t -= dur
-        return wps[-1].copy(), np.zeros(3)
+                law = np.array([minimum_jerk(t, dur) for t in rest[here].tolist()])
+                poses[here] = a + law[:, :1] * delta
+                velocities[here] = law[:, 1:] * delta
+                todo &= ~here
+            rest[todo] -= dur
+        poses[todo], velocities[todo] = wps[-1], 0.0
+        return poses, velocities
     omega = 2.0 * math.pi / ref["period"]
-    ramp = ref["ramp"]
-    u = min(t / ramp, 1.0)
-    # Phase time g(t) with g' = smoothstep(t / ramp): from rest to full speed, C^1.
-    g = ramp * (u**3 - 0.5 * u**4) + max(t - ramp, 0.0)
-    g_dot = 3.0 * u * u - 2.0 * u**3
+    phase = np.array([_phase_time(t, ref["ramp"]) for t in times.tolist()]).reshape(m, 2)
     pose, dpose = figure_eight(
-        np.asarray(ref["centre"]), np.asarray(ref["amplitude"]), np.array([omega * g])
+        np.asarray(ref["centre"]), np.asarray(ref["amplitude"]), omega * phase[:, 0]
     )
-    return pose[0], dpose[0] * omega * g_dot
+    return pose, dpose * omega * phase[:, 1:]
+
+
+def reference_samples(ref: dict[str, Any], dt: float, start: int, stop: int) -> np.ndarray:
+    """The reference ``ref`` at the control steps ``start`` to ``stop - 1`` (time ``step *
+    dt``, ``dt`` in s) as rows of 8 float64: the pose ``(x, y, theta)`` (m, m, rad), ``cos
+    theta``, ``sin theta`` and the velocity (m/s, m/s, rad/s); what a tracking episode's steps
+    read (:meth:`planar3p_gym.tasks.track.TrackTask.sample`)."""
+    poses, velocities = reference_values(ref, np.arange(start, stop) * dt)
+    theta = poses[:, 2].tolist()
+    cs = np.array([[math.cos(v) for v in theta], [math.sin(v) for v in theta]]).reshape(2, -1)
+    return np.column_stack([poses, cs.T, velocities])
 
 
 def eight_curve(ref: dict[str, Any]) -> np.ndarray:

@@ -38,9 +38,24 @@ def test_make_vec_gives_the_native_vector_env(env_id):
         ("Planar3P-v0", {"travel_goal": True}, "numpy"),
         ("Planar3P-v0", {"travel_goal": True, "breakdown_threshold": 1e-15}, "scalar"),
         ("Planar3P-v0", {}, "auto"),
-        # The task ids on the projected physics: environment by environment.
-        ("Planar3PTrack-v0", {}, "auto"),
+        # The tracking id: its batched step (each episode's reference samples, the reference
+        # velocity entries, the running errors), through breakdowns too, and env by env.
+        ("Planar3PTrack-v0", {}, "numpy"),
+        ("Planar3PTrack-v0", {"reference": "figure_eight"}, "numpy"),
+        ("Planar3PTrack-v0", {"breakdown_threshold": 1e-15}, "numpy"),
+        ("Planar3PTrack-v0", {}, "scalar"),
+        # The mode change's batched step (the success test in the target's working mode, the
+        # reward without the serial barrier), through breakdowns too, and env by env.
+        ("Planar3PModeChange-v0", {}, "numpy"),
+        ("Planar3PModeChange-v0", {"breakdown_threshold": 1e-15}, "numpy"),
         ("Planar3PModeChange-v0", {}, "auto"),
+        # The other task ids on the projected physics: environment by environment.
+        ("Planar3PAssemblyChange-v0", {}, "numpy"),
+        (
+            "Planar3PAssemblyChange-v0",
+            {"breakdown_threshold": 1e-15, "crossing_limits": {"verify": False}},
+            "numpy",
+        ),
         ("Planar3PAssemblyChange-v0", {}, "auto"),
         # The machine as built (randomised machine, encoders, delay): environment by environment.
         ("Planar3PReal-v0", {}, "auto"),
@@ -90,6 +105,69 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, ba
     venv.close()
 
 
+@pytest.mark.parametrize(
+    ("env_id", "controller"),
+    [("Planar3PModeChange-v0", "planner"), ("Planar3PAssemblyChange-v0", "crossing")],
+)
+def test_the_mode_and_assembly_change_batches_are_their_single_envs_through_successes(
+    env_id, controller
+):
+    """The mode and assembly changes' batched step where episodes succeed (the joint-path
+    planner or the crossing controller, one per environment, acting on each single env's
+    observation; with the travel term the envs step one by one), under success tolerances
+    changed after the reset: bit for bit the single envs' observations, rewards, flags and
+    infos, the metrics of their last ``info`` included."""
+    from planar3p_agents.controllers.crossing import CrossingController
+    from planar3p_agents.controllers.planner import JointPathPlanner
+
+    n, limit = NUMPY_BATCH_MIN, 300
+    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit)
+    assert venv._core is not None and venv._core.goal is not None
+    shaped = gym.make_vec(env_id, num_envs=n, travel_shaping=0.5)
+    assert shaped._core is None
+    singles = [gym.make(env_id, max_episode_steps=limit) for _ in range(n)]
+    kind = JointPathPlanner if controller == "planner" else CrossingController
+    planners = [kind.from_env(env) for env in singles]
+    venv.reset(seed=100)
+    obs = [env.reset(seed=100 + i)[0] for i, env in enumerate(singles)]
+    # Looser success tolerances (a curriculum's change): the batched success test takes them.
+    change = {"position_tolerance": 0.01, "orientation_tolerance": 0.05, "rest_speed": 0.05}
+    venv.set_task_config(change)
+    for env in singles:
+        env.unwrapped.set_task_config(change)
+    start = [True] * n
+    done, successes = [False] * n, 0
+    for _ in range(200):
+        a = np.zeros((n, 3), np.float32)
+        for i in range(n):
+            if not done[i]:
+                a[i] = planners[i].predict(obs[i], episode_start=np.array([start[i]]))[0]
+                start[i] = False
+        got, rewards, terminated, truncated, infos = venv.step(a)
+        for i, env in enumerate(singles):
+            if done[i]:
+                o, info = env.reset()
+                r, te, tr = 0.0, False, False
+                start[i] = True
+            else:
+                o, r, te, tr, info = env.step(a[i])
+                successes += info["is_success"]
+            done[i] = te or tr
+            obs[i] = o
+            np.testing.assert_array_equal(got[i], o)
+            assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr)
+            for key in INFO_KEYS:
+                assert infos[key][i] == info[key], key
+    assert successes >= 2
+    if env_id == "Planar3PAssemblyChange-v0":
+        assert max(env.episode.info["crossings"] for env in venv.envs) >= 1
+    for env, single in zip(venv.envs, singles, strict=True):
+        for key, value in single.unwrapped.episode.info.items():
+            if key != "reward_terms":
+                assert env.episode.info[key] == value, key
+    venv.close()
+
+
 def test_batched_commands_reach_the_simulations_records_across_the_log():
     """The batched step logs each env's drive commands and appends them to its simulation's
     record on access (and when :data:`COMMAND_LOG` steps have piled up): every snapshot equals
@@ -126,6 +204,7 @@ def test_batched_commands_reach_the_simulations_records_across_the_log():
         ("Planar3P-v0", {}, "numpy"),
         ("Planar3P-v0", {"breakdown_threshold": 1e-15}, "scalar"),
         ("Planar3P-v0", {"breakdown_threshold": 1e-15}, "numpy"),
+        ("Planar3PTrack-v0", {}, "numpy"),
         ("Planar3PTrack-v0", {}, "auto"),
         ("Planar3PReal-v0", {}, "auto"),
     ],
@@ -230,6 +309,45 @@ def test_vector_snapshot_restores_the_batch(batch):
         x, y = venv.step(a), twin.step(a)
         np.testing.assert_array_equal(x[0], y[0])
         np.testing.assert_array_equal(x[1], y[1])
+
+
+@pytest.mark.parametrize(
+    "env_id",
+    [
+        "Planar3PGoal-v0",
+        "Planar3PTrack-v0",
+        "Planar3PModeChange-v0",
+        "Planar3PAssemblyChange-v0",
+    ],
+)
+def test_task_ids_batch_snapshots_and_copies_continue_bit_for_bit(env_id):
+    """The task ids' batched step restored from :meth:`get_state` into another vector env, and
+    a ``copy.deepcopy`` (the batch's per-episode arrays rebuilt from the single envs), continue
+    as the original does, bit for bit, episodes ending and resetting on the way."""
+    import copy
+
+    n = NUMPY_BATCH_MIN
+    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=15)
+    assert venv._core is not None and venv._core.goal is not None
+    venv.reset(seed=3)
+    rng = np.random.default_rng(0)
+    for a in rng.uniform(-1, 1, (20, n, 3)):
+        venv.step(a)
+    twin = gym.make_vec(env_id, num_envs=n, max_episode_steps=15)
+    twin.set_state(venv.get_state())
+    clone = copy.deepcopy(venv)
+
+    def flat(obs):
+        return np.concatenate(list(obs.values()), axis=1) if isinstance(obs, dict) else obs
+
+    for a in rng.uniform(-1, 1, (25, n, 3)):
+        x, y, z = venv.step(a), twin.step(a), clone.step(a)
+        for other in (y, z):
+            np.testing.assert_array_equal(flat(x[0]), flat(other[0]))
+            for k in (1, 2, 3):
+                np.testing.assert_array_equal(x[k], other[k])
+            for key in venv.info_keys:
+                np.testing.assert_array_equal(x[4][key], other[4][key])
 
 
 def test_sb3_adapter_matches_dummy_vec_env():
@@ -376,23 +494,47 @@ def test_the_on_off_id_has_a_native_vector_env_of_its_single_envs():
     venv.close()
 
 
-@pytest.mark.parametrize("env_id", ["Planar3PGoal-v0", "Planar3PGoalDense-v0"])
-def test_the_goal_ids_native_vector_env_is_their_single_envs(env_id):
+@pytest.mark.parametrize(
+    ("env_id", "kwargs", "batch", "options"),
+    [
+        # Environment by environment (scalar), then the batched step's compiled loops.
+        ("Planar3PGoal-v0", {}, "scalar", None),
+        ("Planar3PGoal-v0", {}, "numpy", None),
+        ("Planar3PGoalDense-v0", {}, "numpy", None),
+        ("Planar3PGoalDense-v0", {"observe_working_mode": True}, "auto", None),
+        # Every step a physics breakdown: the reference kernel and the goal env's outputs.
+        ("Planar3PGoalDense-v0", {"breakdown_threshold": 1e-15}, "numpy", None),
+        # A desired goal that is passed at speed: the goal test says success where the reach
+        # test (at rest) does not, so the batched step rejudges the reward terms.
+        ("Planar3PGoalDense-v0", {}, "numpy", "moving"),
+    ],
+)
+def test_the_goal_ids_native_vector_env_is_their_single_envs(env_id, kwargs, batch, options):
     """``gym.make_vec`` of a goal id gives its native vector env: ``Dict`` observations as a
     dict of batch arrays, bit for bit each single env's (next-step autoreset), the relabelling
     entries among the infos, and ``compute_reward`` of the batch's goals and infos equal to
-    the rewards of every env stepped (what hindsight relabelling relies on)."""
-    n, steps, limit = 3, 90, 25
-    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit)
+    the rewards of every env stepped (what hindsight relabelling relies on); the single envs'
+    own attributes (simulation, episode record, goal evaluation) equal theirs on access."""
+    n, steps, limit = 4, 90, 25
+    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit, batch=batch, **kwargs)
     assert type(venv).__name__ == "Planar3PGoalVectorEnv"
-    singles = [gym.make(env_id, max_episode_steps=limit) for _ in range(n)]
+    assert (venv._core is not None) == (batch != "scalar")
+    singles = [gym.make(env_id, max_episode_steps=limit, **kwargs) for _ in range(n)]
     actions = np.random.default_rng(11).uniform(-1.0, 1.0, (steps, n, 3)).astype(np.float32)
-    obs, _ = venv.reset(seed=8)
-    expected = [env.reset(seed=8 + i)[0] for i, env in enumerate(singles)]
+    reset_options = None
+    if options == "moving":  # start at the goal pose, which may be passed at up to 0.2 m/s
+        probe = gym.make(env_id).unwrapped
+        probe.reset(seed=8)
+        pose = probe.sim.state.pose
+        goal = [pose[0], pose[1], np.cos(pose[2]), np.sin(pose[2]), 0.2]
+        reset_options = {"start": pose, "desired_goal": goal}
+        actions *= 0.05
+    obs, _ = venv.reset(seed=8, options=reset_options)
+    expected = [env.reset(seed=8 + i, options=reset_options)[0] for i, env in enumerate(singles)]
     assert venv.observation_space.contains(obs)
     for key in obs:
         np.testing.assert_array_equal(obs[key], np.stack([o[key] for o in expected]))
-    done, ends = [False] * n, 0
+    done, ends, successes = [False] * n, 0, 0
     for a in actions:
         stepped = [not d for d in done]
         obs, rewards, terminated, truncated, infos = venv.step(a)
@@ -409,6 +551,7 @@ def test_the_goal_ids_native_vector_env_is_their_single_envs(env_id):
             assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr)
             for key in venv.info_keys:
                 assert infos[key][i] == info[key], key
+            successes += bool(info["is_success"])
         rows = np.flatnonzero(stepped)
         relabelled = venv.compute_reward(
             obs["achieved_goal"][rows],
@@ -417,6 +560,16 @@ def test_the_goal_ids_native_vector_env_is_their_single_envs(env_id):
         )
         np.testing.assert_array_equal(relabelled, rewards[rows])
     assert ends >= n
+    assert (successes > 0) == (options == "moving")
+    for env, single in zip(venv.envs, singles, strict=True):
+        s = single.unwrapped
+        assert env.sim.get_state() == s.sim.get_state()
+        np.testing.assert_array_equal(env.episode.obs, s.episode.obs)
+        for key, value in s.episode.info.items():
+            if key != "reward_terms":
+                assert env.episode.info[key] == value, key
+        np.testing.assert_array_equal(env.goal_task.achieved, s.goal_task.achieved)
+        assert env.goal_task.evaluation == s.goal_task.evaluation
     venv.close()
 
 
@@ -430,8 +583,9 @@ def test_sb3_adapter_serves_the_goal_ids():
     from planar3p_agents.training.vec_adapter import make_native_vec_env
     from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS
 
-    n, limit = 2, 20
+    n, limit = NUMPY_BATCH_MIN, 20  # (the batched step: SAME_STEP resets, final_obs)
     native = make_native_vec_env("Planar3PGoalDense-v0", n_envs=n, seed=6)
+    assert native.venv._core is not None
     native.venv.max_episode_steps = limit
     dummy = DummyVecEnv(
         [lambda: gym.make("Planar3PGoalDense-v0", max_episode_steps=limit) for _ in range(n)]
@@ -451,5 +605,8 @@ def test_sb3_adapter_serves_the_goal_ids():
         for i in range(n):
             for key in RELABEL_INFO_KEYS:
                 assert x[3][i][key] == y[3][i][key], key
+            if x[2][i]:  # the ended episode's last Dict observation
+                for key, value in y[3][i]["terminal_observation"].items():
+                    np.testing.assert_array_equal(x[3][i]["terminal_observation"][key], value)
     assert ends >= n
     native.close()

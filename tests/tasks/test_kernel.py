@@ -12,7 +12,7 @@ import planar3p_gym  # noqa: F401  (registers the ids)
 from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.tasks import ReachTask
 from planar3p_gym.tasks.goal import GoalKernel
-from planar3p_gym.tasks.kernel import HookKernel, ReachKernel, StepKernel
+from planar3p_gym.tasks.kernel import CompiledKernel, HookKernel, ReachKernel, StepKernel
 from planar3p_gym.tasks.track import TrackKernel
 
 
@@ -52,6 +52,41 @@ def test_each_task_picks_its_kernel(env_id, kernel):
     env = gym.make(env_id).unwrapped
     assert type(env.kernel) is kernel
     env.close()
+
+
+@pytest.mark.parametrize(
+    "env_id",
+    ["Planar3P-v0", "Planar3PGoal-v0", "Planar3PTrack-v0", "Planar3PModeChange-v0"],
+)
+def test_the_compiled_kernels_share_one_step_prologue(env_id):
+    """Every compiled kernel steps through :meth:`CompiledKernel.step` (none writes its own
+    fallback test): without a state array, or on a state past the breakdown distance, its
+    step is the reference kernel's, bit for bit; a moving reference's target is set before the
+    compiled outputs (the target of the step, the same as the reference kernel's)."""
+    env = gym.make(env_id).unwrapped
+    kernel = env.kernel
+    assert isinstance(kernel, CompiledKernel) and type(kernel).step is CompiledKernel.step
+    twin = gym.make(env_id).unwrapped
+    env.reset(seed=3)
+    twin.reset(seed=3)
+    reference = StepKernel(twin.task, twin.kernel.settings, twin.machine)
+    for k, a in enumerate(np.random.default_rng(0).uniform(-0.5, 0.5, (12, 3))):
+        states = [e.sim.step_unchecked(*(a * e.design.max_speed)) for e in (env, twin)]
+        for e in (env, twin):
+            e.episode.steps += 1
+        array = None if k % 3 == 0 else env.sim.state_array  # (None: the reference's step)
+        out = kernel.step(env.episode, states[0], array, tuple(a), env.np_random)
+        ref = reference.step(twin.episode, states[1], None, tuple(a), twin.np_random)
+        assert env.episode.target == twin.episode.target  # (the moving target of the step)
+        if array is None:
+            np.testing.assert_array_equal(out[0], ref[0])
+            assert out[1:3] == ref[1:3]
+        else:
+            np.testing.assert_allclose(out[0], ref[0], rtol=1e-6, atol=1e-6)
+            assert out[1] == pytest.approx(ref[1], rel=1e-9, abs=1e-12)
+            assert out[2] == ref[2]
+    env.close()
+    twin.close()
 
 
 def test_a_subclass_changing_a_hook_gets_the_reference_kernel():

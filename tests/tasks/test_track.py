@@ -15,8 +15,8 @@ from planar3p_agents.controllers.tracking import TrackingController
 from planar3p_gym.machine import kinematics
 from planar3p_gym.tasks.kernel import StepKernel
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
-from planar3p_gym.tasks.track import TRACKING_METRICS, TrackKernel
-from planar3p_gym.tasks.track_references import parse_reference
+from planar3p_gym.tasks.track import SAMPLE_CHUNK, TRACKING_METRICS, TrackKernel
+from planar3p_gym.tasks.track_references import parse_reference, reference_at, reference_samples
 from tooling.goal_track_baselines import run_tracking_episodes, summarize_tracking
 
 KINDS = ("segments", "figure_eight")
@@ -77,6 +77,34 @@ def test_observation_carries_reference_pose_and_velocity(kind):
             obs[SLICES["target_orientation"]], [math.cos(pose[2]), math.sin(pose[2])], atol=1e-6
         )
         np.testing.assert_allclose(obs[OBS_SIZE:], vel, rtol=1e-6, atol=1e-9)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_reference_samples_are_each_steps_reference_whatever_the_chunks(kind):
+    """The episode's reference samples (what every step reads, single and vector env) are
+    the reference at each step time bit for bit, however they are split into chunks (each
+    time's numbers are the same operations), past the end of the segments too (at rest
+    there), and :meth:`TrackTask.sample` extends them beyond the first chunk."""
+    u = make(kind).unwrapped
+    u.reset(seed=4)
+    t = u.task
+    ref = parse_reference(u.episode.spec["reference"])
+    whole = reference_samples(ref, u.dt, 0, 900)
+    parts = [reference_samples(ref, u.dt, a, b) for a, b in ((0, 1), (1, 333), (333, 900))]
+    np.testing.assert_array_equal(np.concatenate(parts), whole)
+    for k in (0, 1, 250, 499, 899):
+        pose, vel = reference_at(ref, k * u.dt)
+        row = [*pose, math.cos(pose[2]), math.sin(pose[2]), *vel]
+        np.testing.assert_array_equal(whole[k], row)
+    assert t.samples.shape == (SAMPLE_CHUNK, 8)
+    np.testing.assert_array_equal(t.sample(SAMPLE_CHUNK), whole[SAMPLE_CHUNK])
+    assert t.samples.shape[0] == 2 * SAMPLE_CHUNK  # (doubled)
+    np.testing.assert_array_equal(t.sample(899), whole[899])
+    assert t.samples.shape[0] >= 900
+    np.testing.assert_array_equal(t.samples[:900], whole)
+    if kind == "segments":  # (the episode's 10 s of segments end before step 900)
+        np.testing.assert_array_equal(whole[899, 5:], 0.0)
+        assert t.reference(899) == tuple(ref["waypoints"][-1])
 
 
 @pytest.mark.parametrize("kind", KINDS)
