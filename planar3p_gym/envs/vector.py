@@ -1,63 +1,23 @@
 """A native Gymnasium vector environment: ``gym.make_vec("Planar3P-v0", num_envs=16)``.
 
-:class:`Planar3PVectorEnv` steps ``num_envs`` simulations of the reach task in one process and
-one call, with Gymnasium 1.x's next-step autoreset (an episode that ended in a step is reset
-by the next ``step`` call, which returns its first observation with reward 0 and both flags
-False) and the registered time limit applied in the batch (``truncated`` at
-``max_episode_steps``).  Observations, rewards, flags and infos are batch numpy arrays;
-infos are Gymnasium's vector layout (each key an array over the batch with a boolean
-``"_key"`` mask), for the keys in :data:`INFO_KEYS`.
+:class:`Planar3PVectorEnv` steps ``num_envs`` simulations of one id in one process, with
+Gymnasium 1.x's next-step autoreset and the registered time limit applied in the batch;
+observations, rewards, flags and infos are batch numpy arrays (infos in Gymnasium's vector
+layout, for the keys in :data:`INFO_KEYS`).  Every path gives the single environments'
+trajectories bit for bit (``tests/envs/test_vector_env.py``):
 
-**The reach task on the projected physics** (``Planar3P-v0``) is stepped without the single
-environments' ``step``: ``batch="scalar"`` runs each simulation and the single environment's
-compiled outputs (:meth:`~planar3p_gym.tasks.reach_step.ReachStep.compute`, one call) and
-writes them into the batch arrays (the per-environment ``info`` dicts are only built when asked
-for); ``batch="numpy"`` keeps only what is per simulation in a Python loop (writing the bodies
-into pymunk, ``cpSpaceStep`` and the servo impulses, reading the bodies back: one Chipmunk call
-each, through pymunk's batch iterators on a row of one numpy array shared by the batch) and
-computes the projection onto the constraint manifold and the outputs (configuration measures,
-observations, termination, reward) in two compiled loops over the batch
-(:mod:`planar3p_gym.sim.batch_step`, :func:`~planar3p_gym.tasks.reach_step.reach_outputs_batch`),
-each the single environment's compiled function.  Both give the single environments'
-trajectories bit for bit (``tests/envs/test_vector_env.py``).  The batched path pays from a
-few environments on (:data:`NUMPY_BATCH_MIN`;
-``batch="auto"``, the default, chooses by it).
-In numpy mode the projected bodies are written back into pymunk at the start of the next step
-(with the new servo commands).  Either way the single environments' own attributes
-(``env.sim.state``, ``env.episode``, ...) are brought up to date when
-:attr:`Planar3PVectorEnv.envs` or :meth:`Planar3PVectorEnv.get_state` is used, and a state
-that fails the physics-breakdown test takes the single environment's own (general) step.
+- ``batch="numpy"`` (from :data:`NUMPY_BATCH_MIN` envs under ``"auto"``): one compiled call per
+  step over the batch (:mod:`planar3p_gym.envs.batch_kernel`: the physics, then the task's
+  kernel over the rows) for the reach, goal, tracking, mode- and assembly-change ids;
+- ``batch="scalar"``: each simulation and the single environment's compiled outputs, written
+  into the batch arrays;
+- every other configuration (the built machine's ids, the mode and assembly changes with their
+  travel term) steps each environment through its own ``step``.
 
-**The goal ids** (``Planar3PGoal-v0``, ``Planar3PGoalDense-v0``) take the same batched step
-(``batch="numpy"``; ``"scalar"`` steps them environment by environment) with the goal test,
-the rejudged reward terms and the goal reward in the same compiled call
-(:func:`~planar3p_gym.envs.batch_kernel.goal_batch_step`); their ``Dict`` observations are
-built from the batch arrays (:func:`~planar3p_gym.envs.goal.goal_observation`) and
-:meth:`Planar3PGoalVectorEnv.compute_reward` takes the batch's goals and infos.
-
-**Infos** are arrays over the batch, filled from the compiled outputs' result arrays: no
-per-environment dict is built on a batched step (the ids stepped environment by environment
-gather the entries of each environment's ``info`` dict into the arrays).
-
-**The tracking id** (``Planar3PTrack-v0``) takes it as well: each episode's reference samples
-(``TrackTask.samples`` of :mod:`planar3p_gym.tasks.track`, from its reset) are rows of one array,
-indexed by each environment's step inside the compiled call
-(:func:`~planar3p_gym.envs.batch_kernel.track_batch_step`), which also writes the reference
-velocity entries of the observations and keeps the running tracking errors (the metrics of
-each environment's ``info``, built when it is brought up to date).
-
-**The mode- and assembly-change ids** (``Planar3PModeChange-v0``,
-``Planar3PAssemblyChange-v0``, without the travel term) take it too: the success test in the
-target's working or assembly mode, the crossings counted, the signed margin entry and the reward
-terms with the task's barriers in the compiled call
-(:func:`~planar3p_gym.envs.batch_kernel.mode_batch_step`,
-:func:`~planar3p_gym.envs.batch_kernel.assembly_batch_step`), their metrics from the task's
-hook when an environment is brought up to date.
-
-**Per-environment step** (every other configuration: the built machine's ids, and the mode and
-assembly changes with their travel term): each environment steps through its own ``step``;
-what the vector env saves there is the per-step overhead of ``gym.make``'s wrappers and of
-``SyncVectorEnv``.
+The single environments' own attributes are brought up to date when :attr:`~Planar3PVectorEnv.envs`
+or :meth:`~Planar3PVectorEnv.get_state` is used; a state that fails the physics-breakdown test
+takes the single environment's own step.  The design of the fast paths is on
+``docs/architecture.md``.
 """
 
 from __future__ import annotations
@@ -108,11 +68,9 @@ __all__ = [
     "Planar3PVectorEnv",
 ]
 
-#: Batch size from which ``batch="auto"`` computes the projection and the outputs in compiled
-#: loops over the batch rather than environment by environment: the batched loops save the
-#: Python work of each environment's step and are faster from about 4 environments (measured
-#: on 2 cores under load, env steps/s of the batched over the scalar path: 0.6 at 1, 0.74 at 2,
-#: 1.1-1.3 at 4, 1.9 at 16, 1.8 at 64; docs/throughput.md).
+#: Batch size from which ``batch="auto"`` steps the batch in one compiled call rather than
+#: environment by environment (the batched call saves each environment's Python work and pays
+#: from a few environments on; the measurement is on docs/throughput.md).
 NUMPY_BATCH_MIN = 4
 
 #: ``info`` entries returned over the batch (as in the single env's ``info``).
