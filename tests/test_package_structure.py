@@ -197,6 +197,8 @@ NOT_TOOLING = {"planar3p_agents/evaluation/crossing_fidelity.py"}
 #: The ``planar3p`` commands: what a user runs.
 USER_COMMANDS = {
     "train",
+    "play",
+    "list",
     "sweep",
     "benchmark",
     "demo",

@@ -25,6 +25,7 @@ __all__ = ["COMMANDS", "load", "summary"]
 #: Command name -> module of this package, in the order ``planar3p --help`` lists them.
 COMMANDS: dict[str, str] = {
     "train": "train",
+    "play": "play",
     "sweep": "sweep",
     "benchmark": "benchmark",
     "demo": "demo",
@@ -32,6 +33,7 @@ COMMANDS: dict[str, str] = {
     "plot-learning": "plot_learning",
     "ship": "ship",
     "workspace": "workspace",
+    "list": "listing",
 }
 
 

@@ -109,6 +109,7 @@ WORK = [
     ("planar3p_agents.training.run", "execute"),
     ("planar3p_agents.commands.benchmark", "prepare"),
     ("planar3p_agents.commands.demo", "parts"),
+    ("planar3p_agents.evaluation.play", "play"),
     ("planar3p_gym.analysis.workspace_report", "run_study"),
     ("planar3p_gym.analysis.workspace_report", "time_study"),
     ("ray", "init"),
@@ -294,6 +295,17 @@ DEFECTS = [
     (["docs-media", "--out", "{file}/media"], "--out"),
     (["fidelity", "--episodes", "0"], "--episodes"),
     (["bench-resets", "--seeds", "1", "--json", "{file}/x.json"], "--json"),
+    (["play", "zero", "--episodes", "0"], "--episodes"),
+    (["play", "zero", "--seed", "-1"], "--seed"),
+    (["play", "zero", "--frame-every", "0"], "--frame-every"),
+    (["play", "zero", "--env", "Planar3P-v9"], "--env"),
+    (["play", "zero", "--env-kwargs", "no_equals_sign"], "--env-kwargs"),
+    (["play", "zero", "--gif", "{file}/x.gif"], "--gif"),
+    (["play", "zero", "--gif", "{ro}/x.gif"], "--gif"),
+    (["play", "zero", "--gif", "{tmp}/x.gif", "--render", "human"], "--gif"),
+    (["play", "zero", "--json", "{file}/x.json"], "--json"),
+    (["play", "zero", "--render", "window"], "argument --render"),
+    (["list", "models"], "argument what"),
 ]  # fmt: skip
 
 
