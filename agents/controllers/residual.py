@@ -18,7 +18,12 @@ with ``base`` an analytic controller evaluated on the raw observation (actions a
 * :class:`ResidualLinePolicy` (``Planar3P-v0``/``-v1``): ``base`` is the ``certified-line``
   baseline (:class:`planar3p_agents.controllers.certified_line.CertifiedLineController`: the
   slider line, with the servo's lag predicted, wherever it is certified from the current state,
-  else the simple motions), the fastest of the reach baselines.
+  else the simple motions), the fastest of the reach baselines;
+* :class:`ResidualAssemblyPolicy` (``Planar3PAssemblyChange-v0``, exact or as built): ``base``
+  is the benchmark's ``analytic-simultaneous`` controller on the assembly change's 36-entry
+  observation.  The ``crossing`` baseline cannot be the base: it plans at an episode's first
+  step and follows the plan by a clock, neither of which is in the observation, so it is not
+  a function of the observation (a policy's mean must be).
 
 The head's output layer starts at zero, so the untrained policy's mean *is* the base controller,
 and the correction can never exceed ``residual_scale`` of the slider speed limit per slider.
@@ -53,19 +58,23 @@ from torch import nn
 from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.base import BatchPolicy
 from planar3p_agents.controllers.certified_line import CertifiedLineController
+from planar3p_agents.controllers.layout import extra_slice, task_observation_size
 from planar3p_agents.controllers.tracking import TRACK_OBS_SIZE, TrackingController
 from planar3p_gym.checks import design_from
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
 __all__ = [
+    "ASSEMBLY_OBS_SIZE",
     "BASE_CACHE_ROWS",
     "ERROR_SCALE",
     "FEATURE_CLIP",
     "REACH_ERROR_SCALE",
     "RESIDUAL_SCALE",
+    "AssemblyFeatures",
     "LineFeatures",
     "ReachFeatures",
+    "ResidualAssemblyPolicy",
     "ResidualLinePolicy",
     "ResidualReachPolicy",
     "ResidualTrackPolicy",
@@ -85,19 +94,24 @@ FEATURE_CLIP = 10.0
 RESIDUAL_SCALE = 0.1
 #: Observations whose base action :class:`LineFeatures` keeps (a few PPO rollouts' worth).
 BASE_CACHE_ROWS = 1 << 16
+#: Length of the assembly change's flat observation (the 31 entries, the target's travels,
+#: its assembly mode and the signed parallel margin).
+ASSEMBLY_OBS_SIZE = task_observation_size("assembly_change")
 
 
 def feature_scaling(
     design: Design, size: int = TRACK_OBS_SIZE, error_scale: float = ERROR_SCALE
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(offset, scale)`` of the ``size`` observation entries (``OBS_SIZE`` = 31 of the reach
-    ids or ``TRACK_OBS_SIZE`` = 34 of the tracking id): feature ``(obs - offset) * scale``.
-    Travels are centred on mid-stroke over half the stroke; slider, gripper and reference
-    speeds are over ``max_speed`` (angular rates times ``L_ref``); positions over ``L_ref``;
-    position errors over ``error_scale`` (m) and the orientation error times ``L_ref /
-    error_scale``; dimensionless entries (cos/sin, margins, fine errors) as they are."""
-    if size not in (OBS_SIZE, TRACK_OBS_SIZE):
-        raise ValueError(f"size must be {OBS_SIZE} or {TRACK_OBS_SIZE}, got {size!r}")
+    ids, ``TRACK_OBS_SIZE`` = 34 of the tracking id or ``ASSEMBLY_OBS_SIZE`` = 36 of the
+    assembly change): feature ``(obs - offset) * scale``.  Travels (the target's too) are
+    centred on mid-stroke over half the stroke; slider, gripper and reference speeds are over
+    ``max_speed`` (angular rates times ``L_ref``); positions over ``L_ref``; position errors
+    over ``error_scale`` (m) and the orientation error times ``L_ref / error_scale``;
+    dimensionless entries (cos/sin, margins, fine errors, assembly modes) as they are."""
+    sizes = (OBS_SIZE, TRACK_OBS_SIZE, ASSEMBLY_OBS_SIZE)
+    if size not in sizes:
+        raise ValueError(f"size must be one of {sizes}, got {size!r}")
     length, vmax = design.characteristic_length, design.max_speed
     offset = np.zeros(size)
     scale = np.ones(size)
@@ -113,6 +127,10 @@ def feature_scaling(
     if size == TRACK_OBS_SIZE:
         ref = slice(TRACK_OBS_SIZE - 3, TRACK_OBS_SIZE)
         scale[ref] = np.array([1.0 / vmax, 1.0 / vmax, length / vmax])
+    if size == ASSEMBLY_OBS_SIZE:
+        target_rho = extra_slice("assembly_change", "target_rho")
+        offset[target_rho] = design.stroke / 2.0
+        scale[target_rho] = 2.0 / design.stroke
     return offset, scale
 
 
@@ -191,6 +209,25 @@ class ReachFeatures(ControllerFeatures):
         self, observation_space: gym.spaces.Box, design: Design | dict[str, Any] | None = None
     ) -> None:
         controller = AnalyticController(design_from(design), "simultaneous")
+        super().__init__(observation_space, controller, REACH_ERROR_SCALE)
+
+
+class AssemblyFeatures(ControllerFeatures):
+    """:class:`ControllerFeatures` of the assembly change's observation (36 entries, errors
+    per :data:`REACH_ERROR_SCALE`) with the benchmark's ``analytic-simultaneous`` controller
+    (reading the first 31 entries) as base: ``39`` features.
+
+    Args:
+        observation_space: ``Box((36,))`` of ``Planar3PAssemblyChange-v0``.
+        design: the machine (a :class:`Design`, its dict, or ``None`` for
+            ``Design.fig8(gravity=0.0)``, the task's default).
+    """
+
+    def __init__(
+        self, observation_space: gym.spaces.Box, design: Design | dict[str, Any] | None = None
+    ) -> None:
+        machine = Design.fig8(gravity=0.0) if design is None else design_from(design)
+        controller = AnalyticController(machine, "simultaneous", observation_size=ASSEMBLY_OBS_SIZE)
         super().__init__(observation_space, controller, REACH_ERROR_SCALE)
 
 
@@ -383,3 +420,16 @@ class ResidualLinePolicy(ResidualPolicy):
 
     def _base_kwargs(self) -> dict[str, Any]:
         return {"gain": self.gain}
+
+
+class ResidualAssemblyPolicy(ResidualPolicy):
+    """:class:`ResidualPolicy` on the benchmark's ``analytic-simultaneous`` controller for the
+    assembly change (``Planar3PAssemblyChange-v0``, 36-entry observation); arguments as for
+    :class:`ResidualPolicy` (``design``: ``None`` is ``Design.fig8(gravity=0.0)``, the task's
+    default machine)."""
+
+    features_class = AssemblyFeatures
+
+    def __init__(self, *args: Any, design: dict[str, Any] | None = None, **kwargs: Any) -> None:
+        machine = Design.fig8(gravity=0.0) if design is None else design_from(design)
+        super().__init__(*args, design=machine.to_dict(), **kwargs)

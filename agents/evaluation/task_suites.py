@@ -26,7 +26,8 @@ benchmark's seeds, held out from the suite's episode draws and from training's r
 (``sensors=None``): what the nominal-model sensing costs, and whether the randomised machine
 can be driven to the target at all; ``real-reach-nominal`` plays the same episodes on the
 nominal machine (the ``Planar3P-v0`` physics), the reference; ``real-mode-change`` is the
-mode change with the built machine's randomisation, sensors and delay.
+mode change and ``real-assembly-change`` the assembly change with the built machine's
+randomisation, sensors and delay.
 """
 
 from __future__ import annotations
@@ -175,6 +176,18 @@ TASK_SUITES: dict[str, TaskSuiteDef] = {
         "working-mode change on the machine as built (the randomisation, sensors and delay of "
         "Planar3PReal-v0)",
         11,
+    ),
+    "real-assembly-change": TaskSuiteDef(
+        "Planar3PAssemblyChange-v0",
+        {
+            "randomization": REALISTIC_RANDOMIZATION.to_dict(),
+            "sensors": REALISTIC_SENSORS.to_dict(),
+            "latency": REALISTIC_LATENCY.to_dict(),
+        },
+        ("analytic-simultaneous", "crossing", "random", "zero"),
+        "assembly-mode change on the machine as built (the randomisation, sensors and delay of "
+        "Planar3PReal-v0)",
+        12,
     ),
 }
 

@@ -96,6 +96,7 @@ PROJECT_POLICIES: dict[str, tuple[str, str]] = {
     "ResidualTrackPolicy": ("planar3p_agents.controllers.residual", "ResidualTrackPolicy"),
     "ResidualReachPolicy": ("planar3p_agents.controllers.residual", "ResidualReachPolicy"),
     "ResidualLinePolicy": ("planar3p_agents.controllers.residual", "ResidualLinePolicy"),
+    "ResidualAssemblyPolicy": ("planar3p_agents.controllers.residual", "ResidualAssemblyPolicy"),
 }
 
 
