@@ -97,6 +97,7 @@ PROJECT_POLICIES: dict[str, tuple[str, str]] = {
     "ResidualReachPolicy": ("planar3p_agents.controllers.residual", "ResidualReachPolicy"),
     "ResidualLinePolicy": ("planar3p_agents.controllers.residual", "ResidualLinePolicy"),
     "ResidualAssemblyPolicy": ("planar3p_agents.controllers.residual", "ResidualAssemblyPolicy"),
+    "ResidualPlannerPolicy": ("planar3p_agents.controllers.residual", "ResidualPlannerPolicy"),
 }
 
 
