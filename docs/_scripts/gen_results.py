@@ -157,14 +157,14 @@ HEADLINE: list[dict[str, str]] = [
     },
     {
         "task": "working-mode change on the machine as built",
-        "study": "real-mode-change-learned",
+        "study": "real-mode-change-residual",
         "seeds": "seeds.md",
-        "policy": "ppo-mc-real-ks/model",
+        "policy": "rmc-200k/model",
         "suite": "real-mode-change",
         "metric": "success",
-        "learned": "PPO kick-started from the planner, 150k steps with randomisation",
-        "note": "does not learn it; the planner keeps 97 %, the policy trained on the ideal "
-        "machine falls to 10 %",
+        "learned": "residual PPO on the planner, 200k steps with randomisation",
+        "note": "target met narrowly (97.3 against the planner's 97 %), as reliable as its base, "
+        "not more; 5 % faster (1.85 vs 1.96 s)",
     },
     {
         "task": "assembly-mode change on the machine as built",
