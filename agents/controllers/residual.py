@@ -10,6 +10,11 @@ controller modules work".
 * :class:`ResidualTrackPolicy` (``Planar3PTrack-v0``): on the feed-forward tracking controller;
 * :class:`ResidualReachPolicy` (``Planar3P-v0``): on ``analytic-simultaneous``;
 * :class:`ResidualLinePolicy` (``Planar3P-v0``): on ``certified-line``;
+* :class:`ResidualAssemblyPolicy` (``Planar3PAssemblyChange-v0``, exact or as built): on
+  ``analytic-simultaneous`` (``crossing`` follows its plan by a clock the observation does not
+  hold, so it cannot be a policy's mean);
+* :class:`ResidualPlannerPolicy` (``Planar3PModeChange-v0``, exact or as built): on
+  ``planner``, whose plan and clock :class:`PlannerFeatures` keeps per environment;
 * :class:`TrackFeatures`, :class:`ReachFeatures`, :class:`LineFeatures`,
   :func:`feature_scaling`: their features (fixed physical scales, the base action appended).
 """
@@ -29,20 +34,28 @@ from torch import nn
 from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.base import BatchPolicy
 from planar3p_agents.controllers.certified_line import CertifiedLineController
+from planar3p_agents.controllers.layout import extra_slice, task_observation_size
+from planar3p_agents.controllers.planner import JointPathPlanner
 from planar3p_agents.controllers.tracking import TRACK_OBS_SIZE, TrackingController
 from planar3p_gym.checks import design_from
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
 __all__ = [
+    "ASSEMBLY_OBS_SIZE",
     "BASE_CACHE_ROWS",
     "ERROR_SCALE",
     "FEATURE_CLIP",
+    "MODE_CHANGE_OBS_SIZE",
     "REACH_ERROR_SCALE",
     "RESIDUAL_SCALE",
+    "AssemblyFeatures",
     "LineFeatures",
+    "PlannerFeatures",
     "ReachFeatures",
+    "ResidualAssemblyPolicy",
     "ResidualLinePolicy",
+    "ResidualPlannerPolicy",
     "ResidualReachPolicy",
     "ResidualTrackPolicy",
     "TrackFeatures",
@@ -61,19 +74,31 @@ FEATURE_CLIP = 10.0
 RESIDUAL_SCALE = 0.1
 #: Observations whose base action :class:`LineFeatures` keeps (a few PPO rollouts' worth).
 BASE_CACHE_ROWS = 1 << 16
+#: Length of the assembly change's flat observation (the 31 entries, the target's travels,
+#: its assembly mode and the signed parallel margin).
+ASSEMBLY_OBS_SIZE = task_observation_size("assembly_change")
+#: Length of the mode change's flat observation (the 31 entries, the target's travels and its
+#: working mode).
+MODE_CHANGE_OBS_SIZE = task_observation_size("mode_change")
+#: The task whose appended entries each task observation size has (both start with the
+#: target's travels).
+_TASK_OF_SIZE = {ASSEMBLY_OBS_SIZE: "assembly_change", MODE_CHANGE_OBS_SIZE: "mode_change"}
 
 
 def feature_scaling(
     design: Design, size: int = TRACK_OBS_SIZE, error_scale: float = ERROR_SCALE
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(offset, scale)`` of the ``size`` observation entries (``OBS_SIZE`` = 31 of the reach
-    ids or ``TRACK_OBS_SIZE`` = 34 of the tracking id): feature ``(obs - offset) * scale``.
-    Travels are centred on mid-stroke over half the stroke; slider, gripper and reference
-    speeds are over ``max_speed`` (angular rates times ``L_ref``); positions over ``L_ref``;
-    position errors over ``error_scale`` (m) and the orientation error times ``L_ref /
-    error_scale``; dimensionless entries (cos/sin, margins, fine errors) as they are."""
-    if size not in (OBS_SIZE, TRACK_OBS_SIZE):
-        raise ValueError(f"size must be {OBS_SIZE} or {TRACK_OBS_SIZE}, got {size!r}")
+    ids, ``TRACK_OBS_SIZE`` = 34 of the tracking id, ``ASSEMBLY_OBS_SIZE`` = 36 of the
+    assembly change or ``MODE_CHANGE_OBS_SIZE`` = 37 of the mode change): feature ``(obs -
+    offset) * scale``.  Travels (the target's too) are centred on mid-stroke over half the
+    stroke; slider, gripper and reference speeds are over ``max_speed`` (angular rates times
+    ``L_ref``); positions over ``L_ref``; position errors over ``error_scale`` (m) and the
+    orientation error times ``L_ref / error_scale``; dimensionless entries (cos/sin, margins,
+    fine errors, assembly and working modes) as they are."""
+    sizes = (OBS_SIZE, TRACK_OBS_SIZE, ASSEMBLY_OBS_SIZE, MODE_CHANGE_OBS_SIZE)
+    if size not in sizes:
+        raise ValueError(f"size must be one of {sizes}, got {size!r}")
     length, vmax = design.characteristic_length, design.max_speed
     offset = np.zeros(size)
     scale = np.ones(size)
@@ -89,6 +114,10 @@ def feature_scaling(
     if size == TRACK_OBS_SIZE:
         ref = slice(TRACK_OBS_SIZE - 3, TRACK_OBS_SIZE)
         scale[ref] = np.array([1.0 / vmax, 1.0 / vmax, length / vmax])
+    if size in _TASK_OF_SIZE:
+        target_rho = extra_slice(_TASK_OF_SIZE[size], "target_rho")
+        offset[target_rho] = design.stroke / 2.0
+        scale[target_rho] = 2.0 / design.stroke
     return offset, scale
 
 
@@ -170,6 +199,25 @@ class ReachFeatures(ControllerFeatures):
         super().__init__(observation_space, controller, REACH_ERROR_SCALE)
 
 
+class AssemblyFeatures(ControllerFeatures):
+    """:class:`ControllerFeatures` of the assembly change's observation (36 entries, errors
+    per :data:`REACH_ERROR_SCALE`) with the benchmark's ``analytic-simultaneous`` controller
+    (reading the first 31 entries) as base: ``39`` features.
+
+    Args:
+        observation_space: ``Box((36,))`` of ``Planar3PAssemblyChange-v0``.
+        design: the machine (a :class:`Design`, its dict, or ``None`` for
+            ``Design.fig8(gravity=0.0)``, the task's default).
+    """
+
+    def __init__(
+        self, observation_space: gym.spaces.Box, design: Design | dict[str, Any] | None = None
+    ) -> None:
+        machine = Design.fig8(gravity=0.0) if design is None else design_from(design)
+        controller = AnalyticController(machine, "simultaneous", observation_size=ASSEMBLY_OBS_SIZE)
+        super().__init__(observation_space, controller, REACH_ERROR_SCALE)
+
+
 class LineFeatures(ControllerFeatures):
     """:class:`ControllerFeatures` of the reach observation (31 entries, errors per
     :data:`REACH_ERROR_SCALE`) with the ``certified-line`` baseline as base: ``34`` features.
@@ -205,6 +253,82 @@ class LineFeatures(ControllerFeatures):
             computed = self.base.predict(raw[missing].astype(np.float64))[0]
             self._cache.update(zip([keys[i] for i in missing], computed, strict=True))
         action = np.stack([self._cache[key] for key in keys]) if keys else np.zeros((0, 3))
+        return th.as_tensor(action, dtype=obs.dtype, device=obs.device)
+
+
+class PlannerFeatures(ControllerFeatures):
+    """:class:`ControllerFeatures` of the mode change's observation (37 entries, errors per
+    :data:`REACH_ERROR_SCALE`) with the ``planner`` baseline as base: ``40`` features.
+
+    The planner plans at an episode's first step and follows its plan by a clock, so its
+    action is not a function of the observation alone.  In evaluation mode (SB3's rollouts,
+    its evaluations and ``predict``) this extractor keeps a planner per batch size, whose row
+    ``i`` follows environment ``i``, and starts a row's plan afresh when the row's target (its
+    pose, travels and working mode in the observation, constant within an episode) changes.
+    The action of each observation is kept, keyed by its float32 bytes (the last
+    :data:`BASE_CACHE_ROWS`): an observation met again is given the action it had, without
+    moving the clock (SB3 asks for the values of a rollout's last observations, then acts on
+    them), and in training mode (PPO's updates) the rollout's observations are all found
+    there, so the updates see the base actions the rollout played.  An observation not met
+    before in training mode is given the first action of a plan made from it.
+
+    Args:
+        observation_space: ``Box((37,))`` of ``Planar3PModeChange-v0``.
+        design: the machine (a :class:`Design`, its dict, or ``None`` for ``Design.fig8()``).
+        dt: control period (s) of the environment.
+    """
+
+    #: Observation entries that hold the target (constant within an episode).
+    TARGET = np.r_[
+        SLICES["target_position"],
+        SLICES["target_orientation"],
+        OBS_SIZE:MODE_CHANGE_OBS_SIZE,
+    ]
+
+    def __init__(
+        self,
+        observation_space: gym.spaces.Box,
+        design: Design | dict[str, Any] | None = None,
+        dt: float = 0.02,
+    ) -> None:
+        controller = JointPathPlanner(design_from(design), dt=dt)
+        super().__init__(observation_space, controller, REACH_ERROR_SCALE)
+        self._cache: dict[bytes, np.ndarray] = {}
+        #: Per batch size: the planner that follows it and the targets of its last batch.
+        self._followers: dict[int, tuple[JointPathPlanner, np.ndarray | None]] = {}
+
+    def _plan_actions(self, raw: np.ndarray, fresh: bool) -> np.ndarray:
+        """The planner's actions for the batch ``raw``; ``fresh``: the first action of a new
+        plan from each row (no state kept)."""
+        n = len(raw)
+        planner, last = self._followers.get(n, (None, None))
+        if planner is None or fresh:
+            planner = JointPathPlanner(self.base.design, dt=self.base.dt)
+        targets = raw[:, self.TARGET]
+        starts = (
+            np.ones(n, dtype=bool) if last is None or fresh else np.any(targets != last, axis=1)
+        )
+        if not fresh:
+            self._followers[n] = (planner, targets)
+        return planner.predict(raw.astype(np.float64), None, starts)[0]
+
+    def _remember(self, keys: list[bytes], actions: np.ndarray) -> None:
+        self._cache.update(zip(keys, actions, strict=True))
+        while len(self._cache) > BASE_CACHE_ROWS:  # the oldest first (dicts keep insertion order)
+            del self._cache[next(iter(self._cache))]
+
+    def base_action(self, obs: th.Tensor) -> th.Tensor:
+        raw = obs.detach().cpu().numpy().astype(np.float32)
+        keys = [row.tobytes() for row in raw]
+        if not keys:
+            return th.zeros((0, 3), dtype=obs.dtype, device=obs.device)
+        missing = [i for i, key in enumerate(keys) if key not in self._cache]
+        if missing and self.training:
+            fresh = self._plan_actions(raw[missing], fresh=True)
+            self._remember([keys[i] for i in missing], fresh)
+        elif missing:
+            self._remember(keys, self._plan_actions(raw, fresh=False))
+        action = np.stack([self._cache[key] for key in keys])
         return th.as_tensor(action, dtype=obs.dtype, device=obs.device)
 
 
@@ -359,3 +483,39 @@ class ResidualLinePolicy(ResidualPolicy):
 
     def _base_kwargs(self) -> dict[str, Any]:
         return {"gain": self.gain}
+
+
+class ResidualAssemblyPolicy(ResidualPolicy):
+    """:class:`ResidualPolicy` on the benchmark's ``analytic-simultaneous`` controller for the
+    assembly change (``Planar3PAssemblyChange-v0``, 36-entry observation); arguments as for
+    :class:`ResidualPolicy` (``design``: ``None`` is ``Design.fig8(gravity=0.0)``, the task's
+    default machine)."""
+
+    features_class = AssemblyFeatures
+
+    def __init__(self, *args: Any, design: dict[str, Any] | None = None, **kwargs: Any) -> None:
+        machine = Design.fig8(gravity=0.0) if design is None else design_from(design)
+        super().__init__(*args, design=machine.to_dict(), **kwargs)
+
+
+class ResidualPlannerPolicy(ResidualPolicy):
+    """:class:`ResidualPolicy` on the ``planner`` baseline for the mode change
+    (``Planar3PModeChange-v0``, 37-entry observation; :class:`PlannerFeatures` keeps the
+    planner's state).
+
+    Args:
+        observation_space, action_space, lr_schedule, residual_scale, design, **kwargs: as
+            for :class:`ResidualPolicy`.
+        dt: control period (s) of the environment (default 0.02, the ids' 50 Hz).
+    """
+
+    features_class = PlannerFeatures
+
+    def __init__(self, *args: Any, dt: float = 0.02, **kwargs: Any) -> None:
+        if not (np.isfinite(dt) and dt > 0):
+            raise ValueError(f"dt must be finite and > 0, got {dt!r}")
+        self.dt = float(dt)
+        super().__init__(*args, **kwargs)
+
+    def _base_kwargs(self) -> dict[str, Any]:
+        return {"dt": self.dt}

@@ -66,6 +66,7 @@ TASK_BEST_BASELINES: dict[str, tuple[str, ...]] = {
     "mode-change": ("planner",),
     "real-mode-change": ("planner",),
     "assembly-change": ("crossing", "analytic-simultaneous"),
+    "real-assembly-change": ("crossing", "analytic-simultaneous"),
     "track-segments": ("analytic-feedforward-tuned",),
     "track-figure-eight": ("analytic-feedforward-tuned",),
     "real-on-off": ("analytic-on-off",),

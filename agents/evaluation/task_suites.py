@@ -159,6 +159,18 @@ TASK_SUITES: dict[str, TaskSuiteDef] = {
         "Planar3PReal-v0)",
         11,
     ),
+    "real-assembly-change": TaskSuiteDef(
+        "Planar3PAssemblyChange-v0",
+        {
+            "randomization": REALISTIC_RANDOMIZATION.to_dict(),
+            "sensors": REALISTIC_SENSORS.to_dict(),
+            "latency": REALISTIC_LATENCY.to_dict(),
+        },
+        ("analytic-simultaneous", "crossing", "random", "zero"),
+        "assembly-mode change on the machine as built (the randomisation, sensors and delay of "
+        "Planar3PReal-v0)",
+        12,
+    ),
 }
 
 

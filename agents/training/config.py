@@ -70,6 +70,8 @@ PROJECT_POLICIES: dict[str, tuple[str, str]] = {
     "ResidualTrackPolicy": ("planar3p_agents.controllers.residual", "ResidualTrackPolicy"),
     "ResidualReachPolicy": ("planar3p_agents.controllers.residual", "ResidualReachPolicy"),
     "ResidualLinePolicy": ("planar3p_agents.controllers.residual", "ResidualLinePolicy"),
+    "ResidualAssemblyPolicy": ("planar3p_agents.controllers.residual", "ResidualAssemblyPolicy"),
+    "ResidualPlannerPolicy": ("planar3p_agents.controllers.residual", "ResidualPlannerPolicy"),
 }
 
 

@@ -187,3 +187,26 @@ def test_mode_and_assembly_change_suites(suite, baseline, flag):
         assert r.task_metrics[flag] == 1.0 and r.working_mode_changed
     else:
         assert r.task_metrics["in_target_assembly"] == 1.0 and r.task_metrics["crossings"] >= 1
+
+
+def test_real_assembly_change_suite():
+    """``real-assembly-change`` is the assembly change on the machine as built (the
+    randomisation, sensors and delay of ``real-mode-change``) under its own seed index: its
+    analytic-simultaneous episode replays identically, and differs from the same episode
+    played on the exact machine."""
+    real, exact = ts.TASK_SUITES["real-assembly-change"], ts.TASK_SUITES["assembly-change"]
+    assert real.env_id == exact.env_id and exact.env_kwargs == {}
+    assert real.env_kwargs == ts.TASK_SUITES["real-mode-change"].env_kwargs
+    assert set(real.env_kwargs) == {"randomization", "sensors", "latency"}
+    assert real.baselines[:2] == ("analytic-simultaneous", "crossing")
+    assert len({d.index for d in ts.TASK_SUITES.values()}) == len(ts.TASK_SUITES)
+    env = ts.make_task_env("real-assembly-change")
+    episodes = ts.make_task_suite("real-assembly-change", 1, seed=0, env=env)
+    assert episodes.params["env_kwargs"] == real.env_kwargs
+    policy = load_policy("analytic-simultaneous", env)
+    first = ep.evaluate(env, policy, episodes, policy_name="analytic-simultaneous")
+    again = ep.evaluate(env, policy, episodes, policy_name="analytic-simultaneous")
+    assert [r.row() for r in again] == [r.row() for r in first]
+    nominal_env = ts.make_task_env("assembly-change")
+    nominal = ep.evaluate(nominal_env, load_policy("analytic-simultaneous", nominal_env), episodes)
+    assert first[0].row()["episode_return"] != nominal[0].row()["episode_return"]
