@@ -96,6 +96,7 @@ PROJECT_POLICIES: dict[str, tuple[str, str]] = {
     "ResidualTrackPolicy": ("planar3p_agents.controllers.residual", "ResidualTrackPolicy"),
     "ResidualReachPolicy": ("planar3p_agents.controllers.residual", "ResidualReachPolicy"),
     "ResidualLinePolicy": ("planar3p_agents.controllers.residual", "ResidualLinePolicy"),
+    "ResidualOnOffPolicy": ("planar3p_agents.controllers.residual_on_off", "ResidualOnOffPolicy"),
 }
 
 
