@@ -72,6 +72,7 @@ PROJECT_POLICIES: dict[str, tuple[str, str]] = {
     "ResidualLinePolicy": ("planar3p_agents.controllers.residual", "ResidualLinePolicy"),
     "ResidualAssemblyPolicy": ("planar3p_agents.controllers.residual", "ResidualAssemblyPolicy"),
     "ResidualPlannerPolicy": ("planar3p_agents.controllers.residual", "ResidualPlannerPolicy"),
+    "ResidualOnOffPolicy": ("planar3p_agents.controllers.residual_on_off", "ResidualOnOffPolicy"),
 }
 
 

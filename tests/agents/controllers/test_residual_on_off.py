@@ -1,0 +1,106 @@
+"""The residual on-off policy: untrained, it is the ``analytic-on-off`` baseline."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch as th
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from stable_baselines3 import PPO
+
+import planar3p_gym  # noqa: F401  (registers the ids)
+from planar3p_agents.controllers.analytic import AnalyticController
+from planar3p_agents.controllers.on_off import OnOffController
+from planar3p_agents.controllers.residual_on_off import ResidualOnOffPolicy
+from planar3p_agents.training import config as training
+
+ID = "Planar3PRealOnOff-v0"
+KWARGS = {"ortho_init": False, "net_arch": {"pi": [16, 16], "vf": [16, 16]}}
+
+
+def _model(env: gym.Env, **policy_kwargs: float) -> PPO:
+    th.set_num_threads(1)
+    return PPO(
+        ResidualOnOffPolicy,
+        env,
+        n_steps=64,
+        batch_size=64,
+        policy_kwargs={**KWARGS, **policy_kwargs},
+        device="cpu",
+        seed=0,
+    )
+
+
+def _visited(env: gym.Env, steps: int = 120) -> np.ndarray:
+    """Observations of an episode driven by random motor commands (seeded)."""
+    obs, _ = env.reset(seed=5)
+    env.action_space.seed(5)
+    out = [obs]
+    for _ in range(steps):
+        obs, _, terminated, truncated, _ = env.step(env.action_space.sample())
+        out.append(obs)
+        if terminated or truncated:
+            obs, _ = env.reset()
+    return np.stack(out)
+
+
+def test_untrained_policy_plays_the_baseline() -> None:
+    env = gym.make(ID)
+    model = _model(env)
+    base = OnOffController(AnalyticController())
+    obs = _visited(env)
+    actions, _ = model.predict(obs, deterministic=True)
+    np.testing.assert_array_equal(actions, base.predict(obs)[0])
+    env.close()
+
+
+@settings(max_examples=10, deadline=None)
+@given(base_logit=st.floats(0.1, 8.0))
+def test_base_command_probability_is_the_softmax_of_the_bias(base_logit: float) -> None:
+    """Each motor samples the base command with probability ``e^b / (e^b + 2)``."""
+    env = gym.make(ID)
+    model = _model(env, base_logit=base_logit)
+    obs = th.as_tensor(_visited(env, 20))
+    dist = model.policy.get_distribution(obs)
+    expected = math.exp(base_logit) / (math.exp(base_logit) + 2.0)
+    base = OnOffController(AnalyticController()).predict(obs.numpy().astype(np.float64))[0]
+    for motor, categorical in enumerate(dist.distribution):
+        probs = categorical.probs.detach().numpy()
+        chosen = probs[np.arange(len(probs)), base[:, motor]]
+        np.testing.assert_allclose(chosen, expected, rtol=1e-5)
+    env.close()
+
+
+def test_saved_model_keeps_its_bias(tmp_path) -> None:
+    env = gym.make(ID)
+    model = _model(env, base_logit=2.0)
+    model.save(tmp_path / "m.zip")
+    loaded = PPO.load(tmp_path / "m.zip", device="cpu")
+    assert isinstance(loaded.policy, ResidualOnOffPolicy) and loaded.policy.base_logit == 2.0
+    obs = _visited(env, 30)
+    np.testing.assert_array_equal(
+        loaded.predict(obs, deterministic=True)[0], model.predict(obs, deterministic=True)[0]
+    )
+    env.close()
+
+
+def test_bad_arguments_are_refused() -> None:
+    env = gym.make(ID)
+    with pytest.raises(ValueError, match="base_logit"):
+        _model(env, base_logit=0.0)
+    with pytest.raises(ValueError, match="MultiDiscrete"):
+        _model(gym.make(ID, action_type="on-off-discrete"))
+    with pytest.raises(ValueError, match="MultiDiscrete"):
+        _model(gym.make("Planar3P-v0"))
+    env.close()
+
+
+def test_the_recipe_names_the_policy() -> None:
+    path = training.HYPERPARAMS_DIR / "ppo_on_off.yml"
+    cfg = training.resolve("ppo", ID, 0, training.load_hyperparams(path, ID, "ppo"))
+    assert training.policy_class(cfg.policy) is ResidualOnOffPolicy
+    assert cfg.normalize == {"norm_obs": False, "norm_reward": True}
