@@ -1006,7 +1006,21 @@ class _TrackRows:
         info.update(task.tracking_info(ep.steps, errors))  # type: ignore[attr-defined]
 
 
-class _ModeRows:
+class _FlatRows:
+    """What the task parts of a batched step with a flat observation share: the step of
+    environment ``i`` that took the reference kernel (its physics broke down)."""
+
+    venv: Planar3PVectorEnv
+
+    def fallback(
+        self, i: int, env: Planar3PEnv, flat: np.ndarray, reward: float, info: dict
+    ) -> float:
+        """Environment ``i``'s observation of the reference kernel's step."""
+        self.venv._obs[i] = flat
+        return reward
+
+
+class _ModeRows(_FlatRows):
     """The mode-change task's part of a batched step (:func:`~planar3p_gym.envs.batch_kernel.
     mode_batch_step`): each episode's target working mode and its observation's extra entries
     (the target's travels and working mode, fixed over the episode)."""
@@ -1041,13 +1055,6 @@ class _ModeRows:
         self.venv._obs[sel] = obs
         return o["reward"]
 
-    def fallback(
-        self, i: int, env: Planar3PEnv, flat: np.ndarray, reward: float, info: dict
-    ) -> float:
-        """Environment ``i``'s observation of the reference kernel's step."""
-        self.venv._obs[i] = flat
-        return reward
-
     def sync(
         self, i: int, env: Planar3PEnv, info: dict[str, Any], last: dict[str, Any], j: int
     ) -> None:
@@ -1057,7 +1064,7 @@ class _ModeRows:
         info.update(env.task.step_info(env.episode.steps, env.sim.state, errors))
 
 
-class _AssemblyRows:
+class _AssemblyRows(_FlatRows):
     """The assembly-change task's part of a batched step (:func:`~planar3p_gym.envs.
     batch_kernel.assembly_batch_step`): each episode's target assembly mode, crossing count and
     fixed extra entries (the target's travels and assembly mode), the signed parallel margin
@@ -1113,13 +1120,6 @@ class _AssemblyRows:
         self.last_sign[kept] = self.current[0, good]
         self.crossings[kept] = self.current[1, good]
         return o["reward"]
-
-    def fallback(
-        self, i: int, env: Planar3PEnv, flat: np.ndarray, reward: float, info: dict
-    ) -> float:
-        """Environment ``i``'s observation of the reference kernel's step."""
-        self.venv._obs[i] = flat
-        return reward
 
     def sync(
         self, i: int, env: Planar3PEnv, info: dict[str, Any], last: dict[str, Any], j: int
