@@ -7,7 +7,8 @@ id's page (docs/environments.md has it with the reasons for the ``fine_error`` b
 * :data:`OBS_FIELDS`, :data:`SLICES`, :data:`OBS_SIZE`: the 31 entries (name, size, meaning);
 * :data:`TRAVEL_GOAL_FIELDS`: the joint-space goal ``travel_goal=True`` appends (reach only);
 * :func:`bounds`, :func:`observation_space`: the bounds; :func:`write_reach_values`,
-  :func:`build_observation`: the one construction; :func:`within_tolerances`: the success test.
+  :func:`build_observation`: the one construction; :func:`within_tolerances`: the success test;
+  :func:`pose_errors`: the errors to the reference pose.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from numba import njit
 
 from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
+from planar3p_gym.machine.norm import hypot
 
 __all__ = [
     "OBS_FIELDS",
@@ -30,6 +32,7 @@ __all__ = [
     "build_observation",
     "clip_float32",
     "observation_space",
+    "pose_errors",
     "travel_goal_bounds",
     "travel_goal_entries",
     "within_tolerances",
@@ -172,6 +175,16 @@ def write_reach_values(
     out[29] = math.tanh(dy / FINE_ERROR_SCALE)
     out[30] = math.tanh(length * dth / FINE_ERROR_SCALE)
     return dx, dy, dth
+
+
+@njit(cache=True)
+def pose_errors(
+    tx: float, ty: float, tth: float, x: float, y: float, theta: float
+) -> tuple[float, float]:
+    """Position (m) and orientation (rad, wrapped) errors of the pose ``(x, y, theta)`` to the
+    target ``(tx, ty, tth)``: the distance rounded as Python's ``math.hypot`` rounds it
+    (:func:`planar3p_gym.machine.norm.hypot`), and ``tth - theta`` wrapped."""
+    return hypot(tx - x, ty - y), wrap_angle(tth - theta)
 
 
 @njit(cache=True)
