@@ -31,6 +31,7 @@ __all__ = [
     "TRAVEL_GOAL_SIZE",
     "build_observation",
     "clip_float32",
+    "observation_of",
     "observation_space",
     "pose_errors",
     "travel_goal_bounds",
@@ -217,7 +218,7 @@ def clip_float32(values: np.ndarray, low: np.ndarray, high: np.ndarray, out: np.
 
 
 @njit(cache=True)
-def _observation(x: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+def observation_of(x: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
     """:func:`build_observation` of its arguments packed into ``x`` (21 float64: ``rho``,
     ``rho_dot``, ``pose``, ``twist``, leg angles, ``target``, the two margins, ``length``)."""
     a1, a2, a3 = x[12], x[13], x[14]
@@ -255,4 +256,4 @@ def build_observation(
          length),
         dtype=np.float64,
     )  # fmt: skip
-    return _observation(x, low, high)
+    return observation_of(x, low, high)
