@@ -10,6 +10,7 @@ from gymnasium.vector import AutoresetMode
 
 import planar3p_gym
 from planar3p_gym.envs.vector import COMMAND_LOG, INFO_KEYS, NUMPY_BATCH_MIN, Planar3PVectorEnv
+from planar3p_gym.sim.sensors import REALISTIC_SENSORS
 
 
 @pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v0"])
@@ -57,8 +58,25 @@ def test_make_vec_gives_the_native_vector_env(env_id):
             "numpy",
         ),
         ("Planar3PAssemblyChange-v0", {}, "auto"),
-        # The machine as built (randomised machine, encoders, delay): environment by environment.
+        # The machine as built (randomised machine, encoders, delay): environment by environment
+        # (3 envs under "auto"), then the batched step, through breakdowns too, with delays of
+        # 0 to 2 steps drawn per episode for actions and observations.
         ("Planar3PReal-v0", {}, "auto"),
+        ("Planar3PReal-v0", {}, "numpy"),
+        ("Planar3PReal-v0", {"breakdown_threshold": 1e-15}, "numpy"),
+        (
+            "Planar3PReal-v0",
+            {"latency": {"action_delay": [0, 2], "observation_delay": [0, 2]}},
+            "numpy",
+        ),
+        # The built machine's encoders alone (the nominal machine's physics, no servo lag), and
+        # a task id with the built machine's features (environment by environment).
+        ("Planar3P-v0", {"sensors": REALISTIC_SENSORS.to_dict()}, "numpy"),
+        (
+            "Planar3PModeChange-v0",
+            {"sensors": REALISTIC_SENSORS.to_dict(), "latency": {"action_delay": 1}},
+            "numpy",
+        ),
     ],
 )
 def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, batch):
@@ -207,6 +225,7 @@ def test_batched_commands_reach_the_simulations_records_across_the_log():
         ("Planar3PTrack-v0", {}, "numpy"),
         ("Planar3PTrack-v0", {}, "auto"),
         ("Planar3PReal-v0", {}, "auto"),
+        ("Planar3PReal-v0", {}, "numpy"),
     ],
 )
 def test_same_step_infos_are_the_single_envs_episode_by_episode(env_id, kwargs, batch):
@@ -465,12 +484,15 @@ def test_render_without_mode_warns_and_bad_mode_is_rejected():
         Planar3PVectorEnv(num_envs=2, render_mode="human")
 
 
-def test_the_on_off_id_has_a_native_vector_env_of_its_single_envs():
-    """``Planar3PRealOnOff-v0`` (MultiDiscrete motor commands): the native vector env steps
-    its single environments, bit for bit, autoreset included."""
-    n, limit = 3, 40
+@pytest.mark.parametrize("n", [3, NUMPY_BATCH_MIN])
+def test_the_on_off_id_has_a_native_vector_env_of_its_single_envs(n):
+    """``Planar3PRealOnOff-v0`` (MultiDiscrete motor commands): the native vector env gives
+    its single environments' steps, bit for bit, autoreset included, environment by
+    environment (3 envs) and in the batched step (from :data:`NUMPY_BATCH_MIN`)."""
+    limit = 40
     venv = gym.make_vec(planar3p_gym.REAL_ON_OFF_ENV_ID, num_envs=n, max_episode_steps=limit)
     assert type(venv) is Planar3PVectorEnv
+    assert (venv._core is not None) == (n >= NUMPY_BATCH_MIN)
     singles = [gym.make(planar3p_gym.REAL_ON_OFF_ENV_ID, max_episode_steps=limit) for _ in range(n)]
     actions = np.random.default_rng(2).integers(0, 3, (100, n, 3))
     obs, _ = venv.reset(seed=4)
@@ -479,15 +501,17 @@ def test_the_on_off_id_has_a_native_vector_env_of_its_single_envs():
     )
     done, ends = [False] * n, 0
     for a in actions:
-        obs, rewards, terminated, truncated, _ = venv.step(a)
+        obs, rewards, terminated, truncated, infos = venv.step(a)
         for i, env in enumerate(singles):
             if done[i]:  # (next-step autoreset: this step resets the environment)
-                o, _ = env.reset()
+                o, info = env.reset()
                 r, te, tr = 0.0, False, False
             else:
-                o, r, te, tr, _ = env.step(a[i])
+                o, r, te, tr, info = env.step(a[i])
             assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr)
             np.testing.assert_array_equal(obs[i], o)
+            for key in INFO_KEYS:
+                assert infos[key][i] == info[key], key
             done[i] = te or tr
             ends += done[i]
     assert ends >= 2 * n  # (a time limit of 40 steps in 100: autoresets were checked)
@@ -610,3 +634,65 @@ def test_sb3_adapter_serves_the_goal_ids():
                     np.testing.assert_array_equal(x[3][i]["terminal_observation"][key], value)
     assert ends >= n
     native.close()
+
+
+@pytest.mark.parametrize(
+    ("env_id", "kwargs", "batched"),
+    [
+        ("Planar3PReal-v0", {}, True),
+        ("Planar3PRealOnOff-v0", {}, True),
+        ("Planar3P-v0", {"latency": {"action_delay": 2}}, True),
+        # Not (yet) the batched step: Discrete(27) actions, a task other than the reach task.
+        ("Planar3PRealOnOff-v0", {"action_type": "on-off-discrete"}, False),
+        ("Planar3PModeChange-v0", {"sensors": {"slider_noise": 1e-5}}, False),
+    ],
+)
+def test_the_built_machine_takes_the_batched_step(env_id, kwargs, batched):
+    venv = gym.make_vec(env_id, num_envs=NUMPY_BATCH_MIN, **kwargs)
+    assert (type(venv._core).__name__ == "_BuiltCore") == batched
+    venv.close()
+
+
+@pytest.mark.parametrize("env_id", ["Planar3PReal-v0", "Planar3PRealOnOff-v0"])
+def test_the_built_machines_batch_snapshots_and_copies_continue_bit_for_bit(env_id):
+    """The built machine's batched step restored from :meth:`get_state` into another vector
+    env, and a ``copy.deepcopy``, continue as the original does, bit for bit (the drawn
+    machines, the delay lines, the encoders' last readings and the generators of the
+    encoders' noise taken from the single envs), episodes ending and resetting on the way."""
+    import copy
+
+    n = NUMPY_BATCH_MIN
+    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=15)
+    assert venv._core is not None
+    venv.reset(seed=3)
+    rng = np.random.default_rng(0)
+
+    def actions(count):
+        if env_id == planar3p_gym.REAL_ON_OFF_ENV_ID:
+            return rng.integers(0, 3, (count, n, 3))
+        return rng.uniform(-1, 1, (count, n, 3))
+
+    for a in actions(20):
+        venv.step(a)
+    twin = gym.make_vec(env_id, num_envs=n, max_episode_steps=15)
+    twin.set_state(venv.get_state())
+    clone = copy.deepcopy(venv)
+    for a in actions(25):
+        x, y, z = venv.step(a), twin.step(a), clone.step(a)
+        for other in (y, z):
+            for k in (0, 1, 2, 3):
+                np.testing.assert_array_equal(x[k], other[k])
+            for key in venv.info_keys:
+                np.testing.assert_array_equal(x[4][key], other[4][key])
+
+
+def test_bad_on_off_actions_are_rejected_before_any_env_steps():
+    venv = gym.make_vec(planar3p_gym.REAL_ON_OFF_ENV_ID, num_envs=NUMPY_BATCH_MIN)
+    venv.reset(seed=0)
+    before = [env.get_state()["sim"] for env in venv.envs]
+    bad = np.ones((NUMPY_BATCH_MIN, 3))
+    bad[2, 1] = 3  # (motor values are 0, 1 or 2)
+    with pytest.raises(ValueError, match="action"):
+        venv.step(bad)
+    assert [env.get_state()["sim"] for env in venv.envs] == before
+    venv.close()
