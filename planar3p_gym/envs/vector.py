@@ -8,11 +8,13 @@ trajectories bit for bit (``tests/envs/test_vector_env.py``):
 
 - ``batch="numpy"`` (from :data:`NUMPY_BATCH_MIN` envs under ``"auto"``): one compiled call per
   step over the batch (:mod:`planar3p_gym.envs.batch_kernel`: the physics, then the task's
-  kernel over the rows) for the reach, goal, tracking, mode- and assembly-change ids;
+  kernel over the rows) for the reach, goal, tracking, mode- and assembly-change ids, and
+  for the reach task on the machine as built (the built-machine ids);
 - ``batch="scalar"``: each simulation and the single environment's compiled outputs, written
   into the batch arrays;
-- every other configuration (the built machine's ids, the mode and assembly changes with their
-  travel term) steps each environment through its own ``step``.
+- every other configuration (the mode and assembly changes with their travel term or the
+  built machine's features, ``Discrete(27)`` on-off actions) steps each environment through
+  its own ``step``.
 
 The single environments' own attributes are brought up to date when :attr:`~Planar3PVectorEnv.envs`
 or :meth:`~Planar3PVectorEnv.get_state` is used; a state that fails the physics-breakdown test
@@ -117,8 +119,8 @@ class Planar3PVectorEnv(VectorEnv):
             per environment, then the projection and the outputs in compiled loops over the
             batch; the name is historical) or ``"auto"`` (``"numpy"`` from
             :data:`NUMPY_BATCH_MIN` environments); the same numbers either way.  The task
-            ids take ``"numpy"`` too (``"scalar"``: environment by environment); the built
-            machine's ids always step environment by environment.
+            ids and the built machine's ids take ``"numpy"`` too (``"scalar"``: environment
+            by environment).
         autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default, Gymnasium's) or
             ``AutoresetMode.SAME_STEP`` (an ended episode is reset within the same step: its
             last observation is in ``info["final_obs"]``, its last info entries in
