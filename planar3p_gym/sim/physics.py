@@ -32,6 +32,7 @@ from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 from planar3p_gym.sim import chipmunk, recovery
 from planar3p_gym.sim.dynamics import (
+    IDEAL,
     MachineDynamics,
     servo_lag,
     smallest_leg_inertia,
@@ -749,7 +750,7 @@ class Planar3PSim:
             if dynamics is not None:
                 raise ValueError("dynamics is given only with a design (the new machine)")
             new_design = self.design
-            dyn = MachineDynamics() if self.dynamics is None else self.dynamics
+            dyn = IDEAL if self.dynamics is None else self.dynamics  # (not validated again)
         else:
             if not isinstance(design, Design):
                 raise ValueError(f"design must be a Design, got {type(design).__name__}")
