@@ -88,7 +88,8 @@ def on_off_actions(actions: np.ndarray, action_type: str, speed: float) -> np.nd
     """The chosen slider velocities (fractions of ``max_speed``, ``(n, 3)`` float64) of a batch
     of on-off ``actions`` (the motor values ``(n, 3)``, or ``(n,)`` ``Discrete(27)`` indices),
     each the command :func:`on_off_action` gives times the motors' ``speed``; ``ValueError``
-    (naming the first bad row) unless every action is one :func:`on_off_action` accepts."""
+    (the single env's message for the first bad action) unless every action is one
+    :func:`on_off_action` accepts."""
     arr = np.asarray(actions)
     if action_type == "on-off-discrete":
         ok = arr.ndim == 1 and np.isin(arr, np.arange(27)).all()
