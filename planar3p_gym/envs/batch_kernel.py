@@ -20,9 +20,9 @@ once:
   margin entry, the crossings counted, the success test in the target's assembly mode and the
   reward terms without the parallel barrier
   (:func:`planar3p_gym.tasks.assembly_change.assembly_rows`);
-- :func:`built_batch_step` (the reach task on the machine as built): the action delay, the
-  servo lag, each drawn machine's compiled control step, the true measures, the encoders'
-  reading through the nominal model, the reach task's outputs and the observation delay.
+- :func:`built_batch_step` (the machine as built): the delays, the servo lag, each drawn
+  machine's compiled physics, the true measures, the encoders' reading through the nominal
+  model, the reach outputs; :func:`built_mode_batch_step`: the mode change's part after it.
 """
 
 from __future__ import annotations
@@ -59,6 +59,7 @@ from planar3p_gym.tasks.track import RUNNING_SIZE, track_rows
 __all__ = [
     "assembly_batch_step",
     "built_batch_step",
+    "built_mode_batch_step",
     "goal_batch_step",
     "mode_batch_step",
     "reach_batch_step",
@@ -281,8 +282,8 @@ def built_batch_step(
     encoders: bool, rngs: Any, sensing: np.ndarray, leg_1: np.ndarray, dt: float,
     last: np.ndarray, targets: np.ndarray, assembly: np.ndarray, tolerances: np.ndarray,
     weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
-    crossing_fails: bool, low: np.ndarray, high: np.ndarray, obs_delay: np.ndarray,
-    obs_items: np.ndarray, obs_count: np.ndarray,
+    crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
+    obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """One step of the environments ``rows`` of a batch of ``N`` built machines (the reach
     task's hooks on the reference kernel), each as its single environment steps it:
@@ -307,8 +308,9 @@ def built_batch_step(
       errors to ``targets`` ``(N, 3)``, the end (a crossing of ``assembly``, or
       :func:`~planar3p_gym.tasks.observation.within_tolerances` of ``tolerances`` ``(N, 3)``),
       the reward terms (:func:`~planar3p_gym.tasks.rewards.weighted_terms`; the barriers
-      and whether a crossing is a failure are the task's), and the observation delay
-      (``obs_delay``, ``obs_items`` ``(N, MAX_DELAY + 1, D)``, ``obs_count``).
+      and whether a crossing is a failure are the task's), the task's fixed extra entries
+      ``extra`` ``(N, D - 31)`` float32 appended, and the observation delay (``obs_delay``,
+      ``obs_items`` ``(N, MAX_DELAY + 1, D)``, ``obs_count``).
 
     Returns ``(executed (n, 3), impulses (n, 7), states (n, 23), closure (n,), good (n,),
     obs (n, D) float32, delayed (n, D) float32, res (len(RESULT_FIELDS), n), legs (n, 3))``:
@@ -391,7 +393,8 @@ def built_batch_step(
             x[d] = reading[d]
         x[15], x[16], x[17] = targets[i, 0], targets[i, 1], targets[i, 2]
         x[18], x[19], x[20] = seen_parallel, seen_serial, length
-        obs[k] = observation_of(x, low, high)
+        obs[k, :OBS_SIZE] = observation_of(x, low, high)
+        obs[k, OBS_SIZE:] = extra[i]
         pos_err, ang_err = pose_errors(
             targets[i, 0], targets[i, 1], targets[i, 2], st[6], st[7], theta
         )
@@ -418,3 +421,41 @@ def built_batch_step(
         _push(obs_items, obs_count, i, obs_delay[i], obs[k])
         delayed[k] = obs_items[i, 0]
     return executed, impulses, states, closure, good, obs, delayed, res, legs
+
+
+@njit(cache=True)
+def built_mode_batch_step(
+    fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
+    chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
+    action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
+    substeps: int, force_limit: np.ndarray, readouts: np.ndarray, projection: np.ndarray,
+    setpoint_limit: float, applied: np.ndarray, viscous: np.ndarray, log: np.ndarray,
+    logged: np.ndarray, breakdown: float, true_kin: np.ndarray, nominal_kin: np.ndarray,
+    encoders: bool, rngs: Any, sensing: np.ndarray, leg_1: np.ndarray, dt: float,
+    last: np.ndarray, targets: np.ndarray, assembly: np.ndarray, tolerances: np.ndarray,
+    weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
+    crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
+    obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
+    target_modes: np.ndarray,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """:func:`built_batch_step` of the mode-change task (its extra entries in ``extra``),
+    then :func:`~planar3p_gym.tasks.mode_change.mode_change_rows` of its outputs
+    (``target_modes`` ``(N, 3)`` int64: each episode's target working mode; the task's
+    barriers); returns :func:`built_batch_step`'s tuple, its results rejudged."""
+    out = built_batch_step(
+        fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
+        lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
+        viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
+        dt, last, targets, assembly, tolerances, weights, length, parallel_barrier,
+        serial_barrier, crossing_fails, low, high, extra, obs_delay, obs_items, obs_count,
+    )  # fmt: skip
+    executed, states, res = out[0], out[2], out[7]
+    local = np.arange(rows.shape[0])
+    modes = np.empty((rows.shape[0], 3), dtype=np.int64)
+    for k in range(rows.shape[0]):
+        modes[k] = target_modes[rows[k]]
+    mode_change_rows(
+        local, np.ascontiguousarray(states.T), executed, res, modes, weights, length,
+        parallel_barrier, serial_barrier,
+    )  # fmt: skip
+    return out

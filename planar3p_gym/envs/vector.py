@@ -9,12 +9,12 @@ trajectories bit for bit (``tests/envs/test_vector_env.py``):
 - ``batch="numpy"`` (from :data:`NUMPY_BATCH_MIN` envs under ``"auto"``): one compiled call per
   step over the batch (:mod:`planar3p_gym.envs.batch_kernel`: the physics, then the task's
   kernel over the rows) for the reach, goal, tracking, mode- and assembly-change ids, and
-  for the reach task on the machine as built (the built-machine ids);
+  for the reach task and the mode change on the machine as built (the built-machine ids);
 - ``batch="scalar"``: each simulation and the single environment's compiled outputs, written
   into the batch arrays;
-- every other configuration (the mode and assembly changes with their travel term or the
-  built machine's features, ``Discrete(27)`` on-off actions) steps each environment through
-  its own ``step``.
+- every other configuration (the mode and assembly changes with their travel term, the
+  assembly change with the built machine's features, ``Discrete(27)`` on-off actions) steps
+  each environment through its own ``step``.
 
 The single environments' own attributes are brought up to date when :attr:`~Planar3PVectorEnv.envs`
 or :meth:`~Planar3PVectorEnv.get_state` is used; a state that fails the physics-breakdown test
@@ -39,6 +39,7 @@ from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
 from planar3p_gym.envs.batch_kernel import (
     assembly_batch_step,
     built_batch_step,
+    built_mode_batch_step,
     goal_batch_step,
     mode_batch_step,
     reach_batch_step,
@@ -424,17 +425,18 @@ def _batch_mode(env: Planar3PEnv, numpy_batch: bool) -> bool | None:
 
 
 def _built_machine(env: Planar3PEnv) -> bool:
-    """Whether ``env`` is the reach task on the machine as built that :class:`_BuiltCore`
-    steps: the reference kernel of the reach task's own hooks on the projected physics
-    through the compiled steps (viscous friction's too), slider velocities or on-off motors
-    as three commands, no joint-space goal."""
+    """Whether ``env`` is a task on the machine as built that :class:`_BuiltCore` steps: the
+    reference kernel of the reach task's own hooks, or of the mode change's without its
+    travel term, on the projected physics through the compiled steps (viscous friction's
+    too), slider velocities or on-off motors as three commands, no joint-space goal."""
     m, task = env.machine, env.task
+    reach = isinstance(task, ReachTask) and task.own_hooks
+    mode = type(task) is ModeChangeTask and not task.travel_shaping
     return (
         not m.nominal
         and type(env.kernel) is StepKernel
-        and type(env) is Planar3PEnv
-        and isinstance(task, ReachTask)
-        and task.own_hooks
+        and type(env) in (Planar3PEnv, Planar3PModeChangeEnv)
+        and (reach or mode)
         and env.projection
         and not env.travel_goal
         and m.action_type in ("continuous", "on-off")
@@ -934,6 +936,11 @@ class _BuiltCore(_BatchCore):
         self.low = np.ascontiguousarray(s.low, dtype=np.float32)
         self.high = np.ascontiguousarray(s.high, dtype=np.float32)
         self.width = env.observation_space.shape[0]
+        #: Each episode's fixed extra entries of the observation (the mode change's target
+        #: travels and working mode) and its target working mode, with the mode change.
+        self.mode = isinstance(task, ModeChangeTask)
+        self.extra = np.zeros((n, self.width - OBS_SIZE), dtype=np.float32)
+        self.target_modes = np.zeros((n, 3), dtype=np.int64)
         self.nominal_kin = m.kin.consts
         enc = m.encoders
         self.encoders = enc is not None
@@ -1010,6 +1017,9 @@ class _BuiltCore(_BatchCore):
         self.targets[i] = ep.target
         self.assembly[i] = ep.assembly
         self.tolerances[i] = env.task_config.success_tolerances
+        self.extra[i] = ep.obs[OBS_SIZE:]
+        if self.mode:
+            self.target_modes[i] = ep.info["target_working_mode"]
         if self.rngs is None:
             self.rngs = typed.List([env.np_random] * self.venv.num_envs)
         self.rngs[i] = env.np_random
@@ -1119,7 +1129,7 @@ class _BuiltCore(_BatchCore):
                 self._append_commands(i)
             self.log_steps = 0
         self.log_steps += 1
-        executed, impulses, states, closure, good, obs, delayed, res, legs = built_batch_step(
+        args = (
             chipmunk.FUNCTIONS, self.handle_rows, self.push_rows, idx, a, self.action_delay,
             self.action_items, self.action_count, self.vmax, self.lag, self.lagged, self.h,
             self.substeps, self.force_limit, self.buf, self.projection, FOLLOWING_ERROR_LIMIT,
@@ -1127,8 +1137,13 @@ class _BuiltCore(_BatchCore):
             self.nominal_kin, self.encoders, self.rngs, self.sensing, self.leg_1, self.enc_dt,
             self.last_reading, self.targets, self.assembly, self.tolerances, self.weights,
             self.length, self.barriers[0], self.barriers[1], self.crossing_fails, self.low,
-            self.high, self.obs_delay, self.obs_items, self.obs_count,
+            self.high, self.extra, self.obs_delay, self.obs_items, self.obs_count,
         )  # fmt: skip
+        if self.mode:
+            out = built_mode_batch_step(*args, self.target_modes)
+        else:
+            out = built_batch_step(*args)
+        executed, impulses, states, closure, good, obs, delayed, res, legs = out
         bad_rows = np.flatnonzero(~good).tolist()
         for j in bad_rows:  # (their envs brought to their previous step first)
             i = int(idx[j])

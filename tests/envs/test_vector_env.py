@@ -10,7 +10,16 @@ from gymnasium.vector import AutoresetMode
 
 import planar3p_gym
 from planar3p_gym.envs.vector import COMMAND_LOG, INFO_KEYS, NUMPY_BATCH_MIN, Planar3PVectorEnv
+from planar3p_gym.sim.randomization import REALISTIC_RANDOMIZATION
 from planar3p_gym.sim.sensors import REALISTIC_SENSORS
+
+#: The built machine's features (the ids' own: a randomised machine, encoders, one step of
+#: action delay).
+BUILT = {
+    "randomization": REALISTIC_RANDOMIZATION.to_dict(),
+    "sensors": REALISTIC_SENSORS.to_dict(),
+    "latency": {"action_delay": 1},
+}
 
 
 @pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3P-v0"])
@@ -70,13 +79,11 @@ def test_make_vec_gives_the_native_vector_env(env_id):
             "numpy",
         ),
         # The built machine's encoders alone (the nominal machine's physics, no servo lag), and
-        # a task id with the built machine's features (environment by environment).
+        # the mode change with the built machine's features (its batched step), and the
+        # assembly change with them (environment by environment).
         ("Planar3P-v0", {"sensors": REALISTIC_SENSORS.to_dict()}, "numpy"),
-        (
-            "Planar3PModeChange-v0",
-            {"sensors": REALISTIC_SENSORS.to_dict(), "latency": {"action_delay": 1}},
-            "numpy",
-        ),
+        ("Planar3PModeChange-v0", BUILT, "numpy"),
+        ("Planar3PAssemblyChange-v0", BUILT, "numpy"),
     ],
 )
 def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, batch):
@@ -124,11 +131,16 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, ba
 
 
 @pytest.mark.parametrize(
-    ("env_id", "controller"),
-    [("Planar3PModeChange-v0", "planner"), ("Planar3PAssemblyChange-v0", "crossing")],
+    ("env_id", "controller", "kwargs"),
+    [
+        ("Planar3PModeChange-v0", "planner", {}),
+        ("Planar3PAssemblyChange-v0", "crossing", {}),
+        # The mode change on the machine as built: its batched step (_BuiltCore).
+        ("Planar3PModeChange-v0", "planner", BUILT),
+    ],
 )
 def test_the_mode_and_assembly_change_batches_are_their_single_envs_through_successes(
-    env_id, controller
+    env_id, controller, kwargs
 ):
     """The mode and assembly changes' batched step where episodes succeed (the joint-path
     planner or the crossing controller, one per environment, acting on each single env's
@@ -139,11 +151,11 @@ def test_the_mode_and_assembly_change_batches_are_their_single_envs_through_succ
     from planar3p_agents.controllers.planner import JointPathPlanner
 
     n, limit = NUMPY_BATCH_MIN, 300
-    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit)
-    assert venv._core is not None and venv._core.goal is not None
-    shaped = gym.make_vec(env_id, num_envs=n, travel_shaping=0.5)
+    venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit, **kwargs)
+    assert venv._core is not None and (kwargs or venv._core.goal is not None)
+    shaped = gym.make_vec(env_id, num_envs=n, travel_shaping=0.5, **kwargs)
     assert shaped._core is None
-    singles = [gym.make(env_id, max_episode_steps=limit) for _ in range(n)]
+    singles = [gym.make(env_id, max_episode_steps=limit, **kwargs) for _ in range(n)]
     kind = JointPathPlanner if controller == "planner" else CrossingController
     planners = [kind.from_env(env) for env in singles]
     venv.reset(seed=100)
@@ -642,9 +654,16 @@ def test_sb3_adapter_serves_the_goal_ids():
         ("Planar3PReal-v0", {}, True),
         ("Planar3PRealOnOff-v0", {}, True),
         ("Planar3P-v0", {"latency": {"action_delay": 2}}, True),
-        # Not (yet) the batched step: Discrete(27) actions, a task other than the reach task.
+        ("Planar3PModeChange-v0", {"sensors": {"slider_noise": 1e-5}}, True),
+        # Not (yet) the batched step: Discrete(27) actions, the mode change's travel term,
+        # the assembly change.
         ("Planar3PRealOnOff-v0", {"action_type": "on-off-discrete"}, False),
-        ("Planar3PModeChange-v0", {"sensors": {"slider_noise": 1e-5}}, False),
+        (
+            "Planar3PModeChange-v0",
+            {"sensors": {"slider_noise": 1e-5}, "travel_shaping": 0.5},
+            False,
+        ),
+        ("Planar3PAssemblyChange-v0", {"sensors": {"slider_noise": 1e-5}}, False),
     ],
 )
 def test_the_built_machine_takes_the_batched_step(env_id, kwargs, batched):
