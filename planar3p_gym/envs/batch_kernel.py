@@ -1,8 +1,7 @@
 """The native vector env's step of a task in one compiled call.
 
 Each function runs, for the stepped environments of a batch, the same definitions a single
-environment runs, so that a step of the whole batch crosses from Python into compiled code
-once:
+environment runs: a step of the whole batch crosses from Python into compiled code once.
 
 - :func:`reach_batch_step` (the reach task): the compiled control step
   (:func:`planar3p_gym.sim.chipmunk.advance_batch`: pymunk's step through Chipmunk's C API and
@@ -22,7 +21,8 @@ once:
   (:func:`planar3p_gym.tasks.assembly_change.assembly_rows`);
 - :func:`built_batch_step` (the machine as built): the delays, the servo lag, each drawn
   machine's compiled physics, the true measures, the encoders' reading through the nominal
-  model, the reach outputs; :func:`built_mode_batch_step`: the mode change's part after it.
+  model, the reach outputs; :func:`built_mode_batch_step`, :func:`built_assembly_batch_step`:
+  the mode and assembly changes' parts after them.
 """
 
 from __future__ import annotations
@@ -58,6 +58,7 @@ from planar3p_gym.tasks.track import RUNNING_SIZE, track_rows
 
 __all__ = [
     "assembly_batch_step",
+    "built_assembly_batch_step",
     "built_batch_step",
     "built_mode_batch_step",
     "goal_batch_step",
@@ -272,7 +273,7 @@ def _push(items: np.ndarray, count: np.ndarray, i: int, delay: int, item: np.nda
 
 
 @njit(cache=True)
-def built_batch_step(
+def _built_rows(
     fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
     chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
     action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
@@ -283,51 +284,17 @@ def built_batch_step(
     last: np.ndarray, targets: np.ndarray, assembly: np.ndarray, tolerances: np.ndarray,
     weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
     crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
-    obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
-    """One step of the environments ``rows`` of a batch of ``N`` built machines (the reach
-    task's hooks on the reference kernel), each as its single environment steps it:
-
-    - the action delay: each row's ``chosen`` velocities (fractions of ``vmax``, m/s) pushed
-      onto its line (``action_delay``, ``action_items`` ``(N, MAX_DELAY + 1, 3)``,
-      ``action_count``), the executed action the oldest; its drive commands (m/s) logged
-      into ``log`` ``(N, capacity, 3)`` / ``logged`` as :func:`reach_batch_step` logs them;
-    - the servo lag (:func:`~planar3p_gym.sim.dynamics.servo_lag` where ``lag`` is not 1,
-      ``lagged`` ``(N, 3)``) and the drawn machine's physics: its compiled control step
-      (:func:`~planar3p_gym.sim.chipmunk.step_projected`, or with viscous friction
-      ``viscous`` ``(N, 2)`` :func:`~planar3p_gym.sim.chipmunk.step_projected_viscous`
-      through the force requests ``push`` ``(N, 2)`` over ``applied``), with its
-      ``force_limit`` (N s) and ``projection`` constants (``(N, C)``);
-    - where the state is finite and closed within ``breakdown`` (m): the true measures
-      (:func:`~planar3p_gym.machine.scalar_kinematics.configuration_measures` of
-      ``true_kin`` ``(N, 10)``), the encoders' reading (noise drawn from each row's generator
-      in ``rngs`` in the single environment's order, :func:`~planar3p_gym.sim.sensors.
-      read_encoders` with ``sensing``, ``leg_1``, ``dt`` and each row's ``last`` ``(N, 7)``)
-      and the nominal model's measures of it (``nominal_kin``), the observation
-      (:func:`~planar3p_gym.tasks.observation.observation_of`, bounds ``low``, ``high``), the
-      errors to ``targets`` ``(N, 3)``, the end (a crossing of ``assembly``, or
-      :func:`~planar3p_gym.tasks.observation.within_tolerances` of ``tolerances`` ``(N, 3)``),
-      the reward terms (:func:`~planar3p_gym.tasks.rewards.weighted_terms`; the barriers
-      and whether a crossing is a failure are the task's), the task's fixed extra entries
-      ``extra`` ``(N, D - 31)`` float32 appended, and the observation delay (``obs_delay``,
-      ``obs_items`` ``(N, MAX_DELAY + 1, D)``, ``obs_count``).
-
-    Returns ``(executed (n, 3), impulses (n, 7), states (n, 23), closure (n,), good (n,),
-    obs (n, D) float32, delayed (n, D) float32, res (len(RESULT_FIELDS), n), legs (n, 3))``:
-    the executed actions, the servos' impulses (N s; the 7th 1.0 after a recovered step), the
-    projected states (theta not wrapped) and closure errors (m), whether the physics held
-    (else nothing of the row past the physics was computed and no noise drawn), the
-    observations before and after the delay, :data:`~planar3p_gym.tasks.reach_step.
-    RESULT_FIELDS` and the true leg angles (rad)."""
+    """:func:`built_batch_step` without the observation delay; returns its tuple without
+    ``delayed``."""
     n = rows.shape[0]
-    width = obs_items.shape[2]
+    width = OBS_SIZE + extra.shape[1]
     executed = np.empty((n, 3))
     impulses = np.zeros((n, 7))
     states = np.empty((n, 23))
     closure = np.empty(n)
     good = np.zeros(n, dtype=np.bool_)
     obs = np.zeros((n, width), dtype=np.float32)
-    delayed = np.zeros((n, width), dtype=np.float32)
     res = np.zeros((_RESULTS, n))
     legs = np.zeros((n, 3))
     noise = np.zeros(7)
@@ -418,9 +385,83 @@ def built_batch_step(
             res[TERMS_START + t, k] = terms[t]
         res[0, k], res[1, k], res[2, k], res[3, k] = total, reason, pos_err, ang_err
         res[4, k], res[5, k], res[6, k] = parallel, serial, sign
-        _push(obs_items, obs_count, i, obs_delay[i], obs[k])
-        delayed[k] = obs_items[i, 0]
+    return executed, impulses, states, closure, good, obs, res, legs
+
+
+@njit(cache=True)
+def built_batch_step(
+    fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
+    chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
+    action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
+    substeps: int, force_limit: np.ndarray, readouts: np.ndarray, projection: np.ndarray,
+    setpoint_limit: float, applied: np.ndarray, viscous: np.ndarray, log: np.ndarray,
+    logged: np.ndarray, breakdown: float, true_kin: np.ndarray, nominal_kin: np.ndarray,
+    encoders: bool, rngs: Any, sensing: np.ndarray, leg_1: np.ndarray, dt: float,
+    last: np.ndarray, targets: np.ndarray, assembly: np.ndarray, tolerances: np.ndarray,
+    weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
+    crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
+    obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """One step of the environments ``rows`` of a batch of ``N`` built machines (the reach
+    task's hooks on the reference kernel), each as its single environment steps it:
+
+    - the action delay: each row's ``chosen`` velocities (fractions of ``vmax``, m/s) pushed
+      onto its line (``action_delay``, ``action_items`` ``(N, MAX_DELAY + 1, 3)``,
+      ``action_count``), the executed action the oldest; its drive commands (m/s) logged
+      into ``log`` ``(N, capacity, 3)`` / ``logged`` as :func:`reach_batch_step` logs them;
+    - the servo lag (:func:`~planar3p_gym.sim.dynamics.servo_lag` where ``lag`` is not 1,
+      ``lagged`` ``(N, 3)``) and the drawn machine's physics: its compiled control step
+      (:func:`~planar3p_gym.sim.chipmunk.step_projected`, or with viscous friction
+      ``viscous`` ``(N, 2)`` :func:`~planar3p_gym.sim.chipmunk.step_projected_viscous`
+      through the force requests ``push`` ``(N, 2)`` over ``applied``), with its
+      ``force_limit`` (N s) and ``projection`` constants (``(N, C)``);
+    - where the state is finite and closed within ``breakdown`` (m): the true measures
+      (:func:`~planar3p_gym.machine.scalar_kinematics.configuration_measures` of
+      ``true_kin`` ``(N, 10)``), the encoders' reading (noise drawn from each row's generator
+      in ``rngs`` in the single environment's order, :func:`~planar3p_gym.sim.sensors.
+      read_encoders` with ``sensing``, ``leg_1``, ``dt`` and each row's ``last`` ``(N, 7)``)
+      and the nominal model's measures of it (``nominal_kin``), the observation
+      (:func:`~planar3p_gym.tasks.observation.observation_of`, bounds ``low``, ``high``), the
+      errors to ``targets`` ``(N, 3)``, the end (a crossing of ``assembly``, or
+      :func:`~planar3p_gym.tasks.observation.within_tolerances` of ``tolerances`` ``(N, 3)``),
+      the reward terms (:func:`~planar3p_gym.tasks.rewards.weighted_terms`; the barriers
+      and whether a crossing is a failure are the task's), the task's fixed extra entries
+      ``extra`` ``(N, D - 31)`` float32 appended, and the observation delay (``obs_delay``,
+      ``obs_items`` ``(N, MAX_DELAY + 1, D)``, ``obs_count``).
+
+    Returns ``(executed (n, 3), impulses (n, 7), states (n, 23), closure (n,), good (n,),
+    obs (n, D) float32, delayed (n, D) float32, res (len(RESULT_FIELDS), n), legs (n, 3))``:
+    the executed actions, the servos' impulses (N s; the 7th 1.0 after a recovered step), the
+    projected states (theta not wrapped) and closure errors (m), whether the physics held
+    (else nothing of the row past the physics was computed and no noise drawn), the
+    observations before and after the delay, :data:`~planar3p_gym.tasks.reach_step.
+    RESULT_FIELDS` and the true leg angles (rad)."""
+    executed, impulses, states, closure, good, obs, res, legs = _built_rows(
+        fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
+        lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
+        viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
+        dt, last, targets, assembly, tolerances, weights, length, parallel_barrier,
+        serial_barrier, crossing_fails, low, high, extra,
+    )  # fmt: skip
+    delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
     return executed, impulses, states, closure, good, obs, delayed, res, legs
+
+
+@njit(cache=True)
+def _delay_rows(
+    rows: np.ndarray, good: np.ndarray, obs: np.ndarray, obs_delay: np.ndarray,
+    obs_items: np.ndarray, obs_count: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """The observation delay of the rows whose physics held: each of ``obs`` pushed onto its
+    environment's line (:func:`_push`); returns the observations the policy gets (float32,
+    zeros for the other rows)."""
+    delayed = np.zeros(obs.shape, dtype=np.float32)
+    for k in range(rows.shape[0]):
+        if good[k]:
+            i = rows[k]
+            _push(obs_items, obs_count, i, obs_delay[i], obs[k])
+            delayed[k] = obs_items[i, 0]
+    return delayed
 
 
 @njit(cache=True)
@@ -442,20 +483,74 @@ def built_mode_batch_step(
     then :func:`~planar3p_gym.tasks.mode_change.mode_change_rows` of its outputs
     (``target_modes`` ``(N, 3)`` int64: each episode's target working mode; the task's
     barriers); returns :func:`built_batch_step`'s tuple, its results rejudged."""
-    out = built_batch_step(
+    executed, impulses, states, closure, good, obs, res, legs = _built_rows(
         fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
         lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
         viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
         dt, last, targets, assembly, tolerances, weights, length, parallel_barrier,
-        serial_barrier, crossing_fails, low, high, extra, obs_delay, obs_items, obs_count,
+        serial_barrier, crossing_fails, low, high, extra,
     )  # fmt: skip
-    executed, states, res = out[0], out[2], out[7]
-    local = np.arange(rows.shape[0])
-    modes = np.empty((rows.shape[0], 3), dtype=np.int64)
-    for k in range(rows.shape[0]):
+    n = rows.shape[0]
+    local = np.arange(n)
+    modes = np.empty((n, 3), dtype=np.int64)
+    for k in range(n):
         modes[k] = target_modes[rows[k]]
     mode_change_rows(
         local, np.ascontiguousarray(states.T), executed, res, modes, weights, length,
         parallel_barrier, serial_barrier,
     )  # fmt: skip
-    return out
+    delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+    return executed, impulses, states, closure, good, obs, delayed, res, legs
+
+
+@njit(cache=True)
+def built_assembly_batch_step(
+    fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
+    chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
+    action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
+    substeps: int, force_limit: np.ndarray, readouts: np.ndarray, projection: np.ndarray,
+    setpoint_limit: float, applied: np.ndarray, viscous: np.ndarray, log: np.ndarray,
+    logged: np.ndarray, breakdown: float, true_kin: np.ndarray, nominal_kin: np.ndarray,
+    encoders: bool, rngs: Any, sensing: np.ndarray, leg_1: np.ndarray, dt: float,
+    last: np.ndarray, targets: np.ndarray, assembly: np.ndarray, tolerances: np.ndarray,
+    weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
+    crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
+    obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
+    target_assembly: np.ndarray, last_sign: np.ndarray, crossings: np.ndarray,
+    signed_low: float, signed_high: float,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """:func:`built_batch_step` of the assembly-change task (its fixed extra entries in
+    ``extra``), with :func:`~planar3p_gym.tasks.assembly_change.assembly_rows` of its outputs
+    before the observation delay (``target_assembly``, ``last_sign``, ``crossings``: ``(N,)``
+    int64, each episode's target assembly mode and crossing count before the step; the
+    signed margin entry, the observation's last, and its bounds); returns
+    :func:`built_batch_step`'s tuple (its results rejudged), then the rows' ``(last sign,
+    crossings)`` after the step ``(2, n)`` int64 (of the rows whose physics held)."""
+    executed, impulses, states, closure, good, obs, res, legs = _built_rows(
+        fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
+        lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
+        viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
+        dt, last, targets, assembly, tolerances, weights, length, parallel_barrier,
+        serial_barrier, crossing_fails, low, high, extra,
+    )  # fmt: skip
+    n = rows.shape[0]
+    local = np.arange(n)
+    target = np.empty(n, dtype=np.int64)
+    sign = np.empty(n, dtype=np.int64)
+    count = np.empty(n, dtype=np.int64)
+    tol = np.empty((n, 3))
+    for k in range(n):
+        i = rows[k]
+        target[k], sign[k], count[k] = target_assembly[i], last_sign[i], crossings[i]
+        tol[k] = tolerances[i]
+    signed = np.empty(n, dtype=np.float32)
+    counts = np.empty((2, n), dtype=np.int64)
+    assembly_rows(
+        local, np.ascontiguousarray(states.T), executed, res, target, sign, count, tol,
+        weights, length, serial_barrier, signed_low, signed_high, signed, counts,
+    )  # fmt: skip
+    width = obs.shape[1]
+    for k in range(n):
+        obs[k, width - 1] = signed[k]
+    delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+    return executed, impulses, states, closure, good, obs, delayed, res, legs, counts

@@ -9,12 +9,11 @@ trajectories bit for bit (``tests/envs/test_vector_env.py``):
 - ``batch="numpy"`` (from :data:`NUMPY_BATCH_MIN` envs under ``"auto"``): one compiled call per
   step over the batch (:mod:`planar3p_gym.envs.batch_kernel`: the physics, then the task's
   kernel over the rows) for the reach, goal, tracking, mode- and assembly-change ids, and
-  for the reach task and the mode change on the machine as built (the built-machine ids);
+  for the reach task and the mode and assembly changes on the machine as built;
 - ``batch="scalar"``: each simulation and the single environment's compiled outputs, written
   into the batch arrays;
-- every other configuration (the mode and assembly changes with their travel term, the
-  assembly change with the built machine's features, ``Discrete(27)`` on-off actions) steps
-  each environment through its own ``step``.
+- every other configuration (the mode and assembly changes with their travel term,
+  ``Discrete(27)`` on-off actions) steps each environment through its own ``step``.
 
 The single environments' own attributes are brought up to date when :attr:`~Planar3PVectorEnv.envs`
 or :meth:`~Planar3PVectorEnv.get_state` is used; a state that fails the physics-breakdown test
@@ -38,6 +37,7 @@ from planar3p_gym.envs.actuation import on_off_actions
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
 from planar3p_gym.envs.batch_kernel import (
     assembly_batch_step,
+    built_assembly_batch_step,
     built_batch_step,
     built_mode_batch_step,
     goal_batch_step,
@@ -426,17 +426,17 @@ def _batch_mode(env: Planar3PEnv, numpy_batch: bool) -> bool | None:
 
 def _built_machine(env: Planar3PEnv) -> bool:
     """Whether ``env`` is a task on the machine as built that :class:`_BuiltCore` steps: the
-    reference kernel of the reach task's own hooks, or of the mode change's without its
-    travel term, on the projected physics through the compiled steps (viscous friction's
+    reference kernel of the reach task's own hooks, or of the mode or assembly change's
+    without the travel term, on the projected physics through the compiled steps (viscous friction's
     too), slider velocities or on-off motors as three commands, no joint-space goal."""
     m, task = env.machine, env.task
     reach = isinstance(task, ReachTask) and task.own_hooks
-    mode = type(task) is ModeChangeTask and not task.travel_shaping
+    change = type(task) in (ModeChangeTask, AssemblyChangeTask) and not task.travel_shaping
     return (
         not m.nominal
         and type(env.kernel) is StepKernel
-        and type(env) in (Planar3PEnv, Planar3PModeChangeEnv)
-        and (reach or mode)
+        and type(env) in (Planar3PEnv, Planar3PModeChangeEnv, Planar3PAssemblyChangeEnv)
+        and (reach or change)
         and env.projection
         and not env.travel_goal
         and m.action_type in ("continuous", "on-off")
@@ -941,6 +941,15 @@ class _BuiltCore(_BatchCore):
         self.mode = isinstance(task, ModeChangeTask)
         self.extra = np.zeros((n, self.width - OBS_SIZE), dtype=np.float32)
         self.target_modes = np.zeros((n, 3), dtype=np.int64)
+        #: With the assembly change: each episode's target assembly mode and crossing count,
+        #: and the signed margin entry's bounds.
+        self.assembly_change = isinstance(task, AssemblyChangeTask)
+        self.target_assembly = np.zeros(n, dtype=np.int64)
+        self.last_sign = np.zeros(n, dtype=np.int64)
+        self.crossings = np.zeros(n, dtype=np.int64)
+        self.signed_bounds = (float(s.extra_low[-1]), float(s.extra_high[-1])) if (
+            self.assembly_change
+        ) else (0.0, 0.0)  # fmt: skip
         self.nominal_kin = m.kin.consts
         enc = m.encoders
         self.encoders = enc is not None
@@ -1020,6 +1029,11 @@ class _BuiltCore(_BatchCore):
         self.extra[i] = ep.obs[OBS_SIZE:]
         if self.mode:
             self.target_modes[i] = ep.info["target_working_mode"]
+        if self.assembly_change:
+            task = env.task
+            self.target_assembly[i] = ep.info["target_assembly"]
+            self.last_sign[i] = task.last_sign  # type: ignore[attr-defined]
+            self.crossings[i] = task.crossings  # type: ignore[attr-defined]
         if self.rngs is None:
             self.rngs = typed.List([env.np_random] * self.venv.num_envs)
         self.rngs[i] = env.np_random
@@ -1103,6 +1117,9 @@ class _BuiltCore(_BatchCore):
         ep.obs = last["obs"][j].copy()
         ep.measures = measures
         ep.info = env.kernel.info(ep, state, measures, reason, terms, reason == "success", errors)
+        if self.assembly_change:  # (the task's crossing count, which its metrics read)
+            env.task.last_sign = int(self.last_sign[i])  # type: ignore[attr-defined]
+            env.task.crossings = int(self.crossings[i])  # type: ignore[attr-defined]
         ep.info.update(env.task.step_info(ep.steps, state, errors))
         self.pending[i] = False
 
@@ -1141,6 +1158,14 @@ class _BuiltCore(_BatchCore):
         )  # fmt: skip
         if self.mode:
             out = built_mode_batch_step(*args, self.target_modes)
+        elif self.assembly_change:
+            *out, counts = built_assembly_batch_step(
+                *args, self.target_assembly, self.last_sign, self.crossings,
+                *self.signed_bounds,
+            )  # fmt: skip
+            kept = idx[out[4]]
+            self.last_sign[kept] = counts[0, out[4]]
+            self.crossings[kept] = counts[1, out[4]]
         else:
             out = built_batch_step(*args)
         executed, impulses, states, closure, good, obs, delayed, res, legs = out

@@ -79,8 +79,7 @@ def test_make_vec_gives_the_native_vector_env(env_id):
             "numpy",
         ),
         # The built machine's encoders alone (the nominal machine's physics, no servo lag), and
-        # the mode change with the built machine's features (its batched step), and the
-        # assembly change with them (environment by environment).
+        # the mode and assembly changes with the built machine's features.
         ("Planar3P-v0", {"sensors": REALISTIC_SENSORS.to_dict()}, "numpy"),
         ("Planar3PModeChange-v0", BUILT, "numpy"),
         ("Planar3PAssemblyChange-v0", BUILT, "numpy"),
@@ -135,8 +134,9 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, ba
     [
         ("Planar3PModeChange-v0", "planner", {}),
         ("Planar3PAssemblyChange-v0", "crossing", {}),
-        # The mode change on the machine as built: its batched step (_BuiltCore).
+        # The mode and assembly changes on the machine as built: its batched step.
         ("Planar3PModeChange-v0", "planner", BUILT),
+        ("Planar3PAssemblyChange-v0", "crossing", BUILT),
     ],
 )
 def test_the_mode_and_assembly_change_batches_are_their_single_envs_through_successes(
@@ -188,7 +188,8 @@ def test_the_mode_and_assembly_change_batches_are_their_single_envs_through_succ
             assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr)
             for key in INFO_KEYS:
                 assert infos[key][i] == info[key], key
-    assert successes >= 2
+    # (the crossing controller on the machine as built succeeds once in these 200 steps)
+    assert successes >= (1 if kwargs and controller == "crossing" else 2)
     if env_id == "Planar3PAssemblyChange-v0":
         assert max(env.episode.info["crossings"] for env in venv.envs) >= 1
     for env, single in zip(venv.envs, singles, strict=True):
@@ -655,15 +656,14 @@ def test_sb3_adapter_serves_the_goal_ids():
         ("Planar3PRealOnOff-v0", {}, True),
         ("Planar3P-v0", {"latency": {"action_delay": 2}}, True),
         ("Planar3PModeChange-v0", {"sensors": {"slider_noise": 1e-5}}, True),
-        # Not (yet) the batched step: Discrete(27) actions, the mode change's travel term,
-        # the assembly change.
+        ("Planar3PAssemblyChange-v0", {"sensors": {"slider_noise": 1e-5}}, True),
+        # Not (yet) the batched step: Discrete(27) actions, the travel term.
         ("Planar3PRealOnOff-v0", {"action_type": "on-off-discrete"}, False),
         (
             "Planar3PModeChange-v0",
             {"sensors": {"slider_noise": 1e-5}, "travel_shaping": 0.5},
             False,
         ),
-        ("Planar3PAssemblyChange-v0", {"sensors": {"slider_noise": 1e-5}}, False),
     ],
 )
 def test_the_built_machine_takes_the_batched_step(env_id, kwargs, batched):
