@@ -45,8 +45,10 @@ __all__ = [
     "ON_OFF_SPEED",
     "BuiltMachine",
     "MachineEpisode",
+    "discrete_digits",
     "keys_to_action",
     "on_off_action",
+    "on_off_actions",
 ]
 
 #: The action types of :class:`BuiltMachine`: slider velocities, or the prototype's on-off
@@ -76,6 +78,32 @@ KEYBOARD_KEYS = (("q", "a"), ("w", "s"), ("e", "d"))
 KEYBOARD_SPEED = 0.5
 
 
+def discrete_digits(n: Any) -> tuple[Any, Any, Any]:
+    """The three motor commands' values (``{0, 1, 2}``, slider 1 first) of a ``Discrete(27)``
+    index ``n`` (its base-3 digits): of an integer, or elementwise of an integer array."""
+    return n // 9, (n // 3) % 3, n % 3
+
+
+def on_off_actions(actions: np.ndarray, action_type: str, speed: float) -> np.ndarray:
+    """The chosen slider velocities (fractions of ``max_speed``, ``(n, 3)`` float64) of a batch
+    of on-off ``actions`` (the motor values ``(n, 3)``, or ``(n,)`` ``Discrete(27)`` indices),
+    each the command :func:`on_off_action` gives times the motors' ``speed``; ``ValueError``
+    (the single env's message for the first bad action) unless every action is one
+    :func:`on_off_action` accepts."""
+    arr = np.asarray(actions)
+    if action_type == "on-off-discrete":
+        ok = arr.ndim == 1 and np.isin(arr, np.arange(27)).all()
+        digits = np.stack(discrete_digits(arr.astype(np.int64)), axis=1) if ok else None
+    else:
+        ok = arr.ndim == 2 and arr.shape[1] == 3 and np.isin(arr, (0, 1, 2)).all()
+        digits = arr.astype(np.int64) if ok else None
+    if digits is None:
+        for row in arr if arr.ndim >= 1 else [arr]:
+            on_off_action(row, action_type)  # (the single env's message for the first bad one)
+        raise ValueError(f"actions must be a batch of {action_type} actions, got shape {arr.shape}")
+    return np.asarray(ON_OFF_COMMANDS)[digits] * speed
+
+
 def on_off_action(action: Any, action_type: str) -> tuple[float, float, float]:
     """The motor commands (-1, 0 or 1, :data:`ON_OFF_COMMANDS`) of an on-off action: three
     integers in ``{0, 1, 2}`` for ``"on-off"``, one integer in ``[0, 27)`` for
@@ -90,7 +118,7 @@ def on_off_action(action: Any, action_type: str) -> tuple[float, float, float]:
             n = int(f)  # an integral float, as for the three commands
         if n is None or not 0 <= n < 27:
             raise ValueError(f"action must be an integer in [0, 27), got {checks.short(action)}")
-        digits = (n // 9, (n // 3) % 3, n % 3)
+        digits = discrete_digits(n)
     else:
         arr = checks.real_array(action)
         if arr is None or arr.shape != (3,) or not all(v in (0, 1, 2) for v in arr.tolist()):
@@ -188,7 +216,8 @@ class BuiltMachine:
         self.design = design
         #: The nominal model (the encoders' readings are measured through it).
         self.kin = ScalarKinematics(design)
-        self._encoders = None if sensors is None else Encoders(design, sensors, dt)
+        #: The encoders (``None``: the policy observes the true state).
+        self.encoders = None if sensors is None else Encoders(design, sensors, dt)
         #: Whether every feature is off (the identity: the nominal machine).
         self.nominal = (
             self.randomization is None
@@ -229,8 +258,8 @@ class BuiltMachine:
             ep.delays = self.latency.sample(rng)
         ep.action_line = DelayLine(ep.delays[0], (0.0, 0.0, 0.0))
         ep.obs_line = DelayLine(ep.delays[1], None)
-        if self._encoders is not None:
-            self._encoders.reset()
+        if self.encoders is not None:
+            self.encoders.reset()
 
     def first_observation(self, obs: np.ndarray) -> None:
         """Fill the observation delay line with the reset's observation."""
@@ -307,9 +336,9 @@ class BuiltMachine:
         """What the policy observes of the true ``state`` (with its true ``measures``): the
         encoders' reading (noise from ``rng``) and the nominal model's measures at it; the
         true state itself without encoders."""
-        if self._encoders is None:
+        if self.encoders is None:
             return state, measures
-        seen = self._encoders.measure(state, rng)
+        seen = self.encoders.measure(state, rng)
         return seen, self.kin.measures(seen.pose, seen.rho)
 
     def delay(self, obs: np.ndarray) -> np.ndarray:
@@ -334,11 +363,11 @@ class BuiltMachine:
     def get_state(self) -> MachineEpisode:
         """A deep copy of the per-episode record (the encoders' state in it)."""
         ep = copy.deepcopy(self.episode)
-        ep.encoders = None if self._encoders is None else self._encoders.get_state()
+        ep.encoders = None if self.encoders is None else self.encoders.get_state()
         return ep
 
     def set_state(self, state: MachineEpisode) -> None:
         """Restore a :meth:`get_state` record."""
         self.episode = copy.deepcopy(state)
-        if self._encoders is not None:
-            self._encoders.set_state(state.encoders)
+        if self.encoders is not None:
+            self.encoders.set_state(state.encoders)

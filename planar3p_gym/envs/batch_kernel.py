@@ -1,8 +1,7 @@
 """The native vector env's step of a task in one compiled call.
 
 Each function runs, for the stepped environments of a batch, the same definitions a single
-environment runs, so that a step of the whole batch crosses from Python into compiled code
-once:
+environment runs: a step of the whole batch crosses from Python into compiled code once.
 
 - :func:`reach_batch_step` (the reach task): the compiled control step
   (:func:`planar3p_gym.sim.chipmunk.advance_batch`: pymunk's step through Chipmunk's C API and
@@ -19,24 +18,49 @@ once:
 - :func:`assembly_batch_step` (the assembly-change task): that step, then the signed parallel
   margin entry, the crossings counted, the success test in the target's assembly mode and the
   reward terms without the parallel barrier
-  (:func:`planar3p_gym.tasks.assembly_change.assembly_rows`).
+  (:func:`planar3p_gym.tasks.assembly_change.assembly_rows`);
+- :func:`built_batch_step` (the machine as built): the delays, the servo lag, each drawn
+  machine's compiled physics, the true measures, the encoders' reading through the nominal
+  model, the reach outputs; :func:`built_mode_batch_step`, :func:`built_assembly_batch_step`:
+  the mode and assembly changes' parts after them.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numba import njit
 
-from planar3p_gym.sim.chipmunk import advance_batch
+from planar3p_gym.machine.angles import wrap_angle
+from planar3p_gym.machine.scalar_kinematics import configuration_measures
+from planar3p_gym.sim.chipmunk import advance_batch, step_projected, step_projected_viscous
+from planar3p_gym.sim.dynamics import servo_lag
+from planar3p_gym.sim.physics import state_finite
+from planar3p_gym.sim.sensors import READING_SIZE, read_encoders
 from planar3p_gym.tasks.assembly_change import assembly_rows
 from planar3p_gym.tasks.goal import goal_rows
 from planar3p_gym.tasks.mode_change import mode_change_rows
-from planar3p_gym.tasks.observation import OBS_SIZE
-from planar3p_gym.tasks.reach_step import RESULT_FIELDS, TOLERANCES, reach_outputs_batch
+from planar3p_gym.tasks.observation import (
+    OBS_SIZE,
+    observation_of,
+    pose_errors,
+    within_tolerances,
+)
+from planar3p_gym.tasks.reach_step import (
+    RESULT_FIELDS,
+    TERMS_START,
+    TOLERANCES,
+    reach_outputs_batch,
+)
+from planar3p_gym.tasks.rewards import weighted_terms
 from planar3p_gym.tasks.track import RUNNING_SIZE, track_rows
 
 __all__ = [
     "assembly_batch_step",
+    "built_assembly_batch_step",
+    "built_batch_step",
+    "built_mode_batch_step",
     "goal_batch_step",
     "mode_batch_step",
     "reach_batch_step",
@@ -232,3 +256,301 @@ def assembly_batch_step(
         serial_barrier, signed_low, signed_high, signed, counts,
     )  # fmt: skip
     return (*out, signed, counts)
+
+
+@njit(cache=True)
+def _push(items: np.ndarray, count: np.ndarray, i: int, delay: int, item: np.ndarray) -> None:
+    """:meth:`planar3p_gym.envs.latency.DelayLine.push` of ``item`` onto environment ``i``'s
+    line (``items[i]``: ``(delay + 1, m)``, oldest first, ``count[i]`` of them): the oldest
+    dropped when the line is full; the item ``delay`` pushes old is then ``items[i, 0]``."""
+    c = count[i]
+    if c == delay + 1:
+        for q in range(c - 1):
+            items[i, q] = items[i, q + 1]
+        c -= 1
+    items[i, c] = item
+    count[i] = c + 1
+
+
+@njit(cache=True)
+def _built_rows(
+    fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
+    chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
+    action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
+    substeps: int, force_limit: np.ndarray, readouts: np.ndarray, projection: np.ndarray,
+    setpoint_limit: float, applied: np.ndarray, viscous: np.ndarray, log: np.ndarray,
+    logged: np.ndarray, breakdown: float, true_kin: np.ndarray, nominal_kin: np.ndarray,
+    encoders: bool, rngs: Any, sensing: np.ndarray, leg_1: np.ndarray, dt: float,
+    last: np.ndarray, targets: np.ndarray, assembly: np.ndarray, tolerances: np.ndarray,
+    weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
+    crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """:func:`built_batch_step` without the observation delay; returns its tuple without
+    ``delayed``."""
+    n = rows.shape[0]
+    width = OBS_SIZE + extra.shape[1]
+    executed = np.empty((n, 3))
+    impulses = np.zeros((n, 7))
+    states = np.empty((n, 23))
+    closure = np.empty(n)
+    good = np.zeros(n, dtype=np.bool_)
+    obs = np.zeros((n, width), dtype=np.float32)
+    res = np.zeros((_RESULTS, n))
+    legs = np.zeros((n, 3))
+    noise = np.zeros(7)
+    reading = np.empty(READING_SIZE)
+    x = np.empty(21)
+    rate = np.empty(3)
+    for k in range(n):
+        i = rows[k]
+        _push(action_items, action_count, i, action_delay[i], chosen[i])
+        for d in range(3):
+            executed[k, d] = action_items[i, 0, d]
+            log[i, logged[i], d] = executed[k, d] * vmax
+        logged[i] += 1
+        v0, v1, v2 = log[i, logged[i] - 1, 0], log[i, logged[i] - 1, 1], log[i, logged[i] - 1, 2]
+        if lag[i] != 1.0:
+            v0, v1, v2 = servo_lag(lagged[i], lag[i], v0, v1, v2)
+        if viscous[i, 0] > 0.0 or viscous[i, 1] > 0.0:
+            st, err = step_projected_viscous(
+                fns, handles[i], push[i], v0, v1, v2, h, substeps, force_limit[i], readouts[i],
+                projection[i], setpoint_limit, impulses[k], applied[i], viscous[i, 0],
+                viscous[i, 1],
+            )  # fmt: skip
+        else:
+            st, err = step_projected(
+                fns, handles[i], v0, v1, v2, h, substeps, force_limit[i], readouts[i],
+                projection[i], setpoint_limit, impulses[k],
+            )  # fmt: skip
+        states[k] = st
+        closure[k] = err
+        theta = wrap_angle(st[8])
+        finite = state_finite(
+            st[0], st[1], st[2], st[3], st[4], st[5], st[6], st[7], theta, st[9], st[10],
+            st[11], st[12], st[13], st[14], err,
+        )  # fmt: skip
+        if not finite or err > breakdown:
+            continue
+        good[k] = True
+        parallel, serial, sign, a1, a2, a3 = configuration_measures(
+            st[6], st[7], theta, st[0], st[1], st[2], true_kin[i]
+        )
+        legs[k, 0], legs[k, 1], legs[k, 2] = a1, a2, a3
+        for d in range(15):
+            reading[d] = st[d]
+        reading[8] = theta
+        seen_parallel, seen_serial = parallel, serial
+        if encoders:
+            rng = rngs[i]
+            for d in range(3):
+                if sensing[0] > 0.0:
+                    noise[d] = rng.normal(0.0, sensing[0])
+            for d in range(3, 7):
+                if sensing[2] > 0.0:
+                    noise[d] = rng.normal(0.0, sensing[2])
+            read_encoders(
+                st[0:3], st[12:15], reading[6:9].copy(), noise, sensing, leg_1, dt, last[i],
+                reading,
+            )  # fmt: skip
+            seen_parallel, seen_serial, _, _, _, _ = configuration_measures(
+                reading[6], reading[7], reading[8], reading[0], reading[1], reading[2],
+                nominal_kin,
+            )  # fmt: skip
+        for d in range(15):
+            x[d] = reading[d]
+        x[15], x[16], x[17] = targets[i, 0], targets[i, 1], targets[i, 2]
+        x[18], x[19], x[20] = seen_parallel, seen_serial, length
+        obs[k, :OBS_SIZE] = observation_of(x, low, high)
+        obs[k, OBS_SIZE:] = extra[i]
+        pos_err, ang_err = pose_errors(
+            targets[i, 0], targets[i, 1], targets[i, 2], st[6], st[7], theta
+        )
+        reason = 0
+        if sign == -assembly[i]:
+            reason = 2
+        else:
+            rate[0], rate[1], rate[2] = st[3], st[4], st[5]
+            if within_tolerances(
+                pos_err, ang_err, rate, tolerances[i, 0], tolerances[i, 1], tolerances[i, 2]
+            ):
+                reason = 1
+        terms = weighted_terms(
+            weights, pos_err, ang_err, length, parallel if parallel_barrier else 1.0,
+            serial if serial_barrier else 1.0, executed[k, 0], executed[k, 1], executed[k, 2],
+            reason == 1, reason == 2 and crossing_fails,
+        )  # fmt: skip
+        total = 0.0
+        for t in range(6):
+            total += terms[t]
+            res[TERMS_START + t, k] = terms[t]
+        res[0, k], res[1, k], res[2, k], res[3, k] = total, reason, pos_err, ang_err
+        res[4, k], res[5, k], res[6, k] = parallel, serial, sign
+    return executed, impulses, states, closure, good, obs, res, legs
+
+
+@njit(cache=True)
+def built_batch_step(
+    fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
+    chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
+    action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
+    substeps: int, force_limit: np.ndarray, readouts: np.ndarray, projection: np.ndarray,
+    setpoint_limit: float, applied: np.ndarray, viscous: np.ndarray, log: np.ndarray,
+    logged: np.ndarray, breakdown: float, true_kin: np.ndarray, nominal_kin: np.ndarray,
+    encoders: bool, rngs: Any, sensing: np.ndarray, leg_1: np.ndarray, dt: float,
+    last: np.ndarray, targets: np.ndarray, assembly: np.ndarray, tolerances: np.ndarray,
+    weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
+    crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
+    obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """One step of the environments ``rows`` of a batch of ``N`` built machines (the reach
+    task's hooks on the reference kernel), each as its single environment steps it:
+
+    - the action delay: each row's ``chosen`` velocities (fractions of ``vmax``, m/s) pushed
+      onto its line (``action_delay``, ``action_items`` ``(N, MAX_DELAY + 1, 3)``,
+      ``action_count``), the executed action the oldest; its drive commands (m/s) logged
+      into ``log`` ``(N, capacity, 3)`` / ``logged`` as :func:`reach_batch_step` logs them;
+    - the servo lag (:func:`~planar3p_gym.sim.dynamics.servo_lag` where ``lag`` is not 1,
+      ``lagged`` ``(N, 3)``) and the drawn machine's physics: its compiled control step
+      (:func:`~planar3p_gym.sim.chipmunk.step_projected`, or with viscous friction
+      ``viscous`` ``(N, 2)`` :func:`~planar3p_gym.sim.chipmunk.step_projected_viscous`
+      through the force requests ``push`` ``(N, 2)`` over ``applied``), with its
+      ``force_limit`` (N s) and ``projection`` constants (``(N, C)``);
+    - where the state is finite and closed within ``breakdown`` (m): the true measures
+      (:func:`~planar3p_gym.machine.scalar_kinematics.configuration_measures` of
+      ``true_kin`` ``(N, 10)``), the encoders' reading (noise drawn from each row's generator
+      in ``rngs`` in the single environment's order, :func:`~planar3p_gym.sim.sensors.
+      read_encoders` with ``sensing``, ``leg_1``, ``dt`` and each row's ``last`` ``(N, 7)``)
+      and the nominal model's measures of it (``nominal_kin``), the observation
+      (:func:`~planar3p_gym.tasks.observation.observation_of`, bounds ``low``, ``high``), the
+      errors to ``targets`` ``(N, 3)``, the end (a crossing of ``assembly``, or
+      :func:`~planar3p_gym.tasks.observation.within_tolerances` of ``tolerances`` ``(N, 3)``),
+      the reward terms (:func:`~planar3p_gym.tasks.rewards.weighted_terms`; the barriers
+      and whether a crossing is a failure are the task's), the task's fixed extra entries
+      ``extra`` ``(N, D - 31)`` float32 appended, and the observation delay (``obs_delay``,
+      ``obs_items`` ``(N, MAX_DELAY + 1, D)``, ``obs_count``).
+
+    Returns ``(executed (n, 3), impulses (n, 7), states (n, 23), closure (n,), good (n,),
+    obs (n, D) float32, delayed (n, D) float32, res (len(RESULT_FIELDS), n), legs (n, 3))``:
+    the executed actions, the servos' impulses (N s; the 7th 1.0 after a recovered step), the
+    projected states (theta not wrapped) and closure errors (m), whether the physics held
+    (else nothing of the row past the physics was computed and no noise drawn), the
+    observations before and after the delay, :data:`~planar3p_gym.tasks.reach_step.
+    RESULT_FIELDS` and the true leg angles (rad)."""
+    executed, impulses, states, closure, good, obs, res, legs = _built_rows(
+        fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
+        lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
+        viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
+        dt, last, targets, assembly, tolerances, weights, length, parallel_barrier,
+        serial_barrier, crossing_fails, low, high, extra,
+    )  # fmt: skip
+    delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+    return executed, impulses, states, closure, good, obs, delayed, res, legs
+
+
+@njit(cache=True)
+def _delay_rows(
+    rows: np.ndarray, good: np.ndarray, obs: np.ndarray, obs_delay: np.ndarray,
+    obs_items: np.ndarray, obs_count: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """The observation delay of the rows whose physics held: each of ``obs`` pushed onto its
+    environment's line (:func:`_push`); returns the observations the policy gets (float32,
+    zeros for the other rows)."""
+    delayed = np.zeros(obs.shape, dtype=np.float32)
+    for k in range(rows.shape[0]):
+        if good[k]:
+            i = rows[k]
+            _push(obs_items, obs_count, i, obs_delay[i], obs[k])
+            delayed[k] = obs_items[i, 0]
+    return delayed
+
+
+@njit(cache=True)
+def built_mode_batch_step(
+    fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
+    chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
+    action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
+    substeps: int, force_limit: np.ndarray, readouts: np.ndarray, projection: np.ndarray,
+    setpoint_limit: float, applied: np.ndarray, viscous: np.ndarray, log: np.ndarray,
+    logged: np.ndarray, breakdown: float, true_kin: np.ndarray, nominal_kin: np.ndarray,
+    encoders: bool, rngs: Any, sensing: np.ndarray, leg_1: np.ndarray, dt: float,
+    last: np.ndarray, targets: np.ndarray, assembly: np.ndarray, tolerances: np.ndarray,
+    weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
+    crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
+    obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
+    target_modes: np.ndarray,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """:func:`built_batch_step` of the mode-change task (its extra entries in ``extra``),
+    then :func:`~planar3p_gym.tasks.mode_change.mode_change_rows` of its outputs
+    (``target_modes`` ``(N, 3)`` int64: each episode's target working mode; the task's
+    barriers); returns :func:`built_batch_step`'s tuple, its results rejudged."""
+    executed, impulses, states, closure, good, obs, res, legs = _built_rows(
+        fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
+        lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
+        viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
+        dt, last, targets, assembly, tolerances, weights, length, parallel_barrier,
+        serial_barrier, crossing_fails, low, high, extra,
+    )  # fmt: skip
+    n = rows.shape[0]
+    local = np.arange(n)
+    modes = np.empty((n, 3), dtype=np.int64)
+    for k in range(n):
+        modes[k] = target_modes[rows[k]]
+    mode_change_rows(
+        local, np.ascontiguousarray(states.T), executed, res, modes, weights, length,
+        parallel_barrier, serial_barrier,
+    )  # fmt: skip
+    delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+    return executed, impulses, states, closure, good, obs, delayed, res, legs
+
+
+@njit(cache=True)
+def built_assembly_batch_step(
+    fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
+    chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
+    action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
+    substeps: int, force_limit: np.ndarray, readouts: np.ndarray, projection: np.ndarray,
+    setpoint_limit: float, applied: np.ndarray, viscous: np.ndarray, log: np.ndarray,
+    logged: np.ndarray, breakdown: float, true_kin: np.ndarray, nominal_kin: np.ndarray,
+    encoders: bool, rngs: Any, sensing: np.ndarray, leg_1: np.ndarray, dt: float,
+    last: np.ndarray, targets: np.ndarray, assembly: np.ndarray, tolerances: np.ndarray,
+    weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
+    crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
+    obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
+    target_assembly: np.ndarray, last_sign: np.ndarray, crossings: np.ndarray,
+    signed_low: float, signed_high: float,
+) -> tuple[np.ndarray, ...]:  # fmt: skip
+    """:func:`built_batch_step` of the assembly-change task (its fixed extra entries in
+    ``extra``), with :func:`~planar3p_gym.tasks.assembly_change.assembly_rows` of its outputs
+    before the observation delay (``target_assembly``, ``last_sign``, ``crossings``: ``(N,)``
+    int64, each episode's target assembly mode and crossing count before the step; the
+    signed margin entry, the observation's last, and its bounds); returns
+    :func:`built_batch_step`'s tuple (its results rejudged), then the rows' ``(last sign,
+    crossings)`` after the step ``(2, n)`` int64 (of the rows whose physics held)."""
+    executed, impulses, states, closure, good, obs, res, legs = _built_rows(
+        fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
+        lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
+        viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
+        dt, last, targets, assembly, tolerances, weights, length, parallel_barrier,
+        serial_barrier, crossing_fails, low, high, extra,
+    )  # fmt: skip
+    n = rows.shape[0]
+    local = np.arange(n)
+    target = np.empty(n, dtype=np.int64)
+    sign = np.empty(n, dtype=np.int64)
+    count = np.empty(n, dtype=np.int64)
+    tol = np.empty((n, 3))
+    for k in range(n):
+        i = rows[k]
+        target[k], sign[k], count[k] = target_assembly[i], last_sign[i], crossings[i]
+        tol[k] = tolerances[i]
+    signed = np.empty(n, dtype=np.float32)
+    counts = np.empty((2, n), dtype=np.int64)
+    assembly_rows(
+        local, np.ascontiguousarray(states.T), executed, res, target, sign, count, tol,
+        weights, length, serial_barrier, signed_low, signed_high, signed, counts,
+    )  # fmt: skip
+    width = obs.shape[1]
+    for k in range(n):
+        obs[k, width - 1] = signed[k]
+    delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+    return executed, impulses, states, closure, good, obs, delayed, res, legs, counts

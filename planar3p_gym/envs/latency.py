@@ -90,6 +90,17 @@ class DelayLine:
         self._items.append(item)
         return self._items[0]
 
+    @property
+    def items(self) -> list[Any]:
+        """The items held, oldest first (``delay`` of them, or ``delay + 1`` after a push: the
+        oldest is the one the last push returned)."""
+        return list(self._items)
+
+    @items.setter
+    def items(self, values: list[Any]) -> None:
+        self._items.clear()
+        self._items.extend(values)
+
 
 #: The latency of ``Planar3PReal-v0``: one control step between an action and its execution.
 REALISTIC_LATENCY = LatencyConfig(action_delay=1, observation_delay=0)

@@ -8,11 +8,12 @@ trajectories bit for bit (``tests/envs/test_vector_env.py``):
 
 - ``batch="numpy"`` (from :data:`NUMPY_BATCH_MIN` envs under ``"auto"``): one compiled call per
   step over the batch (:mod:`planar3p_gym.envs.batch_kernel`: the physics, then the task's
-  kernel over the rows) for the reach, goal, tracking, mode- and assembly-change ids;
+  kernel over the rows) for the reach, goal, tracking, mode- and assembly-change ids, and
+  for the reach task and the mode and assembly changes on the machine as built;
 - ``batch="scalar"``: each simulation and the single environment's compiled outputs, written
   into the batch arrays;
-- every other configuration (the built machine's ids, the mode and assembly changes with their
-  travel term) steps each environment through its own ``step``.
+- every other configuration (the mode and assembly changes with their travel term,
+  ``Discrete(27)`` on-off actions) steps each environment through its own ``step``.
 
 The single environments' own attributes are brought up to date when :attr:`~Planar3PVectorEnv.envs`
 or :meth:`~Planar3PVectorEnv.get_state` is used; a state that fails the physics-breakdown test
@@ -29,11 +30,16 @@ import gymnasium as gym
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, create_empty_array
+from numba import typed
 
 from planar3p_gym import checks
+from planar3p_gym.envs.actuation import on_off_actions
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
 from planar3p_gym.envs.batch_kernel import (
     assembly_batch_step,
+    built_assembly_batch_step,
+    built_batch_step,
+    built_mode_batch_step,
     goal_batch_step,
     mode_batch_step,
     reach_batch_step,
@@ -41,18 +47,22 @@ from planar3p_gym.envs.batch_kernel import (
 )
 from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.envs.goal import Planar3PGoalEnv, goal_observation
+from planar3p_gym.envs.latency import MAX_DELAY
 from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
 from planar3p_gym.envs.track import Planar3PTrackEnv
+from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim import chipmunk, physics
 from planar3p_gym.sim.batch_step import BatchState
 from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, SimState
+from planar3p_gym.sim.sensors import LAST_SIZE, Encoders
 from planar3p_gym.tasks import sampling as task_module
 from planar3p_gym.tasks.assembly_change import AssemblyChangeTask
 from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS, GoalKernel, goal_bounds
-from planar3p_gym.tasks.kernel import HookKernel, ReachKernel
+from planar3p_gym.tasks.kernel import HookKernel, ReachKernel, StepKernel
 from planar3p_gym.tasks.mode_change import ModeChangeTask
 from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
+from planar3p_gym.tasks.reach import ReachTask
 from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, BatchReach
 from planar3p_gym.tasks.rewards import TERM_NAMES
 from planar3p_gym.tasks.sampling import TaskConfig
@@ -110,8 +120,8 @@ class Planar3PVectorEnv(VectorEnv):
             per environment, then the projection and the outputs in compiled loops over the
             batch; the name is historical) or ``"auto"`` (``"numpy"`` from
             :data:`NUMPY_BATCH_MIN` environments); the same numbers either way.  The task
-            ids take ``"numpy"`` too (``"scalar"``: environment by environment); the built
-            machine's ids always step environment by environment.
+            ids and the built machine's ids take ``"numpy"`` too (``"scalar"``: environment
+            by environment).
         autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default, Gymnasium's) or
             ``AutoresetMode.SAME_STEP`` (an ended episode is reset within the same step: its
             last observation is in ``info["final_obs"]``, its last info entries in
@@ -185,7 +195,7 @@ class Planar3PVectorEnv(VectorEnv):
         #: mode (``True``: numpy over the batch); the batched step's C handles are rebuilt
         #: from it when the vector env is unpickled.
         self._numpy_batch: bool | None = _batch_mode(first, numpy_batch)
-        self._core = None if self._numpy_batch is None else _BatchCore(self, self._numpy_batch)
+        self._core = _core(self, self._numpy_batch)
 
     @property
     def envs(self) -> list[Planar3PEnv]:
@@ -353,6 +363,8 @@ class Planar3PVectorEnv(VectorEnv):
         new = task_module.updated_config(self._envs[0].task_config, changes)
         for env in self._envs:
             env.set_task_config(changes)
+        if self._core is not None:
+            self._core.config_changed()
         return new
 
     def get_state(self) -> dict[str, Any]:
@@ -388,8 +400,8 @@ class Planar3PVectorEnv(VectorEnv):
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
-        if self._numpy_batch is not None:
-            self._core = _BatchCore(self, self._numpy_batch)
+        self._core = _core(self, self._numpy_batch)
+        if self._core is not None:
             for i, env in enumerate(self._envs):
                 if _has_sim(env):
                     self._core.load(i)
@@ -407,7 +419,39 @@ def _batch_mode(env: Planar3PEnv, numpy_batch: bool) -> bool | None:
         return True
     if numpy_batch and _hook_rows(env) is not None:
         return True
+    if numpy_batch and _built_machine(env):
+        return True
     return None
+
+
+def _built_machine(env: Planar3PEnv) -> bool:
+    """Whether ``env`` is a task on the machine as built that :class:`_BuiltCore` steps: the
+    reference kernel of the reach task's own hooks, or of the mode or assembly change's
+    without the travel term, on the projected physics through the compiled steps (viscous friction's
+    too), slider velocities or on-off motors as three commands, no joint-space goal."""
+    m, task = env.machine, env.task
+    reach = isinstance(task, ReachTask) and task.own_hooks
+    change = type(task) in (ModeChangeTask, AssemblyChangeTask) and not task.travel_shaping
+    return (
+        not m.nominal
+        and type(env.kernel) is StepKernel
+        and type(env) in (Planar3PEnv, Planar3PModeChangeEnv, Planar3PAssemblyChangeEnv)
+        and (reach or change)
+        and env.projection
+        and not env.travel_goal
+        and m.action_type in ("continuous", "on-off")
+        and physics.Planar3PSim.use_compiled_viscous
+        and chipmunk.AVAILABLE
+    )
+
+
+def _core(venv: Planar3PVectorEnv, mode: bool | None) -> _BatchCore | None:
+    """The batched step of ``venv`` in ``mode`` (:func:`_batch_mode`; None: none)."""
+    if mode is None:
+        return None
+    if _built_machine(venv._envs[0]):
+        return _BuiltCore(venv)
+    return _BatchCore(venv, mode)
 
 
 def _hook_rows(env: Planar3PEnv) -> type | None:
@@ -610,8 +654,7 @@ class _BatchCore:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         venv = self.venv
         n = venv.num_envs
-        a = np.minimum(a, 1.0)  # (a new array: the caller's actions are left alone)
-        np.maximum(a, -1.0, out=a)
+        a = self._actions(a)
         resetting = np.flatnonzero(venv._autoreset).tolist()  # the environments reset now
         idx = np.flatnonzero(~venv._autoreset)  # the environments stepped
         rewards = np.zeros(n)
@@ -622,10 +665,8 @@ class _BatchCore:
             key: np.zeros(n, dtype=_DTYPES.get(key, np.float64)) for key in keys
         }
         info["termination_reason"][:] = None
-        if idx.size and self.numpy:
-            self._outputs(a, idx, rewards, terminated, info, self._physics(a, idx))
-        elif idx.size:
-            self._scalar(a, idx.tolist(), rewards, terminated, info)
+        if idx.size:
+            self._advance(a, idx, rewards, terminated, info)
         limit = venv.max_episode_steps if venv.max_episode_steps is not None else -1
         if limit > 0:
             truncated[idx] = venv._elapsed[idx] >= limit
@@ -652,6 +693,30 @@ class _BatchCore:
         else:
             venv._autoreset[:] = done
         return venv._observations(), rewards, terminated, truncated, out
+
+    def _actions(self, a: np.ndarray) -> np.ndarray:
+        """The batch's actions ``a`` (checked, ``(N, 3)``) clipped to ``[-1, 1]``."""
+        a = np.minimum(a, 1.0)  # (a new array: the caller's actions are left alone)
+        np.maximum(a, -1.0, out=a)
+        return a
+
+    def _advance(
+        self,
+        a: np.ndarray,
+        idx: np.ndarray,
+        rewards: np.ndarray,
+        terminated: np.ndarray,
+        info: dict[str, Any],
+    ) -> None:
+        """Step the environments ``idx`` (not empty) with the actions ``a``: their outputs
+        into ``rewards``, ``terminated``, ``info`` and the batch's observations."""
+        if self.numpy:
+            self._outputs(a, idx, rewards, terminated, info, self._physics(a, idx))
+        else:
+            self._scalar(a, idx.tolist(), rewards, terminated, info)
+
+    def config_changed(self) -> None:
+        """The environments' task configs changed (the reach kernel shares its tolerances)."""
 
     def _observation(self, i: int) -> Any:
         """A copy of environment ``i``'s observation in the batch."""
@@ -837,6 +902,321 @@ class _BatchCore:
                 info[key][i] = inf[key]
             chipmunk.write_bodies(chipmunk.FUNCTIONS, self.handle_rows[i])
             self._append_commands(i)  # (no sync follows: the record takes this step's now)
+            self.pending[i] = False
+
+
+class _BuiltCore(_BatchCore):
+    """The batched step of the reach task on the machine as built (:func:`_built_machine`):
+    :func:`~planar3p_gym.envs.batch_kernel.built_batch_step` over the batch, with each
+    environment's drawn machine (its physics' numbers, its true kinematics), its delay lines,
+    its encoders' last reading and its generator (for the encoders' noise) kept in batch
+    arrays, taken from the single environment at its reset and given back by :meth:`sync`.
+    The per-episode draw stays the single environment's reset.  Between steps the
+    simulations' pymunk bodies are their own (the compiled step reads and writes them)."""
+
+    def __init__(self, venv: Planar3PVectorEnv) -> None:
+        self.venv = venv
+        self.numpy = True
+        n = venv.num_envs
+        env = venv._envs[0]
+        m = env.machine
+        self.dt, self.substeps = env.dt, env.substeps
+        self.h = env.dt / env.substeps
+        self.vmax = env.design.max_speed
+        self.scale = 1.0 / (self.substeps * self.h)
+        self.breakdown = env.breakdown_distance
+        self.info_keys = venv.info_keys
+        self.action_type, self.on_off_speed = m.action_type, m.on_off_speed
+        task = env.task
+        self.weights = env.reward_weights.as_array()
+        self.length = env.design.characteristic_length
+        self.barriers = (bool(task.parallel_barrier), bool(task.serial_barrier))
+        self.crossing_fails = "singularity_crossing" in task.failure_reasons
+        s = env.kernel.settings
+        self.low = np.ascontiguousarray(s.low, dtype=np.float32)
+        self.high = np.ascontiguousarray(s.high, dtype=np.float32)
+        self.width = env.observation_space.shape[0]
+        #: Each episode's fixed extra entries of the observation (the mode change's target
+        #: travels and working mode) and its target working mode, with the mode change.
+        self.mode = isinstance(task, ModeChangeTask)
+        self.extra = np.zeros((n, self.width - OBS_SIZE), dtype=np.float32)
+        self.target_modes = np.zeros((n, 3), dtype=np.int64)
+        #: With the assembly change: each episode's target assembly mode and crossing count,
+        #: and the signed margin entry's bounds.
+        self.assembly_change = isinstance(task, AssemblyChangeTask)
+        self.target_assembly = np.zeros(n, dtype=np.int64)
+        self.last_sign = np.zeros(n, dtype=np.int64)
+        self.crossings = np.zeros(n, dtype=np.int64)
+        self.signed_bounds = (float(s.extra_low[-1]), float(s.extra_high[-1])) if (
+            self.assembly_change
+        ) else (0.0, 0.0)  # fmt: skip
+        self.nominal_kin = m.kin.consts
+        enc = m.encoders
+        self.encoders = enc is not None
+        self.sensing = np.zeros(4) if enc is None else enc.config.as_array()
+        self.leg_1 = np.zeros(3) if enc is None else enc.leg_1
+        self.enc_dt = env.dt if enc is None else enc.dt
+        # Each environment's row of the bodies' numbers and its force request (viscous
+        # friction), over memory of this batch, and the handles over them.
+        self.buf = np.zeros((n, _ROW))
+        self.reads = [chipmunk.body_readout(row) for row in self.buf]
+        self.forces_buf = np.zeros((n, 36))
+        self.pushes = [chipmunk.body_readout(row, forces=True) for row in self.forces_buf]
+        self.push_rows = np.array(
+            [[chipmunk.address(p.request), chipmunk.address(p.array)] for p in self.pushes],
+            dtype=np.uintp,
+        ).reshape(n, 2)
+        self.handle_rows = np.zeros((n, len(chipmunk.HANDLE_FIELDS)), dtype=np.uintp)
+        self.commands: list[Any] = [None] * n  # each simulation's record of commands
+        self.log = np.empty((n, COMMAND_LOG, 3))
+        self.logged = np.zeros(n, dtype=np.int64)
+        self.log_steps = 0
+        self.time = np.zeros(n)
+        self.projection: np.ndarray | None = None  # (N, C): each machine's projector constants
+        self.force_limit = np.zeros(n)
+        self.lag = np.ones(n)
+        self.lagged = np.zeros((n, 3))
+        self.viscous = np.zeros((n, 2))
+        self.true_kin = np.zeros((n, 10))
+        self.last_reading = np.zeros((n, LAST_SIZE))
+        self.targets = np.zeros((n, 3))
+        self.assembly = np.zeros(n, dtype=np.int64)
+        self.tolerances = np.zeros((n, 3))
+        self.action_delay = np.zeros(n, dtype=np.int64)
+        self.action_items = np.zeros((n, MAX_DELAY + 1, 3))
+        self.action_count = np.zeros(n, dtype=np.int64)
+        self.obs_delay = np.zeros(n, dtype=np.int64)
+        self.obs_items = np.zeros((n, MAX_DELAY + 1, self.width), dtype=np.float32)
+        self.obs_count = np.zeros(n, dtype=np.int64)
+        #: Each environment's generator (its ``np_random``), for the encoders' noise (made at
+        #: the first :meth:`load`, once there are generators).
+        self.rngs: Any = None
+        self.pending = np.zeros(n, dtype=np.bool_)
+        self.last: dict[str, Any] | None = None
+
+    # ------------------------------------------------------------------ env <-> batch
+    def load(self, i: int) -> None:
+        """Take environment ``i``'s state (after a reset or a restored snapshot): its
+        simulation's handles and machine, its episode, its delay lines and encoders."""
+        env = self.venv._envs[i]
+        link = env.sim.batch_link()
+        if link is None:
+            raise RuntimeError("the batched step needs pymunk's batch API (Planar3PSim.batch_link)")
+        if self.projection is None:
+            self.projection = np.zeros((self.venv.num_envs, link.projection.shape[0]))
+        self.projection[i] = link.projection
+        self.handle_rows[i] = chipmunk.handle_row(link.space, link.servos, self.reads[i])
+        self.commands[i] = link.commands
+        self.logged[i] = 0
+        self.time[i] = link.time
+        self.force_limit[i] = link.force_limit
+        self.lag[i] = link.lag
+        self.lagged[i] = link.lagged
+        self.viscous[i] = link.viscous
+        m = env.machine
+        me = m.episode
+        self.true_kin[i] = me.true_kin.consts
+        if m.encoders is not None:
+            self.last_reading[i] = m.encoders.last_array()
+        self._load_line(i, me.action_line, self.action_items, self.action_count)
+        self.action_delay[i] = me.delays[0]
+        self._load_line(i, me.obs_line, self.obs_items, self.obs_count)
+        self.obs_delay[i] = me.delays[1]
+        ep = env.episode
+        self.targets[i] = ep.target
+        self.assembly[i] = ep.assembly
+        self.tolerances[i] = env.task_config.success_tolerances
+        self.extra[i] = ep.obs[OBS_SIZE:]
+        if self.mode:
+            self.target_modes[i] = ep.info["target_working_mode"]
+        if self.assembly_change:
+            task = env.task
+            self.target_assembly[i] = ep.info["target_assembly"]
+            self.last_sign[i] = task.last_sign  # type: ignore[attr-defined]
+            self.crossings[i] = task.crossings  # type: ignore[attr-defined]
+        if self.rngs is None:
+            self.rngs = typed.List([env.np_random] * self.venv.num_envs)
+        self.rngs[i] = env.np_random
+        self.pending[i] = False
+
+    @staticmethod
+    def _load_line(i: int, line: Any, items: np.ndarray, count: np.ndarray) -> None:
+        held = line.items
+        count[i] = len(held)
+        for q, item in enumerate(held):
+            items[i, q] = item
+
+    def config_changed(self) -> None:
+        for i, env in enumerate(self.venv._envs):
+            self.tolerances[i] = env.task_config.success_tolerances
+
+    def _append_commands(self, i: int) -> None:
+        count = int(self.logged[i])
+        if count:
+            self.commands[i].extend(self.log[i, :count].ravel().tolist())
+            self.logged[i] = 0
+
+    def _state(self, i: int, st: np.ndarray, closure: float, impulses: np.ndarray) -> SimState:
+        """Environment ``i``'s simulation state of the projected state ``st`` (theta not
+        wrapped), ``closure`` and the servos' ``impulses``, as its simulation gives it."""
+        s = st.tolist()
+        f0, f1, f2, m0, m1, m2 = impulses[:6].tolist()
+        scale, limit = self.scale, float(self.force_limit[i])
+        return SimState(
+            float(self.time[i]),
+            (s[0], s[1], s[2]),
+            (s[3], s[4], s[5]),
+            (s[6], s[7], wrap_angle(s[8])),
+            (s[9], s[10], s[11]),
+            (s[12], s[13], s[14]),
+            (f0 * scale, f1 * scale, f2 * scale),
+            (m0 >= limit, m1 >= limit, m2 >= limit),
+            float(closure),
+        )
+
+    def _adopt(self, i: int, state: SimState, st: np.ndarray) -> None:
+        """Give environment ``i``'s simulation ``state`` (of the projected ``st``)."""
+        setpoints = (float(self.buf[i, 12]), float(self.buf[i, 30]), float(self.buf[i, 48]))
+        geometry = tuple(st[15:23].tolist())
+        lagged = tuple(self.lagged[i].tolist())
+        self.venv._envs[i].sim.adopt_state(state, setpoints, geometry, lagged, st.copy())
+
+    def _give_machine(self, i: int) -> None:
+        """Give environment ``i`` its delay lines and its encoders' last reading."""
+        m = self.venv._envs[i].machine
+        me = m.episode
+        c = int(self.action_count[i])
+        me.action_line.items = [tuple(v) for v in self.action_items[i, :c].tolist()]
+        c = int(self.obs_count[i])
+        me.obs_line.items = [self.obs_items[i, q].copy() for q in range(c)]
+        if m.encoders is not None:
+            m.encoders.set_state(Encoders.last_of(self.last_reading[i]))
+
+    def sync(self, i: int, bodies: bool = True) -> None:
+        """Write the last batched step's results into environment ``i`` (its simulation's
+        state, the episode's observation, measures and info, its machine's lines and
+        encoders)."""
+        env = self.venv._envs[i]
+        self._append_commands(i)
+        last = self.last
+        assert last is not None
+        j = int(last["row"][i])
+        st = last["states"][j]
+        state = self._state(i, st, last["closure"][j], last["impulses"][j])
+        self._adopt(i, state, st)
+        self._give_machine(i)
+        res = last["res"][:, j].tolist()
+        legs = last["legs"][j].tolist()
+        measures = ConfigurationMeasures(res[4], res[5], int(res[6]), (legs[0], legs[1], legs[2]))
+        reason = REASONS[int(res[1])]
+        terms = dict(zip(TERM_NAMES, res[TERMS_START:], strict=True))
+        errors = (res[2], res[3])
+        ep = env.episode
+        ep.steps = int(self.venv._elapsed[i])
+        ep.target = env.task.reference(ep.steps)
+        ep.obs = last["obs"][j].copy()
+        ep.measures = measures
+        ep.info = env.kernel.info(ep, state, measures, reason, terms, reason == "success", errors)
+        if self.assembly_change:  # (the task's crossing count, which its metrics read)
+            env.task.last_sign = int(self.last_sign[i])  # type: ignore[attr-defined]
+            env.task.crossings = int(self.crossings[i])  # type: ignore[attr-defined]
+        ep.info.update(env.task.step_info(ep.steps, state, errors))
+        self.pending[i] = False
+
+    # ------------------------------------------------------------------ stepping
+    def _actions(self, a: np.ndarray) -> np.ndarray:
+        """The chosen slider velocities (fractions of ``max_speed``) of the checked actions
+        ``a``: clipped, or the on-off motors' commands (``ValueError`` before anything
+        changes for values that are not motor commands)."""
+        if self.action_type == "continuous":
+            return super()._actions(a)
+        return on_off_actions(a, self.action_type, self.on_off_speed)
+
+    def _advance(
+        self,
+        a: np.ndarray,
+        idx: np.ndarray,
+        rewards: np.ndarray,
+        terminated: np.ndarray,
+        info: dict[str, Any],
+    ) -> None:
+        venv = self.venv
+        if self.log_steps == COMMAND_LOG:  # (every log has room for the step after this)
+            for i in np.flatnonzero(self.logged).tolist():
+                self._append_commands(i)
+            self.log_steps = 0
+        self.log_steps += 1
+        args = (
+            chipmunk.FUNCTIONS, self.handle_rows, self.push_rows, idx, a, self.action_delay,
+            self.action_items, self.action_count, self.vmax, self.lag, self.lagged, self.h,
+            self.substeps, self.force_limit, self.buf, self.projection, FOLLOWING_ERROR_LIMIT,
+            self.forces_buf, self.viscous, self.log, self.logged, self.breakdown, self.true_kin,
+            self.nominal_kin, self.encoders, self.rngs, self.sensing, self.leg_1, self.enc_dt,
+            self.last_reading, self.targets, self.assembly, self.tolerances, self.weights,
+            self.length, self.barriers[0], self.barriers[1], self.crossing_fails, self.low,
+            self.high, self.extra, self.obs_delay, self.obs_items, self.obs_count,
+        )  # fmt: skip
+        if self.mode:
+            out = built_mode_batch_step(*args, self.target_modes)
+        elif self.assembly_change:
+            *out, counts = built_assembly_batch_step(
+                *args, self.target_assembly, self.last_sign, self.crossings,
+                *self.signed_bounds,
+            )  # fmt: skip
+            kept = idx[out[4]]
+            self.last_sign[kept] = counts[0, out[4]]
+            self.crossings[kept] = counts[1, out[4]]
+        else:
+            out = built_batch_step(*args)
+        executed, impulses, states, closure, good, obs, delayed, res, legs = out
+        bad_rows = np.flatnonzero(~good).tolist()
+        for j in bad_rows:  # (their envs brought to their previous step first)
+            i = int(idx[j])
+            if self.pending[i]:
+                self.sync(i)
+        venv._elapsed[idx] += 1
+        self.time[idx] += self.dt
+        sel = slice(None) if len(idx) == len(rewards) else idx  # (every env: no gather)
+        reason = res[1].astype(np.int64)
+        venv._obs[sel] = delayed
+        rewards[sel] = res[0]
+        terminated[sel] = reason > 0
+        info["is_success"][sel] = reason == 1
+        info["termination_reason"][sel] = _REASONS[reason]
+        info["position_error"][sel] = res[2]
+        info["orientation_error"][sel] = res[3]
+        info["parallel_margin"][sel] = res[4]
+        info["serial_margin"][sel] = res[5]
+        info["assembly_mode"][sel] = res[6].astype(np.int64)
+        info["closure_error"][sel] = closure
+        self.last = {
+            "row": self._rows(idx),
+            "states": states,
+            "closure": closure,
+            "impulses": impulses,
+            "obs": obs,
+            "res": res,
+            "legs": legs,
+        }
+        self.pending[sel] = True
+        for j in bad_rows:  # the reference kernel on the state just computed, as the single env
+            i = int(idx[j])
+            env = venv._envs[i]
+            state = self._state(i, states[j], closure[j], impulses[j])
+            self._adopt(i, state, states[j])
+            self._append_commands(i)
+            self._give_machine(i)
+            ep = env.episode
+            ep.steps = int(venv._elapsed[i])
+            action = tuple(executed[j].tolist())
+            ob, r, why, inf = env.kernel.step(ep, state, None, action, env.np_random)
+            venv._obs[i] = env.machine.delay(ob.copy())
+            me = env.machine.episode
+            self._load_line(i, me.obs_line, self.obs_items, self.obs_count)
+            rewards[i] = r
+            terminated[i] = why is not None
+            for key in self.info_keys:
+                info[key][i] = inf[key]
             self.pending[i] = False
 
 

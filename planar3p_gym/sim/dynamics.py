@@ -13,10 +13,33 @@ import math
 from dataclasses import dataclass, fields
 from typing import Any
 
+import numpy as np
+from numba import njit
+
 from planar3p_gym import checks
 from planar3p_gym.machine.design import Design
 
-__all__ = ["IDEAL", "MachineDynamics", "smallest_leg_inertia", "viscous_step_limits"]
+__all__ = [
+    "IDEAL",
+    "MachineDynamics",
+    "servo_lag",
+    "smallest_leg_inertia",
+    "viscous_step_limits",
+]
+
+
+@njit(cache=True)
+def servo_lag(
+    lagged: np.ndarray, f: float, v0: float, v1: float, v2: float
+) -> tuple[float, float, float]:
+    """The servo setpoint velocities (m/s) of one control step of a first-order lag: each of
+    ``lagged`` (3, the last step's, updated here) moved the share ``f``
+    (:meth:`MachineDynamics.lag_factor`) of the way to the commands ``v0, v1, v2`` (m/s)."""
+    lagged[0] = lagged[0] + f * (v0 - lagged[0])
+    lagged[1] = lagged[1] + f * (v1 - lagged[1])
+    lagged[2] = lagged[2] + f * (v2 - lagged[2])
+    return lagged[0], lagged[1], lagged[2]
+
 
 #: Largest tilt of the base accepted (rad): beyond a quarter turn "down" is no longer ``-y``.
 MAX_TILT = 0.5 * math.pi

@@ -24,6 +24,7 @@ from typing import Any, ClassVar, NamedTuple
 
 import numpy as np
 import pymunk
+from numba import njit
 from numpy.typing import ArrayLike
 
 from planar3p_gym.machine import kinematics
@@ -31,7 +32,9 @@ from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
 from planar3p_gym.sim import chipmunk, recovery
 from planar3p_gym.sim.dynamics import (
+    IDEAL,
     MachineDynamics,
+    servo_lag,
     smallest_leg_inertia,
     viscous_step_limits,
 )
@@ -49,6 +52,7 @@ __all__ = [
     "Planar3PSim",
     "SimSnapshot",
     "SimState",
+    "state_finite",
 ]
 
 try:  # Direct Chipmunk calls skip pymunk's per-call Python bookkeeping (the hot loop's cost).
@@ -141,6 +145,20 @@ SERVO_CORRECTION_SPEED = 0.02
 FOLLOWING_ERROR_LIMIT = 0.001
 
 
+@njit(cache=True)
+def state_finite(
+    r1: float, r2: float, r3: float, d1: float, d2: float, d3: float, x: float, y: float,
+    th: float, vx: float, vy: float, w: float, a1: float, a2: float, a3: float, closure: float,
+) -> bool:  # fmt: skip
+    """Whether every number of a state (:class:`SimState`'s travels, rates, pose, twist, leg
+    angles and closure error, in that order) is finite: the one test, for a state and for a
+    batch of them."""
+    # A NaN or inf anywhere makes the sum non-finite (inf - inf is NaN).
+    return math.isfinite(
+        r1 + r2 + r3 + d1 + d2 + d3 + x + y + th + vx + vy + w + a1 + a2 + a3 + closure
+    )
+
+
 class SimState(NamedTuple):
     """A readout of the full simulated state (SI units).
 
@@ -172,13 +190,11 @@ class SimState(NamedTuple):
     @property
     def finite(self) -> bool:
         """True when every number of the state is finite."""
-        # A NaN or inf anywhere makes the sum non-finite (inf - inf is NaN).
         (r1, r2, r3), (d1, d2, d3), (x, y, th) = self.rho, self.rho_dot, self.pose
         (vx, vy, w), (a1, a2, a3) = self.twist, self.leg_angles
-        return math.isfinite(
-            r1 + r2 + r3 + d1 + d2 + d3 + x + y + th + vx + vy + w + a1 + a2 + a3
-            + self.closure_error
-        )  # fmt: skip
+        return state_finite(
+            r1, r2, r3, d1, d2, d3, x, y, th, vx, vy, w, a1, a2, a3, self.closure_error
+        )
 
 
 @dataclass(frozen=True)
@@ -337,6 +353,10 @@ class BatchLink(NamedTuple):
     commands: list  #: the drive commands of every step (m/s, flattened); a batch appends its own
     projection: np.ndarray  #: the projector's constants
     time: float  #: simulated time (s)
+    force_limit: float  #: the servo impulse counted as saturated (N s)
+    lag: float  #: the servo lag's share of a step (:meth:`MachineDynamics.lag_factor`; 1: none)
+    lagged: tuple[float, float, float]  #: the lagged servo setpoint velocities (m/s)
+    viscous: tuple[float, float]  #: the slider (N s/m) and joint (N m s/rad) viscous friction
 
 
 class CompiledStep(NamedTuple):
@@ -439,7 +459,7 @@ class Planar3PSim:
         self.dynamics: MachineDynamics | None = None
         self._use_machine(design, dyn)
         #: Servo setpoint velocities after the servo lag (m/s), with a lag only.
-        self._lagged = [0.0, 0.0, 0.0]
+        self._lagged = np.zeros(3)
         self._origin = (
             (float(p[0]), float(p[1]), float(p[2])),
             tuple(int(m) for m in working_mode),
@@ -730,7 +750,7 @@ class Planar3PSim:
             if dynamics is not None:
                 raise ValueError("dynamics is given only with a design (the new machine)")
             new_design = self.design
-            dyn = MachineDynamics() if self.dynamics is None else self.dynamics
+            dyn = IDEAL if self.dynamics is None else self.dynamics  # (not validated again)
         else:
             if not isinstance(design, Design):
                 raise ValueError(f"design must be a Design, got {type(design).__name__}")
@@ -761,7 +781,7 @@ class Planar3PSim:
         self._time = 0.0
         self._forces = (0.0, 0.0, 0.0)
         self._saturated = (False, False, False)
-        self._lagged = [0.0, 0.0, 0.0]
+        self._lagged = np.zeros(3)
         self.recovered = False
         del self._commands[:]  # (in place: a vector env holds this array)
         self.geometry = None
@@ -870,10 +890,7 @@ class Planar3PSim:
             raise ValueError("this simulation was closed (Planar3PSim.close); build a new one")
         self._commands.extend((v0, v1, v2))
         if self._lag != 1.0:  # first-order servo lag (MachineDynamics.servo_lag)
-            lagged, f = self._lagged, self._lag
-            v0 = lagged[0] = lagged[0] + f * (v0 - lagged[0])
-            v1 = lagged[1] = lagged[1] + f * (v1 - lagged[1])
-            v2 = lagged[2] = lagged[2] + f * (v2 - lagged[2])
+            v0, v1, v2 = servo_lag(self._lagged, self._lag, v0, v1, v2)
         fast, projector = self._fast, self._projector
         viscous = self._viscous
         compiled = not viscous or (projector is not None and self.use_compiled_viscous)
@@ -1210,18 +1227,30 @@ class Planar3PSim:
         fast, projector = self._fast, self._projector
         if fast is None or projector is None:
             return None
-        return BatchLink(fast.space, fast.servos, self._commands, projector.constants, self._time)
+        dyn = self.dynamics
+        viscous = (0.0, 0.0) if dyn is None else (dyn.slider_viscous, dyn.joint_viscous)
+        return BatchLink(
+            fast.space, fast.servos, self._commands, projector.constants, self._time,
+            self._force_limit, self._lag, tuple(self._lagged.tolist()), viscous,
+        )  # fmt: skip
 
     def adopt_state(
         self,
         state: SimState,
         setpoints: tuple[float, float, float],
         geometry: tuple[float, ...],
+        lagged: tuple[float, float, float] | None = None,
+        array: np.ndarray | None = None,
     ) -> None:
         """Take ``state`` computed by a batched step of this simulation's bodies (its commands
         already in :attr:`BatchLink.commands`) as the current one: the clock, forces and
         saturation of ``state``, the drives' ``setpoints`` (m) and the projection's
-        :attr:`geometry`."""
+        :attr:`geometry`; with a servo lag its ``lagged`` setpoint velocities (m/s), and
+        the projected state ``array`` (:attr:`state_array`) where given."""
+        if lagged is not None:
+            self._lagged[:] = lagged
+        if array is not None and self._projector is not None:
+            self._projector.last_state = array
         self._state = state
         self._time = state.time
         self._forces = state.actuator_forces

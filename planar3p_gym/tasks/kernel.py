@@ -31,12 +31,12 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 from gymnasium import spaces
 
-from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.scalar_kinematics import ConfigurationMeasures
 from planar3p_gym.sim.physics import SimState
 from planar3p_gym.tasks.observation import (
     bounds,
     build_observation,
+    pose_errors,
     travel_goal_bounds,
     travel_goal_entries,
 )
@@ -310,9 +310,10 @@ class StepKernel:
     # ------------------------------------------------------------------ pieces
     @staticmethod
     def errors(target: Pose, pose: tuple[float, float, float]) -> tuple[float, float]:
-        """Position (m) and orientation (rad, wrapped) errors of ``pose`` to ``target``."""
+        """Position (m) and orientation (rad, wrapped) errors of ``pose`` to ``target``
+        (:func:`~planar3p_gym.tasks.observation.pose_errors`)."""
         tx, ty, tth = target
-        return math.hypot(tx - pose[0], ty - pose[1]), wrap_angle(tth - pose[2])
+        return pose_errors(tx, ty, tth, pose[0], pose[1], pose[2])
 
     def observe(
         self,

@@ -7,7 +7,8 @@ id's page (docs/environments.md has it with the reasons for the ``fine_error`` b
 * :data:`OBS_FIELDS`, :data:`SLICES`, :data:`OBS_SIZE`: the 31 entries (name, size, meaning);
 * :data:`TRAVEL_GOAL_FIELDS`: the joint-space goal ``travel_goal=True`` appends (reach only);
 * :func:`bounds`, :func:`observation_space`: the bounds; :func:`write_reach_values`,
-  :func:`build_observation`: the one construction; :func:`within_tolerances`: the success test.
+  :func:`build_observation`: the one construction; :func:`within_tolerances`: the success test;
+  :func:`pose_errors`: the errors to the reference pose.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from numba import njit
 
 from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.design import Design
+from planar3p_gym.machine.norm import hypot
 
 __all__ = [
     "OBS_FIELDS",
@@ -29,7 +31,9 @@ __all__ = [
     "TRAVEL_GOAL_SIZE",
     "build_observation",
     "clip_float32",
+    "observation_of",
     "observation_space",
+    "pose_errors",
     "travel_goal_bounds",
     "travel_goal_entries",
     "within_tolerances",
@@ -175,6 +179,16 @@ def write_reach_values(
 
 
 @njit(cache=True)
+def pose_errors(
+    tx: float, ty: float, tth: float, x: float, y: float, theta: float
+) -> tuple[float, float]:
+    """Position (m) and orientation (rad, wrapped) errors of the pose ``(x, y, theta)`` to the
+    target ``(tx, ty, tth)``: the distance rounded as Python's ``math.hypot`` rounds it
+    (:func:`planar3p_gym.machine.norm.hypot`), and ``tth - theta`` wrapped."""
+    return hypot(tx - x, ty - y), wrap_angle(tth - theta)
+
+
+@njit(cache=True)
 def within_tolerances(
     position_error: float, orientation_error: float, rho_dot: np.ndarray,
     position_tolerance: float, orientation_tolerance: float, rest_speed: float,
@@ -204,7 +218,7 @@ def clip_float32(values: np.ndarray, low: np.ndarray, high: np.ndarray, out: np.
 
 
 @njit(cache=True)
-def _observation(x: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+def observation_of(x: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
     """:func:`build_observation` of its arguments packed into ``x`` (21 float64: ``rho``,
     ``rho_dot``, ``pose``, ``twist``, leg angles, ``target``, the two margins, ``length``)."""
     a1, a2, a3 = x[12], x[13], x[14]
@@ -242,4 +256,4 @@ def build_observation(
          length),
         dtype=np.float64,
     )  # fmt: skip
-    return _observation(x, low, high)
+    return observation_of(x, low, high)

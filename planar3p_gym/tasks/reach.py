@@ -120,10 +120,15 @@ class ReachTask(Task):
     def reference(self, step: int) -> Pose:
         return self._target
 
+    @property
+    def own_hooks(self) -> bool:
+        """Whether the per-step hooks are the reach task's own (:data:`COMPILED_HOOKS`), which
+        the compiled kernels and the native vector env's batched steps compute."""
+        return all(getattr(type(self), h) is getattr(ReachTask, h) for h in COMPILED_HOOKS)
+
     def kernel(self, settings: KernelSettings, machine: Sensing) -> StepKernel:
         """The compiled reach kernel on the projected physics of the nominal machine when the
         per-step hooks are the reach task's own (:data:`COMPILED_HOOKS`), else the reference."""
-        own = all(getattr(type(self), h) is getattr(ReachTask, h) for h in COMPILED_HOOKS)
-        if own and settings.projection and settings.nominal:
+        if self.own_hooks and settings.projection and settings.nominal:
             return ReachKernel(self, settings, machine)
         return super().kernel(settings, machine)
