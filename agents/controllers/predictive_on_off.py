@@ -18,7 +18,9 @@ setpoint lags the command, so a slider keeps moving for a while after its stop w
   target the motion keeps roughly its direction); all motors stop while the observed errors are
   within ``position_band`` and ``orientation_band``.
 
-The controller remembers the commands it sent (its state, reset at each episode start).
+The controller remembers the commands it sent (its state, reset at each episode start).  With
+a learned :class:`~planar3p_agents.controllers.pose_correction.PoseCorrection` it acts on the
+errors corrected for the pose reading's bias.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from numpy.typing import NDArray
 
 from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.base import BatchPolicy
+from planar3p_agents.controllers.pose_correction import PoseCorrection
 from planar3p_gym import checks
 from planar3p_gym.envs.actuation import ON_OFF_SPEED
 from planar3p_gym.machine.design import Design
@@ -57,6 +60,7 @@ class PredictiveOnOffController(BatchPolicy):
         relative: a motor runs only if its rest is at least this share of the largest.
         discrete: return ``Discrete(27)`` indices instead of ``MultiDiscrete([3, 3, 3])``.
         observation_size: length of the observations accepted (at least 31).
+        correction: a learned correction of the pose reading, or ``None``.
     """
 
     obs_size = OBS_SIZE
@@ -74,6 +78,7 @@ class PredictiveOnOffController(BatchPolicy):
         relative: float = 0.3,
         discrete: bool = False,
         observation_size: int | None = None,
+        correction: PoseCorrection | None = None,
     ) -> None:
         self._use_design(design)
         self._use_observation_size(observation_size)
@@ -91,6 +96,9 @@ class PredictiveOnOffController(BatchPolicy):
         if not isinstance(discrete, (bool, np.bool_)):
             raise ValueError(f"discrete must be True or False, got {discrete!r}")
         self.discrete = bool(discrete)
+        if correction is not None and not isinstance(correction, PoseCorrection):
+            raise ValueError(f"correction must be a PoseCorrection or None, got {correction!r}")
+        self.correction = correction
         self.inner = AnalyticController(self.design, observation_size=self.obs_size)
         #: Travel of one step of running (m).
         self.quantum = self.on_off_speed * self.design.max_speed * self.dt
@@ -114,7 +122,7 @@ class PredictiveOnOffController(BatchPolicy):
     def __repr__(self) -> str:
         return (
             f"PredictiveOnOffController(delay={self.delay}, servo_lag={self.servo_lag}, "
-            f"discrete={self.discrete})"
+            f"discrete={self.discrete}, corrected={self.correction is not None})"
         )
 
     def reset(self, seed: Any = None) -> None:
@@ -141,6 +149,8 @@ class PredictiveOnOffController(BatchPolicy):
         """Signed commands ``(n, 3)`` (1 forward, -1 backward, 0 stop) for observations
         ``(n, >= 31)`` and the sum ``(n, 3)`` of the signed commands in flight."""
         obs2 = np.nan_to_num(obs, nan=0.0, posinf=0.0, neginf=0.0)
+        if self.correction is not None:
+            obs2 = self.correction.corrected(obs2)
         rates = self.inner.predict(obs2)[0].astype(np.float64)
         need = rates * self.design.max_speed / self.inner.position_gain
         coast = self.quantum * in_flight + obs2[:, _RATES] * self.servo_lag

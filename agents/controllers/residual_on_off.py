@@ -36,6 +36,7 @@ from torch import nn
 
 from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.on_off import OnOffController
+from planar3p_agents.controllers.pose_correction import PoseCorrection
 from planar3p_agents.controllers.predictive_on_off import PredictiveOnOffController
 from planar3p_agents.controllers.residual import FEATURE_CLIP, REACH_ERROR_SCALE, feature_scaling
 from planar3p_agents.policies.command_memory import (
@@ -116,17 +117,28 @@ class OnOffFeatures(BaseFeaturesExtractor):
 class PredictiveOnOffFeatures(OnOffFeatures):
     """:class:`OnOffFeatures` of the observation followed by the one-hot of the command in
     flight (:mod:`planar3p_agents.policies.command_memory`), with the base command
-    ``analytic-on-off-predictive``'s (one step of delay): 49 features.
+    ``analytic-on-off-predictive``'s (one step of delay), on the errors corrected by a learned
+    :class:`PoseCorrection` if one is given: 49 features.
 
     Args:
         observation_space: ``Box((40,))``.
         design: as for :class:`OnOffFeatures`.
+        correction: the correction's weights (nested lists), or ``None``.
     """
 
     observed_commands = 1
 
+    def __init__(
+        self,
+        observation_space: gym.spaces.Box,
+        design: Design | dict[str, Any] | None = None,
+        correction: list[list[float]] | None = None,
+    ) -> None:
+        self.correction = None if correction is None else PoseCorrection(correction)
+        super().__init__(observation_space, design)
+
     def _base(self, machine: Design) -> Any:
-        return PredictiveOnOffController(machine, delay=1)
+        return PredictiveOnOffController(machine, delay=1, correction=self.correction)
 
     def base_digits(self, raw: np.ndarray) -> np.ndarray:
         sent = raw[:, OBS_SIZE : OBS_SIZE + COMMAND_ENTRIES].reshape(-1, _MOTORS, _COMMANDS)
@@ -202,12 +214,15 @@ class ResidualOnOffPolicy(ActorCriticPolicy):
             action_space,
             lr_schedule,
             features_extractor_class=self.features_class,
-            features_extractor_kwargs={"design": self.design_dict},
+            features_extractor_kwargs=self._features_kwargs(),
             **kwargs,
         )
         # The untrained departure is exactly zero: the policy starts as the baseline.
         nn.init.zeros_(self.action_net.weight)
         nn.init.zeros_(self.action_net.bias)
+
+    def _features_kwargs(self) -> dict[str, Any]:
+        return {"design": self.design_dict}
 
     def _build_mlp_extractor(self) -> None:
         super()._build_mlp_extractor()
@@ -234,10 +249,35 @@ class PredictiveResidualOnOffPolicy(ResidualOnOffPolicy):
     Trained on :class:`~planar3p_agents.policies.command_memory.VecCommandMemory` environments
     (``planar3p train`` adds it for this class); played on the environment's own observation,
     :meth:`predict` appends the command it returned as ``state`` at the previous step.
+
+    Args:
+        correction: a learned :class:`PoseCorrection` for the base (its JSON file or
+            weights), or ``None``; the other arguments are :class:`ResidualOnOffPolicy`'s.
     """
 
     features_class = PredictiveOnOffFeatures
     observed_commands = 1
+
+    def __init__(
+        self,
+        observation_space: gym.spaces.Space,
+        action_space: gym.spaces.Space,
+        lr_schedule: Any,
+        *,
+        correction: str | list[list[float]] | None = None,
+        **kwargs: Any,
+    ) -> None:
+        # A file names the weights once; the model keeps the weights themselves.
+        self.correction = None if correction is None else PoseCorrection(correction).to_list()
+        super().__init__(observation_space, action_space, lr_schedule, **kwargs)
+
+    def _features_kwargs(self) -> dict[str, Any]:
+        return {**super()._features_kwargs(), "correction": self.correction}
+
+    def _get_constructor_parameters(self) -> dict[str, Any]:
+        data = super()._get_constructor_parameters()
+        data.update(correction=self.correction)
+        return data
 
     @property
     def played_observation_space(self) -> gym.spaces.Box:

@@ -16,6 +16,8 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 import planar3p_gym  # noqa: F401  (registers the ids)
 from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.on_off import OnOffController
+from planar3p_agents.controllers.pose_correction import PoseCorrection
+from planar3p_agents.controllers.predictive_on_off import PredictiveOnOffController
 from planar3p_agents.controllers.residual_on_off import (
     PredictiveResidualOnOffPolicy,
     ResidualOnOffPolicy,
@@ -171,3 +173,46 @@ def test_the_predictive_recipe_trains_on_the_command_memory() -> None:
     assert training.policy_class(cfg.policy) is PredictiveResidualOnOffPolicy
     assert observed_commands(training.policy_class(cfg.policy)) == 1
     assert cfg.normalize == {"norm_obs": False, "norm_reward": True}
+
+
+def test_predictive_policy_with_a_correction_keeps_its_weights(tmp_path) -> None:
+    """A correction named by its file is kept in the model as weights: the loaded model plays
+    the corrected law without the file."""
+    weights = np.zeros((14, 3))
+    weights[-1] = (0.002, -0.001, 0.0)  # a constant bias of the pose reading
+    PoseCorrection(weights).save(tmp_path / "c.json")
+    th.set_num_threads(1)
+    venv = VecCommandMemory(DummyVecEnv([lambda: gym.make(ID)]))
+    kwargs = {**KWARGS, "correction": str(tmp_path / "c.json")}
+    model = PPO(
+        PredictiveResidualOnOffPolicy,
+        venv,
+        n_steps=64,
+        batch_size=64,
+        policy_kwargs=kwargs,
+        device="cpu",
+        seed=0,
+    )
+    model.save(tmp_path / "m.zip")
+    (tmp_path / "c.json").unlink()
+    loaded = PPO.load(tmp_path / "m.zip", device="cpu")
+    np.testing.assert_array_equal(loaded.policy.correction, weights)
+    env = gym.make(ID)
+    base = PredictiveOnOffController.from_env(env, correction=PoseCorrection(weights))
+    plain = PredictiveOnOffController.from_env(env)
+    obs, _ = env.reset(seed=6)
+    state = base_state = plain_state = None
+    start = np.ones(1, dtype=bool)
+    differs = False
+    for _ in range(200):
+        action, state = loaded.predict(obs, state, start, deterministic=True)
+        expected, base_state = base.predict(obs, base_state, start)
+        other, plain_state = plain.predict(obs, plain_state, start)
+        np.testing.assert_array_equal(action, expected)
+        differs |= bool((other != expected).any())
+        start = np.zeros(1, dtype=bool)
+        obs, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            break
+    assert differs  # the 2 mm correction changes where the law stops
+    env.close()
