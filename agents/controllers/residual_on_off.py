@@ -24,6 +24,7 @@ is an ordinary SB3 ``PPO`` model of the id: the benchmark plays it like any othe
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -267,9 +268,17 @@ class PredictiveResidualOnOffPolicy(ResidualOnOffPolicy):
         correction: str | list[list[float]] | None = None,
         **kwargs: Any,
     ) -> None:
-        # A file names the weights once; the model keeps the weights themselves.
         self.correction = None if correction is None else PoseCorrection(correction).to_list()
         super().__init__(observation_space, action_space, lr_schedule, **kwargs)
+
+    @staticmethod
+    def resolve_policy_kwargs(policy_kwargs: dict[str, Any]) -> dict[str, Any]:
+        """``policy_kwargs`` with a correction named by its file replaced by its weights, so
+        that a saved model (SB3 keeps the ``policy_kwargs`` it was made with) holds them."""
+        correction = policy_kwargs.get("correction")
+        if isinstance(correction, (str, Path)):
+            return {**policy_kwargs, "correction": PoseCorrection(correction).to_list()}
+        return dict(policy_kwargs)
 
     def _features_kwargs(self) -> dict[str, Any]:
         return {**super()._features_kwargs(), "correction": self.correction}

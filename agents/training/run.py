@@ -330,6 +330,10 @@ def _model_kwargs(cfg: TrainConfig, venv: Any) -> dict[str, Any]:
     from stable_baselines3.common.noise import NormalActionNoise
 
     kwargs = dict(cfg.algo_kwargs)
+    # A policy class may resolve its arguments first (e.g. weights named by their file).
+    resolve = getattr(policy_class(cfg.policy), "resolve_policy_kwargs", None)
+    if resolve is not None and "policy_kwargs" in kwargs:
+        kwargs["policy_kwargs"] = resolve(kwargs["policy_kwargs"])
     if cfg.noise_type == "normal":
         n = venv.action_space.shape[0]
         kwargs["action_noise"] = NormalActionNoise(np.zeros(n), cfg.noise_std * np.ones(n))

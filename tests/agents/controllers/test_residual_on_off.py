@@ -183,7 +183,9 @@ def test_predictive_policy_with_a_correction_keeps_its_weights(tmp_path) -> None
     PoseCorrection(weights).save(tmp_path / "c.json")
     th.set_num_threads(1)
     venv = VecCommandMemory(DummyVecEnv([lambda: gym.make(ID)]))
-    kwargs = {**KWARGS, "correction": str(tmp_path / "c.json")}
+    kwargs = PredictiveResidualOnOffPolicy.resolve_policy_kwargs(
+        {**KWARGS, "correction": str(tmp_path / "c.json")}
+    )
     model = PPO(
         PredictiveResidualOnOffPolicy,
         venv,
