@@ -29,7 +29,7 @@ import math
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.base import BatchPolicy
@@ -39,12 +39,24 @@ from planar3p_gym.envs.actuation import ON_OFF_SPEED
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
-__all__ = ["PredictiveOnOffController"]
+__all__ = ["PredictiveOnOffController", "digits_of", "signs_of"]
 
 _PLACES = np.array([9, 3, 1], dtype=np.int64)
 _POS = SLICES["position_error"]
 _ANG = SLICES["orientation_error"].start
 _RATES = SLICES["rho_dot"]
+
+
+def digits_of(signed: ArrayLike) -> NDArray[np.int64]:
+    """Motor commands (0 stop, 1 forward, 2 backward) of signed ones (0, 1, -1)."""
+    s = np.asarray(signed)
+    return np.where(s > 0, 1, np.where(s < 0, 2, 0)).astype(np.int64)
+
+
+def signs_of(digits: ArrayLike) -> NDArray[np.int64]:
+    """Signed commands (0, 1, -1) of motor commands (0 stop, 1 forward, 2 backward)."""
+    d = np.asarray(digits)
+    return np.where(d == 1, 1, np.where(d == 2, -1, 0)).astype(np.int64)
 
 
 class PredictiveOnOffController(BatchPolicy):
@@ -139,7 +151,7 @@ class PredictiveOnOffController(BatchPolicy):
         signed = self.signed_commands(obs, sent.sum(axis=1))
         new = np.concatenate([sent[:, 1:], signed[:, None, :]], axis=1) if self.delay else sent
         self._sent = new.copy()
-        digits = np.where(signed > 0, 1, np.where(signed < 0, 2, 0)).astype(np.int64)
+        digits = digits_of(signed)
         out = digits @ _PLACES if self.discrete else digits
         return out, new.copy()
 

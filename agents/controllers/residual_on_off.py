@@ -38,7 +38,11 @@ from torch import nn
 from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.on_off import OnOffController
 from planar3p_agents.controllers.pose_correction import PoseCorrection
-from planar3p_agents.controllers.predictive_on_off import PredictiveOnOffController
+from planar3p_agents.controllers.predictive_on_off import (
+    PredictiveOnOffController,
+    digits_of,
+    signs_of,
+)
 from planar3p_agents.controllers.residual import FEATURE_CLIP, REACH_ERROR_SCALE, feature_scaling
 from planar3p_agents.policies.command_memory import (
     COMMAND_ENTRIES,
@@ -143,10 +147,8 @@ class PredictiveOnOffFeatures(OnOffFeatures):
 
     def base_digits(self, raw: np.ndarray) -> np.ndarray:
         sent = raw[:, OBS_SIZE : OBS_SIZE + COMMAND_ENTRIES].reshape(-1, _MOTORS, _COMMANDS)
-        digit = sent.argmax(axis=2)
-        in_flight = np.where(digit == 1, 1, np.where(digit == 2, -1, 0))
-        signed = self.base.signed_commands(raw[:, :OBS_SIZE], in_flight)
-        return np.where(signed > 0, 1, np.where(signed < 0, 2, 0)).astype(np.int64)
+        in_flight = signs_of(sent.argmax(axis=2))
+        return digits_of(self.base.signed_commands(raw[:, :OBS_SIZE], in_flight))
 
 
 class BasePassingExtractor(nn.Module):
