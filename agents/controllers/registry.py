@@ -204,6 +204,14 @@ def _on_off(ctx: BaselineContext) -> Any:
     return OnOffController(inner, discrete=isinstance(ctx.action_space, spaces.Discrete))
 
 
+def _on_off_predictive(ctx: BaselineContext) -> Any:
+    from planar3p_agents.controllers.predictive_on_off import PredictiveOnOffController
+
+    if ctx.env is None:
+        raise ValueError("analytic-on-off-predictive needs the environment (its delay and step)")
+    return PredictiveOnOffController.from_env(ctx.env)
+
+
 def _random(ctx: BaselineContext) -> Any:
     from planar3p_agents.controllers.floor import RandomPolicy
 
@@ -284,6 +292,13 @@ BASELINES: dict[str, Baseline] = {
             ON_OFF_IDS,
             _on_off,
             takes_gain=True,
+        ),
+        Baseline(
+            "analytic-on-off-predictive",
+            "on-off commands from the simple motions' travels, after the commands in flight and "
+            "the servo's coasting, rounded to one step of the motors",
+            ON_OFF_IDS,
+            _on_off_predictive,
         ),
         Baseline(
             "planner",

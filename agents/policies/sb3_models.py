@@ -426,11 +426,14 @@ def load_sb3_model(
     if check_env is not None:
         obs_space = check_env.observation_space
         act_space = check_env.action_space
-        if _shapes(model.observation_space) != _shapes(obs_space):
+        # A policy that builds part of its observation itself (the command in flight) is
+        # played on the rest: :mod:`planar3p_agents.policies.command_memory`.
+        played = getattr(model.policy, "played_observation_space", model.observation_space)
+        if _shapes(played) != _shapes(obs_space):
             seen = observation_kwargs(run_env_kwargs(p))
             hint = f"; it was trained with {seen}: make the environment with them" if seen else ""
             raise PolicyError(
-                f"model {p} expects observations of shape {_shapes(model.observation_space)}, "
+                f"model {p} expects observations of shape {_shapes(played)}, "
                 f"the environment gives {_shapes(obs_space)}{hint}"
             )
         if model.action_space.shape != act_space.shape:

@@ -73,6 +73,10 @@ PROJECT_POLICIES: dict[str, tuple[str, str]] = {
     "ResidualAssemblyPolicy": ("planar3p_agents.controllers.residual", "ResidualAssemblyPolicy"),
     "ResidualPlannerPolicy": ("planar3p_agents.controllers.residual", "ResidualPlannerPolicy"),
     "ResidualOnOffPolicy": ("planar3p_agents.controllers.residual_on_off", "ResidualOnOffPolicy"),
+    "PredictiveResidualOnOffPolicy": (
+        "planar3p_agents.controllers.residual_on_off",
+        "PredictiveResidualOnOffPolicy",
+    ),
 }
 
 

@@ -274,7 +274,7 @@ def _check_model(cfg: TrainConfig) -> Any:
                 cfg.algo_kwargs[key] = int(value)
             elif isinstance(value, list):  # YAML has no tuples: train_freq [1, "episode"]
                 cfg.algo_kwargs[key] = tuple(value)
-    venv = DummyVecEnv([EnvFactory(cfg.env_id, cfg.env_kwargs)] * cfg.n_envs)
+    venv = _command_memory(cfg, DummyVecEnv([EnvFactory(cfg.env_id, cfg.env_kwargs)] * cfg.n_envs))
     try:
         _check_action_space(cfg, venv.action_space)
         with warnings.catch_warnings():
@@ -330,6 +330,10 @@ def _model_kwargs(cfg: TrainConfig, venv: Any) -> dict[str, Any]:
     from stable_baselines3.common.noise import NormalActionNoise
 
     kwargs = dict(cfg.algo_kwargs)
+    # A policy class may resolve its arguments first (e.g. weights named by their file).
+    resolve = getattr(policy_class(cfg.policy), "resolve_policy_kwargs", None)
+    if resolve is not None and "policy_kwargs" in kwargs:
+        kwargs["policy_kwargs"] = resolve(kwargs["policy_kwargs"])
     if cfg.noise_type == "normal":
         n = venv.action_space.shape[0]
         kwargs["action_noise"] = NormalActionNoise(np.zeros(n), cfg.noise_std * np.ones(n))
@@ -431,6 +435,14 @@ def _record_resume(path: Path, total: int, done: int, command: str) -> None:
     write_atomic(path, json.dumps(record, indent=2))
 
 
+def _command_memory(cfg: TrainConfig, venv: Any) -> Any:
+    """``venv`` with the command in flight appended to its observation where the policy class
+    observes it (:mod:`planar3p_agents.policies.command_memory`), else ``venv``."""
+    from planar3p_agents.policies.command_memory import VecCommandMemory, observed_commands
+
+    return VecCommandMemory(venv) if observed_commands(policy_class(cfg.policy)) else venv
+
+
 def _make_envs(cfg: TrainConfig, vec_env: str, stats: Path | None) -> tuple[Any, Any]:
     """The training and the evaluation environments; ``vec_env`` is resolved
     (:func:`vec_env_kind`)."""
@@ -451,7 +463,8 @@ def _make_envs(cfg: TrainConfig, vec_env: str, stats: Path | None) -> tuple[Any,
             vec_env_cls=SubprocVecEnv if subproc else DummyVecEnv,
             monitor_kwargs={"info_keywords": ("is_success",)},
         )
-    eval_env = make_vec_env(factory, n_envs=1, seed=cfg.seed + 10_000)
+    eval_env = _command_memory(cfg, make_vec_env(factory, n_envs=1, seed=cfg.seed + 10_000))
+    venv = _command_memory(cfg, venv)
     if cfg.normalize is not None:
         gamma = cfg.algo_kwargs.get("gamma", 0.99)
         if stats is not None:

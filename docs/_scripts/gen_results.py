@@ -257,6 +257,7 @@ STUDY_ORDER = [
     "real-reach-learned",
     "real-on-off-learned",
     "real-on-off-residual",
+    "real-on-off-predictive",
     "real-mode-change-learned",
     "real-mode-change-residual",
     "real-assembly-change-residual",

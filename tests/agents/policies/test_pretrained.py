@@ -61,8 +61,12 @@ def test_pretrained_policy_loads_and_acts(name: str) -> None:
     obs, info = env.reset(seed=11)
     start_error = info["position_error"]
     actions = []
-    for _ in range(250):
-        action, _ = policy.predict(obs, deterministic=True)
+    # The on-off motors move 0.4 mm a step: they get their id's time limit (20 s).
+    discrete = not isinstance(env.action_space, gym.spaces.Box)
+    steps = env.spec.max_episode_steps if discrete else 250
+    state = None  # handed back: a policy may keep its last command there
+    for _ in range(steps):
+        action, state = policy.predict(obs, state, deterministic=True)
         action = np.asarray(action)
         assert action.shape == (3,) and np.isfinite(action).all()
         actions.append(action)
@@ -71,7 +75,8 @@ def test_pretrained_policy_loads_and_acts(name: str) -> None:
             break
     # Deterministic: the same observation gives the same action.
     np.testing.assert_array_equal(
-        policy.predict(obs, deterministic=True)[0], policy.predict(obs, deterministic=True)[0]
+        policy.predict(obs, state, deterministic=True)[0],
+        policy.predict(obs, state, deterministic=True)[0],
     )
     # It acts, and brings the gripper much closer to the target (random actions do not).
     assert np.abs(np.array(actions)).max() > 0.05

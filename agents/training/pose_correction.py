@@ -1,0 +1,94 @@
+"""Fitting the learned pose correction (:mod:`planar3p_agents.controllers.pose_correction`) on
+simulated episodes of the machine as built.
+
+The bias of the pose reading needs the true pose, which only a simulation reports
+(``info["pose"]``), so the samples come from episodes of the training id, each on a machine
+drawn by the environment: ``analytic-on-off-predictive`` drives them (the states a controller
+on that machine visits), and every ``every``-th step and the last of each episode is a sample.
+Nothing here is in SB3: it is a least-squares fit, not reinforcement learning.
+
+    python -m planar3p_agents.training.pose_correction --seed 1 --out runs/onoff/corr-s1.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import planar3p_gym  # noqa: F401  (registers the ids)
+from planar3p_agents.controllers.pose_correction import (
+    PoseCorrection,
+    fit_pose_correction,
+    pose_bias,
+)
+from planar3p_agents.controllers.predictive_on_off import PredictiveOnOffController
+from planar3p_gym import checks
+from planar3p_gym.envs.registry import REAL_ON_OFF_ENV_ID
+
+__all__ = ["collect_samples", "fit_on_episodes", "main"]
+
+
+def collect_samples(
+    env_id: str = REAL_ON_OFF_ENV_ID, episodes: int = 300, seed: int = 0, every: int = 25
+) -> tuple[np.ndarray, np.ndarray]:
+    """Observations ``(n, d)`` and pose biases ``(n, 3)`` of ``episodes`` episodes of
+    ``env_id`` (reset with ``seed`` once, then from the environment's own stream)."""
+    episodes = checks.integer(episodes, "episodes", low=1)
+    every = checks.integer(every, "every", low=1)
+    env = gym.make(env_id)
+    policy = PredictiveOnOffController.from_env(env)
+    obs_rows: list[np.ndarray] = []
+    true_poses: list[Any] = []
+    try:
+        for i in range(episodes):
+            obs, _ = env.reset(seed=int(seed) if i == 0 else None)
+            state, start = None, np.ones(1, dtype=bool)
+            for t in range(10**6):
+                action, state = policy.predict(obs, state=state, episode_start=start)
+                start = np.zeros(1, dtype=bool)
+                obs, _, terminated, truncated, info = env.step(action)
+                if t % every == 0 or terminated or truncated:
+                    obs_rows.append(np.asarray(obs, dtype=np.float64))
+                    true_poses.append(info["pose"])
+                if terminated or truncated:
+                    break
+    finally:
+        env.close()
+    obs_arr = np.stack(obs_rows)
+    return obs_arr, pose_bias(obs_arr, true_poses)
+
+
+def fit_on_episodes(
+    env_id: str = REAL_ON_OFF_ENV_ID, episodes: int = 300, seed: int = 0, every: int = 25
+) -> PoseCorrection:
+    """:func:`fit_pose_correction` of :func:`collect_samples`."""
+    return fit_pose_correction(*collect_samples(env_id, episodes, seed, every))
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line: fit a correction and write it as JSON (exit 2 on a bad flag)."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--env", default=REAL_ON_OFF_ENV_ID, help="id of the machine as built")
+    parser.add_argument("--episodes", type=int, default=300, help="episodes simulated")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the first reset")
+    parser.add_argument("--every", type=int, default=25, help="steps between samples")
+    parser.add_argument("--out", required=True, help="JSON file to write")
+    args = parser.parse_args(argv)
+    if args.episodes < 1:
+        parser.error("--episodes must be >= 1")
+    if args.every < 1:
+        parser.error("--every must be >= 1")
+    correction = fit_on_episodes(args.env, args.episodes, args.seed, args.every)
+    correction.save(
+        args.out, env_id=args.env, episodes=args.episodes, seed=args.seed, every=args.every
+    )
+    print(f"pose correction fitted on {args.episodes} episodes of {args.env}: {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
