@@ -143,7 +143,7 @@ TASK_SUITES: dict[str, TaskSuiteDef] = {
     "real-on-off": TaskSuiteDef(
         "Planar3PRealOnOff-v0",
         {},
-        ("analytic-on-off", "random", "zero"),
+        ("analytic-on-off-predictive", "analytic-on-off", "random", "zero"),
         "reach on the machine as built with the prototype's on-off motors",
         9,
     ),
