@@ -12,8 +12,8 @@ trajectories bit for bit (``tests/envs/test_vector_env.py``):
   for the reach task and the mode and assembly changes on the machine as built;
 - ``batch="scalar"``: each simulation and the single environment's compiled outputs, written
   into the batch arrays;
-- every other configuration (the mode and assembly changes with their travel term,
-  ``Discrete(27)`` on-off actions) steps each environment through its own ``step``.
+- every other configuration (the mode and assembly changes with their travel term) steps
+  each environment through its own ``step``.
 
 The single environments' own attributes are brought up to date when :attr:`~Planar3PVectorEnv.envs`
 or :meth:`~Planar3PVectorEnv.get_state` is used; a state that fails the physics-breakdown test
@@ -265,10 +265,20 @@ class Planar3PVectorEnv(VectorEnv):
         return self._obs.copy()
 
     def _check_actions(self, actions: Any) -> np.ndarray:
-        """The batch of actions as float64 ``(num_envs, 3)``, checked as the single environment
-        checks one (:func:`planar3p_gym.checks.parse_actions`: strings, bools, complex numbers,
-        NaN/inf and wrong shapes raise ``ValueError``, and no environment steps)."""
-        return checks.parse_actions(actions, self.num_envs)
+        """The batch of actions as float64 ``(num_envs, 3)`` (``(num_envs,)`` of
+        ``Discrete(27)`` indices), checked as the single environment checks one
+        (:func:`planar3p_gym.checks.parse_actions`, :func:`~planar3p_gym.envs.actuation.
+        on_off_actions`: strings, bools, complex numbers, NaN/inf, values out of the action
+        space and wrong shapes raise ``ValueError``, and no environment steps)."""
+        if self._envs[0].machine.action_type != "on-off-discrete":
+            return checks.parse_actions(actions, self.num_envs)
+        arr = checks.real_array(actions)
+        if arr is None or arr.shape != (self.num_envs,):
+            raise ValueError(
+                f"actions must be {self.num_envs} integers in [0, 27), got {checks.short(actions)}"
+            )
+        on_off_actions(arr, "on-off-discrete", 1.0)  # (every index, before any env steps)
+        return arr
 
     def step(
         self, actions: Any
@@ -428,7 +438,7 @@ def _built_machine(env: Planar3PEnv) -> bool:
     """Whether ``env`` is a task on the machine as built that :class:`_BuiltCore` steps: the
     reference kernel of the reach task's own hooks, or of the mode or assembly change's
     without the travel term, on the projected physics through the compiled steps (viscous friction's
-    too), slider velocities or on-off motors as three commands, no joint-space goal."""
+    too), any action type, no joint-space goal."""
     m, task = env.machine, env.task
     reach = isinstance(task, ReachTask) and task.own_hooks
     change = type(task) in (ModeChangeTask, AssemblyChangeTask) and not task.travel_shaping
@@ -439,7 +449,6 @@ def _built_machine(env: Planar3PEnv) -> bool:
         and (reach or change)
         and env.projection
         and not env.travel_goal
-        and m.action_type in ("continuous", "on-off")
         and physics.Planar3PSim.use_compiled_viscous
         and chipmunk.AVAILABLE
     )

@@ -497,17 +497,24 @@ def test_render_without_mode_warns_and_bad_mode_is_rejected():
         Planar3PVectorEnv(num_envs=2, render_mode="human")
 
 
+@pytest.mark.parametrize("action_type", ["on-off", "on-off-discrete"])
 @pytest.mark.parametrize("n", [3, NUMPY_BATCH_MIN])
-def test_the_on_off_id_has_a_native_vector_env_of_its_single_envs(n):
-    """``Planar3PRealOnOff-v0`` (MultiDiscrete motor commands): the native vector env gives
-    its single environments' steps, bit for bit, autoreset included, environment by
-    environment (3 envs) and in the batched step (from :data:`NUMPY_BATCH_MIN`)."""
+def test_the_on_off_id_has_a_native_vector_env_of_its_single_envs(n, action_type):
+    """``Planar3PRealOnOff-v0`` (MultiDiscrete motor commands, or one ``Discrete(27)`` index
+    per env): the native vector env gives its single environments' steps, bit for bit,
+    autoreset included, environment by environment (3 envs) and in the batched step (from
+    :data:`NUMPY_BATCH_MIN`)."""
     limit = 40
-    venv = gym.make_vec(planar3p_gym.REAL_ON_OFF_ENV_ID, num_envs=n, max_episode_steps=limit)
+    kw = {"max_episode_steps": limit, "action_type": action_type}
+    venv = gym.make_vec(planar3p_gym.REAL_ON_OFF_ENV_ID, num_envs=n, **kw)
     assert type(venv) is Planar3PVectorEnv
     assert (venv._core is not None) == (n >= NUMPY_BATCH_MIN)
-    singles = [gym.make(planar3p_gym.REAL_ON_OFF_ENV_ID, max_episode_steps=limit) for _ in range(n)]
-    actions = np.random.default_rng(2).integers(0, 3, (100, n, 3))
+    singles = [gym.make(planar3p_gym.REAL_ON_OFF_ENV_ID, **kw) for _ in range(n)]
+    rng = np.random.default_rng(2)
+    if action_type == "on-off":
+        actions = rng.integers(0, 3, (100, n, 3))
+    else:
+        actions = rng.integers(0, 27, (100, n))
     obs, _ = venv.reset(seed=4)
     np.testing.assert_array_equal(
         obs, np.stack([e.reset(seed=4 + i)[0] for i, e in enumerate(singles)])
@@ -657,8 +664,8 @@ def test_sb3_adapter_serves_the_goal_ids():
         ("Planar3P-v0", {"latency": {"action_delay": 2}}, True),
         ("Planar3PModeChange-v0", {"sensors": {"slider_noise": 1e-5}}, True),
         ("Planar3PAssemblyChange-v0", {"sensors": {"slider_noise": 1e-5}}, True),
-        # Not (yet) the batched step: Discrete(27) actions, the travel term.
-        ("Planar3PRealOnOff-v0", {"action_type": "on-off-discrete"}, False),
+        ("Planar3PRealOnOff-v0", {"action_type": "on-off-discrete"}, True),
+        # Not (yet) the batched step: the travel term.
         (
             "Planar3PModeChange-v0",
             {"sensors": {"slider_noise": 1e-5}, "travel_shaping": 0.5},
@@ -714,4 +721,25 @@ def test_bad_on_off_actions_are_rejected_before_any_env_steps():
     with pytest.raises(ValueError, match="action"):
         venv.step(bad)
     assert [env.get_state()["sim"] for env in venv.envs] == before
+    venv.close()
+
+
+@pytest.mark.parametrize("n", [3, NUMPY_BATCH_MIN])
+@pytest.mark.parametrize(
+    "bad",
+    [[0, 1, 27, 2], [0, 1, -1, 2], [0, 1.5, 2, 3], [0, 1, float("nan"), 2], [True, 0, 1, 2],
+     [[0, 1, 2]] * 4, [0, 1], "0123"],
+)  # fmt: skip
+def test_bad_discrete_on_off_actions_are_rejected_before_any_env_steps(n, bad):
+    """``Discrete(27)`` actions out of ``[0, 27)``, not integral, of the wrong count or shape
+    raise ``ValueError`` and no environment steps, env by env (3 envs) and batched."""
+    venv = gym.make_vec(planar3p_gym.REAL_ON_OFF_ENV_ID, num_envs=n, action_type="on-off-discrete")
+    venv.reset(seed=0)
+    before = [env.get_state()["sim"] for env in venv.envs]
+    actions = bad[:n] if isinstance(bad, list) and len(bad) == 4 else bad
+    with pytest.raises(ValueError, match="action"):
+        venv.step(actions)
+    assert [env.get_state()["sim"] for env in venv.envs] == before
+    obs, *_ = venv.step(np.arange(n) * 1.0)  # (integral floats are accepted, as by one env)
+    assert obs.shape[0] == n
     venv.close()
