@@ -55,6 +55,7 @@ from planar3p_gym.tasks.reach_step import (
 )
 from planar3p_gym.tasks.rewards import weighted_terms
 from planar3p_gym.tasks.track import RUNNING_SIZE, track_rows
+from planar3p_gym.tasks.travel_shaping import travel_rows
 
 __all__ = [
     "assembly_batch_step",
@@ -208,11 +209,14 @@ def mode_batch_step(
     setpoint_limit: float, targets: np.ndarray, assembly: np.ndarray, env_consts: np.ndarray,
     reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
     log: np.ndarray, logged: np.ndarray, target_modes: np.ndarray, parallel_barrier: bool,
-    serial_barrier: bool,
+    serial_barrier: bool, shaping: float, target_rho: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`reach_batch_step`, then :func:`~planar3p_gym.tasks.mode_change.mode_change_rows`
     of its outputs (``target_modes`` ``(N, 3)`` int64: each episode's target working mode;
-    the task's barriers); returns :func:`reach_batch_step`'s tuple, its results rejudged."""
+    the task's barriers) and, with a travel term of weight ``shaping > 0``,
+    :func:`~planar3p_gym.tasks.travel_shaping.travel_rows` to ``target_rho`` ``(N, 3)`` (m);
+    returns :func:`reach_batch_step`'s tuple, its results rejudged, then the travel terms
+    ``(n,)`` (zeros without)."""
     out = reach_batch_step(
         fns, handles, rows, actions, vmax, h, substeps, force_limit, readouts, projection,
         setpoint_limit, targets, assembly, env_consts, reach_consts, weights, low, high, log,
@@ -222,7 +226,10 @@ def mode_batch_step(
         rows, out[3], actions, out[6], target_modes, weights, reach_consts[6], parallel_barrier,
         serial_barrier,
     )  # fmt: skip
-    return out
+    travel = np.zeros(rows.shape[0])
+    if shaping > 0.0:
+        travel_rows(rows, out[3], out[6], shaping, target_rho, reach_consts[6], travel)
+    return (*out, travel)
 
 
 @njit(cache=True)
@@ -233,15 +240,17 @@ def assembly_batch_step(
     reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
     log: np.ndarray, logged: np.ndarray, target_assembly: np.ndarray, last_sign: np.ndarray,
     crossings: np.ndarray, serial_barrier: bool, signed_low: float, signed_high: float,
+    shaping: float, target_rho: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`reach_batch_step`, then :func:`~planar3p_gym.tasks.assembly_change.assembly_rows`
     of its outputs (``target_assembly``, ``last_sign``, ``crossings``: ``(N,)`` int64, each
     episode's target assembly mode and crossing count before the step; the task's serial
     barrier; the signed margin entry's bounds).
 
-    Returns :func:`reach_batch_step`'s tuple (its results rejudged), then the stepped
-    environments' signed margin entries ``(n,)`` float32 and their ``(last sign, crossings)``
-    after the step ``(2, n)`` int64."""
+    Returns :func:`reach_batch_step`'s tuple (its results rejudged, with the travel term of
+    weight ``shaping`` to ``target_rho`` as :func:`mode_batch_step` adds it), then the stepped
+    environments' signed margin entries ``(n,)`` float32, their ``(last sign, crossings)``
+    after the step ``(2, n)`` int64 and their travel terms ``(n,)``."""
     out = reach_batch_step(
         fns, handles, rows, actions, vmax, h, substeps, force_limit, readouts, projection,
         setpoint_limit, targets, assembly, env_consts, reach_consts, weights, low, high, log,
@@ -255,7 +264,10 @@ def assembly_batch_step(
         env_consts[:, _TOLERANCE_START : _TOLERANCE_START + 3], weights, reach_consts[6],
         serial_barrier, signed_low, signed_high, signed, counts,
     )  # fmt: skip
-    return (*out, signed, counts)
+    travel = np.zeros(n)
+    if shaping > 0.0:
+        travel_rows(rows, out[3], out[6], shaping, target_rho, reach_consts[6], travel)
+    return (*out, signed, counts, travel)
 
 
 @njit(cache=True)
@@ -477,12 +489,14 @@ def built_mode_batch_step(
     weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
     crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
     obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
-    target_modes: np.ndarray,
+    target_modes: np.ndarray, shaping: float, target_rho: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`built_batch_step` of the mode-change task (its extra entries in ``extra``),
     then :func:`~planar3p_gym.tasks.mode_change.mode_change_rows` of its outputs
     (``target_modes`` ``(N, 3)`` int64: each episode's target working mode; the task's
-    barriers); returns :func:`built_batch_step`'s tuple, its results rejudged."""
+    barriers) and the travel term of weight ``shaping`` to ``target_rho`` as
+    :func:`mode_batch_step` adds it; returns :func:`built_batch_step`'s tuple, its results
+    rejudged, then the travel terms ``(n,)``."""
     executed, impulses, states, closure, good, obs, res, legs = _built_rows(
         fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
         lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
@@ -495,12 +509,15 @@ def built_mode_batch_step(
     modes = np.empty((n, 3), dtype=np.int64)
     for k in range(n):
         modes[k] = target_modes[rows[k]]
+    by_row = np.ascontiguousarray(states.T)
     mode_change_rows(
-        local, np.ascontiguousarray(states.T), executed, res, modes, weights, length,
-        parallel_barrier, serial_barrier,
+        local, by_row, executed, res, modes, weights, length, parallel_barrier, serial_barrier,
     )  # fmt: skip
+    travel = np.zeros(n)
+    if shaping > 0.0:
+        travel_rows(rows, by_row, res, shaping, target_rho, length, travel)
     delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
-    return executed, impulses, states, closure, good, obs, delayed, res, legs
+    return executed, impulses, states, closure, good, obs, delayed, res, legs, travel
 
 
 @njit(cache=True)
@@ -517,15 +534,17 @@ def built_assembly_batch_step(
     crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
     obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
     target_assembly: np.ndarray, last_sign: np.ndarray, crossings: np.ndarray,
-    signed_low: float, signed_high: float,
+    signed_low: float, signed_high: float, shaping: float, target_rho: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`built_batch_step` of the assembly-change task (its fixed extra entries in
     ``extra``), with :func:`~planar3p_gym.tasks.assembly_change.assembly_rows` of its outputs
     before the observation delay (``target_assembly``, ``last_sign``, ``crossings``: ``(N,)``
     int64, each episode's target assembly mode and crossing count before the step; the
     signed margin entry, the observation's last, and its bounds); returns
-    :func:`built_batch_step`'s tuple (its results rejudged), then the rows' ``(last sign,
-    crossings)`` after the step ``(2, n)`` int64 (of the rows whose physics held)."""
+    :func:`built_batch_step`'s tuple (its results rejudged, with the travel term of weight
+    ``shaping`` to ``target_rho`` as :func:`mode_batch_step` adds it), then the rows' ``(last
+    sign, crossings)`` after the step ``(2, n)`` int64 (of the rows whose physics held) and
+    their travel terms ``(n,)``."""
     executed, impulses, states, closure, good, obs, res, legs = _built_rows(
         fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
         lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
@@ -545,12 +564,16 @@ def built_assembly_batch_step(
         tol[k] = tolerances[i]
     signed = np.empty(n, dtype=np.float32)
     counts = np.empty((2, n), dtype=np.int64)
+    by_row = np.ascontiguousarray(states.T)
     assembly_rows(
-        local, np.ascontiguousarray(states.T), executed, res, target, sign, count, tol,
-        weights, length, serial_barrier, signed_low, signed_high, signed, counts,
+        local, by_row, executed, res, target, sign, count, tol, weights, length,
+        serial_barrier, signed_low, signed_high, signed, counts,
     )  # fmt: skip
+    travel = np.zeros(n)
+    if shaping > 0.0:
+        travel_rows(rows, by_row, res, shaping, target_rho, length, travel)
     width = obs.shape[1]
     for k in range(n):
         obs[k, width - 1] = signed[k]
     delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
-    return executed, impulses, states, closure, good, obs, delayed, res, legs, counts
+    return executed, impulses, states, closure, good, obs, delayed, res, legs, counts, travel
