@@ -744,22 +744,26 @@ def test_bad_on_off_actions_are_rejected_before_any_env_steps():
     venv.close()
 
 
-@pytest.mark.parametrize("n", [3, NUMPY_BATCH_MIN])
-@pytest.mark.parametrize(
-    "bad",
-    [[0, 1, 27, 2], [0, 1, -1, 2], [0, 1.5, 2, 3], [0, 1, float("nan"), 2], [True, 0, 1, 2],
-     [[0, 1, 2]] * 4, [0, 1], "0123"],
+#: Bad batches of ``Discrete(27)`` actions (the first ``n`` of those of four entries): out of
+#: ``[0, 27)``, not integral, not finite, bools, three commands per env, too few, a string.
+BAD_DISCRETE = (
+    [0, 1, 27, 2], [0, 1, -1, 2], [0, 1.5, 2, 3], [0, 1, float("nan"), 2], [True, 0, 1, 2],
+    [[0, 1, 2]] * 4, [0, 1], "0123",
 )  # fmt: skip
-def test_bad_discrete_on_off_actions_are_rejected_before_any_env_steps(n, bad):
+
+
+@pytest.mark.parametrize("n", [3, NUMPY_BATCH_MIN])
+def test_bad_discrete_on_off_actions_are_rejected_before_any_env_steps(n):
     """``Discrete(27)`` actions out of ``[0, 27)``, not integral, of the wrong count or shape
     raise ``ValueError`` and no environment steps, env by env (3 envs) and batched."""
     venv = gym.make_vec(planar3p_gym.REAL_ON_OFF_ENV_ID, num_envs=n, action_type="on-off-discrete")
     venv.reset(seed=0)
     before = [env.get_state()["sim"] for env in venv.envs]
-    actions = bad[:n] if isinstance(bad, list) and len(bad) == 4 else bad
-    with pytest.raises(ValueError, match="action"):
-        venv.step(actions)
-    assert [env.get_state()["sim"] for env in venv.envs] == before
+    for bad in BAD_DISCRETE:
+        actions = bad[:n] if isinstance(bad, list) and len(bad) == 4 else bad
+        with pytest.raises(ValueError, match="action"):
+            venv.step(actions)
+        assert [env.get_state()["sim"] for env in venv.envs] == before, bad
     obs, *_ = venv.step(np.arange(n) * 1.0)  # (integral floats are accepted, as by one env)
     assert obs.shape[0] == n
     venv.close()
