@@ -15,14 +15,14 @@ environment runs: a step of the whole batch crosses from Python into compiled co
 - :func:`mode_batch_step` (the mode-change task): that step, then the success test in the
   target's working mode and the reward terms with the task's barriers
   (:func:`planar3p_gym.tasks.mode_change.mode_change_rows`);
-- :func:`assembly_batch_step` (the assembly-change task): that step, then the signed parallel
-  margin entry, the crossings counted, the success test in the target's assembly mode and the
-  reward terms without the parallel barrier
-  (:func:`planar3p_gym.tasks.assembly_change.assembly_rows`);
+- :func:`assembly_batch_step` (the assembly-change task): that step, then the signed margin
+  entry, the crossings, the success in the target's assembly mode and the reward terms
+  without the parallel barrier (:func:`planar3p_gym.tasks.assembly_change.assembly_rows`);
 - :func:`built_batch_step` (the machine as built): the delays, the servo lag, each drawn
   machine's compiled physics, the true measures, the encoders' reading through the nominal
   model, the reach outputs; :func:`built_mode_batch_step`, :func:`built_assembly_batch_step`:
-  the mode and assembly changes' parts after them.
+  the mode and assembly changes' parts after them; :func:`built_rows`, :func:`delay_rows`: its
+  halves, with the joint-space goal block computed between them.
 """
 
 from __future__ import annotations
@@ -62,6 +62,8 @@ __all__ = [
     "built_assembly_batch_step",
     "built_batch_step",
     "built_mode_batch_step",
+    "built_rows",
+    "delay_rows",
     "goal_batch_step",
     "mode_batch_step",
     "reach_batch_step",
@@ -285,7 +287,7 @@ def _push(items: np.ndarray, count: np.ndarray, i: int, delay: int, item: np.nda
 
 
 @njit(cache=True)
-def _built_rows(
+def built_rows(
     fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
     chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
     action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
@@ -448,19 +450,19 @@ def built_batch_step(
     (else nothing of the row past the physics was computed and no noise drawn), the
     observations before and after the delay, :data:`~planar3p_gym.tasks.reach_step.
     RESULT_FIELDS` and the true leg angles (rad)."""
-    executed, impulses, states, closure, good, obs, res, legs = _built_rows(
+    executed, impulses, states, closure, good, obs, res, legs = built_rows(
         fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
         lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
         viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
         dt, last, targets, assembly, tolerances, weights, length, parallel_barrier,
         serial_barrier, crossing_fails, low, high, extra,
     )  # fmt: skip
-    delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+    delayed = delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
     return executed, impulses, states, closure, good, obs, delayed, res, legs
 
 
 @njit(cache=True)
-def _delay_rows(
+def delay_rows(
     rows: np.ndarray, good: np.ndarray, obs: np.ndarray, obs_delay: np.ndarray,
     obs_items: np.ndarray, obs_count: np.ndarray,
 ) -> np.ndarray:  # fmt: skip
@@ -497,7 +499,7 @@ def built_mode_batch_step(
     barriers) and the travel term of weight ``shaping`` to ``target_rho`` as
     :func:`mode_batch_step` adds it; returns :func:`built_batch_step`'s tuple, its results
     rejudged, then the travel terms ``(n,)``."""
-    executed, impulses, states, closure, good, obs, res, legs = _built_rows(
+    executed, impulses, states, closure, good, obs, res, legs = built_rows(
         fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
         lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
         viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
@@ -516,7 +518,7 @@ def built_mode_batch_step(
     travel = np.zeros(n)
     if shaping > 0.0:
         travel_rows(rows, by_row, res, shaping, target_rho, length, travel)
-    delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+    delayed = delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
     return executed, impulses, states, closure, good, obs, delayed, res, legs, travel
 
 
@@ -545,7 +547,7 @@ def built_assembly_batch_step(
     ``shaping`` to ``target_rho`` as :func:`mode_batch_step` adds it), then the rows' ``(last
     sign, crossings)`` after the step ``(2, n)`` int64 (of the rows whose physics held) and
     their travel terms ``(n,)``."""
-    executed, impulses, states, closure, good, obs, res, legs = _built_rows(
+    executed, impulses, states, closure, good, obs, res, legs = built_rows(
         fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
         lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
         viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
@@ -575,5 +577,5 @@ def built_assembly_batch_step(
     width = obs.shape[1]
     for k in range(n):
         obs[k, width - 1] = signed[k]
-    delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+    delayed = delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
     return executed, impulses, states, closure, good, obs, delayed, res, legs, counts, travel

@@ -13,8 +13,8 @@ trajectories bit for bit (``tests/envs/test_vector_env.py``):
   as built;
 - ``batch="scalar"``: each simulation and the single environment's compiled outputs, written
   into the batch arrays;
-- every other configuration (the built machine with the joint-space goal, a task of hooks
-  of its own) steps each environment through its own ``step``.
+- every other configuration (a task of hooks of its own) steps each environment through
+  its own ``step``.
 
 The single environments' own attributes are brought up to date when :attr:`~Planar3PVectorEnv.envs`
 or :meth:`~Planar3PVectorEnv.get_state` is used; a state that fails the physics-breakdown test
@@ -41,6 +41,8 @@ from planar3p_gym.envs.batch_kernel import (
     built_assembly_batch_step,
     built_batch_step,
     built_mode_batch_step,
+    built_rows,
+    delay_rows,
     goal_batch_step,
     mode_batch_step,
     reach_batch_step,
@@ -439,7 +441,7 @@ def _built_machine(env: Planar3PEnv) -> bool:
     """Whether ``env`` is a task on the machine as built that :class:`_BuiltCore` steps: the
     reference kernel of the reach task's own hooks, or of the mode or assembly change's
     (their travel term too), on the projected physics through the compiled steps (viscous friction's
-    too), any action type, no joint-space goal."""
+    too), any action type, the joint-space goal too."""
     m, task = env.machine, env.task
     reach = isinstance(task, ReachTask) and task.own_hooks
     change = type(task) in (ModeChangeTask, AssemblyChangeTask)
@@ -449,7 +451,6 @@ def _built_machine(env: Planar3PEnv) -> bool:
         and type(env) in (Planar3PEnv, Planar3PModeChangeEnv, Planar3PAssemblyChangeEnv)
         and (reach or change)
         and env.projection
-        and not env.travel_goal
         and physics.Planar3PSim.use_compiled_viscous
         and chipmunk.AVAILABLE
     )
@@ -960,6 +961,9 @@ class _BuiltCore(_BatchCore):
         self.signed_bounds = (float(s.extra_low[-1]), float(s.extra_high[-1])) if (
             self.assembly_change
         ) else (0.0, 0.0)  # fmt: skip
+        #: With the joint-space goal (``travel_goal``): each episode's target travels (m).
+        self.travel_goal = env.travel_goal
+        self.goal_rho = np.zeros((n, 3))
         #: The travel term's weight (0: none) and each episode's target travels (m).
         self.shaping = float(getattr(task, "travel_shaping", 0.0))
         self.target_rho = np.zeros((n, 3))
@@ -1044,6 +1048,7 @@ class _BuiltCore(_BatchCore):
             self.target_modes[i] = ep.info["target_working_mode"]
         if self.shaping:
             self.target_rho[i] = env.task.target_travels  # type: ignore[attr-defined]
+        self.goal_rho[i] = ep.target_rho
         if self.assembly_change:
             task = env.task
             self.target_assembly[i] = ep.info["target_assembly"]
@@ -1183,6 +1188,11 @@ class _BuiltCore(_BatchCore):
             kept = idx[out[4]]
             self.last_sign[kept] = counts[0, out[4]]
             self.crossings[kept] = counts[1, out[4]]
+        elif self.travel_goal:  # (the block of the observed travels, before the delay)
+            executed, impulses, states, closure, good, obs, res, legs = built_rows(*args[:-3])
+            obs[:, OBS_SIZE:] = travel_goal_entries(obs[:, :3], self.goal_rho[idx])
+            delayed = delay_rows(idx, good, obs, *args[-3:])
+            out = [executed, impulses, states, closure, good, obs, delayed, res, legs]
         else:
             out = built_batch_step(*args)
         executed, impulses, states, closure, good, obs, delayed, res, legs = out

@@ -78,6 +78,14 @@ def test_make_vec_gives_the_native_vector_env(env_id):
             {"latency": {"action_delay": [0, 2], "observation_delay": [0, 2]}},
             "numpy",
         ),
+        # The joint-space goal on the machine as built (the block of the observed travels,
+        # before the observation delay), through breakdowns too.
+        (
+            "Planar3PReal-v0",
+            {"travel_goal": True, "latency": {"action_delay": [0, 2], "observation_delay": [0, 2]}},
+            "numpy",
+        ),
+        ("Planar3PReal-v0", {"travel_goal": True, "breakdown_threshold": 1e-15}, "numpy"),
         # The built machine's encoders alone (the nominal machine's physics, no servo lag), and
         # the mode and assembly changes with the built machine's features.
         ("Planar3P-v0", {"sensors": REALISTIC_SENSORS.to_dict()}, "numpy"),
@@ -689,8 +697,7 @@ def test_sb3_adapter_serves_the_goal_ids():
         ("Planar3PAssemblyChange-v0", {"sensors": {"slider_noise": 1e-5}}, True),
         ("Planar3PRealOnOff-v0", {"action_type": "on-off-discrete"}, True),
         ("Planar3PModeChange-v0", {"sensors": {"slider_noise": 1e-5}, "travel_shaping": 0.5}, True),
-        # Not (yet) the batched step: the joint-space goal.
-        ("Planar3PReal-v0", {"travel_goal": True}, False),
+        ("Planar3PReal-v0", {"travel_goal": True}, True),
     ],
 )
 def test_the_built_machine_takes_the_batched_step(env_id, kwargs, batched):
