@@ -15,14 +15,14 @@ environment runs: a step of the whole batch crosses from Python into compiled co
 - :func:`mode_batch_step` (the mode-change task): that step, then the success test in the
   target's working mode and the reward terms with the task's barriers
   (:func:`planar3p_gym.tasks.mode_change.mode_change_rows`);
-- :func:`assembly_batch_step` (the assembly-change task): that step, then the signed parallel
-  margin entry, the crossings counted, the success test in the target's assembly mode and the
-  reward terms without the parallel barrier
-  (:func:`planar3p_gym.tasks.assembly_change.assembly_rows`);
+- :func:`assembly_batch_step` (the assembly-change task): that step, then the signed margin
+  entry, the crossings, the success in the target's assembly mode and the reward terms
+  without the parallel barrier (:func:`planar3p_gym.tasks.assembly_change.assembly_rows`);
 - :func:`built_batch_step` (the machine as built): the delays, the servo lag, each drawn
   machine's compiled physics, the true measures, the encoders' reading through the nominal
   model, the reach outputs; :func:`built_mode_batch_step`, :func:`built_assembly_batch_step`:
-  the mode and assembly changes' parts after them.
+  the mode and assembly changes' parts after them; :func:`built_rows`, :func:`delay_rows`: its
+  halves, with the joint-space goal block computed between them.
 """
 
 from __future__ import annotations
@@ -55,12 +55,15 @@ from planar3p_gym.tasks.reach_step import (
 )
 from planar3p_gym.tasks.rewards import weighted_terms
 from planar3p_gym.tasks.track import RUNNING_SIZE, track_rows
+from planar3p_gym.tasks.travel_shaping import travel_rows
 
 __all__ = [
     "assembly_batch_step",
     "built_assembly_batch_step",
     "built_batch_step",
     "built_mode_batch_step",
+    "built_rows",
+    "delay_rows",
     "goal_batch_step",
     "mode_batch_step",
     "reach_batch_step",
@@ -208,11 +211,14 @@ def mode_batch_step(
     setpoint_limit: float, targets: np.ndarray, assembly: np.ndarray, env_consts: np.ndarray,
     reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
     log: np.ndarray, logged: np.ndarray, target_modes: np.ndarray, parallel_barrier: bool,
-    serial_barrier: bool,
+    serial_barrier: bool, shaping: float, target_rho: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`reach_batch_step`, then :func:`~planar3p_gym.tasks.mode_change.mode_change_rows`
     of its outputs (``target_modes`` ``(N, 3)`` int64: each episode's target working mode;
-    the task's barriers); returns :func:`reach_batch_step`'s tuple, its results rejudged."""
+    the task's barriers) and, with a travel term of weight ``shaping > 0``,
+    :func:`~planar3p_gym.tasks.travel_shaping.travel_rows` to ``target_rho`` ``(N, 3)`` (m);
+    returns :func:`reach_batch_step`'s tuple, its results rejudged, then the travel terms
+    ``(n,)`` (zeros without)."""
     out = reach_batch_step(
         fns, handles, rows, actions, vmax, h, substeps, force_limit, readouts, projection,
         setpoint_limit, targets, assembly, env_consts, reach_consts, weights, low, high, log,
@@ -222,7 +228,10 @@ def mode_batch_step(
         rows, out[3], actions, out[6], target_modes, weights, reach_consts[6], parallel_barrier,
         serial_barrier,
     )  # fmt: skip
-    return out
+    travel = np.zeros(rows.shape[0])
+    if shaping > 0.0:
+        travel_rows(rows, out[3], out[6], shaping, target_rho, reach_consts[6], travel)
+    return (*out, travel)
 
 
 @njit(cache=True)
@@ -233,15 +242,17 @@ def assembly_batch_step(
     reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
     log: np.ndarray, logged: np.ndarray, target_assembly: np.ndarray, last_sign: np.ndarray,
     crossings: np.ndarray, serial_barrier: bool, signed_low: float, signed_high: float,
+    shaping: float, target_rho: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`reach_batch_step`, then :func:`~planar3p_gym.tasks.assembly_change.assembly_rows`
     of its outputs (``target_assembly``, ``last_sign``, ``crossings``: ``(N,)`` int64, each
     episode's target assembly mode and crossing count before the step; the task's serial
     barrier; the signed margin entry's bounds).
 
-    Returns :func:`reach_batch_step`'s tuple (its results rejudged), then the stepped
-    environments' signed margin entries ``(n,)`` float32 and their ``(last sign, crossings)``
-    after the step ``(2, n)`` int64."""
+    Returns :func:`reach_batch_step`'s tuple (its results rejudged, with the travel term of
+    weight ``shaping`` to ``target_rho`` as :func:`mode_batch_step` adds it), then the stepped
+    environments' signed margin entries ``(n,)`` float32, their ``(last sign, crossings)``
+    after the step ``(2, n)`` int64 and their travel terms ``(n,)``."""
     out = reach_batch_step(
         fns, handles, rows, actions, vmax, h, substeps, force_limit, readouts, projection,
         setpoint_limit, targets, assembly, env_consts, reach_consts, weights, low, high, log,
@@ -255,7 +266,10 @@ def assembly_batch_step(
         env_consts[:, _TOLERANCE_START : _TOLERANCE_START + 3], weights, reach_consts[6],
         serial_barrier, signed_low, signed_high, signed, counts,
     )  # fmt: skip
-    return (*out, signed, counts)
+    travel = np.zeros(n)
+    if shaping > 0.0:
+        travel_rows(rows, out[3], out[6], shaping, target_rho, reach_consts[6], travel)
+    return (*out, signed, counts, travel)
 
 
 @njit(cache=True)
@@ -273,7 +287,7 @@ def _push(items: np.ndarray, count: np.ndarray, i: int, delay: int, item: np.nda
 
 
 @njit(cache=True)
-def _built_rows(
+def built_rows(
     fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
     chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
     action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
@@ -436,19 +450,19 @@ def built_batch_step(
     (else nothing of the row past the physics was computed and no noise drawn), the
     observations before and after the delay, :data:`~planar3p_gym.tasks.reach_step.
     RESULT_FIELDS` and the true leg angles (rad)."""
-    executed, impulses, states, closure, good, obs, res, legs = _built_rows(
+    executed, impulses, states, closure, good, obs, res, legs = built_rows(
         fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
         lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
         viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
         dt, last, targets, assembly, tolerances, weights, length, parallel_barrier,
         serial_barrier, crossing_fails, low, high, extra,
     )  # fmt: skip
-    delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+    delayed = delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
     return executed, impulses, states, closure, good, obs, delayed, res, legs
 
 
 @njit(cache=True)
-def _delay_rows(
+def delay_rows(
     rows: np.ndarray, good: np.ndarray, obs: np.ndarray, obs_delay: np.ndarray,
     obs_items: np.ndarray, obs_count: np.ndarray,
 ) -> np.ndarray:  # fmt: skip
@@ -477,13 +491,15 @@ def built_mode_batch_step(
     weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
     crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
     obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
-    target_modes: np.ndarray,
+    target_modes: np.ndarray, shaping: float, target_rho: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`built_batch_step` of the mode-change task (its extra entries in ``extra``),
     then :func:`~planar3p_gym.tasks.mode_change.mode_change_rows` of its outputs
     (``target_modes`` ``(N, 3)`` int64: each episode's target working mode; the task's
-    barriers); returns :func:`built_batch_step`'s tuple, its results rejudged."""
-    executed, impulses, states, closure, good, obs, res, legs = _built_rows(
+    barriers) and the travel term of weight ``shaping`` to ``target_rho`` as
+    :func:`mode_batch_step` adds it; returns :func:`built_batch_step`'s tuple, its results
+    rejudged, then the travel terms ``(n,)``."""
+    executed, impulses, states, closure, good, obs, res, legs = built_rows(
         fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
         lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
         viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
@@ -495,12 +511,15 @@ def built_mode_batch_step(
     modes = np.empty((n, 3), dtype=np.int64)
     for k in range(n):
         modes[k] = target_modes[rows[k]]
+    by_row = np.ascontiguousarray(states.T)
     mode_change_rows(
-        local, np.ascontiguousarray(states.T), executed, res, modes, weights, length,
-        parallel_barrier, serial_barrier,
+        local, by_row, executed, res, modes, weights, length, parallel_barrier, serial_barrier,
     )  # fmt: skip
-    delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
-    return executed, impulses, states, closure, good, obs, delayed, res, legs
+    travel = np.zeros(n)
+    if shaping > 0.0:
+        travel_rows(rows, by_row, res, shaping, target_rho, length, travel)
+    delayed = delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+    return executed, impulses, states, closure, good, obs, delayed, res, legs, travel
 
 
 @njit(cache=True)
@@ -517,16 +536,18 @@ def built_assembly_batch_step(
     crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
     obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
     target_assembly: np.ndarray, last_sign: np.ndarray, crossings: np.ndarray,
-    signed_low: float, signed_high: float,
+    signed_low: float, signed_high: float, shaping: float, target_rho: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`built_batch_step` of the assembly-change task (its fixed extra entries in
     ``extra``), with :func:`~planar3p_gym.tasks.assembly_change.assembly_rows` of its outputs
     before the observation delay (``target_assembly``, ``last_sign``, ``crossings``: ``(N,)``
     int64, each episode's target assembly mode and crossing count before the step; the
     signed margin entry, the observation's last, and its bounds); returns
-    :func:`built_batch_step`'s tuple (its results rejudged), then the rows' ``(last sign,
-    crossings)`` after the step ``(2, n)`` int64 (of the rows whose physics held)."""
-    executed, impulses, states, closure, good, obs, res, legs = _built_rows(
+    :func:`built_batch_step`'s tuple (its results rejudged, with the travel term of weight
+    ``shaping`` to ``target_rho`` as :func:`mode_batch_step` adds it), then the rows' ``(last
+    sign, crossings)`` after the step ``(2, n)`` int64 (of the rows whose physics held) and
+    their travel terms ``(n,)``."""
+    executed, impulses, states, closure, good, obs, res, legs = built_rows(
         fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
         lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
         viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
@@ -545,12 +566,16 @@ def built_assembly_batch_step(
         tol[k] = tolerances[i]
     signed = np.empty(n, dtype=np.float32)
     counts = np.empty((2, n), dtype=np.int64)
+    by_row = np.ascontiguousarray(states.T)
     assembly_rows(
-        local, np.ascontiguousarray(states.T), executed, res, target, sign, count, tol,
-        weights, length, serial_barrier, signed_low, signed_high, signed, counts,
+        local, by_row, executed, res, target, sign, count, tol, weights, length,
+        serial_barrier, signed_low, signed_high, signed, counts,
     )  # fmt: skip
+    travel = np.zeros(n)
+    if shaping > 0.0:
+        travel_rows(rows, by_row, res, shaping, target_rho, length, travel)
     width = obs.shape[1]
     for k in range(n):
         obs[k, width - 1] = signed[k]
-    delayed = _delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
-    return executed, impulses, states, closure, good, obs, delayed, res, legs, counts
+    delayed = delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+    return executed, impulses, states, closure, good, obs, delayed, res, legs, counts, travel

@@ -8,12 +8,13 @@ trajectories bit for bit (``tests/envs/test_vector_env.py``):
 
 - ``batch="numpy"`` (from :data:`NUMPY_BATCH_MIN` envs under ``"auto"``): one compiled call per
   step over the batch (:mod:`planar3p_gym.envs.batch_kernel`: the physics, then the task's
-  kernel over the rows) for the reach, goal, tracking, mode- and assembly-change ids, and
-  for the reach task and the mode and assembly changes on the machine as built;
+  kernel over the rows) for the reach, goal, tracking, mode- and assembly-change ids (their
+  travel term too), and for the reach task and the mode and assembly changes on the machine
+  as built;
 - ``batch="scalar"``: each simulation and the single environment's compiled outputs, written
   into the batch arrays;
-- every other configuration (the mode and assembly changes with their travel term,
-  ``Discrete(27)`` on-off actions) steps each environment through its own ``step``.
+- every other configuration (a task of hooks of its own) steps each environment through
+  its own ``step``.
 
 The single environments' own attributes are brought up to date when :attr:`~Planar3PVectorEnv.envs`
 or :meth:`~Planar3PVectorEnv.get_state` is used; a state that fails the physics-breakdown test
@@ -40,6 +41,8 @@ from planar3p_gym.envs.batch_kernel import (
     built_assembly_batch_step,
     built_batch_step,
     built_mode_batch_step,
+    built_rows,
+    delay_rows,
     goal_batch_step,
     mode_batch_step,
     reach_batch_step,
@@ -265,10 +268,20 @@ class Planar3PVectorEnv(VectorEnv):
         return self._obs.copy()
 
     def _check_actions(self, actions: Any) -> np.ndarray:
-        """The batch of actions as float64 ``(num_envs, 3)``, checked as the single environment
-        checks one (:func:`planar3p_gym.checks.parse_actions`: strings, bools, complex numbers,
-        NaN/inf and wrong shapes raise ``ValueError``, and no environment steps)."""
-        return checks.parse_actions(actions, self.num_envs)
+        """The batch of actions as float64 ``(num_envs, 3)`` (``(num_envs,)`` of
+        ``Discrete(27)`` indices), checked as the single environment checks one
+        (:func:`planar3p_gym.checks.parse_actions`, :func:`~planar3p_gym.envs.actuation.
+        on_off_actions`: strings, bools, complex numbers, NaN/inf, values out of the action
+        space and wrong shapes raise ``ValueError``, and no environment steps)."""
+        if self._envs[0].machine.action_type != "on-off-discrete":
+            return checks.parse_actions(actions, self.num_envs)
+        arr = checks.real_array(actions)
+        if arr is None or arr.shape != (self.num_envs,):
+            raise ValueError(
+                f"actions must be {self.num_envs} integers in [0, 27), got {checks.short(actions)}"
+            )
+        on_off_actions(arr, "on-off-discrete", 1.0)  # (every index, before any env steps)
+        return arr
 
     def step(
         self, actions: Any
@@ -427,19 +440,17 @@ def _batch_mode(env: Planar3PEnv, numpy_batch: bool) -> bool | None:
 def _built_machine(env: Planar3PEnv) -> bool:
     """Whether ``env`` is a task on the machine as built that :class:`_BuiltCore` steps: the
     reference kernel of the reach task's own hooks, or of the mode or assembly change's
-    without the travel term, on the projected physics through the compiled steps (viscous friction's
-    too), slider velocities or on-off motors as three commands, no joint-space goal."""
+    (their travel term too), on the projected physics through the compiled steps (viscous friction's
+    too), any action type, the joint-space goal too."""
     m, task = env.machine, env.task
     reach = isinstance(task, ReachTask) and task.own_hooks
-    change = type(task) in (ModeChangeTask, AssemblyChangeTask) and not task.travel_shaping
+    change = type(task) in (ModeChangeTask, AssemblyChangeTask)
     return (
         not m.nominal
         and type(env.kernel) is StepKernel
         and type(env) in (Planar3PEnv, Planar3PModeChangeEnv, Planar3PAssemblyChangeEnv)
         and (reach or change)
         and env.projection
-        and not env.travel_goal
-        and m.action_type in ("continuous", "on-off")
         and physics.Planar3PSim.use_compiled_viscous
         and chipmunk.AVAILABLE
     )
@@ -456,10 +467,10 @@ def _core(venv: Planar3PVectorEnv, mode: bool | None) -> _BatchCore | None:
 
 def _hook_rows(env: Planar3PEnv) -> type | None:
     """The batched part of ``env``'s task where it runs the mode- or assembly-change task's
-    own hooks on the compiled measures with no travel term (:class:`_ModeRows`,
-    :class:`_AssemblyRows`), else None."""
+    own hooks on the compiled measures (:class:`_ModeRows`, :class:`_AssemblyRows`), else
+    None."""
     task = env.task
-    if not isinstance(env.kernel, HookKernel) or task.travel_shaping:  # type: ignore[attr-defined]
+    if not isinstance(env.kernel, HookKernel):
         return None
     return {ModeChangeTask: _ModeRows, AssemblyChangeTask: _AssemblyRows}.get(type(task))
 
@@ -950,6 +961,12 @@ class _BuiltCore(_BatchCore):
         self.signed_bounds = (float(s.extra_low[-1]), float(s.extra_high[-1])) if (
             self.assembly_change
         ) else (0.0, 0.0)  # fmt: skip
+        #: With the joint-space goal (``travel_goal``): each episode's target travels (m).
+        self.travel_goal = env.travel_goal
+        self.goal_rho = np.zeros((n, 3))
+        #: The travel term's weight (0: none) and each episode's target travels (m).
+        self.shaping = float(getattr(task, "travel_shaping", 0.0))
+        self.target_rho = np.zeros((n, 3))
         self.nominal_kin = m.kin.consts
         enc = m.encoders
         self.encoders = enc is not None
@@ -1029,6 +1046,9 @@ class _BuiltCore(_BatchCore):
         self.extra[i] = ep.obs[OBS_SIZE:]
         if self.mode:
             self.target_modes[i] = ep.info["target_working_mode"]
+        if self.shaping:
+            self.target_rho[i] = env.task.target_travels  # type: ignore[attr-defined]
+        self.goal_rho[i] = ep.target_rho
         if self.assembly_change:
             task = env.task
             self.target_assembly[i] = ep.info["target_assembly"]
@@ -1120,6 +1140,8 @@ class _BuiltCore(_BatchCore):
         if self.assembly_change:  # (the task's crossing count, which its metrics read)
             env.task.last_sign = int(self.last_sign[i])  # type: ignore[attr-defined]
             env.task.crossings = int(self.crossings[i])  # type: ignore[attr-defined]
+        if self.shaping:  # (the term, and the task's fallback travels, as its step leaves them)
+            ep.info["reward_terms"]["travel"] = env.task.step_travel(state.rho)  # type: ignore[attr-defined]
         ep.info.update(env.task.step_info(ep.steps, state, errors))
         self.pending[i] = False
 
@@ -1157,15 +1179,20 @@ class _BuiltCore(_BatchCore):
             self.high, self.extra, self.obs_delay, self.obs_items, self.obs_count,
         )  # fmt: skip
         if self.mode:
-            out = built_mode_batch_step(*args, self.target_modes)
+            *out, _ = built_mode_batch_step(*args, self.target_modes, self.shaping, self.target_rho)
         elif self.assembly_change:
-            *out, counts = built_assembly_batch_step(
+            *out, counts, _ = built_assembly_batch_step(
                 *args, self.target_assembly, self.last_sign, self.crossings,
-                *self.signed_bounds,
+                *self.signed_bounds, self.shaping, self.target_rho,
             )  # fmt: skip
             kept = idx[out[4]]
             self.last_sign[kept] = counts[0, out[4]]
             self.crossings[kept] = counts[1, out[4]]
+        elif self.travel_goal:  # (the block of the observed travels, before the delay)
+            executed, impulses, states, closure, good, obs, res, legs = built_rows(*args[:-3])
+            obs[:, OBS_SIZE:] = travel_goal_entries(obs[:, :3], self.goal_rho[idx])
+            delayed = delay_rows(idx, good, obs, *args[-3:])
+            out = [executed, impulses, states, closure, good, obs, delayed, res, legs]
         else:
             out = built_batch_step(*args)
         executed, impulses, states, closure, good, obs, delayed, res, legs = out
@@ -1388,9 +1415,24 @@ class _TrackRows:
 
 class _FlatRows:
     """What the task parts of a batched step with a flat observation share: the step of
-    environment ``i`` that took the reference kernel (its physics broke down)."""
+    environment ``i`` that took the reference kernel (its physics broke down), and the
+    mode and assembly changes' travel term (:mod:`planar3p_gym.tasks.travel_shaping`): its
+    weight and each episode's target travels."""
 
     venv: Planar3PVectorEnv
+    shaping: float
+    target_rho: np.ndarray
+
+    def _travel_init(self, env: Planar3PEnv) -> None:
+        self.shaping = float(env.task.travel_shaping)  # type: ignore[attr-defined]
+        self.target_rho = np.zeros((self.venv.num_envs, 3))
+
+    def _travel_sync(self, env: Planar3PEnv, info: dict[str, Any]) -> None:
+        """``info``'s travel term of ``env``'s step (its simulation's state already the
+        step's) and the task's fallback travels, as its own step leaves them."""
+        if self.shaping:
+            term = env.task.step_travel(env.sim.state.rho)  # type: ignore[attr-defined]
+            info["reward_terms"]["travel"] = term
 
     def fallback(
         self, i: int, env: Planar3PEnv, flat: np.ndarray, reward: float, info: dict
@@ -1412,6 +1454,7 @@ class _ModeRows(_FlatRows):
         self.extra = np.zeros((n, env.observation_space.shape[0] - OBS_SIZE), dtype=np.float32)
         self.parallel_barrier = bool(env.task.parallel_barrier)
         self.serial_barrier = bool(env.task.serial_barrier)
+        self._travel_init(env)
         self.current = None  # (no outputs of its own: the reach outputs hold them)
 
     def load(self, i: int, env: Planar3PEnv) -> None:
@@ -1419,11 +1462,16 @@ class _ModeRows(_FlatRows):
         or a restored snapshot's, ``info`` and observation)."""
         self.target_modes[i] = env.episode.info["target_working_mode"]
         self.extra[i] = env.episode.obs[OBS_SIZE:]
+        self.target_rho[i] = env.task.target_travels  # type: ignore[attr-defined]
 
     def advance(self, args: tuple, idx: np.ndarray) -> tuple:
         """:func:`~planar3p_gym.envs.batch_kernel.mode_batch_step` of the reach step's
         arguments ``args`` (the environments ``idx``)."""
-        return mode_batch_step(*args, self.target_modes, self.parallel_barrier, self.serial_barrier)
+        *reach, _ = mode_batch_step(
+            *args, self.target_modes, self.parallel_barrier, self.serial_barrier, self.shaping,
+            self.target_rho,
+        )  # fmt: skip
+        return tuple(reach)
 
     def outputs(
         self, sel: Any, idx: np.ndarray, o: dict[str, Any], good: np.ndarray, info: dict
@@ -1440,6 +1488,7 @@ class _ModeRows(_FlatRows):
     ) -> None:
         """``info``'s mode-change metrics of environment ``i`` (its simulation's state
         already the step's), as its own step gives them (the task's hook)."""
+        self._travel_sync(env, info)
         errors = (info["position_error"], info["orientation_error"])
         info.update(env.task.step_info(env.episode.steps, env.sim.state, errors))
 
@@ -1461,6 +1510,7 @@ class _AssemblyRows(_FlatRows):
         self.signed_low = float(settings.extra_low[-1])
         self.signed_high = float(settings.extra_high[-1])
         self.serial_barrier = bool(env.task.serial_barrier)
+        self._travel_init(env)
         #: The last batched step's signed margin entries and crossing counts.
         self.signed: np.ndarray | None = None
         self.current: np.ndarray | None = None
@@ -1473,13 +1523,14 @@ class _AssemblyRows(_FlatRows):
         self.last_sign[i] = task.last_sign  # type: ignore[attr-defined]
         self.crossings[i] = task.crossings  # type: ignore[attr-defined]
         self.extra[i] = env.episode.obs[OBS_SIZE:]
+        self.target_rho[i] = task.target_travels  # type: ignore[attr-defined]
 
     def advance(self, args: tuple, idx: np.ndarray) -> tuple:
         """:func:`~planar3p_gym.envs.batch_kernel.assembly_batch_step` of the reach step's
         arguments ``args`` (the environments ``idx``)."""
-        *reach, signed, counts = assembly_batch_step(
+        *reach, signed, counts, _ = assembly_batch_step(
             *args, self.target_assembly, self.last_sign, self.crossings, self.serial_barrier,
-            self.signed_low, self.signed_high,
+            self.signed_low, self.signed_high, self.shaping, self.target_rho,
         )  # fmt: skip
         self.signed, self.current = signed, counts
         return tuple(reach)
@@ -1509,6 +1560,7 @@ class _AssemblyRows(_FlatRows):
         task = env.task
         task.last_sign = int(self.last_sign[i])  # type: ignore[attr-defined]
         task.crossings = int(self.crossings[i])  # type: ignore[attr-defined]
+        self._travel_sync(env, info)
         errors = (info["position_error"], info["orientation_error"])
         info.update(task.step_info(env.episode.steps, env.sim.state, errors))
 
@@ -1522,14 +1574,14 @@ class Planar3PTrackVectorEnv(Planar3PVectorEnv):
 
 class Planar3PModeChangeVectorEnv(Planar3PVectorEnv):
     """``Planar3PModeChange-v0``'s native vector env (the batched step from
-    :data:`NUMPY_BATCH_MIN` environments without the travel term, module docstring)."""
+    :data:`NUMPY_BATCH_MIN` environments, module docstring)."""
 
     env_class = Planar3PModeChangeEnv
 
 
 class Planar3PAssemblyChangeVectorEnv(Planar3PVectorEnv):
     """``Planar3PAssemblyChange-v0``'s native vector env (the batched step from
-    :data:`NUMPY_BATCH_MIN` environments without the travel term, module docstring)."""
+    :data:`NUMPY_BATCH_MIN` environments, module docstring)."""
 
     env_class = Planar3PAssemblyChangeEnv
 

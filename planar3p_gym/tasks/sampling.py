@@ -306,6 +306,24 @@ class PoseSampler:
         self._count = 0  # poses pooled so far: the order of the next one
         self._batches: dict[int, int] = {}  # refill_batch by need
 
+    def __deepcopy__(self, memo: dict[int, Any]) -> PoseSampler:
+        """A copy with its own pools of the same pose arrays (read-only, so no copy sees a
+        change of another) and the same design and task config (frozen): a snapshot or a
+        reset's undo record costs a pass over the pooled poses, not a copy of each."""
+        out = type(self).__new__(type(self))
+        memo[id(self)] = out
+        vars(out).update(vars(self))
+        out._pools = {det: deque(pool) for det, pool in self._pools.items()}
+        out._batches = dict(self._batches)
+        return out
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        """Unpickling: the pooled poses read-only again (pickle gives writable arrays)."""
+        vars(self).update(state)
+        for pool in self._pools.values():
+            for _, pose in pool:
+                pose.flags.writeable = False
+
     def clear(self) -> None:
         """Forget the pooled poses."""
         for pool in self._pools.values():
@@ -323,7 +341,9 @@ class PoseSampler:
     def push_front(self, pose: np.ndarray, det: float) -> None:
         """Put an acceptable pose of assembly mode ``det`` first in line."""
         first = min((pool[0][0] for pool in self._pools.values() if pool), default=self._count)
-        self._pools[float(det)].appendleft((first - 1, np.asarray(pose, dtype=np.float64)))
+        pose = np.array(pose, dtype=np.float64)  # (the pool's own, read-only: __deepcopy__)
+        pose.flags.writeable = False
+        self._pools[float(det)].appendleft((first - 1, pose))
 
     def _refill(self, rng: np.random.Generator, need: int = MIN_YIELD) -> None:
         # A larger batch draws from the same uniform proposal and keeps the acceptable poses:
@@ -342,6 +362,7 @@ class PoseSampler:
             poses, dets = sample_poses(
                 self.design, self.mode, rng, self.cfg, batch=batch, max_batches=batches
             )
+        poses.flags.writeable = False  # (shared by copies of the sampler: __deepcopy__)
         for pose, det in zip(poses, dets.tolist(), strict=True):
             self._pools[det].append((self._count, pose))
             self._count += 1

@@ -78,11 +78,37 @@ def test_make_vec_gives_the_native_vector_env(env_id):
             {"latency": {"action_delay": [0, 2], "observation_delay": [0, 2]}},
             "numpy",
         ),
+        # The joint-space goal on the machine as built (the block of the observed travels,
+        # before the observation delay), through breakdowns too.
+        (
+            "Planar3PReal-v0",
+            {"travel_goal": True, "latency": {"action_delay": [0, 2], "observation_delay": [0, 2]}},
+            "numpy",
+        ),
+        ("Planar3PReal-v0", {"travel_goal": True, "breakdown_threshold": 1e-15}, "numpy"),
         # The built machine's encoders alone (the nominal machine's physics, no servo lag), and
         # the mode and assembly changes with the built machine's features.
         ("Planar3P-v0", {"sensors": REALISTIC_SENSORS.to_dict()}, "numpy"),
         ("Planar3PModeChange-v0", BUILT, "numpy"),
         ("Planar3PAssemblyChange-v0", BUILT, "numpy"),
+        # The travel term (the task's fallback travels through breakdowns too), on the nominal
+        # machine and on the machine as built.
+        ("Planar3PModeChange-v0", {"travel_shaping": 0.5}, "numpy"),
+        (
+            "Planar3PAssemblyChange-v0",
+            {
+                "travel_shaping": 0.5,
+                "breakdown_threshold": 1e-15,
+                "crossing_limits": {"verify": False},
+            },
+            "numpy",
+        ),
+        (
+            "Planar3PModeChange-v0",
+            {**BUILT, "travel_shaping": 0.5, "breakdown_threshold": 1e-15},
+            "numpy",
+        ),
+        ("Planar3PAssemblyChange-v0", {**BUILT, "travel_shaping": 0.5}, "numpy"),
     ],
 )
 def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, batch):
@@ -126,6 +152,9 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, ba
         for key, value in single.unwrapped.episode.info.items():
             if key != "reward_terms":
                 assert env.episode.info[key] == value, key
+        assert env.episode.info["reward_terms"] == single.unwrapped.episode.info["reward_terms"]
+        if "travel_shaping" in kwargs:  # (the fallback travels, which the next step may take)
+            assert env.task._shaping_rho == single.unwrapped.task._shaping_rho
     venv.close()
 
 
@@ -137,6 +166,9 @@ def test_same_seeds_give_the_same_trajectories_as_single_envs(env_id, kwargs, ba
         # The mode and assembly changes on the machine as built: its batched step.
         ("Planar3PModeChange-v0", "planner", BUILT),
         ("Planar3PAssemblyChange-v0", "crossing", BUILT),
+        # The travel term, which changes the rewards and nothing the controllers observe.
+        ("Planar3PAssemblyChange-v0", "crossing", {"travel_shaping": 0.5}),
+        ("Planar3PModeChange-v0", "planner", {**BUILT, "travel_shaping": 0.5}),
     ],
 )
 def test_the_mode_and_assembly_change_batches_are_their_single_envs_through_successes(
@@ -144,7 +176,7 @@ def test_the_mode_and_assembly_change_batches_are_their_single_envs_through_succ
 ):
     """The mode and assembly changes' batched step where episodes succeed (the joint-path
     planner or the crossing controller, one per environment, acting on each single env's
-    observation; with the travel term the envs step one by one), under success tolerances
+    observation), under success tolerances
     changed after the reset: bit for bit the single envs' observations, rewards, flags and
     infos, the metrics of their last ``info`` included."""
     from planar3p_agents.controllers.crossing import CrossingController
@@ -152,9 +184,9 @@ def test_the_mode_and_assembly_change_batches_are_their_single_envs_through_succ
 
     n, limit = NUMPY_BATCH_MIN, 300
     venv = gym.make_vec(env_id, num_envs=n, max_episode_steps=limit, **kwargs)
-    assert venv._core is not None and (kwargs or venv._core.goal is not None)
-    shaped = gym.make_vec(env_id, num_envs=n, travel_shaping=0.5, **kwargs)
-    assert shaped._core is None
+    assert venv._core is not None and (
+        type(venv._core).__name__ == "_BuiltCore" or venv._core.goal is not None
+    )
     singles = [gym.make(env_id, max_episode_steps=limit, **kwargs) for _ in range(n)]
     kind = JointPathPlanner if controller == "planner" else CrossingController
     planners = [kind.from_env(env) for env in singles]
@@ -189,13 +221,12 @@ def test_the_mode_and_assembly_change_batches_are_their_single_envs_through_succ
             for key in INFO_KEYS:
                 assert infos[key][i] == info[key], key
     # (the crossing controller on the machine as built succeeds once in these 200 steps)
-    assert successes >= (1 if kwargs and controller == "crossing" else 2)
+    assert successes >= (1 if "sensors" in kwargs and controller == "crossing" else 2)
     if env_id == "Planar3PAssemblyChange-v0":
         assert max(env.episode.info["crossings"] for env in venv.envs) >= 1
     for env, single in zip(venv.envs, singles, strict=True):
         for key, value in single.unwrapped.episode.info.items():
-            if key != "reward_terms":
-                assert env.episode.info[key] == value, key
+            assert env.episode.info[key] == value, key
     venv.close()
 
 
@@ -497,17 +528,24 @@ def test_render_without_mode_warns_and_bad_mode_is_rejected():
         Planar3PVectorEnv(num_envs=2, render_mode="human")
 
 
+@pytest.mark.parametrize("action_type", ["on-off", "on-off-discrete"])
 @pytest.mark.parametrize("n", [3, NUMPY_BATCH_MIN])
-def test_the_on_off_id_has_a_native_vector_env_of_its_single_envs(n):
-    """``Planar3PRealOnOff-v0`` (MultiDiscrete motor commands): the native vector env gives
-    its single environments' steps, bit for bit, autoreset included, environment by
-    environment (3 envs) and in the batched step (from :data:`NUMPY_BATCH_MIN`)."""
+def test_the_on_off_id_has_a_native_vector_env_of_its_single_envs(n, action_type):
+    """``Planar3PRealOnOff-v0`` (MultiDiscrete motor commands, or one ``Discrete(27)`` index
+    per env): the native vector env gives its single environments' steps, bit for bit,
+    autoreset included, environment by environment (3 envs) and in the batched step (from
+    :data:`NUMPY_BATCH_MIN`)."""
     limit = 40
-    venv = gym.make_vec(planar3p_gym.REAL_ON_OFF_ENV_ID, num_envs=n, max_episode_steps=limit)
+    kw = {"max_episode_steps": limit, "action_type": action_type}
+    venv = gym.make_vec(planar3p_gym.REAL_ON_OFF_ENV_ID, num_envs=n, **kw)
     assert type(venv) is Planar3PVectorEnv
     assert (venv._core is not None) == (n >= NUMPY_BATCH_MIN)
-    singles = [gym.make(planar3p_gym.REAL_ON_OFF_ENV_ID, max_episode_steps=limit) for _ in range(n)]
-    actions = np.random.default_rng(2).integers(0, 3, (100, n, 3))
+    singles = [gym.make(planar3p_gym.REAL_ON_OFF_ENV_ID, **kw) for _ in range(n)]
+    rng = np.random.default_rng(2)
+    if action_type == "on-off":
+        actions = rng.integers(0, 3, (100, n, 3))
+    else:
+        actions = rng.integers(0, 27, (100, n))
     obs, _ = venv.reset(seed=4)
     np.testing.assert_array_equal(
         obs, np.stack([e.reset(seed=4 + i)[0] for i, e in enumerate(singles)])
@@ -657,13 +695,9 @@ def test_sb3_adapter_serves_the_goal_ids():
         ("Planar3P-v0", {"latency": {"action_delay": 2}}, True),
         ("Planar3PModeChange-v0", {"sensors": {"slider_noise": 1e-5}}, True),
         ("Planar3PAssemblyChange-v0", {"sensors": {"slider_noise": 1e-5}}, True),
-        # Not (yet) the batched step: Discrete(27) actions, the travel term.
-        ("Planar3PRealOnOff-v0", {"action_type": "on-off-discrete"}, False),
-        (
-            "Planar3PModeChange-v0",
-            {"sensors": {"slider_noise": 1e-5}, "travel_shaping": 0.5},
-            False,
-        ),
+        ("Planar3PRealOnOff-v0", {"action_type": "on-off-discrete"}, True),
+        ("Planar3PModeChange-v0", {"sensors": {"slider_noise": 1e-5}, "travel_shaping": 0.5}, True),
+        ("Planar3PReal-v0", {"travel_goal": True}, True),
     ],
 )
 def test_the_built_machine_takes_the_batched_step(env_id, kwargs, batched):
@@ -714,4 +748,29 @@ def test_bad_on_off_actions_are_rejected_before_any_env_steps():
     with pytest.raises(ValueError, match="action"):
         venv.step(bad)
     assert [env.get_state()["sim"] for env in venv.envs] == before
+    venv.close()
+
+
+#: Bad batches of ``Discrete(27)`` actions (the first ``n`` of those of four entries): out of
+#: ``[0, 27)``, not integral, not finite, bools, three commands per env, too few, a string.
+BAD_DISCRETE = (
+    [0, 1, 27, 2], [0, 1, -1, 2], [0, 1.5, 2, 3], [0, 1, float("nan"), 2], [True, 0, 1, 2],
+    [[0, 1, 2]] * 4, [0, 1], "0123",
+)  # fmt: skip
+
+
+@pytest.mark.parametrize("n", [3, NUMPY_BATCH_MIN])
+def test_bad_discrete_on_off_actions_are_rejected_before_any_env_steps(n):
+    """``Discrete(27)`` actions out of ``[0, 27)``, not integral, of the wrong count or shape
+    raise ``ValueError`` and no environment steps, env by env (3 envs) and batched."""
+    venv = gym.make_vec(planar3p_gym.REAL_ON_OFF_ENV_ID, num_envs=n, action_type="on-off-discrete")
+    venv.reset(seed=0)
+    before = [env.get_state()["sim"] for env in venv.envs]
+    for bad in BAD_DISCRETE:
+        actions = bad[:n] if isinstance(bad, list) and len(bad) == 4 else bad
+        with pytest.raises(ValueError, match="action"):
+            venv.step(actions)
+        assert [env.get_state()["sim"] for env in venv.envs] == before, bad
+    obs, *_ = venv.step(np.arange(n) * 1.0)  # (integral floats are accepted, as by one env)
+    assert obs.shape[0] == n
     venv.close()

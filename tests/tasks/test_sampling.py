@@ -414,3 +414,39 @@ def test_refills_are_sized_by_the_mode_s_yield():
     poses, _ = task.sample_poses(design, sparse, np.random.default_rng(0), cfg, batch=big)
     ok, _ = task._acceptable(design, poses, np.asarray(sparse, float), cfg)
     assert ok.all() and len(poses) >= 1
+
+
+def test_a_sampler_copy_shares_its_read_only_poses_and_draws_as_the_original():
+    """A deep copy (snapshots, a reset's undo record) and a pickled copy of a sampler hold
+    their own pools of the original's pose arrays, which are read-only; each copy then draws
+    the same poses as the original from the same stream, and drawing from one leaves the
+    others' pools as they were."""
+    import copy
+    import pickle
+
+    mode = MODES[0]
+    sampler = task.PoseSampler(DESIGN, mode, CFG)
+    rng = np.random.default_rng(5)
+    sampler.draw(rng)
+    sampler.push_front(np.array([0.1, 0.05, 0.2]), 1.0)
+    pooled = sampler.pooled()
+    assert len(pooled) >= 2
+    deep, pickled = copy.deepcopy(sampler), pickle.loads(pickle.dumps(sampler))
+    for other in (deep, pickled):
+        for (p, d), (q, e) in zip(pooled, other.pooled(), strict=True):
+            assert not q.flags.writeable and d == e
+            np.testing.assert_array_equal(p, q)
+    assert deep.pooled()[0][0] is pooled[0][0]  # (shared, not copied)
+    state = rng.bit_generator.state
+    draws = []
+    for s in (sampler, deep, pickled):
+        rng.bit_generator.state = state
+        draws.append([s.draw(rng)[0] for _ in range(len(pooled) + 3)])  # (a refill on the way)
+        assert not draws[-1][0].flags.writeable
+    for got in draws[1:]:
+        for p, q in zip(draws[0], got, strict=True):
+            np.testing.assert_array_equal(p, q)
+    untouched = copy.deepcopy(deep)
+    untouched_pool = untouched.pooled()
+    deep.draw(rng)
+    assert len(untouched.pooled()) == len(untouched_pool)

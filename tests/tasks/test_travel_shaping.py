@@ -7,11 +7,14 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import planar3p_gym  # noqa: F401
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
 from planar3p_gym.envs.mode_change import Planar3PModeChangeEnv
 from planar3p_gym.machine import kinematics
+from planar3p_gym.tasks.travel_shaping import travel_rows, travel_term
 
 IDS = ("Planar3PModeChange-v0", "Planar3PAssemblyChange-v0")
 
@@ -54,3 +57,29 @@ def test_travel_shaping_adds_only_the_travel_term(env_id):
 def test_travel_shaping_rejects_bad_weights(make, bad):
     with pytest.raises(ValueError, match="travel_shaping"):
         make(travel_shaping=bad)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    w=st.floats(0.0, 10.0),
+    r=st.tuples(*[st.floats(-1.0, 1.0)] * 3),
+    t=st.tuples(*[st.floats(-1.0, 1.0)] * 3),
+    length=st.floats(0.01, 10.0),
+)
+def test_the_compiled_travel_term_is_the_formula_bit_for_bit(w, r, t, length):
+    """:func:`travel_term` (what the single env's hook and the batched steps compute) gives
+    ``-w sum_i |r_i - t_i| / L`` as Python evaluates it, bit for bit, and
+    :func:`travel_rows` adds it to each row's reward after the other terms."""
+    want = -w * sum(abs(a - b) for a, b in zip(r, t, strict=True)) / length
+    got = travel_term(w, *r, *t, length)
+    assert (got, math.copysign(1.0, got)) == (want, math.copysign(1.0, want))  # (-0.0 too)
+    states = np.zeros((23, 2))
+    states[0:3, 1] = r
+    res = np.zeros((3, 2))
+    res[0] = [0.25, 0.5]
+    target = np.zeros((4, 3))
+    target[3] = t
+    out = np.zeros(2)
+    travel_rows(np.array([0, 3]), states, res, w, target, length, out)
+    assert out[1] == got and res[0, 1] == 0.5 + got
+    assert out[0] == travel_term(w, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, length)
