@@ -208,8 +208,8 @@ def _check_native(cfg: TrainConfig) -> None:
 
 def _native_fits(cfg: TrainConfig) -> bool:
     """Whether the native vector env takes the run's environment arguments, has the single
-    environment's spaces and steps with its actions (``action_type="on-off-discrete"``, one
-    ``Discrete`` index, it does not: SB3's classes run that)."""
+    environment's spaces and steps with its actions (else SB3's own vector envs run the
+    single environments)."""
     import gymnasium as gym
 
     from planar3p_agents.training.vec_adapter import make_native_vec_env

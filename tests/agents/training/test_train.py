@@ -544,8 +544,7 @@ def test_final_evaluation_matches_a_plain_rollout() -> None:
         ("Planar3PGoal-v0", 4, "auto", "native"),  # Dict observations too
         ("Planar3PGoal-v0", 1, "auto", "native"),
         ("Planar3PRealOnOff-v0", 4, "auto", "native"),  # MultiDiscrete: the same spaces
-        # one Discrete index: the native vector env keeps three commands, so SB3's classes
-        ("Planar3PRealOnOff-v0", 4, "auto-discrete", "subproc"),
+        ("Planar3PRealOnOff-v0", 4, "auto-discrete", "native"),  # one Discrete index per env
         ("Planar3P-v0", 4, "subproc", "subproc"),  # an explicit choice stands
         ("Planar3P-v0", 4, "dummy", "dummy"),
     ],
