@@ -264,6 +264,7 @@ STUDY_ORDER = [
     "fast-recipe",
     "fast-recipe-2m",
     "hard-scratch",
+    "hard-scratch-8m",
 ]
 
 
