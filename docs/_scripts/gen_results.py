@@ -265,6 +265,7 @@ STUDY_ORDER = [
     "fast-recipe-2m",
     "hard-scratch",
     "hard-scratch-8m",
+    "hard-scratch-10m",
 ]
 
 
