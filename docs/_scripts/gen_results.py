@@ -270,6 +270,8 @@ STUDY_ORDER = [
     "fast-recipe",
     "fast-recipe-2m",
     "hard-scratch",
+    "hard-scratch-8m",
+    "hard-scratch-10m",
 ]
 
 
