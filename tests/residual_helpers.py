@@ -1,15 +1,17 @@
-"""Helpers shared by the residual-policy tests (tests/agents/controllers/test_residual_track.py and
-tests/agents/controllers/test_residual_reach.py): a tiny PPO model of a residual policy and the
-checks every residual policy must pass whatever its base controller."""
+"""Helpers shared by the residual-policy tests (tests/agents/controllers/test_residual_*.py): a
+tiny PPO model of a residual policy, the checks every residual policy must pass whatever its
+base controller, and a complete tiny training run of a shipped recipe."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 import torch as th
+from script_loader import command
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import DummyVecEnv
 
@@ -78,3 +80,22 @@ TINY_RUN_ARGS = (
     "--checkpoint-freq", "128", "--no-progress-bar",
     "--params", "n_steps=64", "batch_size=64", "n_epochs=1",
 )  # fmt: skip
+
+
+def assert_trains_shipped_entry(run: Path, env_id: str, hyperparams: Path, policy: type) -> None:
+    """``scripts/train.py`` with ``env_id``'s entry of ``hyperparams`` (native vector env,
+    :data:`TINY_RUN_ARGS`) into ``run``: the run completes, records ``policy`` and saves a model
+    of it whose statistics normalise rewards only."""
+    from planar3p_agents.policies.factory import load_policy
+
+    argv = [
+        "--algo", "ppo", "--env", env_id, "--hyperparams", str(hyperparams),
+        "--vec-env", "native", "--run-dir", str(run), *TINY_RUN_ARGS,
+    ]  # fmt: skip
+    assert command("train").main(argv) == 0
+    config = json.loads((run / "config.json").read_text())["config"]
+    assert config["policy"] == policy.__name__
+    model = PPO.load(run / "model.zip", device="cpu")
+    assert isinstance(model.policy, policy)
+    stats = f"{run / 'model.zip'}:stats={run / 'vecnormalize.pkl'}"
+    assert not load_policy(stats, env=gym.make(env_id)).vecnormalize.norm_obs

@@ -3,7 +3,6 @@ benchmark's analytic controller on ``Planar3PAssemblyChange-v0``."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import gymnasium as gym
@@ -13,13 +12,12 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 from residual_helpers import (
-    TINY_RUN_ARGS,
     assert_correction_bounded,
     assert_round_trip,
+    assert_trains_shipped_entry,
     observation_with_errors,
     residual_model,
 )
-from script_loader import command
 from stable_baselines3 import PPO
 
 from planar3p_agents.controllers.analytic import AnalyticController
@@ -37,7 +35,6 @@ from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
 ID = "Planar3PAssemblyChange-v0"
 HYPERPARAMS = training.HYPERPARAMS_DIR / "ppo_residual.yml"
-train_script = command("train")
 
 
 def _model(scale: float = 0.3, **policy_kwargs) -> PPO:
@@ -124,17 +121,4 @@ def test_round_trip_registry_and_wrong_observation(tmp_path: Path, observations)
 def test_train_script_trains_the_shipped_entry(tmp_path: Path):
     """scripts/train.py with the assembly-change entry of ppo_residual.yml: a complete run
     whose model is a residual assembly policy with reward-only statistics."""
-    run = tmp_path / "assembly"
-    argv = [
-        "--algo", "ppo", "--env", ID, "--hyperparams", str(HYPERPARAMS),
-        "--vec-env", "native", "--run-dir", str(run), *TINY_RUN_ARGS,
-    ]  # fmt: skip
-    assert train_script.main(argv) == 0
-    config = json.loads((run / "config.json").read_text())["config"]
-    assert config["policy"] == "ResidualAssemblyPolicy"
-    model = PPO.load(run / "model.zip", device="cpu")
-    assert isinstance(model.policy, ResidualAssemblyPolicy)
-    from planar3p_agents.policies.factory import load_policy
-
-    loaded = load_policy(f"{run / 'model.zip'}:stats={run / 'vecnormalize.pkl'}", env=gym.make(ID))
-    assert not loaded.vecnormalize.norm_obs
+    assert_trains_shipped_entry(tmp_path / "assembly", ID, HYPERPARAMS, ResidualAssemblyPolicy)

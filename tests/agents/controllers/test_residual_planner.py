@@ -3,7 +3,6 @@ baseline on ``Planar3PModeChange-v0``, whose state the features extractor keeps.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import gymnasium as gym
@@ -13,8 +12,7 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import torch as th
-from residual_helpers import TINY_RUN_ARGS, assert_round_trip, residual_model
-from script_loader import command
+from residual_helpers import assert_round_trip, assert_trains_shipped_entry, residual_model
 from stable_baselines3 import PPO
 
 from planar3p_agents.controllers.planner import JointPathPlanner
@@ -30,7 +28,6 @@ from planar3p_agents.training import config as training
 
 ID = "Planar3PModeChange-v0"
 HYPERPARAMS = training.HYPERPARAMS_DIR / "ppo_residual.yml"
-train_script = command("train")
 
 
 def _model(scale: float = 0.3, **policy_kwargs) -> PPO:
@@ -129,13 +126,4 @@ def test_round_trip_registry_and_wrong_arguments(tmp_path: Path):
 def test_train_script_trains_the_shipped_entry(tmp_path: Path):
     """scripts/train.py with the mode-change entry of ppo_residual.yml: a complete run whose
     model is a residual planner policy with reward-only statistics."""
-    run = tmp_path / "mode"
-    argv = [
-        "--algo", "ppo", "--env", ID, "--hyperparams", str(HYPERPARAMS),
-        "--vec-env", "native", "--run-dir", str(run), *TINY_RUN_ARGS,
-    ]  # fmt: skip
-    assert train_script.main(argv) == 0
-    config = json.loads((run / "config.json").read_text())["config"]
-    assert config["policy"] == "ResidualPlannerPolicy"
-    model = PPO.load(run / "model.zip", device="cpu")
-    assert isinstance(model.policy, ResidualPlannerPolicy)
+    assert_trains_shipped_entry(tmp_path / "mode", ID, HYPERPARAMS, ResidualPlannerPolicy)

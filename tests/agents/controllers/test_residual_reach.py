@@ -3,7 +3,6 @@ controller on ``Planar3P-v0``."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import gymnasium as gym
@@ -14,13 +13,12 @@ pytest.importorskip("stable_baselines3")
 
 import torch as th
 from residual_helpers import (
-    TINY_RUN_ARGS,
     assert_correction_bounded,
     assert_round_trip,
+    assert_trains_shipped_entry,
     observation_with_errors,
     residual_model,
 )
-from script_loader import command
 from stable_baselines3 import PPO
 
 import planar3p_gym
@@ -35,7 +33,6 @@ from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
 ID = planar3p_gym.ENV_ID
 HYPERPARAMS = training.HYPERPARAMS_DIR / "ppo_residual.yml"
-train_script = command("train")
 
 
 def _model(scale: float = 0.5, **policy_kwargs) -> PPO:
@@ -114,17 +111,4 @@ def test_benchmark_plays_an_untrained_residual_model_like_the_controller(tmp_pat
 def test_train_script_trains_the_shipped_entry(tmp_path: Path):
     """scripts/train.py with agents/training/hyperparams/ppo_residual.yml: a complete run whose
     model is a residual reach policy with reward-only statistics."""
-    run = tmp_path / "reach"
-    argv = [
-        "--algo", "ppo", "--env", ID, "--hyperparams", str(HYPERPARAMS),
-        "--vec-env", "native", "--run-dir", str(run), *TINY_RUN_ARGS,
-    ]  # fmt: skip
-    assert train_script.main(argv) == 0
-    config = json.loads((run / "config.json").read_text())["config"]
-    assert config["policy"] == "ResidualReachPolicy"
-    model = PPO.load(run / "model.zip", device="cpu")
-    assert isinstance(model.policy, ResidualReachPolicy)
-    from planar3p_agents.policies.factory import load_policy
-
-    loaded = load_policy(f"{run / 'model.zip'}:stats={run / 'vecnormalize.pkl'}", env=gym.make(ID))
-    assert not loaded.vecnormalize.norm_obs
+    assert_trains_shipped_entry(tmp_path / "reach", ID, HYPERPARAMS, ResidualReachPolicy)
