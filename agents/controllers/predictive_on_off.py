@@ -35,28 +35,31 @@ from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.base import BatchPolicy
 from planar3p_agents.controllers.pose_correction import PoseCorrection
 from planar3p_gym import checks
-from planar3p_gym.envs.actuation import ON_OFF_SPEED
+from planar3p_gym.envs.actuation import ON_OFF_COMMANDS, ON_OFF_SPEED
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
 __all__ = ["PredictiveOnOffController", "digits_of", "signs_of"]
 
 _PLACES = np.array([9, 3, 1], dtype=np.int64)
+#: The signed command of each motor command, the environment's encoding (``ON_OFF_COMMANDS``),
+#: and the motor command of each sign (indexed by ``sign + 1``).
+_SIGNS = np.asarray(ON_OFF_COMMANDS).astype(np.int64)
+_DIGIT_OF_SIGN = np.empty(3, dtype=np.int64)
+_DIGIT_OF_SIGN[_SIGNS + 1] = np.arange(_SIGNS.size)
 _POS = SLICES["position_error"]
 _ANG = SLICES["orientation_error"].start
 _RATES = SLICES["rho_dot"]
 
 
 def digits_of(signed: ArrayLike) -> NDArray[np.int64]:
-    """Motor commands (0 stop, 1 forward, 2 backward) of signed ones (0, 1, -1)."""
-    s = np.asarray(signed)
-    return np.where(s > 0, 1, np.where(s < 0, 2, 0)).astype(np.int64)
+    """Motor commands (0 stop, 1 forward, 2 backward) of signed ones (the sign of each entry)."""
+    return _DIGIT_OF_SIGN[np.sign(np.asarray(signed)).astype(np.int64) + 1]
 
 
 def signs_of(digits: ArrayLike) -> NDArray[np.int64]:
     """Signed commands (0, 1, -1) of motor commands (0 stop, 1 forward, 2 backward)."""
-    d = np.asarray(digits)
-    return np.where(d == 1, 1, np.where(d == 2, -1, 0)).astype(np.int64)
+    return _SIGNS[np.asarray(digits, dtype=np.int64)]
 
 
 class PredictiveOnOffController(BatchPolicy):

@@ -12,8 +12,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import planar3p_gym  # noqa: F401  (registers the ids)
-from planar3p_agents.controllers.predictive_on_off import PredictiveOnOffController
+from planar3p_agents.controllers.predictive_on_off import (
+    PredictiveOnOffController,
+    digits_of,
+    signs_of,
+)
 from planar3p_agents.policies.factory import load_policy
+from planar3p_gym.envs.actuation import on_off_action
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
 GAIN = 6.0
@@ -145,3 +150,12 @@ def test_it_brings_a_built_machine_to_rest_at_the_target() -> None:
             break
     assert info["is_success"] and action.tolist() == [0, 0, 0]
     env.close()
+
+
+@given(st.lists(st.integers(0, 2), min_size=3, max_size=3))
+def test_motor_commands_and_signs_are_the_environments_encoding(digits):
+    """A motor command's sign is the slider direction the environment runs it in, and
+    ``digits_of`` inverts ``signs_of``."""
+    signs = signs_of(digits)
+    assert signs.tolist() == [int(c) for c in on_off_action(np.array(digits), "on-off")]
+    assert digits_of(signs).tolist() == digits
