@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from planar3p_gym import atomic_files
 from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
@@ -95,7 +96,7 @@ class PoseCorrection:
 
     def save(self, path: str | Path, **record: Any) -> None:
         """Write the weights, and ``record`` (how they were fitted), as JSON."""
-        Path(path).write_text(json.dumps({"weights": self.to_list(), **record}, indent=1))
+        atomic_files.write_atomic(path, json.dumps({"weights": self.to_list(), **record}, indent=1))
 
 
 def fit_pose_correction(obs: ArrayLike, bias: ArrayLike) -> PoseCorrection:

@@ -20,12 +20,15 @@ import gymnasium as gym
 import numpy as np
 
 import planar3p_gym  # noqa: F401  (registers the ids)
+from planar3p_agents.commands import checks as cli_checks
+from planar3p_agents.commands.parser import UsageError
 from planar3p_agents.controllers.pose_correction import (
     PoseCorrection,
     fit_pose_correction,
     pose_bias,
 )
 from planar3p_agents.controllers.predictive_on_off import PredictiveOnOffController
+from planar3p_agents.controllers.registry import ON_OFF_IDS
 from planar3p_gym import checks
 from planar3p_gym.envs.registry import REAL_ON_OFF_ENV_ID
 
@@ -78,10 +81,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--every", type=int, default=25, help="steps between samples")
     parser.add_argument("--out", required=True, help="JSON file to write")
     args = parser.parse_args(argv)
-    if args.episodes < 1:
-        parser.error("--episodes must be >= 1")
-    if args.every < 1:
-        parser.error("--every must be >= 1")
+    try:  # every flag, the output path included, before the episodes are simulated
+        cli_checks.at_least("--episodes", args.episodes, 1)
+        cli_checks.at_least("--every", args.every, 1)
+        cli_checks.at_least("--seed", args.seed, 0)
+        cli_checks.known("--env", [args.env], ON_OFF_IDS, "id")
+        cli_checks.output_file("--out", args.out)
+    except UsageError as exc:
+        parser.error(str(exc))
     correction = fit_on_episodes(args.env, args.episodes, args.seed, args.every)
     correction.save(
         args.out, env_id=args.env, episodes=args.episodes, seed=args.seed, every=args.every

@@ -34,3 +34,22 @@ def test_command_line_refuses_a_bad_count(tmp_path, flag: str) -> None:
         fit.main([flag, "0", "--out", str(tmp_path / "c.json")])
     assert exc.value.code == 2
     assert not (tmp_path / "c.json").exists()
+
+
+@pytest.mark.parametrize(
+    ("args", "flag"),
+    [
+        (["--seed", "-1"], "--seed"),
+        (["--env", "Planar3PReal-v0"], "--env"),  # not an on-off id
+        (["--out", "{tmp}/missing/c.json"], "--out"),  # its folder does not exist
+    ],
+)
+def test_command_line_refuses_bad_flags_before_any_work(tmp_path, capsys, args, flag) -> None:
+    argv = [a.replace("{tmp}", str(tmp_path)) for a in args]
+    if "--out" not in argv:
+        argv += ["--out", str(tmp_path / "c.json")]
+    with pytest.raises(SystemExit) as exc:
+        fit.main(argv)
+    assert exc.value.code == 2
+    assert flag in capsys.readouterr().err.strip().splitlines()[-1]
+    assert list(tmp_path.rglob("*")) == []
