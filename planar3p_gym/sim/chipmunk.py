@@ -11,17 +11,22 @@ simulation modules work").
 * :data:`FUNCTIONS`, :func:`address`: the functions' and objects' addresses (run-time
   arguments, so the compiled code is cached);
 * :data:`AVAILABLE`: ``False`` where pymunk's build lacks these functions (the simulation then
-  steps through cffi).
+  steps through cffi);
+* :data:`CLEARS_UPPER`, :func:`clear_upper`: ``vzeroupper`` before every call into Chipmunk.
 """
 
 from __future__ import annotations
 
 import math
+import platform
 from typing import Any, NamedTuple
 
+import llvmlite.binding as llvm
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
+from numba.core import cgutils
+from numba.core import config as numba_config
 from numba.extending import intrinsic
 
 from planar3p_gym.machine.angles import wrap_angle
@@ -36,6 +41,7 @@ from planar3p_gym.sim.recovery import excess_energy, recover
 
 __all__ = [
     "AVAILABLE",
+    "CLEARS_UPPER",
     "FUNCTIONS",
     "HANDLE_FIELDS",
     "BodyReadout",
@@ -43,6 +49,7 @@ __all__ = [
     "advance",
     "advance_batch",
     "body_readout",
+    "clear_upper",
     "handle_row",
     "needs_recovery",
     "read_bodies",
@@ -159,10 +166,55 @@ _LLVM_TYPES = {"p": _VOID_P, "d": ir.DoubleType(), "i": ir.IntType(32), "v": ir.
 _NUMBA_TYPES = {"p": types.uintp, "d": types.float64, "i": types.int32, "v": types.void}
 
 
+def _compiles_avx() -> bool:
+    """Whether numba compiles for an x86 CPU with AVX (the host's, unless numba's
+    ``NUMBA_CPU_NAME`` names another; then only if ``NUMBA_CPU_FEATURES`` lists ``+avx``)."""
+    if platform.machine().lower() not in ("x86_64", "amd64"):
+        return False
+    if numba_config.CPU_NAME:
+        return "+avx" in (numba_config.CPU_FEATURES or "").split(",")
+    return bool(llvm.get_host_cpu_features().get("avx", False))
+
+
+#: Whether a call into Chipmunk from compiled code is preceded by ``vzeroupper``.  Compiled
+#: code can leave the upper halves of the vector registers dirty where LLVM does not see it
+#: (a 256-bit memory operand with a 128-bit destination), and Chipmunk's SSE code, with the
+#: library's own ``pow`` and ``sincos``, then runs about four times slower until something
+#: clears them (docs/physics.md, "How the simulation modules work").
+CLEARS_UPPER = _compiles_avx()
+_VZEROUPPER = ir.FunctionType(ir.VoidType(), [])
+
+
+def _emit_clear_upper(builder: ir.IRBuilder) -> None:
+    """Emit ``vzeroupper`` where :data:`CLEARS_UPPER` (nothing elsewhere)."""
+    if CLEARS_UPPER:
+        clear = cgutils.get_or_insert_function(
+            builder.module, _VZEROUPPER, "llvm.x86.avx.vzeroupper"
+        )
+        builder.call(clear, [])
+
+
+@intrinsic
+def _clear_upper(typingctx: Any) -> Any:
+    def codegen(context: Any, builder: ir.IRBuilder, signature: Any, args: Any) -> Any:
+        _emit_clear_upper(builder)
+        return context.get_dummy_value()
+
+    return types.void(), codegen
+
+
+@njit(cache=True)
+def clear_upper() -> None:
+    """``vzeroupper`` where :data:`CLEARS_UPPER`: what code that calls Chipmunk from Python
+    (cffi) and times it needs after compiled code ran (a benchmark's floor)."""
+    _clear_upper()
+
+
 def _c_function(signature: str) -> Any:
     """An intrinsic ``call(fn, *args)`` that calls the C function at address ``fn`` with the
     C signature ``signature``, written ``result(parameters)`` in the letters of
-    :data:`_LLVM_TYPES` (``"d(p)"``: ``double f(void *)``)."""
+    :data:`_LLVM_TYPES` (``"d(p)"``: ``double f(void *)``), after ``vzeroupper`` where
+    :data:`CLEARS_UPPER`."""
     result, parameters = signature[0], signature[2:-1]
     sig = _NUMBA_TYPES[result](types.uintp, *(_NUMBA_TYPES[k] for k in parameters))
     fnty = ir.FunctionType(_LLVM_TYPES[result], [_LLVM_TYPES[k] for k in parameters])
@@ -172,6 +224,7 @@ def _c_function(signature: str) -> Any:
         args = [
             _pointer(builder, v) if k == "p" else v for k, v in zip(parameters, rest, strict=True)
         ]
+        _emit_clear_upper(builder)
         out = builder.call(builder.inttoptr(f, fnty.as_pointer()), args)
         return context.get_dummy_value() if result == "v" else out
 

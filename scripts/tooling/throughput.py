@@ -332,15 +332,19 @@ def _pymunk_floor(sim: Any) -> Callable[[], int]:
     """A function running ``sim.substeps`` of pymunk's own step on ``sim``'s space (Chipmunk's
     ``cpSpaceStep`` directly where the sim does, else ``Space.step``) and returning its wall
     time (ns)."""
-    from planar3p_gym.sim import physics
+    from planar3p_gym.sim import chipmunk, physics
 
-    h, substeps, clock = sim._h, sim.substeps, time.perf_counter_ns
-    if sim._fast is not None:
-        cp_step, space = physics._cp.cpSpaceStep, sim._fast.space
+    h, substeps, clock = sim.dt / sim.substeps, sim.substeps, time.perf_counter_ns
+    link = sim.batch_link()
+    if link is not None:
+        cp_step, space = physics._cp.cpSpaceStep, link.space
     else:  # pragma: no cover - pymunk builds without the batch API
         cp_step, space = (lambda _s, dt: sim.space.step(dt)), None
 
     def run() -> int:
+        # Compiled code that ran before (a reset's) can leave the vector registers' upper
+        # halves dirty, which slows Chipmunk several times over until they are cleared.
+        chipmunk.clear_upper()
         t0 = clock()
         for _ in range(substeps):
             cp_step(space, h)

@@ -177,3 +177,28 @@ def test_the_force_request_writes_each_bodys_force_and_torque():
     for k, body in enumerate(sim._bodies):
         if body.body_type == body.DYNAMIC:
             assert (*body.force, body.torque) == tuple(fast.applied[3 * k : 3 * k + 3])
+
+
+def test_every_call_into_chipmunk_clears_the_upper_registers_first(monkeypatch):
+    """On an x86 CPU with AVX each compiled call into Chipmunk is preceded by ``vzeroupper``
+    (read in the assembly of a function compiled here, uncached) and nowhere else is one
+    emitted; which CPUs count follows numba's target CPU."""
+    from numba import njit, types
+
+    @njit(types.void(types.uintp[:], types.uintp[:], types.float64))
+    def step(fns, handles, h):
+        chipmunk._call_pd(fns[0], handles[0], h)
+
+    asm = step.inspect_asm(step.signatures[0])
+    assert ("vzeroupper" in asm) == chipmunk.CLEARS_UPPER
+    if chipmunk.CLEARS_UPPER:  # the clearing precedes the call
+        body = asm[asm.index("vzeroupper") :]
+        assert "call" in body
+    monkeypatch.setattr(chipmunk.platform, "machine", lambda: "aarch64")
+    assert not chipmunk._compiles_avx()
+    monkeypatch.setattr(chipmunk.platform, "machine", lambda: "x86_64")
+    monkeypatch.setattr(chipmunk.numba_config, "CPU_NAME", "generic")
+    monkeypatch.setattr(chipmunk.numba_config, "CPU_FEATURES", "+sse2")
+    assert not chipmunk._compiles_avx()
+    monkeypatch.setattr(chipmunk.numba_config, "CPU_FEATURES", "+sse2,+avx")
+    assert chipmunk._compiles_avx()
