@@ -24,6 +24,7 @@ A task picks its kernel in :meth:`planar3p_gym.tasks.base.Task.kernel` from the
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
@@ -279,7 +280,8 @@ class StepKernel:
         )
         reward = float(sum(terms.values()))
         if reason == "physics_breakdown":
-            info = dict(ep.info)
+            # The last good step's entries, copied: a step returns no object an earlier one did.
+            info = copy.deepcopy(ep.info)
             closure = state.closure_error
             info.update(
                 termination_reason=reason,

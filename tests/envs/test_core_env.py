@@ -742,3 +742,19 @@ def test_core_package_imports_without_torch_or_sb3():
         "assert 'torch' not in sys.modules and 'stable_baselines3' not in sys.modules\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=120)
+
+
+@pytest.mark.parametrize("env_id", ["Planar3P-v0", "Planar3PReal-v0"])
+def test_a_breakdown_step_returns_no_object_of_the_reset(env_id):
+    """A broken-down first step keeps the reset's last good entries (its ``episode_spec``
+    included) as copies: nothing it returns is an object the reset returned, as Gymnasium's
+    checker asks."""
+    from gymnasium.utils.passive_env_checker import data_shares_objects
+
+    env = gym.make(env_id).unwrapped
+    obs, info = env.reset(seed=4)
+    next(iter(env.sim.space.bodies)).position = (math.nan, 0.0)
+    obs2, _, terminated, _, info2 = env.step(np.zeros(3, np.float32))
+    assert terminated and info2["termination_reason"] == "physics_breakdown"
+    assert info2["episode_spec"] == info["episode_spec"]
+    assert not data_shares_objects(info, info2) and not data_shares_objects(obs, obs2)
