@@ -10,7 +10,8 @@ and carry part of that bias.  :class:`PoseCorrection` holds a least-squares fit 
 * :data:`FEATURES`: the observation entries it reads (slider travels, pose, leg angles);
 * ``bias = [features, 1] @ weights``: true minus observed ``(x, y, theta)`` (m, m, rad);
 * :meth:`PoseCorrection.corrected`: the observation with the errors to the target corrected;
-* :func:`fit_pose_correction`: the least-squares fit of samples (features and bias).
+* :func:`fit_pose_correction`: the least-squares fit of samples (features and bias);
+* :func:`weights_in_kwargs`: a policy's arguments with a correction file read into weights.
 
 Fitted by :mod:`planar3p_agents.training.pose_correction` on simulated episodes of the
 randomised machine (the bias needs the true pose, which only a simulation has).
@@ -29,7 +30,7 @@ from planar3p_gym import atomic_files
 from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
-__all__ = ["FEATURES", "PoseCorrection", "fit_pose_correction", "pose_bias"]
+__all__ = ["FEATURES", "PoseCorrection", "fit_pose_correction", "pose_bias", "weights_in_kwargs"]
 
 #: Observation indices the correction reads: ``rho``, ``position``, ``orientation``, ``legs``.
 FEATURES: tuple[int, ...] = tuple(
@@ -110,3 +111,13 @@ def fit_pose_correction(obs: ArrayLike, bias: ArrayLike) -> PoseCorrection:
         raise ValueError(f"need at least {_WEIGHT_SHAPE[0]} samples, got {o.shape[0]}")
     weights, *_ = np.linalg.lstsq(_features(o), y, rcond=None)
     return PoseCorrection(weights)
+
+
+def weights_in_kwargs(policy_kwargs: dict[str, Any]) -> dict[str, Any]:
+    """``policy_kwargs`` with a ``correction`` named by its file replaced by its weights, so
+    that a saved model (SB3 keeps the ``policy_kwargs`` it was made with) holds them and
+    names no path."""
+    correction = policy_kwargs.get("correction")
+    if isinstance(correction, (str, Path)):
+        return {**policy_kwargs, "correction": PoseCorrection(correction).to_list()}
+    return dict(policy_kwargs)

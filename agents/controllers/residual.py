@@ -11,8 +11,9 @@ controller modules work".
 * :class:`ResidualReachPolicy` (``Planar3P-v0``): on ``analytic-simultaneous``;
 * :class:`ResidualLinePolicy` (``Planar3P-v0``): on ``certified-line``;
 * :class:`ResidualAssemblyPolicy` (``Planar3PAssemblyChange-v0``, exact or as built): on
-  ``analytic-simultaneous`` (``crossing`` follows its plan by a clock the observation does not
-  hold, so it cannot be a policy's mean);
+  ``analytic-simultaneous``, as built optionally through a learned pose correction
+  (``crossing`` follows its plan by a clock the observation does not hold, so it cannot be a
+  policy's mean);
 * :class:`ResidualPlannerPolicy` (``Planar3PModeChange-v0``, exact or as built): on
   ``planner``, whose plan and clock :class:`PlannerFeatures` keeps per environment;
 * :class:`TrackFeatures`, :class:`ReachFeatures`, :class:`LineFeatures`,
@@ -36,6 +37,7 @@ from planar3p_agents.controllers.base import BatchPolicy
 from planar3p_agents.controllers.certified_line import CertifiedLineController
 from planar3p_agents.controllers.layout import extra_slice, task_observation_size
 from planar3p_agents.controllers.planner import JointPathPlanner
+from planar3p_agents.controllers.pose_correction import PoseCorrection, weights_in_kwargs
 from planar3p_agents.controllers.tracking import TRACK_OBS_SIZE, TrackingController
 from planar3p_gym.checks import design_from
 from planar3p_gym.machine.design import Design
@@ -130,6 +132,8 @@ class ControllerFeatures(BaseFeaturesExtractor):
         controller: the base controller (a :class:`BatchPolicy` with a ``design``, which sets
             the feature scales, and an ``obs_size``).
         error_scale: pose error (m) that maps to a feature of 1.
+        correction: a learned :class:`PoseCorrection` of the pose reading the base acts on
+            (the features keep the observation as read), or ``None``.
     """
 
     def __init__(
@@ -137,6 +141,7 @@ class ControllerFeatures(BaseFeaturesExtractor):
         observation_space: gym.spaces.Box,
         controller: BatchPolicy,
         error_scale: float,
+        correction: PoseCorrection | None = None,
     ) -> None:
         size = int(controller.obs_size or 0)
         if observation_space.shape != (size,):
@@ -146,6 +151,7 @@ class ControllerFeatures(BaseFeaturesExtractor):
             )
         super().__init__(observation_space, size + 3)
         self.base = controller
+        self.correction = correction
         offset, scale = feature_scaling(controller.design, size, error_scale)
         self.register_buffer("offset", th.as_tensor(offset, dtype=th.float32))
         self.register_buffer("scale", th.as_tensor(scale, dtype=th.float32))
@@ -154,6 +160,8 @@ class ControllerFeatures(BaseFeaturesExtractor):
         """The base controller's actions ``(n, 3)`` for raw observations ``(n, obs_size)`` (no
         gradient flows through it: it is a fixed function of the observation)."""
         raw = obs.detach().cpu().numpy().astype(np.float64)
+        if self.correction is not None:
+            raw = self.correction.corrected(raw)
         action = self.base.predict(raw)[0]
         return th.as_tensor(action, dtype=obs.dtype, device=obs.device)
 
@@ -208,14 +216,20 @@ class AssemblyFeatures(ControllerFeatures):
         observation_space: ``Box((36,))`` of ``Planar3PAssemblyChange-v0``.
         design: the machine (a :class:`Design`, its dict, or ``None`` for
             ``Design.fig8(gravity=0.0)``, the task's default).
+        correction: the weights of a learned :class:`PoseCorrection` the base acts through
+            (nested lists), or ``None``.
     """
 
     def __init__(
-        self, observation_space: gym.spaces.Box, design: Design | dict[str, Any] | None = None
+        self,
+        observation_space: gym.spaces.Box,
+        design: Design | dict[str, Any] | None = None,
+        correction: list[list[float]] | None = None,
     ) -> None:
         machine = Design.fig8(gravity=0.0) if design is None else design_from(design)
         controller = AnalyticController(machine, "simultaneous", observation_size=ASSEMBLY_OBS_SIZE)
-        super().__init__(observation_space, controller, REACH_ERROR_SCALE)
+        fitted = None if correction is None else PoseCorrection(correction)
+        super().__init__(observation_space, controller, REACH_ERROR_SCALE, fitted)
 
 
 class LineFeatures(ControllerFeatures):
@@ -489,13 +503,26 @@ class ResidualAssemblyPolicy(ResidualPolicy):
     """:class:`ResidualPolicy` on the benchmark's ``analytic-simultaneous`` controller for the
     assembly change (``Planar3PAssemblyChange-v0``, 36-entry observation); arguments as for
     :class:`ResidualPolicy` (``design``: ``None`` is ``Design.fig8(gravity=0.0)``, the task's
-    default machine)."""
+    default machine), and ``correction``: a learned :class:`PoseCorrection` of the machine as
+    built's pose reading for the base (its JSON file or weights, kept in the model as
+    weights), or ``None``."""
 
     features_class = AssemblyFeatures
+    resolve_policy_kwargs = staticmethod(weights_in_kwargs)
 
-    def __init__(self, *args: Any, design: dict[str, Any] | None = None, **kwargs: Any) -> None:
+    def __init__(
+        self,
+        *args: Any,
+        design: dict[str, Any] | None = None,
+        correction: str | list[list[float]] | None = None,
+        **kwargs: Any,
+    ) -> None:
         machine = Design.fig8(gravity=0.0) if design is None else design_from(design)
+        self.correction = None if correction is None else PoseCorrection(correction).to_list()
         super().__init__(*args, design=machine.to_dict(), **kwargs)
+
+    def _base_kwargs(self) -> dict[str, Any]:
+        return {"correction": self.correction}
 
 
 class ResidualPlannerPolicy(ResidualPolicy):

@@ -24,7 +24,6 @@ is an ordinary SB3 ``PPO`` model of the id: the benchmark plays it like any othe
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
@@ -37,7 +36,7 @@ from torch import nn
 
 from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.on_off import OnOffController
-from planar3p_agents.controllers.pose_correction import PoseCorrection
+from planar3p_agents.controllers.pose_correction import PoseCorrection, weights_in_kwargs
 from planar3p_agents.controllers.predictive_on_off import (
     PredictiveOnOffController,
     digits_of,
@@ -273,14 +272,7 @@ class PredictiveResidualOnOffPolicy(ResidualOnOffPolicy):
         self.correction = None if correction is None else PoseCorrection(correction).to_list()
         super().__init__(observation_space, action_space, lr_schedule, **kwargs)
 
-    @staticmethod
-    def resolve_policy_kwargs(policy_kwargs: dict[str, Any]) -> dict[str, Any]:
-        """``policy_kwargs`` with a correction named by its file replaced by its weights, so
-        that a saved model (SB3 keeps the ``policy_kwargs`` it was made with) holds them."""
-        correction = policy_kwargs.get("correction")
-        if isinstance(correction, (str, Path)):
-            return {**policy_kwargs, "correction": PoseCorrection(correction).to_list()}
-        return dict(policy_kwargs)
+    resolve_policy_kwargs = staticmethod(weights_in_kwargs)
 
     def _features_kwargs(self) -> dict[str, Any]:
         return {**super()._features_kwargs(), "correction": self.correction}

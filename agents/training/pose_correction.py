@@ -2,12 +2,17 @@
 simulated episodes of the machine as built.
 
 The bias of the pose reading needs the true pose, which only a simulation reports
-(``info["pose"]``), so the samples come from episodes of the training id, each on a machine
-drawn by the environment: ``analytic-on-off-predictive`` drives them (the states a controller
-on that machine visits), and every ``every``-th step and the last of each episode is a sample.
-Nothing here is in SB3: it is a least-squares fit, not reinforcement learning.
+(``info["pose"]``), so the samples come from episodes of a task suite's environment on the
+machine as built (:data:`SUITES`), each on a machine drawn by the environment: the suite's
+first baseline drives them (the states a controller on that machine visits:
+``analytic-on-off-predictive`` on ``real-on-off``, ``analytic-simultaneous`` on the others),
+and every ``every``-th step and the last of each episode is a sample.  The episodes are the
+environment's own draws from the reset seed, not the suite's fixed episodes.  Nothing here is
+in SB3: it is a least-squares fit, not reinforcement learning.
 
     python -m planar3p_agents.training.pose_correction --seed 1 --out runs/onoff/corr-s1.json
+    python -m planar3p_agents.training.pose_correction --suite real-assembly-change \
+        --seed 1001 --out runs/rac/correction-s1.json
 """
 
 from __future__ import annotations
@@ -16,7 +21,6 @@ import argparse
 import sys
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
 import planar3p_gym  # noqa: F401  (registers the ids)
@@ -27,23 +31,29 @@ from planar3p_agents.controllers.pose_correction import (
     fit_pose_correction,
     pose_bias,
 )
-from planar3p_agents.controllers.predictive_on_off import PredictiveOnOffController
-from planar3p_agents.controllers.registry import ON_OFF_IDS
+from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_env
+from planar3p_agents.policies.factory import load_policy
 from planar3p_gym import checks
-from planar3p_gym.envs.registry import REAL_ON_OFF_ENV_ID
 
-__all__ = ["collect_samples", "fit_on_episodes", "main"]
+__all__ = ["SUITES", "collect_samples", "fit_on_episodes", "main"]
+
+#: The task suites on the machine as built whose observed pose is read through the nominal
+#: model (the ones a correction applies to).
+SUITES: tuple[str, ...] = ("real-on-off", "real-reach", "real-mode-change", "real-assembly-change")
 
 
 def collect_samples(
-    env_id: str = REAL_ON_OFF_ENV_ID, episodes: int = 300, seed: int = 0, every: int = 25
+    suite: str = "real-on-off", episodes: int = 300, seed: int = 0, every: int = 25
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Observations ``(n, d)`` and pose biases ``(n, 3)`` of ``episodes`` episodes of
-    ``env_id`` (reset with ``seed`` once, then from the environment's own stream)."""
+    """Observations ``(n, d)`` and pose biases ``(n, 3)`` of ``episodes`` episodes of the
+    environment of task suite ``suite`` (one of :data:`SUITES`), driven by its first baseline
+    (reset with ``seed`` once, then from the environment's own stream)."""
+    if suite not in SUITES:
+        raise ValueError(f"suite must be one of {', '.join(SUITES)}, got {suite!r}")
     episodes = checks.integer(episodes, "episodes", low=1)
     every = checks.integer(every, "every", low=1)
-    env = gym.make(env_id)
-    policy = PredictiveOnOffController.from_env(env)
+    env = make_task_env(suite)
+    policy = load_policy(TASK_SUITES[suite].baselines[0], env)
     obs_rows: list[np.ndarray] = []
     true_poses: list[Any] = []
     try:
@@ -66,16 +76,18 @@ def collect_samples(
 
 
 def fit_on_episodes(
-    env_id: str = REAL_ON_OFF_ENV_ID, episodes: int = 300, seed: int = 0, every: int = 25
+    suite: str = "real-on-off", episodes: int = 300, seed: int = 0, every: int = 25
 ) -> PoseCorrection:
     """:func:`fit_pose_correction` of :func:`collect_samples`."""
-    return fit_pose_correction(*collect_samples(env_id, episodes, seed, every))
+    return fit_pose_correction(*collect_samples(suite, episodes, seed, every))
 
 
 def main(argv: list[str] | None = None) -> int:
     """Command line: fit a correction and write it as JSON (exit 2 on a bad flag)."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--env", default=REAL_ON_OFF_ENV_ID, help="id of the machine as built")
+    parser.add_argument(
+        "--suite", default="real-on-off", help=f"task suite: one of {', '.join(SUITES)}"
+    )
     parser.add_argument("--episodes", type=int, default=300, help="episodes simulated")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first reset")
     parser.add_argument("--every", type=int, default=25, help="steps between samples")
@@ -85,15 +97,21 @@ def main(argv: list[str] | None = None) -> int:
         cli_checks.at_least("--episodes", args.episodes, 1)
         cli_checks.at_least("--every", args.every, 1)
         cli_checks.at_least("--seed", args.seed, 0)
-        cli_checks.known("--env", [args.env], ON_OFF_IDS, "id")
+        cli_checks.known("--suite", [args.suite], SUITES, "suite")
         cli_checks.output_file("--out", args.out)
     except UsageError as exc:
         parser.error(str(exc))
-    correction = fit_on_episodes(args.env, args.episodes, args.seed, args.every)
+    correction = fit_on_episodes(args.suite, args.episodes, args.seed, args.every)
+    env_id = TASK_SUITES[args.suite].env_id
     correction.save(
-        args.out, env_id=args.env, episodes=args.episodes, seed=args.seed, every=args.every
+        args.out,
+        suite=args.suite,
+        env_id=env_id,
+        episodes=args.episodes,
+        seed=args.seed,
+        every=args.every,
     )
-    print(f"pose correction fitted on {args.episodes} episodes of {args.env}: {args.out}")
+    print(f"pose correction fitted on {args.episodes} episodes of {args.suite}: {args.out}")
     return 0
 
 

@@ -22,6 +22,7 @@ from stable_baselines3 import PPO
 
 from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.layout import extra_slice
+from planar3p_agents.controllers.pose_correction import PoseCorrection
 from planar3p_agents.controllers.residual import (
     ASSEMBLY_OBS_SIZE,
     REACH_ERROR_SCALE,
@@ -122,3 +123,24 @@ def test_train_script_trains_the_shipped_entry(tmp_path: Path):
     """scripts/train.py with the assembly-change entry of ppo_residual.yml: a complete run
     whose model is a residual assembly policy with reward-only statistics."""
     assert_trains_shipped_entry(tmp_path / "assembly", ID, HYPERPARAMS, ResidualAssemblyPolicy)
+
+
+def test_a_correction_is_kept_as_weights_and_moves_the_base(tmp_path: Path, observations):
+    """A correction named by its file is kept in the model as weights (the saved model names no
+    path), and the untrained policy is the base on the corrected observation, bit for bit."""
+    weights = np.zeros((14, 3))
+    weights[-1] = (0.002, -0.001, 0.001)  # a constant bias of the pose reading (m, m, rad)
+    PoseCorrection(weights).save(tmp_path / "c.json")
+    kwargs = ResidualAssemblyPolicy.resolve_policy_kwargs({"correction": str(tmp_path / "c.json")})
+    model = _model(**kwargs)
+    model.save(tmp_path / "m.zip")
+    (tmp_path / "c.json").unlink()
+    loaded = PPO.load(tmp_path / "m.zip", device="cpu")
+    np.testing.assert_array_equal(loaded.policy.correction, weights)
+    actions = loaded.predict(observations, deterministic=True)[0]
+    corrected = PoseCorrection(weights).corrected(observations.astype(np.float32))
+    np.testing.assert_array_equal(actions, _base().predict(corrected)[0])
+    plain = _base().predict(observations)[0]
+    assert np.abs(actions - plain).max() > 1e-3  # a 2 mm bias changes the base's rates
+    with pytest.raises(ValueError, match="weights must be finite with shape"):
+        _model(correction=[[0.0] * 3] * 13)

@@ -20,11 +20,22 @@ def test_samples_are_the_readings_and_their_bias() -> None:
     np.testing.assert_array_equal(again[1], bias)  # seeded: the same episodes
 
 
+def test_an_assembly_change_suite_is_driven_by_its_first_baseline() -> None:
+    """On ``real-assembly-change`` the samples are episodes of its environment (36-entry
+    observations) driven by ``analytic-simultaneous``; an unknown suite is refused."""
+    obs, bias = fit.collect_samples("real-assembly-change", episodes=1, seed=4, every=40)
+    assert obs.shape[1] == 36 and bias.shape == (obs.shape[0], 3)
+    assert 0.0 < np.abs(bias[:, :2]).max() < 0.01  # millimetres of manufacturing error
+    with pytest.raises(ValueError, match="suite must be one of"):
+        fit.collect_samples("assembly-change", episodes=1)
+
+
 def test_command_line_writes_a_correction(tmp_path) -> None:
     out = tmp_path / "c.json"
     assert fit.main(["--episodes", "3", "--seed", "2", "--every", "10", "--out", str(out)]) == 0
     record = json.loads(out.read_text())
     assert record["episodes"] == 3 and record["seed"] == 2
+    assert record["suite"] == "real-on-off" and record["env_id"] == "Planar3PRealOnOff-v0"
     assert PoseCorrection(out).weights.shape == (14, 3)
 
 
@@ -40,7 +51,7 @@ def test_command_line_refuses_a_bad_count(tmp_path, flag: str) -> None:
     ("args", "flag"),
     [
         (["--seed", "-1"], "--seed"),
-        (["--env", "Planar3PReal-v0"], "--env"),  # not an on-off id
+        (["--suite", "real-reach-true-state"], "--suite"),  # its pose is read exactly
         (["--out", "{tmp}/missing/c.json"], "--out"),  # its folder does not exist
     ],
 )
