@@ -30,10 +30,10 @@ import torch as th
 from stable_baselines3.common.distributions import DiagGaussianDistribution, Distribution
 from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor
-from torch import nn
 
 from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.base import BatchPolicy
+from planar3p_agents.controllers.base_policy import BaseControllerPolicy
 from planar3p_agents.controllers.certified_line import CertifiedLineController
 from planar3p_agents.controllers.layout import extra_slice, task_observation_size
 from planar3p_agents.controllers.planner import JointPathPlanner
@@ -346,7 +346,7 @@ class PlannerFeatures(ControllerFeatures):
         return th.as_tensor(action, dtype=obs.dtype, device=obs.device)
 
 
-class ResidualPolicy(ActorCriticPolicy):
+class ResidualPolicy(BaseControllerPolicy):
     """PPO/A2C policy whose action mean is a base controller plus a bounded learned
     correction (module docstring).  Subclasses name the features extractor that holds the
     base controller (:attr:`features_class`).
@@ -380,34 +380,24 @@ class ResidualPolicy(ActorCriticPolicy):
             raise ValueError(f"{name} needs a Box((3,)) action space, got {action_space}")
         if kwargs.get("use_sde"):
             raise ValueError(f"{name} supports the diagonal Gaussian only (no gSDE)")
-        for key in ("features_extractor_class", "features_extractor_kwargs"):
-            if key in kwargs:
-                raise ValueError(f"{name} sets its own {key}")
         self.residual_scale = float(residual_scale)
         self.design_dict = design_from(design).to_dict()
-        super().__init__(
-            observation_space,
-            action_space,
-            lr_schedule,
-            features_extractor_class=self.features_class,
-            features_extractor_kwargs={"design": self.design_dict, **self._base_kwargs()},
-            **kwargs,
-        )
         # The untrained correction is exactly zero: the policy starts as the base controller.
-        nn.init.zeros_(self.action_net.weight)
-        nn.init.zeros_(self.action_net.bias)
+        self._build_on_base(observation_space, action_space, lr_schedule, kwargs)
 
     def _base_kwargs(self) -> dict[str, Any]:
         """Arguments of the base controller besides the design (stored with the model)."""
         return {}
 
-    def _get_constructor_parameters(self) -> dict[str, Any]:
-        data = super()._get_constructor_parameters()
-        data.pop("features_extractor_class", None)
-        data.pop("features_extractor_kwargs", None)
-        data.update(residual_scale=self.residual_scale, design=self.design_dict)
-        data.update(self._base_kwargs())
-        return data
+    def _features_kwargs(self) -> dict[str, Any]:
+        return {"design": self.design_dict, **self._base_kwargs()}
+
+    def _own_parameters(self) -> dict[str, Any]:
+        return {
+            "residual_scale": self.residual_scale,
+            "design": self.design_dict,
+            **self._base_kwargs(),
+        }
 
     # ------------------------------------------------------------------ the residual mean
     def _distribution(self, features: th.Tensor, latent_pi: th.Tensor) -> Distribution:

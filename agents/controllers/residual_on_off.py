@@ -30,11 +30,11 @@ import gymnasium as gym
 import numpy as np
 import torch as th
 from stable_baselines3.common.distributions import Distribution
-from stable_baselines3.common.policies import ActorCriticPolicy
 from stable_baselines3.common.torch_layers import BaseFeaturesExtractor, MlpExtractor
 from torch import nn
 
 from planar3p_agents.controllers.analytic import AnalyticController
+from planar3p_agents.controllers.base_policy import BaseControllerPolicy
 from planar3p_agents.controllers.on_off import OnOffController
 from planar3p_agents.controllers.pose_correction import PoseCorrection, weights_in_kwargs
 from planar3p_agents.controllers.predictive_on_off import (
@@ -170,7 +170,7 @@ class BasePassingExtractor(nn.Module):
         return self.inner.forward_critic(features)
 
 
-class ResidualOnOffPolicy(ActorCriticPolicy):
+class ResidualOnOffPolicy(BaseControllerPolicy):
     """PPO policy of the on-off motors biased towards the ``analytic-on-off`` command (module
     docstring).
 
@@ -206,36 +206,20 @@ class ResidualOnOffPolicy(ActorCriticPolicy):
             isinstance(base_logit, (int, float)) and np.isfinite(base_logit) and base_logit > 0
         ):
             raise ValueError(f"base_logit must be a finite number > 0, got {base_logit!r}")
-        for key in ("features_extractor_class", "features_extractor_kwargs"):
-            if key in kwargs:
-                raise ValueError(f"ResidualOnOffPolicy sets its own {key}")
         self.base_logit = float(base_logit)
         self.design_dict = design_from(design).to_dict()
-        super().__init__(
-            observation_space,
-            action_space,
-            lr_schedule,
-            features_extractor_class=self.features_class,
-            features_extractor_kwargs=self._features_kwargs(),
-            **kwargs,
-        )
         # The untrained departure is exactly zero: the policy starts as the baseline.
-        nn.init.zeros_(self.action_net.weight)
-        nn.init.zeros_(self.action_net.bias)
+        self._build_on_base(observation_space, action_space, lr_schedule, kwargs)
 
     def _features_kwargs(self) -> dict[str, Any]:
         return {"design": self.design_dict}
 
+    def _own_parameters(self) -> dict[str, Any]:
+        return {"base_logit": self.base_logit, "design": self.design_dict}
+
     def _build_mlp_extractor(self) -> None:
         super()._build_mlp_extractor()
         self.mlp_extractor = BasePassingExtractor(self.mlp_extractor)
-
-    def _get_constructor_parameters(self) -> dict[str, Any]:
-        data = super()._get_constructor_parameters()
-        data.pop("features_extractor_class", None)
-        data.pop("features_extractor_kwargs", None)
-        data.update(base_logit=self.base_logit, design=self.design_dict)
-        return data
 
     def _get_action_dist_from_latent(self, latent_pi: th.Tensor) -> Distribution:
         """Categorical per motor with logits ``base_logit * one-hot + action_net(latent)``
@@ -277,10 +261,8 @@ class PredictiveResidualOnOffPolicy(ResidualOnOffPolicy):
     def _features_kwargs(self) -> dict[str, Any]:
         return {**super()._features_kwargs(), "correction": self.correction}
 
-    def _get_constructor_parameters(self) -> dict[str, Any]:
-        data = super()._get_constructor_parameters()
-        data.update(correction=self.correction)
-        return data
+    def _own_parameters(self) -> dict[str, Any]:
+        return {**super()._own_parameters(), "correction": self.correction}
 
     @property
     def played_observation_space(self) -> gym.spaces.Box:
