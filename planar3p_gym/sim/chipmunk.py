@@ -171,7 +171,7 @@ def _compiles_avx() -> bool:
     ``NUMBA_CPU_NAME`` names another; then only if ``NUMBA_CPU_FEATURES`` lists ``+avx``)."""
     if platform.machine().lower() not in ("x86_64", "amd64"):
         return False
-    if numba_config.CPU_NAME:
+    if numba_config.CPU_NAME and numba_config.CPU_NAME != "host":
         return "+avx" in (numba_config.CPU_FEATURES or "").split(",")
     return bool(llvm.get_host_cpu_features().get("avx", False))
 

@@ -202,3 +202,5 @@ def test_every_call_into_chipmunk_clears_the_upper_registers_first(monkeypatch):
     assert not chipmunk._compiles_avx()
     monkeypatch.setattr(chipmunk.numba_config, "CPU_FEATURES", "+sse2,+avx")
     assert chipmunk._compiles_avx()
+    monkeypatch.setattr(chipmunk.numba_config, "CPU_NAME", "host")  # the host's own features
+    assert chipmunk._compiles_avx() == bool(chipmunk.llvm.get_host_cpu_features().get("avx"))
