@@ -15,7 +15,8 @@ controller modules work".
   (``crossing`` follows its plan by a clock the observation does not hold, so it cannot be a
   policy's mean);
 * :class:`ResidualPlannerPolicy` (``Planar3PModeChange-v0``, exact or as built): on
-  ``planner``, whose plan and clock :class:`PlannerFeatures` keeps per environment;
+  ``planner``, whose plan and clock :class:`PlannerFeatures` keeps per environment, as built
+  optionally through a learned pose correction (:class:`CorrectedBasePolicy`);
 * :class:`TrackFeatures`, :class:`ReachFeatures`, :class:`LineFeatures`,
   :func:`feature_scaling`: their features (fixed physical scales, the base action appended).
 """
@@ -52,6 +53,7 @@ __all__ = [
     "REACH_ERROR_SCALE",
     "RESIDUAL_SCALE",
     "AssemblyFeatures",
+    "CorrectedBasePolicy",
     "LineFeatures",
     "PlannerFeatures",
     "ReachFeatures",
@@ -290,6 +292,8 @@ class PlannerFeatures(ControllerFeatures):
         observation_space: ``Box((37,))`` of ``Planar3PModeChange-v0``.
         design: the machine (a :class:`Design`, its dict, or ``None`` for ``Design.fig8()``).
         dt: control period (s) of the environment.
+        correction: the weights of a learned :class:`PoseCorrection` the planner acts
+            through (nested lists), or ``None``.
     """
 
     #: Observation entries that hold the target (constant within an episode).
@@ -304,9 +308,11 @@ class PlannerFeatures(ControllerFeatures):
         observation_space: gym.spaces.Box,
         design: Design | dict[str, Any] | None = None,
         dt: float = 0.02,
+        correction: list[list[float]] | None = None,
     ) -> None:
         controller = JointPathPlanner(design_from(design), dt=dt)
-        super().__init__(observation_space, controller, REACH_ERROR_SCALE)
+        fitted = None if correction is None else PoseCorrection(correction)
+        super().__init__(observation_space, controller, REACH_ERROR_SCALE, fitted)
         self._cache: dict[bytes, np.ndarray] = {}
         #: Per batch size: the planner that follows it and the targets of its last batch.
         self._followers: dict[int, tuple[JointPathPlanner, np.ndarray | None]] = {}
@@ -324,7 +330,10 @@ class PlannerFeatures(ControllerFeatures):
         )
         if not fresh:
             self._followers[n] = (planner, targets)
-        return planner.predict(raw.astype(np.float64), None, starts)[0]
+        x = raw.astype(np.float64)
+        if self.correction is not None:  # (the target entries stay as read)
+            x = self.correction.corrected(x)
+        return planner.predict(x, None, starts)[0]
 
     def _remember(self, keys: list[bytes], actions: np.ndarray) -> None:
         self._cache.update(zip(keys, actions, strict=True))
@@ -489,40 +498,43 @@ class ResidualLinePolicy(ResidualPolicy):
         return {"gain": self.gain}
 
 
-class ResidualAssemblyPolicy(ResidualPolicy):
-    """:class:`ResidualPolicy` on the benchmark's ``analytic-simultaneous`` controller for the
-    assembly change (``Planar3PAssemblyChange-v0``, 36-entry observation); arguments as for
-    :class:`ResidualPolicy` (``design``: ``None`` is ``Design.fig8(gravity=0.0)``, the task's
-    default machine), and ``correction``: a learned :class:`PoseCorrection` of the machine as
-    built's pose reading for the base (its JSON file or weights, kept in the model as
-    weights), or ``None``."""
+class CorrectedBasePolicy(ResidualPolicy):
+    """:class:`ResidualPolicy` whose base may act through a learned :class:`PoseCorrection`
+    of the machine as built's pose reading: ``correction`` (its JSON file or weights, kept in
+    the model as weights; ``None``: the reading as it is), handed to the features extractor.
+    The other arguments are :class:`ResidualPolicy`'s."""
 
-    features_class = AssemblyFeatures
     resolve_policy_kwargs = staticmethod(weights_in_kwargs)
 
     def __init__(
-        self,
-        *args: Any,
-        design: dict[str, Any] | None = None,
-        correction: str | list[list[float]] | None = None,
-        **kwargs: Any,
+        self, *args: Any, correction: str | list[list[float]] | None = None, **kwargs: Any
     ) -> None:
-        machine = Design.fig8(gravity=0.0) if design is None else design_from(design)
         self.correction = None if correction is None else PoseCorrection(correction).to_list()
-        super().__init__(*args, design=machine.to_dict(), **kwargs)
+        super().__init__(*args, **kwargs)
 
     def _base_kwargs(self) -> dict[str, Any]:
         return {"correction": self.correction}
 
 
-class ResidualPlannerPolicy(ResidualPolicy):
-    """:class:`ResidualPolicy` on the ``planner`` baseline for the mode change
+class ResidualAssemblyPolicy(CorrectedBasePolicy):
+    """:class:`CorrectedBasePolicy` on the benchmark's ``analytic-simultaneous`` controller for
+    the assembly change (``Planar3PAssemblyChange-v0``, 36-entry observation; ``design``:
+    ``None`` is ``Design.fig8(gravity=0.0)``, the task's default machine)."""
+
+    features_class = AssemblyFeatures
+
+    def __init__(self, *args: Any, design: dict[str, Any] | None = None, **kwargs: Any) -> None:
+        machine = Design.fig8(gravity=0.0) if design is None else design_from(design)
+        super().__init__(*args, design=machine.to_dict(), **kwargs)
+
+
+class ResidualPlannerPolicy(CorrectedBasePolicy):
+    """:class:`CorrectedBasePolicy` on the ``planner`` baseline for the mode change
     (``Planar3PModeChange-v0``, 37-entry observation; :class:`PlannerFeatures` keeps the
     planner's state).
 
     Args:
-        observation_space, action_space, lr_schedule, residual_scale, design, **kwargs: as
-            for :class:`ResidualPolicy`.
+        *args, **kwargs: as for :class:`CorrectedBasePolicy` (``correction`` included).
         dt: control period (s) of the environment (default 0.02, the ids' 50 Hz).
     """
 
@@ -535,4 +547,4 @@ class ResidualPlannerPolicy(ResidualPolicy):
         super().__init__(*args, **kwargs)
 
     def _base_kwargs(self) -> dict[str, Any]:
-        return {"dt": self.dt}
+        return {**super()._base_kwargs(), "dt": self.dt}

@@ -3,9 +3,10 @@ simulated episodes of the machine as built.
 
 The bias of the pose reading needs the true pose, which only a simulation reports
 (``info["pose"]``), so the samples come from episodes of a task suite's environment on the
-machine as built (:data:`SUITES`), each on a machine drawn by the environment: the suite's
-first baseline drives them (the states a controller on that machine visits:
-``analytic-on-off-predictive`` on ``real-on-off``, ``analytic-simultaneous`` on the others),
+machine as built (:data:`SUITES`), each on a machine drawn by the environment: a baseline
+drives them (the states a controller on that machine visits; by default the suite's first,
+``analytic-on-off-predictive`` on ``real-on-off``, ``analytic-simultaneous`` on the others;
+``--driver planner`` for the mode change, which the simple motions fail),
 and every ``every``-th step and the last of each episode is a sample.  The episodes are the
 environment's own draws from the reset seed, not the suite's fixed episodes.  Nothing here is
 in SB3: it is a least-squares fit, not reinforcement learning.
@@ -13,6 +14,8 @@ in SB3: it is a least-squares fit, not reinforcement learning.
     python -m planar3p_agents.training.pose_correction --seed 1 --out runs/onoff/corr-s1.json
     python -m planar3p_agents.training.pose_correction --suite real-assembly-change \
         --seed 1001 --out runs/rac/correction-s1.json
+    python -m planar3p_agents.training.pose_correction --suite real-mode-change \
+        --driver planner --seed 1001 --out runs/rmc/correction-s1.json
 """
 
 from __future__ import annotations
@@ -31,29 +34,43 @@ from planar3p_agents.controllers.pose_correction import (
     fit_pose_correction,
     pose_bias,
 )
+from planar3p_agents.controllers.registry import baselines_for
 from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_env
 from planar3p_agents.policies.factory import load_policy
 from planar3p_gym import checks
 
-__all__ = ["SUITES", "collect_samples", "fit_on_episodes", "main"]
+__all__ = ["SUITES", "collect_samples", "drivers", "fit_on_episodes", "main"]
 
 #: The task suites on the machine as built whose observed pose is read through the nominal
 #: model (the ones a correction applies to).
 SUITES: tuple[str, ...] = ("real-on-off", "real-reach", "real-mode-change", "real-assembly-change")
 
 
+def drivers(suite: str) -> tuple[str, ...]:
+    """The baselines that can drive the episodes of task suite ``suite`` (those of its id)."""
+    return baselines_for(TASK_SUITES[suite].env_id)
+
+
 def collect_samples(
-    suite: str = "real-on-off", episodes: int = 300, seed: int = 0, every: int = 25
+    suite: str = "real-on-off",
+    episodes: int = 300,
+    seed: int = 0,
+    every: int = 25,
+    driver: str | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Observations ``(n, d)`` and pose biases ``(n, 3)`` of ``episodes`` episodes of the
-    environment of task suite ``suite`` (one of :data:`SUITES`), driven by its first baseline
-    (reset with ``seed`` once, then from the environment's own stream)."""
+    environment of task suite ``suite`` (one of :data:`SUITES`), driven by the baseline
+    ``driver`` (``None``: the suite's first baseline; one of :func:`drivers`), reset with
+    ``seed`` once, then from the environment's own stream."""
     if suite not in SUITES:
         raise ValueError(f"suite must be one of {', '.join(SUITES)}, got {suite!r}")
+    driver = TASK_SUITES[suite].baselines[0] if driver is None else driver
+    if driver not in drivers(suite):
+        raise ValueError(f"driver must be one of {', '.join(drivers(suite))}, got {driver!r}")
     episodes = checks.integer(episodes, "episodes", low=1)
     every = checks.integer(every, "every", low=1)
     env = make_task_env(suite)
-    policy = load_policy(TASK_SUITES[suite].baselines[0], env)
+    policy = load_policy(driver, env)
     obs_rows: list[np.ndarray] = []
     true_poses: list[Any] = []
     try:
@@ -76,10 +93,14 @@ def collect_samples(
 
 
 def fit_on_episodes(
-    suite: str = "real-on-off", episodes: int = 300, seed: int = 0, every: int = 25
+    suite: str = "real-on-off",
+    episodes: int = 300,
+    seed: int = 0,
+    every: int = 25,
+    driver: str | None = None,
 ) -> PoseCorrection:
     """:func:`fit_pose_correction` of :func:`collect_samples`."""
-    return fit_pose_correction(*collect_samples(suite, episodes, seed, every))
+    return fit_pose_correction(*collect_samples(suite, episodes, seed, every, driver))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -87,6 +108,11 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument(
         "--suite", default="real-on-off", help=f"task suite: one of {', '.join(SUITES)}"
+    )
+    parser.add_argument(
+        "--driver",
+        default=None,
+        help="baseline that drives the episodes (default: the suite's first)",
     )
     parser.add_argument("--episodes", type=int, default=300, help="episodes simulated")
     parser.add_argument("--seed", type=int, default=0, help="seed of the first reset")
@@ -98,14 +124,18 @@ def main(argv: list[str] | None = None) -> int:
         cli_checks.at_least("--every", args.every, 1)
         cli_checks.at_least("--seed", args.seed, 0)
         cli_checks.known("--suite", [args.suite], SUITES, "suite")
+        if args.driver is not None:
+            cli_checks.known("--driver", [args.driver], drivers(args.suite), "baseline")
         cli_checks.output_file("--out", args.out)
     except UsageError as exc:
         parser.error(str(exc))
-    correction = fit_on_episodes(args.suite, args.episodes, args.seed, args.every)
+    driver = TASK_SUITES[args.suite].baselines[0] if args.driver is None else args.driver
+    correction = fit_on_episodes(args.suite, args.episodes, args.seed, args.every, driver)
     env_id = TASK_SUITES[args.suite].env_id
     correction.save(
         args.out,
         suite=args.suite,
+        driver=driver,
         env_id=env_id,
         episodes=args.episodes,
         seed=args.seed,

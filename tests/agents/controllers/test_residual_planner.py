@@ -127,3 +127,50 @@ def test_train_script_trains_the_shipped_entry(tmp_path: Path):
     """scripts/train.py with the mode-change entry of ppo_residual.yml: a complete run whose
     model is a residual planner policy with reward-only statistics."""
     assert_trains_shipped_entry(tmp_path / "mode", ID, HYPERPARAMS, ResidualPlannerPolicy)
+
+
+def test_a_correction_is_kept_as_weights_and_moves_the_planner(tmp_path: Path):
+    """A correction named by its file is kept in the model as weights, and on the machine as
+    built (the ``real-mode-change`` suite's environment) the untrained policy is the planner
+    acting on the corrected observation, bit for bit (float32), over whole episodes; a 2 mm
+    bias of the reading changes its actions once the plan's travel is done and it closes on
+    the target by the observed errors."""
+    from planar3p_agents.controllers.pose_correction import PoseCorrection
+
+    weights = np.zeros((14, 3))
+    weights[-1] = (0.002, -0.001, 0.001)  # a constant bias of the pose reading (m, m, rad)
+    PoseCorrection(weights).save(tmp_path / "c.json")
+    kwargs = ResidualPlannerPolicy.resolve_policy_kwargs({"correction": str(tmp_path / "c.json")})
+    model = _model(**kwargs)
+    model.save(tmp_path / "m.zip")
+    (tmp_path / "c.json").unlink()
+    loaded = PPO.load(tmp_path / "m.zip", device="cpu")
+    np.testing.assert_array_equal(loaded.policy.correction, weights)
+    assert loaded.policy.dt == 0.02
+
+    def play(act) -> np.ndarray:
+        env, actions = ts.make_task_env("real-mode-change"), []
+        for seed in (3, 4):
+            obs, _ = env.reset(seed=seed)
+            for k in range(400):
+                actions.append(act(obs, k == 0))
+                obs, _, term, trunc, _ = env.step(actions[-1])
+                if term or trunc:
+                    break
+        return np.asarray(actions, dtype=np.float32)
+
+    planners = [JointPathPlanner.from_env(gym.make(ID)) for _ in range(2)]
+
+    def planner_on(fix):
+        def act(obs, start):
+            x = np.asarray(obs, np.float32)[None]
+            x = PoseCorrection(weights).corrected(x) if fix else x
+            return planners[fix].predict(x, episode_start=[start])[0][0]
+
+        return act
+
+    learned = play(lambda obs, start: loaded.predict(obs, deterministic=True)[0])
+    np.testing.assert_array_equal(learned, play(planner_on(1)))
+    plain = play(planner_on(0))
+    n = min(len(plain), len(learned))
+    assert np.abs(learned[:n] - plain[:n]).max() > 1e-3  # the correction changes the rates

@@ -28,6 +28,19 @@ def test_an_assembly_change_suite_is_driven_by_its_first_baseline() -> None:
     assert 0.0 < np.abs(bias[:, :2]).max() < 0.01  # millimetres of manufacturing error
     with pytest.raises(ValueError, match="suite must be one of"):
         fit.collect_samples("assembly-change", episodes=1)
+    with pytest.raises(ValueError, match="driver must be one of"):
+        fit.collect_samples("real-assembly-change", episodes=1, driver="planner")
+
+
+def test_the_mode_change_is_driven_by_the_planner_and_the_record_says_so(tmp_path) -> None:
+    """``--driver planner`` drives the mode change's episodes (the simple motions fail it) and
+    the written record names the driver."""
+    out = tmp_path / "c.json"
+    argv = ["--suite", "real-mode-change", "--driver", "planner", "--episodes", "2"]
+    assert fit.main([*argv, "--seed", "5", "--every", "5", "--out", str(out)]) == 0
+    record = json.loads(out.read_text())
+    assert record["driver"] == "planner" and record["suite"] == "real-mode-change"
+    assert PoseCorrection(out).weights.shape == (14, 3)
 
 
 def test_command_line_writes_a_correction(tmp_path) -> None:
@@ -52,6 +65,7 @@ def test_command_line_refuses_a_bad_count(tmp_path, flag: str) -> None:
     [
         (["--seed", "-1"], "--seed"),
         (["--suite", "real-reach-true-state"], "--suite"),  # its pose is read exactly
+        (["--suite", "real-mode-change", "--driver", "certified-line"], "--driver"),  # not its id's
         (["--out", "{tmp}/missing/c.json"], "--out"),  # its folder does not exist
     ],
 )
