@@ -8,7 +8,8 @@ normalisation (the base needs the raw observation).  Details: docs/controllers.m
 controller modules work".
 
 * :class:`ResidualTrackPolicy` (``Planar3PTrack-v0``): on the feed-forward tracking controller;
-* :class:`ResidualReachPolicy` (``Planar3P-v0``): on ``analytic-simultaneous``;
+* :class:`ResidualReachPolicy` (``Planar3P-v0``, ``Planar3PReal-v0``): on
+  ``analytic-simultaneous``, as built optionally through a learned pose correction;
 * :class:`ResidualLinePolicy` (``Planar3P-v0``): on ``certified-line``;
 * :class:`ResidualAssemblyPolicy` (``Planar3PAssemblyChange-v0``, exact or as built): on
   ``analytic-simultaneous``, as built optionally through a learned pose correction
@@ -198,15 +199,21 @@ class ReachFeatures(ControllerFeatures):
     base: ``34`` features.
 
     Args:
-        observation_space: ``Box((31,))`` of ``Planar3P-v0``/``-v1``.
+        observation_space: ``Box((31,))`` of ``Planar3P-v0``/``-v1`` or ``Planar3PReal-v0``.
         design: the machine (a :class:`Design`, its dict, or ``None`` for ``Design.fig8()``).
+        correction: the weights of a learned :class:`PoseCorrection` the base acts through
+            (nested lists), or ``None``.
     """
 
     def __init__(
-        self, observation_space: gym.spaces.Box, design: Design | dict[str, Any] | None = None
+        self,
+        observation_space: gym.spaces.Box,
+        design: Design | dict[str, Any] | None = None,
+        correction: list[list[float]] | None = None,
     ) -> None:
         controller = AnalyticController(design_from(design), "simultaneous")
-        super().__init__(observation_space, controller, REACH_ERROR_SCALE)
+        fitted = None if correction is None else PoseCorrection(correction)
+        super().__init__(observation_space, controller, REACH_ERROR_SCALE, fitted)
 
 
 class AssemblyFeatures(ControllerFeatures):
@@ -453,6 +460,24 @@ class ResidualPolicy(BaseControllerPolicy):
         return features if self.share_features_extractor else features[0]
 
 
+class CorrectedBasePolicy(ResidualPolicy):
+    """:class:`ResidualPolicy` whose base may act through a learned :class:`PoseCorrection`
+    of the machine as built's pose reading: ``correction`` (its JSON file or weights, kept in
+    the model as weights; ``None``: the reading as it is), handed to the features extractor.
+    The other arguments are :class:`ResidualPolicy`'s."""
+
+    resolve_policy_kwargs = staticmethod(weights_in_kwargs)
+
+    def __init__(
+        self, *args: Any, correction: str | list[list[float]] | None = None, **kwargs: Any
+    ) -> None:
+        self.correction = None if correction is None else PoseCorrection(correction).to_list()
+        super().__init__(*args, **kwargs)
+
+    def _base_kwargs(self) -> dict[str, Any]:
+        return {"correction": self.correction}
+
+
 class ResidualTrackPolicy(ResidualPolicy):
     """:class:`ResidualPolicy` on the feed-forward tracking controller (``Planar3PTrack-v0``).
 
@@ -472,9 +497,9 @@ class ResidualTrackPolicy(ResidualPolicy):
         return {"feedforward": self.feedforward}
 
 
-class ResidualReachPolicy(ResidualPolicy):
-    """:class:`ResidualPolicy` on the benchmark's ``analytic-simultaneous`` controller
-    (``Planar3P-v0``/``-v1``); arguments as for :class:`ResidualPolicy`."""
+class ResidualReachPolicy(CorrectedBasePolicy):
+    """:class:`CorrectedBasePolicy` on the benchmark's ``analytic-simultaneous`` controller
+    (``Planar3P-v0``/``-v1``, ``Planar3PReal-v0``)."""
 
     features_class = ReachFeatures
 
@@ -496,24 +521,6 @@ class ResidualLinePolicy(ResidualPolicy):
 
     def _base_kwargs(self) -> dict[str, Any]:
         return {"gain": self.gain}
-
-
-class CorrectedBasePolicy(ResidualPolicy):
-    """:class:`ResidualPolicy` whose base may act through a learned :class:`PoseCorrection`
-    of the machine as built's pose reading: ``correction`` (its JSON file or weights, kept in
-    the model as weights; ``None``: the reading as it is), handed to the features extractor.
-    The other arguments are :class:`ResidualPolicy`'s."""
-
-    resolve_policy_kwargs = staticmethod(weights_in_kwargs)
-
-    def __init__(
-        self, *args: Any, correction: str | list[list[float]] | None = None, **kwargs: Any
-    ) -> None:
-        self.correction = None if correction is None else PoseCorrection(correction).to_list()
-        super().__init__(*args, **kwargs)
-
-    def _base_kwargs(self) -> dict[str, Any]:
-        return {"correction": self.correction}
 
 
 class ResidualAssemblyPolicy(CorrectedBasePolicy):

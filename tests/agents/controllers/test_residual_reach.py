@@ -112,3 +112,25 @@ def test_train_script_trains_the_shipped_entry(tmp_path: Path):
     """scripts/train.py with agents/training/hyperparams/ppo_residual.yml: a complete run whose
     model is a residual reach policy with reward-only statistics."""
     assert_trains_shipped_entry(tmp_path / "reach", ID, HYPERPARAMS, ResidualReachPolicy)
+
+
+def test_a_correction_moves_the_base_and_is_kept_as_weights(tmp_path: Path):
+    """With a learned pose correction the untrained policy is the analytic controller on the
+    corrected observation, bit for bit, and the saved model holds the weights, not the file."""
+    from planar3p_agents.controllers.pose_correction import PoseCorrection
+
+    weights = np.zeros((14, 3))
+    weights[-1] = (-0.002, 0.001, 0.0)  # a constant bias of the pose reading (m, m, rad)
+    PoseCorrection(weights).save(tmp_path / "c.json")
+    kwargs = ResidualReachPolicy.resolve_policy_kwargs({"correction": str(tmp_path / "c.json")})
+    model = _model(**kwargs)
+    model.save(tmp_path / "m.zip")
+    (tmp_path / "c.json").unlink()
+    loaded = PPO.load(tmp_path / "m.zip", device="cpu")
+    np.testing.assert_array_equal(loaded.policy.correction, weights)
+    obs = _observations()
+    corrected = PoseCorrection(weights).corrected(obs.astype(np.float32))
+    base = AnalyticController(planar3p_gym.Design.fig8(), "simultaneous")
+    actions = loaded.predict(obs, deterministic=True)[0]
+    np.testing.assert_array_equal(actions, base.predict(corrected)[0])
+    assert np.abs(actions - base.predict(obs)[0]).max() > 1e-3
