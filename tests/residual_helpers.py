@@ -99,3 +99,23 @@ def assert_trains_shipped_entry(run: Path, env_id: str, hyperparams: Path, polic
     assert isinstance(model.policy, policy)
     stats = f"{run / 'model.zip'}:stats={run / 'vecnormalize.pkl'}"
     assert not load_policy(stats, env=gym.make(env_id)).vecnormalize.norm_obs
+
+
+def saved_with_correction(
+    policy: type, env_id: str, scale: float, path: Path, bias: tuple[float, float, float]
+) -> tuple[PPO, np.ndarray]:
+    """An untrained :func:`residual_model` of ``policy`` with a correction of the constant
+    ``bias`` of the pose reading (m, m, rad) named by its JSON file, saved under ``path`` and
+    loaded back after the file is deleted; returns the loaded model and the weights, which it
+    must hold itself."""
+    from planar3p_agents.controllers.pose_correction import PoseCorrection
+
+    weights = np.zeros((14, 3))
+    weights[-1] = bias
+    PoseCorrection(weights).save(path / "c.json")
+    kwargs = policy.resolve_policy_kwargs({"correction": str(path / "c.json")})
+    residual_model(policy, env_id, scale, -2.5, **kwargs).save(path / "m.zip")
+    (path / "c.json").unlink()
+    loaded = PPO.load(path / "m.zip", device="cpu")
+    np.testing.assert_array_equal(loaded.policy.correction, weights)
+    return loaded, weights

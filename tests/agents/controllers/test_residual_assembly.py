@@ -17,6 +17,7 @@ from residual_helpers import (
     assert_trains_shipped_entry,
     observation_with_errors,
     residual_model,
+    saved_with_correction,
 )
 from stable_baselines3 import PPO
 
@@ -128,15 +129,8 @@ def test_train_script_trains_the_shipped_entry(tmp_path: Path):
 def test_a_correction_is_kept_as_weights_and_moves_the_base(tmp_path: Path, observations):
     """A correction named by its file is kept in the model as weights (the saved model names no
     path), and the untrained policy is the base on the corrected observation, bit for bit."""
-    weights = np.zeros((14, 3))
-    weights[-1] = (0.002, -0.001, 0.001)  # a constant bias of the pose reading (m, m, rad)
-    PoseCorrection(weights).save(tmp_path / "c.json")
-    kwargs = ResidualAssemblyPolicy.resolve_policy_kwargs({"correction": str(tmp_path / "c.json")})
-    model = _model(**kwargs)
-    model.save(tmp_path / "m.zip")
-    (tmp_path / "c.json").unlink()
-    loaded = PPO.load(tmp_path / "m.zip", device="cpu")
-    np.testing.assert_array_equal(loaded.policy.correction, weights)
+    bias = (0.002, -0.001, 0.001)
+    loaded, weights = saved_with_correction(ResidualAssemblyPolicy, ID, 0.3, tmp_path, bias)
     actions = loaded.predict(observations, deterministic=True)[0]
     corrected = PoseCorrection(weights).corrected(observations.astype(np.float32))
     np.testing.assert_array_equal(actions, _base().predict(corrected)[0])

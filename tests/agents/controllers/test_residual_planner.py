@@ -12,7 +12,12 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 import torch as th
-from residual_helpers import assert_round_trip, assert_trains_shipped_entry, residual_model
+from residual_helpers import (
+    assert_round_trip,
+    assert_trains_shipped_entry,
+    residual_model,
+    saved_with_correction,
+)
 from stable_baselines3 import PPO
 
 from planar3p_agents.controllers.planner import JointPathPlanner
@@ -137,15 +142,8 @@ def test_a_correction_is_kept_as_weights_and_moves_the_planner(tmp_path: Path):
     the target by the observed errors."""
     from planar3p_agents.controllers.pose_correction import PoseCorrection
 
-    weights = np.zeros((14, 3))
-    weights[-1] = (0.002, -0.001, 0.001)  # a constant bias of the pose reading (m, m, rad)
-    PoseCorrection(weights).save(tmp_path / "c.json")
-    kwargs = ResidualPlannerPolicy.resolve_policy_kwargs({"correction": str(tmp_path / "c.json")})
-    model = _model(**kwargs)
-    model.save(tmp_path / "m.zip")
-    (tmp_path / "c.json").unlink()
-    loaded = PPO.load(tmp_path / "m.zip", device="cpu")
-    np.testing.assert_array_equal(loaded.policy.correction, weights)
+    bias = (0.002, -0.001, 0.001)
+    loaded, weights = saved_with_correction(ResidualPlannerPolicy, ID, 0.3, tmp_path, bias)
     assert loaded.policy.dt == 0.02
 
     def play(act) -> np.ndarray:

@@ -18,6 +18,7 @@ from residual_helpers import (
     assert_trains_shipped_entry,
     observation_with_errors,
     residual_model,
+    saved_with_correction,
 )
 from stable_baselines3 import PPO
 
@@ -119,15 +120,8 @@ def test_a_correction_moves_the_base_and_is_kept_as_weights(tmp_path: Path):
     corrected observation, bit for bit, and the saved model holds the weights, not the file."""
     from planar3p_agents.controllers.pose_correction import PoseCorrection
 
-    weights = np.zeros((14, 3))
-    weights[-1] = (-0.002, 0.001, 0.0)  # a constant bias of the pose reading (m, m, rad)
-    PoseCorrection(weights).save(tmp_path / "c.json")
-    kwargs = ResidualReachPolicy.resolve_policy_kwargs({"correction": str(tmp_path / "c.json")})
-    model = _model(**kwargs)
-    model.save(tmp_path / "m.zip")
-    (tmp_path / "c.json").unlink()
-    loaded = PPO.load(tmp_path / "m.zip", device="cpu")
-    np.testing.assert_array_equal(loaded.policy.correction, weights)
+    bias = (-0.002, 0.001, 0.0)
+    loaded, weights = saved_with_correction(ResidualReachPolicy, ID, 0.5, tmp_path, bias)
     obs = _observations()
     corrected = PoseCorrection(weights).corrected(obs.astype(np.float32))
     base = AnalyticController(planar3p_gym.Design.fig8(), "simultaneous")
