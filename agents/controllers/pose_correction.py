@@ -11,7 +11,8 @@ and carry part of that bias.  :class:`PoseCorrection` holds a least-squares fit 
 * ``bias = [features, 1] @ weights``: true minus observed ``(x, y, theta)`` (m, m, rad);
 * :meth:`PoseCorrection.corrected`: the observation with the errors to the target corrected;
 * :func:`fit_pose_correction`: the least-squares fit of samples (features and bias);
-* :func:`weights_in_kwargs`: a policy's arguments with a correction file read into weights.
+* :func:`correction_weights`, :func:`weights_in_kwargs`: a correction as a policy's argument
+  (weights, a file read into them).
 
 Fitted by :mod:`planar3p_agents.training.pose_correction` on simulated episodes of the
 randomised machine (the bias needs the true pose, which only a simulation has).
@@ -30,7 +31,14 @@ from planar3p_gym import atomic_files
 from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.tasks.observation import OBS_SIZE, SLICES
 
-__all__ = ["FEATURES", "PoseCorrection", "fit_pose_correction", "pose_bias", "weights_in_kwargs"]
+__all__ = [
+    "FEATURES",
+    "PoseCorrection",
+    "correction_weights",
+    "fit_pose_correction",
+    "pose_bias",
+    "weights_in_kwargs",
+]
 
 #: Observation indices the correction reads: ``rho``, ``position``, ``orientation``, ``legs``.
 FEATURES: tuple[int, ...] = tuple(
@@ -113,11 +121,17 @@ def fit_pose_correction(obs: ArrayLike, bias: ArrayLike) -> PoseCorrection:
     return PoseCorrection(weights)
 
 
+def correction_weights(correction: ArrayLike | str | Path | None) -> list[list[float]] | None:
+    """A correction given as weights or its JSON file, checked and as nested lists (a
+    policy's constructor argument); ``None`` stays ``None``."""
+    return None if correction is None else PoseCorrection(correction).to_list()
+
+
 def weights_in_kwargs(policy_kwargs: dict[str, Any]) -> dict[str, Any]:
     """``policy_kwargs`` with a ``correction`` named by its file replaced by its weights, so
     that a saved model (SB3 keeps the ``policy_kwargs`` it was made with) holds them and
     names no path."""
     correction = policy_kwargs.get("correction")
     if isinstance(correction, (str, Path)):
-        return {**policy_kwargs, "correction": PoseCorrection(correction).to_list()}
+        return {**policy_kwargs, "correction": correction_weights(correction)}
     return dict(policy_kwargs)

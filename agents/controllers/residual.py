@@ -39,7 +39,11 @@ from planar3p_agents.controllers.base_policy import BaseControllerPolicy
 from planar3p_agents.controllers.certified_line import CertifiedLineController
 from planar3p_agents.controllers.layout import extra_slice, task_observation_size
 from planar3p_agents.controllers.planner import JointPathPlanner
-from planar3p_agents.controllers.pose_correction import PoseCorrection, weights_in_kwargs
+from planar3p_agents.controllers.pose_correction import (
+    PoseCorrection,
+    correction_weights,
+    weights_in_kwargs,
+)
 from planar3p_agents.controllers.tracking import TRACK_OBS_SIZE, TrackingController
 from planar3p_gym.checks import design_from
 from planar3p_gym.machine.design import Design
@@ -135,8 +139,9 @@ class ControllerFeatures(BaseFeaturesExtractor):
         controller: the base controller (a :class:`BatchPolicy` with a ``design``, which sets
             the feature scales, and an ``obs_size``).
         error_scale: pose error (m) that maps to a feature of 1.
-        correction: a learned :class:`PoseCorrection` of the pose reading the base acts on
-            (the features keep the observation as read), or ``None``.
+        correction: the weights of a learned :class:`PoseCorrection` of the pose reading the
+            base acts on (nested lists; the features keep the observation as read), or
+            ``None``.
     """
 
     def __init__(
@@ -144,7 +149,7 @@ class ControllerFeatures(BaseFeaturesExtractor):
         observation_space: gym.spaces.Box,
         controller: BatchPolicy,
         error_scale: float,
-        correction: PoseCorrection | None = None,
+        correction: list[list[float]] | None = None,
     ) -> None:
         size = int(controller.obs_size or 0)
         if observation_space.shape != (size,):
@@ -154,7 +159,7 @@ class ControllerFeatures(BaseFeaturesExtractor):
             )
         super().__init__(observation_space, size + 3)
         self.base = controller
-        self.correction = correction
+        self.correction = None if correction is None else PoseCorrection(correction)
         offset, scale = feature_scaling(controller.design, size, error_scale)
         self.register_buffer("offset", th.as_tensor(offset, dtype=th.float32))
         self.register_buffer("scale", th.as_tensor(scale, dtype=th.float32))
@@ -212,8 +217,7 @@ class ReachFeatures(ControllerFeatures):
         correction: list[list[float]] | None = None,
     ) -> None:
         controller = AnalyticController(design_from(design), "simultaneous")
-        fitted = None if correction is None else PoseCorrection(correction)
-        super().__init__(observation_space, controller, REACH_ERROR_SCALE, fitted)
+        super().__init__(observation_space, controller, REACH_ERROR_SCALE, correction)
 
 
 class AssemblyFeatures(ControllerFeatures):
@@ -237,8 +241,7 @@ class AssemblyFeatures(ControllerFeatures):
     ) -> None:
         machine = Design.fig8(gravity=0.0) if design is None else design_from(design)
         controller = AnalyticController(machine, "simultaneous", observation_size=ASSEMBLY_OBS_SIZE)
-        fitted = None if correction is None else PoseCorrection(correction)
-        super().__init__(observation_space, controller, REACH_ERROR_SCALE, fitted)
+        super().__init__(observation_space, controller, REACH_ERROR_SCALE, correction)
 
 
 class LineFeatures(ControllerFeatures):
@@ -318,8 +321,7 @@ class PlannerFeatures(ControllerFeatures):
         correction: list[list[float]] | None = None,
     ) -> None:
         controller = JointPathPlanner(design_from(design), dt=dt)
-        fitted = None if correction is None else PoseCorrection(correction)
-        super().__init__(observation_space, controller, REACH_ERROR_SCALE, fitted)
+        super().__init__(observation_space, controller, REACH_ERROR_SCALE, correction)
         self._cache: dict[bytes, np.ndarray] = {}
         #: Per batch size: the planner that follows it and the targets of its last batch.
         self._followers: dict[int, tuple[JointPathPlanner, np.ndarray | None]] = {}
@@ -471,7 +473,7 @@ class CorrectedBasePolicy(ResidualPolicy):
     def __init__(
         self, *args: Any, correction: str | list[list[float]] | None = None, **kwargs: Any
     ) -> None:
-        self.correction = None if correction is None else PoseCorrection(correction).to_list()
+        self.correction = correction_weights(correction)
         super().__init__(*args, **kwargs)
 
     def _base_kwargs(self) -> dict[str, Any]:

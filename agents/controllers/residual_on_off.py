@@ -36,7 +36,11 @@ from torch import nn
 from planar3p_agents.controllers.analytic import AnalyticController
 from planar3p_agents.controllers.base_policy import BaseControllerPolicy
 from planar3p_agents.controllers.on_off import OnOffController
-from planar3p_agents.controllers.pose_correction import PoseCorrection, weights_in_kwargs
+from planar3p_agents.controllers.pose_correction import (
+    PoseCorrection,
+    correction_weights,
+    weights_in_kwargs,
+)
 from planar3p_agents.controllers.predictive_on_off import (
     PredictiveOnOffController,
     digits_of,
@@ -253,7 +257,7 @@ class PredictiveResidualOnOffPolicy(ResidualOnOffPolicy):
         correction: str | list[list[float]] | None = None,
         **kwargs: Any,
     ) -> None:
-        self.correction = None if correction is None else PoseCorrection(correction).to_list()
+        self.correction = correction_weights(correction)
         super().__init__(observation_space, action_space, lr_schedule, **kwargs)
 
     resolve_policy_kwargs = staticmethod(weights_in_kwargs)

@@ -39,7 +39,7 @@ from planar3p_agents.evaluation.task_suites import TASK_SUITES, make_task_env
 from planar3p_agents.policies.factory import load_policy
 from planar3p_gym import checks
 
-__all__ = ["SUITES", "collect_samples", "drivers", "fit_on_episodes", "main"]
+__all__ = ["SUITES", "collect_samples", "driver_of", "drivers", "fit_on_episodes", "main"]
 
 #: The task suites on the machine as built whose observed pose is read through the nominal
 #: model (the ones a correction applies to).
@@ -49,6 +49,15 @@ SUITES: tuple[str, ...] = ("real-on-off", "real-reach", "real-mode-change", "rea
 def drivers(suite: str) -> tuple[str, ...]:
     """The baselines that can drive the episodes of task suite ``suite`` (those of its id)."""
     return baselines_for(TASK_SUITES[suite].env_id)
+
+
+def driver_of(suite: str, driver: str | None = None) -> str:
+    """The baseline that drives ``suite``'s episodes: ``driver``, one of :func:`drivers`, or
+    for ``None`` the suite's first baseline; ``ValueError`` for another."""
+    driver = TASK_SUITES[suite].baselines[0] if driver is None else driver
+    if driver not in drivers(suite):
+        raise ValueError(f"driver must be one of {', '.join(drivers(suite))}, got {driver!r}")
+    return driver
 
 
 def collect_samples(
@@ -64,9 +73,7 @@ def collect_samples(
     ``seed`` once, then from the environment's own stream."""
     if suite not in SUITES:
         raise ValueError(f"suite must be one of {', '.join(SUITES)}, got {suite!r}")
-    driver = TASK_SUITES[suite].baselines[0] if driver is None else driver
-    if driver not in drivers(suite):
-        raise ValueError(f"driver must be one of {', '.join(drivers(suite))}, got {driver!r}")
+    driver = driver_of(suite, driver)
     episodes = checks.integer(episodes, "episodes", low=1)
     every = checks.integer(every, "every", low=1)
     env = make_task_env(suite)
@@ -129,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
         cli_checks.output_file("--out", args.out)
     except UsageError as exc:
         parser.error(str(exc))
-    driver = TASK_SUITES[args.suite].baselines[0] if args.driver is None else args.driver
+    driver = driver_of(args.suite, args.driver)
     correction = fit_on_episodes(args.suite, args.episodes, args.seed, args.every, driver)
     env_id = TASK_SUITES[args.suite].env_id
     correction.save(
