@@ -10,6 +10,7 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
+from bench_helpers import assert_plays_one_episode
 from script_loader import command
 
 from planar3p_agents.training import config as training
@@ -107,13 +108,7 @@ def test_dqn_trains_on_the_on_off_machine_and_the_benchmark_plays_it(tmp_path: P
     config = json.loads((run / "config.json").read_text())
     assert config["config"]["algo"] == "dqn"
     assert config["config"]["env_kwargs"] == {"action_type": "on-off-discrete"}
-    out = tmp_path / "bench"
-    spec = f"dqn:{run / 'model.zip'}:stats={run / 'vecnormalize.pkl'}"
-    argv = "--suites real-on-off --episodes 1 --no-progress --no-plots".split()
-    assert bench.main([*argv, "--policies", spec, "--out", str(out)]) == 0
-    summary = json.loads((out / "summary.json").read_text())
-    (row,) = [r for r in summary["summaries"] if r["suite"] == "real-on-off"]
-    assert row["episodes"] == 1
+    assert_plays_one_episode(bench, run, tmp_path / "bench", algo="dqn:")
 
 
 def test_resume_continues_from_last_checkpoint(tmp_path: Path) -> None:

@@ -3,7 +3,6 @@ pose correction named by file, then played by the benchmark without that file.""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +10,7 @@ import pytest
 
 pytest.importorskip("stable_baselines3")
 
+from bench_helpers import assert_plays_one_episode
 from script_loader import command
 
 from planar3p_agents.controllers.pose_correction import FEATURES, PoseCorrection
@@ -35,10 +35,4 @@ def test_predictive_residual_trains_and_the_benchmark_plays_it(tmp_path: Path, b
     ]
     assert train_script.main(argv) == 0
     correction.unlink()  # the model holds the weights
-    out = tmp_path / "bench"
-    spec = f"{run / 'model.zip'}:stats={run / 'vecnormalize.pkl'}"
-    args = "--suites real-on-off --episodes 1 --no-progress --no-plots".split()
-    assert bench.main([*args, "--policies", spec, "--out", str(out)]) == 0
-    summary = json.loads((out / "summary.json").read_text())
-    (row,) = [r for r in summary["summaries"] if r["suite"] == "real-on-off"]
-    assert row["episodes"] == 1
+    assert_plays_one_episode(bench, run, tmp_path / "bench")
