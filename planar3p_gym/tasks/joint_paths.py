@@ -458,8 +458,12 @@ def first_straight_path(
     """The first of ``targets`` ``(N, 3)`` (poses in ``target_mode``) joined to ``start`` (a pose
     in ``start_mode``) by a straight travel line that passes :func:`certify_joint_path`, as
     ``(index, path)``, or ``None``: the straight line of :func:`find_joint_path` for every
-    target at once (one direct-kinematics solve), without its waypoint search.  What the
-    mode-change sampler certifies its pairs with."""
+    target at once, without its waypoint search.  What the mode-change sampler certifies its
+    pairs with.
+
+    The first candidate is certified alone, then the others together (one direct-kinematics
+    solve): the first usually passes, and a row's direct kinematics does not depend on the
+    rows solved with it, so the answer is the one of certifying them all at once."""
     s = np.asarray(start, dtype=np.float64)
     t = np.asarray(targets, dtype=np.float64).reshape(-1, 3)
     rs = kinematics.inverse(design, s, np.asarray(start_mode, dtype=np.float64)).rho
@@ -469,16 +473,17 @@ def first_straight_path(
     cand = np.flatnonzero(np.isfinite(rt).all(axis=1) & _in_stroke(design, rt, limits))
     if not cand.size:
         return None
-    ok, margins, forces, ends = _certify_segments(design, rs, rt[cand], s, t[cand], limits)
-    passed = np.flatnonzero(ok)
-    if not passed.size:
-        return None
-    i = int(passed[0])
-    j = int(cand[i])
-    path = JointPath(
-        np.stack([rs, rt[j]]), np.stack([s, ends[i]]), float(margins[i]), float(forces[i])
-    )
-    return j, path
+    for rows in (cand[:1], cand[1:]):
+        ok, margins, forces, ends = _certify_segments(design, rs, rt[rows], s, t[rows], limits)
+        passed = np.flatnonzero(ok)
+        if passed.size:
+            i = int(passed[0])
+            j = int(rows[i])
+            path = JointPath(
+                np.stack([rs, rt[j]]), np.stack([s, ends[i]]), float(margins[i]), float(forces[i])
+            )
+            return j, path
+    return None
 
 
 def _waypoint_path(

@@ -11,7 +11,12 @@ from hypothesis import strategies as st
 from planar3p_gym.machine import kinematics
 from planar3p_gym.machine.design import Design
 from planar3p_gym.tasks import sampling
-from planar3p_gym.tasks.joint_paths import PathLimits, certify_joint_path, certify_lines
+from planar3p_gym.tasks.joint_paths import (
+    PathLimits,
+    certify_joint_path,
+    certify_lines,
+    first_straight_path,
+)
 
 DESIGN = Design.fig8()
 MODE = np.array([1.0, 1.0, -1.0])
@@ -70,3 +75,33 @@ def test_bad_shapes_are_refused_by_name():
         certify_lines(DESIGN, rho[0], rho.reshape(-1), poses[0], poses[1], LIMITS)
     with pytest.raises(ValueError, match=r"\(3,\) or \(N, 3\) arrays with one N"):
         certify_lines(DESIGN, rho, rho[:1], poses, poses, LIMITS)
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.integers(1, 12))
+def test_first_straight_path_is_the_first_certified_line(seed, n):
+    """The first target whose straight line :func:`certify_lines` passes, with the tracked
+    end pose, margin and force of certifying that line: the same answer as certifying every
+    target at once, though the first is certified alone."""
+    poses = _poses(seed, n + 1)
+    start, targets = poses[0], poses[1:]
+    rho0 = kinematics.inverse(DESIGN, start, MODE).rho
+    rho = kinematics.inverse(DESIGN, targets, MODE).rho
+    passed = np.flatnonzero(certify_lines(DESIGN, rho0, rho, start, targets, LIMITS))
+    found = first_straight_path(DESIGN, start, MODE, targets, MODE, LIMITS)
+    if not passed.size:
+        assert found is None
+        return
+    assert found is not None
+    index, path = found
+    assert index == passed[0]
+    one, reason = certify_joint_path(
+        DESIGN, np.stack([rho0, rho[index]]), start, targets[index], LIMITS
+    )
+    assert reason == "ok" and one is not None
+    np.testing.assert_array_equal(path.travels, one.travels)
+    np.testing.assert_array_equal(path.poses, one.poses)
+    assert (path.min_parallel_margin, path.max_holding_force) == (
+        one.min_parallel_margin,
+        one.max_holding_force,
+    )
