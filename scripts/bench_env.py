@@ -249,7 +249,8 @@ def _vector_envs(n: int, ids: list[str], refs: list[str]) -> dict[str, Any]:
 def _vector_measures(
     envs: dict[str, Any], duration: float, seed: int
 ) -> dict[str, Callable[[int], float]]:
-    """One steps/s measurement per env and round (after a warm-up of each env)."""
+    """One steps/s measurement per env and round (after a warm-up of each env); a vector
+    env's round is at least its id's time limit of batch steps (:func:`vector_rate`)."""
     import gymnasium as gym
 
     from tooling import throughput as T
@@ -259,7 +260,10 @@ def _vector_measures(
         env.reset(seed=seed)
         if isinstance(env, gym.vector.VectorEnv):
             T.vector_rate(env, min(0.05, duration), seed)  # warm-up: first-call caches
-            out[k] = lambda r, env=env: T.vector_rate(env, duration, seed + r)
+            limit = gym.spec(k.split(" ")[0]).max_episode_steps or 1  # a time limit's steps
+            out[k] = lambda r, env=env, limit=limit: T.vector_rate(
+                env, duration, seed + r, min_steps=limit
+            )
         else:
             T.single_rate(env, min(0.05, duration), seed)
             out[k] = lambda r, env=env: T.single_rate(env, duration, seed + r)

@@ -234,10 +234,14 @@ def _actions(space: gym.Space, seed: int, n: int) -> list[Any]:
     return [space.sample() for _ in range(n)]
 
 
-def vector_rate(venv: gym.vector.VectorEnv, duration: float, seed: int, pool: int = 16) -> float:
-    """Total env steps/s of ``venv`` stepped for ``duration`` seconds (at least one batch step)
-    with ``pool`` pre-sampled batch actions in turn; the vector env's autoreset (resets
-    included)."""
+def vector_rate(
+    venv: gym.vector.VectorEnv, duration: float, seed: int, pool: int = 16, min_steps: int = 1
+) -> float:
+    """Total env steps/s of ``venv`` stepped for ``duration`` seconds and at least
+    ``min_steps`` batch steps, with ``pool`` pre-sampled batch actions in turn; the vector
+    env's autoreset (resets included).  A batch's episodes start together, and those that run
+    to the time limit end together: ``min_steps`` of a time limit puts every env's resets in
+    the measure in proportion, which a shorter window can miss altogether."""
     actions = _actions(venv.action_space, seed, pool)
     step, clock, n = venv.step, time.perf_counter, 0
     t0 = clock()
@@ -246,7 +250,7 @@ def vector_rate(venv: gym.vector.VectorEnv, duration: float, seed: int, pool: in
         step(actions[n % pool])
         n += 1
         t = clock()
-        if t >= end:
+        if t >= end and n >= min_steps:
             break
     return venv.num_envs * n / (t - t0)
 

@@ -200,6 +200,14 @@ def test_throughput_measures_run_and_are_positive():
     venv.reset(seed=0)
     assert type(venv).__name__ == "Planar3PVectorEnv" and throughput.vector_rate(venv, 0.0, 0) > 0
     venv.close()
+    # a round is at least min_steps batch steps, however short its duration
+    cart = throughput.make_vector_env("CartPole-v1", 2)
+    cart.reset(seed=0)
+    calls = []
+    step = cart.step
+    cart.step = lambda a: calls.append(1) or step(a)  # type: ignore[method-assign]
+    assert throughput.vector_rate(cart, 0.0, 0, min_steps=7) > 0 and len(calls) == 7
+    cart.close()
     env = throughput.make_env("Pendulum-v1")
     env.reset(seed=0)
     assert throughput.single_rate(env, 0.0, 0) > 0
