@@ -60,6 +60,32 @@ RECOVERY_FIELDS = (
 )  # fmt: skip
 
 
+def _pivot_structure() -> tuple[np.ndarray, ...]:
+    """Where the pivots' Jacobian (:func:`_pivots`) can be non-zero: a ``(12, 15)`` mask, each
+    row's columns and each column's rows (ascending, padded with -1) and their counts.  The
+    sums over the Jacobian skip its structural zeros, whose products are exact zeros that
+    leave a finite sum unchanged: the same numbers in fewer operations."""
+    nonzero = np.zeros((12, 15), dtype=np.bool_)
+    for i in range(3):
+        o, r = 3 + 3 * i, 4 * i
+        nonzero[r, [i, o, o + 2]] = True  # B_i (x)
+        nonzero[r + 1, [o + 1, o + 2]] = True  # B_i (y)
+        nonzero[r + 2, [o, o + 2, 12, 14]] = True  # C_i (x)
+        nonzero[r + 3, [o + 1, o + 2, 13, 14]] = True  # C_i (y)
+    row_cols = np.full((12, 4), -1, dtype=np.int64)
+    col_rows = np.full((15, 6), -1, dtype=np.int64)
+    for row in range(12):
+        cols = np.flatnonzero(nonzero[row])
+        row_cols[row, : cols.size] = cols
+    for col in range(15):
+        rows = np.flatnonzero(nonzero[:, col])
+        col_rows[col, : rows.size] = rows
+    return nonzero, row_cols, nonzero.sum(axis=1), col_rows, nonzero.sum(axis=0)
+
+
+_NONZERO, _ROW_COLS, _ROW_COUNT, _COL_ROWS, _COL_COUNT = _pivot_structure()
+
+
 def recovery_constants(
     origins: tuple[float, float, float],
     legs: tuple[float, float, float],
@@ -132,14 +158,17 @@ def _pivots(z: np.ndarray, rc: np.ndarray, phi: np.ndarray, jac: np.ndarray) -> 
 
 @njit(cache=True)
 def _factor(jac: np.ndarray, minv: np.ndarray, chol: np.ndarray) -> None:
-    """Cholesky factor (lower, in ``chol``) of ``J diag(minv) J^T`` plus its ridge."""
+    """Cholesky factor (lower, in ``chol``) of ``J diag(minv) J^T`` plus its ridge (the
+    products over the Jacobian's structural non-zeros, :func:`_pivot_structure`)."""
     n = jac.shape[0]
     top = 0.0
     for a in range(n):
         for b in range(a + 1):
             s = 0.0
-            for k in range(jac.shape[1]):
-                s += jac[a, k] * minv[k] * jac[b, k]
+            for c in range(_ROW_COUNT[a]):
+                k = _ROW_COLS[a, c]
+                if _NONZERO[b, k]:
+                    s += jac[a, k] * minv[k] * jac[b, k]
             chol[a, b] = s
         top = max(top, chol[a, a])
     ridge = PIVOT_RIDGE * top
@@ -159,13 +188,25 @@ def _factor(jac: np.ndarray, minv: np.ndarray, chol: np.ndarray) -> None:
 
 
 @njit(cache=True)
+def _jac_times(jac: np.ndarray, v: np.ndarray, out: np.ndarray) -> None:
+    """``out = J v`` over the Jacobian's structural non-zeros (:func:`_pivot_structure`)."""
+    for i in range(jac.shape[0]):
+        s = 0.0
+        for c in range(_ROW_COUNT[i]):
+            k = _ROW_COLS[i, c]
+            s += jac[i, k] * v[k]
+        out[i] = s
+
+
+@njit(cache=True)
 def _correct(
-    jac: np.ndarray, minv: np.ndarray, chol: np.ndarray, rhs: np.ndarray, x: np.ndarray
-) -> None:
-    """``x -= diag(minv) J^T (J diag(minv) J^T)^-1 rhs`` (the factor from :func:`_factor`): the
-    mass-weighted minimal change of ``x`` whose image under ``J`` is ``-rhs``."""
+    jac: np.ndarray, minv: np.ndarray, chol: np.ndarray, rhs: np.ndarray, x: np.ndarray,
+    y: np.ndarray,
+) -> None:  # fmt: skip
+    """``x -= diag(minv) J^T (J diag(minv) J^T)^-1 rhs`` (the factor from :func:`_factor`; ``y``
+    a work array of 12): the mass-weighted minimal change of ``x`` whose image under ``J`` is
+    ``-rhs``."""
     n = chol.shape[0]
-    y = np.empty(n)
     for i in range(n):
         s = rhs[i]
         for k in range(i):
@@ -179,22 +220,21 @@ def _correct(
     for k in range(jac.shape[1]):
         if minv[k] != 0.0:
             s = 0.0
-            for i in range(n):
+            for c in range(_COL_COUNT[k]):
+                i = _COL_ROWS[k, c]
                 s += jac[i, k] * y[i]
             x[k] -= minv[k] * s
 
 
 @njit(cache=True)
-def _project_velocity(jac: np.ndarray, minv: np.ndarray, chol: np.ndarray, u: np.ndarray) -> None:
-    """``u`` onto the pivots' tangent space ``J u = 0`` in the mass metric (in place)."""
-    n = jac.shape[0]
-    rhs = np.empty(n)
-    for i in range(n):
-        s = 0.0
-        for k in range(jac.shape[1]):
-            s += jac[i, k] * u[k]
-        rhs[i] = s
-    _correct(jac, minv, chol, rhs, u)
+def _project_velocity(
+    jac: np.ndarray, minv: np.ndarray, chol: np.ndarray, u: np.ndarray, rhs: np.ndarray,
+    y: np.ndarray,
+) -> None:  # fmt: skip
+    """``u`` onto the pivots' tangent space ``J u = 0`` in the mass metric (in place; ``rhs``,
+    ``y``: work arrays of 12)."""
+    _jac_times(jac, u, rhs)
+    _correct(jac, minv, chol, rhs, u, y)
 
 
 @njit(cache=True)
@@ -232,17 +272,18 @@ def _solve_small(
 
 
 @njit(cache=True)
-def _box_qp(a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, x: np.ndarray) -> None:
+def _box_qp(
+    a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, x: np.ndarray,
+    free: np.ndarray, y: np.ndarray, rhs: np.ndarray, work: np.ndarray,
+) -> None:  # fmt: skip
     """The minimiser ``x`` of ``x^T a x / 2 + b^T x`` over the box ``lo <= x <= hi`` (3 values,
-    ``a`` positive definite; infinite bounds allowed).  Each of the 27 choices of free, at its
-    lower and at its upper bound per variable gives a point (the free variables solved, then
-    clamped into the box); every point is feasible and one of them is the minimiser, so the
-    lowest objective among them is the exact solution, with no tolerance to tune."""
+    ``a`` positive definite; infinite bounds allowed; ``free`` (int64), ``y``, ``rhs`` (3) and
+    ``work`` (3 x 4): work arrays, each entry written before it is read).  Each of the 27
+    choices of free, at its lower and at its upper bound per variable gives a point (the free
+    variables solved, then clamped into the box); every point is feasible and one of them is
+    the minimiser, so the lowest objective among them is the exact solution, with no
+    tolerance to tune."""
     best = math.inf
-    free = np.zeros(3, dtype=np.int64)
-    y = np.zeros(3)
-    rhs = np.zeros(3)
-    work = np.zeros((3, 4))
     for code in range(27):
         c = code
         k = 0
@@ -289,21 +330,38 @@ def _box_qp(a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray, x: np.
 
 
 @njit(cache=True)
+def _workspace() -> tuple[np.ndarray, ...]:
+    """The work arrays of :func:`_substep`, allocated once for all the substeps of a step:
+    the separations (12), the Jacobian (12 x 15), its factor (12 x 12), the rail impulses'
+    responses (3 x 15), their matrix (3 x 3), float rows (11 x 15), the stops' flags (9,
+    bool) and the small problems' free indices (3, int64) and matrix (3 x 4)."""
+    return (
+        np.empty(12), np.empty((12, 15)), np.empty((12, 12)), np.empty((3, 15)),
+        np.empty((3, 3)), np.empty((11, 15)), np.empty(9, dtype=np.bool_),
+        np.empty(3, dtype=np.int64), np.empty((3, 4)),
+    )  # fmt: skip
+
+
+@njit(cache=True)
 def _substep(
     z: np.ndarray, u: np.ndarray, sd: np.ndarray, cmd: np.ndarray, h: float, rc: np.ndarray,
-    minv: np.ndarray, impulses: np.ndarray,
+    minv: np.ndarray, impulses: np.ndarray, ws: tuple[np.ndarray, ...],
 ) -> bool:  # fmt: skip
     """One substep of ``h`` (s) of the module's scheme on ``z``, ``u`` (coordinates and
     velocities, 15 each) and the drives' setpoints ``sd`` (m), commands ``cmd`` (m/s); the
-    rail impulses (N s) into ``impulses``.  False (and ``z``, ``u`` spoilt) if the position
-    projection did not converge."""
+    rail impulses (N s) into ``impulses``; ``ws``: :func:`_workspace`.  False (and ``z``,
+    ``u`` spoilt) if the position projection did not converge."""
     a0, stroke = rc[0:3], rc[9]
     gx, gy = rc[19], rc[20]
     fmax, max_bias, error_bias = rc[21], rc[22], rc[23]
     cs, cj = rc[24], rc[25]
-    phi = np.empty(12)
-    jac = np.empty((12, 15))
-    chol = np.empty((12, 12))
+    phi, jac, chol, resp, a, rows, flags, free, work = ws
+    # Float rows: the solve's work (0), a column (1), the servo targets, box bounds, linear
+    # term and solution (2-6), the held inverse masses (7); 8-10: the joint friction's.
+    y, col, target, lo, hi, b, x, held = (
+        rows[0], rows[1], rows[2], rows[3], rows[4], rows[5], rows[6], rows[7]
+    )  # fmt: skip
+    at_lo, at_hi, stopped = flags[0:3], flags[3:6], flags[6:9]
     # Applied forces for h: gravity, viscous friction (explicit, as pymunk's model applies it).
     wp = u[14]
     for i in range(3):
@@ -320,15 +378,13 @@ def _substep(
     # Velocity onto the pivots' tangent space; the rail impulses' responses p_i in it.
     _pivots(z, rc, phi, jac)
     _factor(jac, minv, chol)
-    _project_velocity(jac, minv, chol, u)
-    resp = np.zeros((3, 15))
-    a = np.empty((3, 3))
+    _project_velocity(jac, minv, chol, u, col, y)
+    resp[:, :] = 0.0
     for i in range(3):
         resp[i, i] = minv[i]
-        col = np.zeros(12)
         for r in range(12):
             col[r] = jac[r, i] * minv[i]
-        _correct(jac, minv, chol, col, resp[i])
+        _correct(jac, minv, chol, col, resp[i], y)
     scale = 0.0
     for i in range(3):
         for j in range(3):
@@ -336,12 +392,6 @@ def _substep(
         scale = max(scale, a[i, i])
     # Servo targets: command plus the error correction towards the setpoint (pymunk's bias).
     coef = 1.0 - error_bias**h
-    target = np.empty(3)
-    lo = np.empty(3)
-    hi = np.empty(3)
-    b = np.empty(3)
-    at_lo = np.zeros(3, dtype=np.bool_)
-    at_hi = np.zeros(3, dtype=np.bool_)
     for i in range(3):
         corr = min(max((sd[i] - z[i]) * coef / h, -max_bias), max_bias)
         target[i] = cmd[i] + corr
@@ -351,10 +401,10 @@ def _substep(
         a[i, i] += SERVO_COMPLIANCE * scale
     jmax = fmax * h
     dry = rc[26] * h  # a slider's dry friction impulse (N s)
-    x = np.zeros(3)
+    x[:3] = 0.0
     # A slider on a stop that the chain pulls into it harder than its servo pushes away is
     # held by the stop (its servo at the limit): solved again with it held, until none is.
-    stopped = np.zeros(3, dtype=np.bool_)
+    stopped[:] = False
     for _ in range(4):
         for i in range(3):
             # The servo's impulse with the slider's dry friction: against the target motion
@@ -373,7 +423,7 @@ def _substep(
                 )
             lo[i], hi[i] = low, high
             b[i] = u[i] - t
-        _box_qp(a, b, lo, hi, x)
+        _box_qp(a, b, lo, hi, x, free, y, col, work)
         again = False
         for i in range(3):
             v = u[i] + _dot3(a[i], x)
@@ -389,13 +439,13 @@ def _substep(
         for k in range(15):
             u[k] += resp[i, k] * x[i]
     if rc[27] > 0.0:
-        _joint_friction(jac, minv, chol, u, rc[27] * h)
+        _joint_friction(jac, minv, chol, u, rc[27] * h, rows[8], rows[9], rows[10], y)
     # Positions; a slider past a stop put on it (velocity into it removed) and held.
     for k in range(15):
         z[k] += h * u[k]
     for i in range(3):
         sd[i] += h * cmd[i]
-    held = minv.copy()
+    held[:] = minv
     for i in range(3):
         rho = z[i] - a0[i]
         if rho <= 0.0 or (at_lo[i] and rho <= ON_STOP):
@@ -415,11 +465,11 @@ def _substep(
             converged = True
             break
         _factor(jac, held, chol)
-        _correct(jac, held, chol, phi, z)
+        _correct(jac, held, chol, phi, z, y)
     if not converged:
         return False
     _factor(jac, held, chol)
-    _project_velocity(jac, held, chol, u)
+    _project_velocity(jac, held, chol, u, col, y)
     ok = True
     for k in range(15):
         ok = ok and math.isfinite(z[k]) and math.isfinite(u[k])
@@ -428,17 +478,15 @@ def _substep(
 
 @njit(cache=True)
 def _joint_friction(
-    jac: np.ndarray, minv: np.ndarray, chol: np.ndarray, u: np.ndarray, dry: float
-) -> None:
+    jac: np.ndarray, minv: np.ndarray, chol: np.ndarray, u: np.ndarray, dry: float,
+    w: np.ndarray, r: np.ndarray, col: np.ndarray, y: np.ndarray,
+) -> None:  # fmt: skip
     """The revolute joints' dry friction for a substep, at most ``dry`` (N m s) each: joint
     ``B_i`` turns leg ``i`` against its (non-rotating) slider, ``C_i`` leg ``i`` against the
     platform.  One pass over the six joints, each impulse the one that stops the joint's
     relative rotation in the pivots' tangent space, clamped to ``dry``: each one removes
     kinetic energy (a sequential-impulse approximation of the coupled problem, which the
-    servos' next substep corrects)."""
-    w = np.zeros(15)
-    r = np.empty(15)
-    col = np.empty(12)
+    servos' next substep corrects).  ``w``, ``r`` (15), ``col``, ``y`` (12): work arrays."""
     for joint in range(6):
         i = joint // 2
         w[:] = 0.0
@@ -447,12 +495,8 @@ def _joint_friction(
             w[14] = -1.0
         for k in range(15):
             r[k] = minv[k] * w[k]
-        for row in range(12):
-            s = 0.0
-            for k in range(15):
-                s += jac[row, k] * r[k]
-            col[row] = s
-        _correct(jac, minv, chol, col, r)
+        _jac_times(jac, r, col)
+        _correct(jac, minv, chol, col, r, y)
         eff = 0.0
         rel = 0.0
         for k in range(15):
@@ -544,6 +588,7 @@ def recover(
     left = SUBSTEPS * 2**MAX_HALVINGS
     level = 0
     z0, u0, sd0 = z.copy(), u.copy(), sd.copy()
+    ws = _workspace()
     while left > 0:
         units = 2 ** (MAX_HALVINGS - level)
         while units > left:
@@ -553,7 +598,7 @@ def recover(
         z0[:] = z
         u0[:] = u
         sd0[:] = sd
-        if _substep(z, u, sd, cmd, hs, rc, minv, impulses):
+        if _substep(z, u, sd, cmd, hs, rc, minv, impulses, ws):
             left -= units
             for i in range(3):
                 j = abs(impulses[i])

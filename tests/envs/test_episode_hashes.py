@@ -104,6 +104,33 @@ def test_seeded_episodes_replay_bit_for_bit(env_id):
     )
 
 
+#: A stream through the constrained recovery (planar3p_gym.sim.recovery), which the streams
+#: above do not reach: the assembly change's random actions of seed 4 lock the chain at a
+#: parallel singularity from its first step, and 18 of these 60 steps are recovered.
+RECOVERED = ("Planar3PAssemblyChange-v0", 60, 4)
+RECOVERED_HASH = "74a19a58d77152c8efe3cb7e6fd3075a1b5620cf6037a0eda964f010a19ac5fa"
+
+
+def test_recovered_steps_replay_bit_for_bit():
+    env_id, steps, seed = RECOVERED
+    env = gym.make(env_id)
+    env.action_space.seed(seed)
+    env.reset(seed=seed)
+    recovered = 0
+    for _ in range(steps):
+        *_, terminated, truncated, _ = env.step(env.action_space.sample())
+        recovered += env.unwrapped.sim.recovered
+        if terminated or truncated:
+            env.reset()
+    env.close()
+    assert recovered >= 10, f"the stream meant to cross the recovery recovered {recovered} steps"
+    digest = episode_digest(env_id, steps, seed)
+    assert digest == RECOVERED_HASH, (
+        f"{env_id}'s recovered steps changed (hash {digest}): "
+        + NEW_VERSION.format(env_id=env_id, next_id=next_version(env_id))
+    )
+
+
 def test_the_message_names_the_next_version():
     assert next_version("Planar3P-v0") == "Planar3P-v1"
     assert next_version("Planar3PGoalDense-v9") == "Planar3PGoalDense-v10"
