@@ -27,7 +27,7 @@ environment runs: a step of the whole batch crosses from Python into compiled co
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -58,6 +58,7 @@ from planar3p_gym.tasks.track import RUNNING_SIZE, track_rows
 from planar3p_gym.tasks.travel_shaping import travel_rows
 
 __all__ = [
+    "BuiltBatch",
     "assembly_batch_step",
     "built_assembly_batch_step",
     "built_batch_step",
@@ -272,6 +273,78 @@ def assembly_batch_step(
     return (*out, signed, counts, travel)
 
 
+class BuiltBatch(NamedTuple):
+    """What :func:`built_rows` reads and writes of a batch of ``N`` built machines, over all
+    its environments (the vector env's arrays, updated in place): the one argument list of
+    :func:`built_batch_step`, :func:`built_mode_batch_step` and
+    :func:`built_assembly_batch_step` (how each is used: :func:`built_batch_step`)."""
+
+    #: Chipmunk's C functions (:data:`planar3p_gym.sim.chipmunk.FUNCTIONS`).
+    fns: np.ndarray
+    #: Each simulation's Chipmunk handles ``(N, 6)`` and force requests ``(N, 2)``.
+    handles: np.ndarray
+    push: np.ndarray
+    #: The action delay line: delays (steps) ``(N,)``, items ``(N, MAX_DELAY + 1, 3)``,
+    #: counts ``(N,)``.
+    action_delay: np.ndarray
+    action_items: np.ndarray
+    action_count: np.ndarray
+    #: Rated slider speed (m/s): a velocity command of 1 in the action.
+    vmax: float
+    #: Servo lag factors ``(N,)`` (1: none) and the lagged commands ``(N, 3)`` (m/s).
+    lag: np.ndarray
+    lagged: np.ndarray
+    #: Physics step (s) and substeps of a control step.
+    h: float
+    substeps: int
+    #: Each servo's force limit per physics step ``(N,)`` (N s).
+    force_limit: np.ndarray
+    #: Each simulation's batch array ``(N, >= 60)`` and projector constants ``(N, C)``.
+    readouts: np.ndarray
+    projection: np.ndarray
+    #: Largest drive setpoint lead (m).
+    setpoint_limit: float
+    #: Viscous forces applied ``(N, ...)`` and coefficients ``(N, 2)`` (N s/m, N m s/rad).
+    applied: np.ndarray
+    viscous: np.ndarray
+    #: Drive commands (m/s) not yet in each simulation's record ``(N, capacity, 3)``, counts.
+    log: np.ndarray
+    logged: np.ndarray
+    #: Closure error (m) past which the physics broke down.
+    breakdown: float
+    #: Each drawn machine's kinematic numbers ``(N, 10)`` and the nominal machine's (10,).
+    true_kin: np.ndarray
+    nominal_kin: np.ndarray
+    #: Whether the pose is read through the encoders; the sensor settings; the nominal leg 1
+    #: (m); time between readings (s); each env's last reading (each env's generator is an
+    #: argument of its own: numba types a typed list inside a tuple slowly, in Python).
+    encoders: bool
+    sensing: np.ndarray
+    leg_1: np.ndarray
+    dt: float
+    last: np.ndarray
+    #: Each episode's target ``(N, 3)`` (m, m, rad), start ``sign det A`` ``(N,)`` and
+    #: success tolerances ``(N, 3)`` (m, rad, m/s).
+    targets: np.ndarray
+    assembly: np.ndarray
+    tolerances: np.ndarray
+    #: Reward weights, characteristic length (m), the task's barriers and whether a crossing
+    #: fails the episode.
+    weights: np.ndarray
+    length: float
+    parallel_barrier: bool
+    serial_barrier: bool
+    crossing_fails: bool
+    #: Observation bounds (float32) and the task's fixed extra entries ``(N, D - 31)``.
+    low: np.ndarray
+    high: np.ndarray
+    extra: np.ndarray
+    #: The observation delay line: delays ``(N,)``, items ``(N, MAX_DELAY + 1, D)``, counts.
+    obs_delay: np.ndarray
+    obs_items: np.ndarray
+    obs_count: np.ndarray
+
+
 @njit(cache=True)
 def _push(items: np.ndarray, count: np.ndarray, i: int, delay: int, item: np.ndarray) -> None:
     """:meth:`planar3p_gym.envs.latency.DelayLine.push` of ``item`` onto environment ``i``'s
@@ -288,19 +361,19 @@ def _push(items: np.ndarray, count: np.ndarray, i: int, delay: int, item: np.nda
 
 @njit(cache=True)
 def built_rows(
-    fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
-    chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
-    action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
-    substeps: int, force_limit: np.ndarray, readouts: np.ndarray, projection: np.ndarray,
-    setpoint_limit: float, applied: np.ndarray, viscous: np.ndarray, log: np.ndarray,
-    logged: np.ndarray, breakdown: float, true_kin: np.ndarray, nominal_kin: np.ndarray,
-    encoders: bool, rngs: Any, sensing: np.ndarray, leg_1: np.ndarray, dt: float,
-    last: np.ndarray, targets: np.ndarray, assembly: np.ndarray, tolerances: np.ndarray,
-    weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
-    crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
-) -> tuple[np.ndarray, ...]:  # fmt: skip
+    rows: np.ndarray, chosen: np.ndarray, b: BuiltBatch, rngs: Any
+) -> tuple[np.ndarray, ...]:
     """:func:`built_batch_step` without the observation delay; returns its tuple without
     ``delayed``."""
+    # The fields as locals: a read of a tuple's array field in the loop would count a
+    # reference to it each time.
+    (
+        fns, handles, push, action_delay, action_items, action_count, vmax, lag, lagged, h,
+        substeps, force_limit, readouts, projection, setpoint_limit, applied, viscous, log,
+        logged, breakdown, true_kin, nominal_kin, encoders, sensing, leg_1, dt, last, targets,
+        assembly, tolerances, weights, length, parallel_barrier, serial_barrier,
+        crossing_fails, low, high, extra, _, _, _,
+    ) = b  # fmt: skip
     n = rows.shape[0]
     width = OBS_SIZE + extra.shape[1]
     executed = np.empty((n, 3))
@@ -322,14 +395,18 @@ def built_rows(
             executed[k, d] = action_items[i, 0, d]
             log[i, logged[i], d] = executed[k, d] * vmax
         logged[i] += 1
-        v0, v1, v2 = log[i, logged[i] - 1, 0], log[i, logged[i] - 1, 1], log[i, logged[i] - 1, 2]
+        v0, v1, v2 = (
+            log[i, logged[i] - 1, 0],
+            log[i, logged[i] - 1, 1],
+            log[i, logged[i] - 1, 2],
+        )
         if lag[i] != 1.0:
             v0, v1, v2 = servo_lag(lagged[i], lag[i], v0, v1, v2)
         if viscous[i, 0] > 0.0 or viscous[i, 1] > 0.0:
             st, err = step_projected_viscous(
-                fns, handles[i], push[i], v0, v1, v2, h, substeps, force_limit[i], readouts[i],
-                projection[i], setpoint_limit, impulses[k], applied[i], viscous[i, 0],
-                viscous[i, 1],
+                fns, handles[i], push[i], v0, v1, v2, h, substeps, force_limit[i],
+                readouts[i], projection[i], setpoint_limit, impulses[k], applied[i],
+                viscous[i, 0], viscous[i, 1],
             )  # fmt: skip
         else:
             st, err = step_projected(
@@ -404,20 +481,11 @@ def built_rows(
 
 @njit(cache=True)
 def built_batch_step(
-    fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
-    chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
-    action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
-    substeps: int, force_limit: np.ndarray, readouts: np.ndarray, projection: np.ndarray,
-    setpoint_limit: float, applied: np.ndarray, viscous: np.ndarray, log: np.ndarray,
-    logged: np.ndarray, breakdown: float, true_kin: np.ndarray, nominal_kin: np.ndarray,
-    encoders: bool, rngs: Any, sensing: np.ndarray, leg_1: np.ndarray, dt: float,
-    last: np.ndarray, targets: np.ndarray, assembly: np.ndarray, tolerances: np.ndarray,
-    weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
-    crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
-    obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
+    rows: np.ndarray, chosen: np.ndarray, b: BuiltBatch, rngs: Any,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """One step of the environments ``rows`` of a batch of ``N`` built machines (the reach
-    task's hooks on the reference kernel), each as its single environment steps it:
+    task's hooks on the reference kernel), each as its single environment steps it (the names
+    below are the fields of ``b``, :class:`BuiltBatch`):
 
     - the action delay: each row's ``chosen`` velocities (fractions of ``vmax``, m/s) pushed
       onto its line (``action_delay``, ``action_items`` ``(N, MAX_DELAY + 1, 3)``,
@@ -450,14 +518,8 @@ def built_batch_step(
     (else nothing of the row past the physics was computed and no noise drawn), the
     observations before and after the delay, :data:`~planar3p_gym.tasks.reach_step.
     RESULT_FIELDS` and the true leg angles (rad)."""
-    executed, impulses, states, closure, good, obs, res, legs = built_rows(
-        fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
-        lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
-        viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
-        dt, last, targets, assembly, tolerances, weights, length, parallel_barrier,
-        serial_barrier, crossing_fails, low, high, extra,
-    )  # fmt: skip
-    delayed = delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+    executed, impulses, states, closure, good, obs, res, legs = built_rows(rows, chosen, b, rngs)
+    delayed = delay_rows(rows, good, obs, b.obs_delay, b.obs_items, b.obs_count)
     return executed, impulses, states, closure, good, obs, delayed, res, legs
 
 
@@ -480,17 +542,7 @@ def delay_rows(
 
 @njit(cache=True)
 def built_mode_batch_step(
-    fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
-    chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
-    action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
-    substeps: int, force_limit: np.ndarray, readouts: np.ndarray, projection: np.ndarray,
-    setpoint_limit: float, applied: np.ndarray, viscous: np.ndarray, log: np.ndarray,
-    logged: np.ndarray, breakdown: float, true_kin: np.ndarray, nominal_kin: np.ndarray,
-    encoders: bool, rngs: Any, sensing: np.ndarray, leg_1: np.ndarray, dt: float,
-    last: np.ndarray, targets: np.ndarray, assembly: np.ndarray, tolerances: np.ndarray,
-    weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
-    crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
-    obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
+    rows: np.ndarray, chosen: np.ndarray, b: BuiltBatch, rngs: Any,
     target_modes: np.ndarray, shaping: float, target_rho: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`built_batch_step` of the mode-change task (its extra entries in ``extra``),
@@ -499,13 +551,7 @@ def built_mode_batch_step(
     barriers) and the travel term of weight ``shaping`` to ``target_rho`` as
     :func:`mode_batch_step` adds it; returns :func:`built_batch_step`'s tuple, its results
     rejudged, then the travel terms ``(n,)``."""
-    executed, impulses, states, closure, good, obs, res, legs = built_rows(
-        fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
-        lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
-        viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
-        dt, last, targets, assembly, tolerances, weights, length, parallel_barrier,
-        serial_barrier, crossing_fails, low, high, extra,
-    )  # fmt: skip
+    executed, impulses, states, closure, good, obs, res, legs = built_rows(rows, chosen, b, rngs)
     n = rows.shape[0]
     local = np.arange(n)
     modes = np.empty((n, 3), dtype=np.int64)
@@ -513,28 +559,19 @@ def built_mode_batch_step(
         modes[k] = target_modes[rows[k]]
     by_row = np.ascontiguousarray(states.T)
     mode_change_rows(
-        local, by_row, executed, res, modes, weights, length, parallel_barrier, serial_barrier,
+        local, by_row, executed, res, modes, b.weights, b.length, b.parallel_barrier,
+        b.serial_barrier,
     )  # fmt: skip
     travel = np.zeros(n)
     if shaping > 0.0:
-        travel_rows(rows, by_row, res, shaping, target_rho, length, travel)
-    delayed = delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+        travel_rows(rows, by_row, res, shaping, target_rho, b.length, travel)
+    delayed = delay_rows(rows, good, obs, b.obs_delay, b.obs_items, b.obs_count)
     return executed, impulses, states, closure, good, obs, delayed, res, legs, travel
 
 
 @njit(cache=True)
 def built_assembly_batch_step(
-    fns: np.ndarray, handles: np.ndarray, push: np.ndarray, rows: np.ndarray,
-    chosen: np.ndarray, action_delay: np.ndarray, action_items: np.ndarray,
-    action_count: np.ndarray, vmax: float, lag: np.ndarray, lagged: np.ndarray, h: float,
-    substeps: int, force_limit: np.ndarray, readouts: np.ndarray, projection: np.ndarray,
-    setpoint_limit: float, applied: np.ndarray, viscous: np.ndarray, log: np.ndarray,
-    logged: np.ndarray, breakdown: float, true_kin: np.ndarray, nominal_kin: np.ndarray,
-    encoders: bool, rngs: Any, sensing: np.ndarray, leg_1: np.ndarray, dt: float,
-    last: np.ndarray, targets: np.ndarray, assembly: np.ndarray, tolerances: np.ndarray,
-    weights: np.ndarray, length: float, parallel_barrier: bool, serial_barrier: bool,
-    crossing_fails: bool, low: np.ndarray, high: np.ndarray, extra: np.ndarray,
-    obs_delay: np.ndarray, obs_items: np.ndarray, obs_count: np.ndarray,
+    rows: np.ndarray, chosen: np.ndarray, b: BuiltBatch, rngs: Any,
     target_assembly: np.ndarray, last_sign: np.ndarray, crossings: np.ndarray,
     signed_low: float, signed_high: float, shaping: float, target_rho: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
@@ -547,13 +584,7 @@ def built_assembly_batch_step(
     ``shaping`` to ``target_rho`` as :func:`mode_batch_step` adds it), then the rows' ``(last
     sign, crossings)`` after the step ``(2, n)`` int64 (of the rows whose physics held) and
     their travel terms ``(n,)``."""
-    executed, impulses, states, closure, good, obs, res, legs = built_rows(
-        fns, handles, push, rows, chosen, action_delay, action_items, action_count, vmax, lag,
-        lagged, h, substeps, force_limit, readouts, projection, setpoint_limit, applied,
-        viscous, log, logged, breakdown, true_kin, nominal_kin, encoders, rngs, sensing, leg_1,
-        dt, last, targets, assembly, tolerances, weights, length, parallel_barrier,
-        serial_barrier, crossing_fails, low, high, extra,
-    )  # fmt: skip
+    executed, impulses, states, closure, good, obs, res, legs = built_rows(rows, chosen, b, rngs)
     n = rows.shape[0]
     local = np.arange(n)
     target = np.empty(n, dtype=np.int64)
@@ -563,19 +594,19 @@ def built_assembly_batch_step(
     for k in range(n):
         i = rows[k]
         target[k], sign[k], count[k] = target_assembly[i], last_sign[i], crossings[i]
-        tol[k] = tolerances[i]
+        tol[k] = b.tolerances[i]
     signed = np.empty(n, dtype=np.float32)
     counts = np.empty((2, n), dtype=np.int64)
     by_row = np.ascontiguousarray(states.T)
     assembly_rows(
-        local, by_row, executed, res, target, sign, count, tol, weights, length,
-        serial_barrier, signed_low, signed_high, signed, counts,
+        local, by_row, executed, res, target, sign, count, tol, b.weights, b.length,
+        b.serial_barrier, signed_low, signed_high, signed, counts,
     )  # fmt: skip
     travel = np.zeros(n)
     if shaping > 0.0:
-        travel_rows(rows, by_row, res, shaping, target_rho, length, travel)
+        travel_rows(rows, by_row, res, shaping, target_rho, b.length, travel)
     width = obs.shape[1]
     for k in range(n):
         obs[k, width - 1] = signed[k]
-    delayed = delay_rows(rows, good, obs, obs_delay, obs_items, obs_count)
+    delayed = delay_rows(rows, good, obs, b.obs_delay, b.obs_items, b.obs_count)
     return executed, impulses, states, closure, good, obs, delayed, res, legs, counts, travel

@@ -37,6 +37,7 @@ from planar3p_gym import checks
 from planar3p_gym.envs.actuation import on_off_actions
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
 from planar3p_gym.envs.batch_kernel import (
+    BuiltBatch,
     assembly_batch_step,
     built_assembly_batch_step,
     built_batch_step,
@@ -1168,33 +1169,37 @@ class _BuiltCore(_BatchCore):
                 self._append_commands(i)
             self.log_steps = 0
         self.log_steps += 1
-        args = (
-            chipmunk.FUNCTIONS, self.handle_rows, self.push_rows, idx, a, self.action_delay,
+        b = BuiltBatch(
+            chipmunk.FUNCTIONS, self.handle_rows, self.push_rows, self.action_delay,
             self.action_items, self.action_count, self.vmax, self.lag, self.lagged, self.h,
             self.substeps, self.force_limit, self.buf, self.projection, FOLLOWING_ERROR_LIMIT,
             self.forces_buf, self.viscous, self.log, self.logged, self.breakdown, self.true_kin,
-            self.nominal_kin, self.encoders, self.rngs, self.sensing, self.leg_1, self.enc_dt,
+            self.nominal_kin, self.encoders, self.sensing, self.leg_1, self.enc_dt,
             self.last_reading, self.targets, self.assembly, self.tolerances, self.weights,
             self.length, self.barriers[0], self.barriers[1], self.crossing_fails, self.low,
             self.high, self.extra, self.obs_delay, self.obs_items, self.obs_count,
         )  # fmt: skip
         if self.mode:
-            *out, _ = built_mode_batch_step(*args, self.target_modes, self.shaping, self.target_rho)
+            *out, _ = built_mode_batch_step(
+                idx, a, b, self.rngs, self.target_modes, self.shaping, self.target_rho
+            )
         elif self.assembly_change:
             *out, counts, _ = built_assembly_batch_step(
-                *args, self.target_assembly, self.last_sign, self.crossings,
+                idx, a, b, self.rngs, self.target_assembly, self.last_sign, self.crossings,
                 *self.signed_bounds, self.shaping, self.target_rho,
             )  # fmt: skip
             kept = idx[out[4]]
             self.last_sign[kept] = counts[0, out[4]]
             self.crossings[kept] = counts[1, out[4]]
         elif self.travel_goal:  # (the block of the observed travels, before the delay)
-            executed, impulses, states, closure, good, obs, res, legs = built_rows(*args[:-3])
+            executed, impulses, states, closure, good, obs, res, legs = built_rows(
+                idx, a, b, self.rngs
+            )
             obs[:, OBS_SIZE:] = travel_goal_entries(obs[:, :3], self.goal_rho[idx])
-            delayed = delay_rows(idx, good, obs, *args[-3:])
+            delayed = delay_rows(idx, good, obs, b.obs_delay, b.obs_items, b.obs_count)
             out = [executed, impulses, states, closure, good, obs, delayed, res, legs]
         else:
-            out = built_batch_step(*args)
+            out = built_batch_step(idx, a, b, self.rngs)
         executed, impulses, states, closure, good, obs, delayed, res, legs = out
         bad_rows = np.flatnonzero(~good).tolist()
         for j in bad_rows:  # (their envs brought to their previous step first)
