@@ -59,6 +59,7 @@ from planar3p_gym.tasks.travel_shaping import travel_rows
 
 __all__ = [
     "BuiltBatch",
+    "ReachBatch",
     "assembly_batch_step",
     "built_assembly_batch_step",
     "built_batch_step",
@@ -75,15 +76,51 @@ _RESULTS = len(RESULT_FIELDS)
 _TOLERANCE_START = TOLERANCES.start
 
 
+class ReachBatch(NamedTuple):
+    """What :func:`reach_batch_step` reads and writes of a batch of ``N`` environments of the
+    nominal machine, over all its environments (the vector env's arrays, updated in place):
+    the one argument list of the batched steps of the reach, goal, tracking, mode-change and
+    assembly-change tasks."""
+
+    #: Chipmunk's C functions (:data:`planar3p_gym.sim.chipmunk.FUNCTIONS`) and each
+    #: simulation's handles ``(N, 6)``.
+    fns: np.ndarray
+    handles: np.ndarray
+    #: Rated slider speed (m/s): a velocity command of 1 in the action.
+    vmax: float
+    #: Physics step (s), substeps of a control step, a servo's force limit per physics step
+    #: (N s).
+    h: float
+    substeps: int
+    force_limit: float
+    #: Each simulation's batch array ``(N, >= 60)``, the projector's constants, the largest
+    #: drive setpoint lead (m).
+    readouts: np.ndarray
+    projection: np.ndarray
+    setpoint_limit: float
+    #: Each target ``(5, N)`` (``x, y, theta, cos theta, sin theta``; m, m, rad, 1, 1), each
+    #: start's ``sign det A`` ``(N,)``, each environment's reach constants ``(N, >= 10)`` (its
+    #: tolerances among them).
+    targets: np.ndarray
+    assembly: np.ndarray
+    env_consts: np.ndarray
+    #: The reach outputs' constants, reward weights and observation bounds
+    #: (:func:`~planar3p_gym.tasks.reach_step.reach_outputs_batch`).
+    reach_consts: np.ndarray
+    weights: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    #: Drive commands (m/s) not yet in each simulation's record ``(N, capacity, 3)``, counts.
+    log: np.ndarray
+    logged: np.ndarray
+
+
 @njit(cache=True)
 def reach_batch_step(
-    fns: np.ndarray, handles: np.ndarray, rows: np.ndarray, actions: np.ndarray, vmax: float,
-    h: float, substeps: int, force_limit: float, readouts: np.ndarray, projection: np.ndarray,
-    setpoint_limit: float, targets: np.ndarray, assembly: np.ndarray, env_consts: np.ndarray,
-    reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
-    log: np.ndarray, logged: np.ndarray,
-) -> tuple[np.ndarray, ...]:  # fmt: skip
-    """One step of the environments ``rows`` (int64) of a batch of ``N``.
+    rows: np.ndarray, actions: np.ndarray, r: ReachBatch
+) -> tuple[np.ndarray, ...]:
+    """One step of the environments ``rows`` (int64) of a batch of ``N`` (the names below are
+    the fields of ``r``, :class:`ReachBatch`).
 
     ``actions``: ``(N, 3)`` clipped actions (the drive commands are ``vmax`` m/s times them);
     ``handles``, ``readouts``, ``h`` (s), ``substeps``, ``force_limit`` (N s),
@@ -102,6 +139,12 @@ def reach_batch_step(
     :func:`~planar3p_gym.sim.chipmunk.advance_batch`'s outputs, then the observations
     (float32) and :data:`~planar3p_gym.tasks.reach_step.RESULT_FIELDS` (one column each).
     """
+    # The fields as locals: a read of a tuple's array field in the loop would count a
+    # reference to it each time.
+    (
+        fns, handles, vmax, h, substeps, force_limit, readouts, projection, setpoint_limit,
+        targets, assembly, env_consts, reach_consts, weights, low, high, log, logged,
+    ) = r  # fmt: skip
     n = rows.shape[0]
     commands = np.empty((n, 3))
     act = np.empty((3, n))
@@ -134,11 +177,7 @@ def reach_batch_step(
 
 @njit(cache=True)
 def goal_batch_step(
-    fns: np.ndarray, handles: np.ndarray, rows: np.ndarray, actions: np.ndarray, vmax: float,
-    h: float, substeps: int, force_limit: float, readouts: np.ndarray, projection: np.ndarray,
-    setpoint_limit: float, targets: np.ndarray, assembly: np.ndarray, env_consts: np.ndarray,
-    reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
-    log: np.ndarray, logged: np.ndarray, desired: np.ndarray, goal_low: np.ndarray,
+    rows: np.ndarray, actions: np.ndarray, r: ReachBatch, desired: np.ndarray, goal_low: np.ndarray,
     goal_high: np.ndarray, length: float, dense: bool,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`reach_batch_step`, then :func:`~planar3p_gym.tasks.goal.goal_rows` of its outputs:
@@ -150,29 +189,22 @@ def goal_batch_step(
     stepped environments' achieved goals ``(n, 5)`` float32, their evaluations ``(4, n)``
     (position error (m), orientation error (rad), success, goal-independent reward) and their
     goal rewards ``(n,)``."""
-    commands, forces, saturated, states, closure, obs, res = reach_batch_step(
-        fns, handles, rows, actions, vmax, h, substeps, force_limit, readouts, projection,
-        setpoint_limit, targets, assembly, env_consts, reach_consts, weights, low, high, log,
-        logged,
-    )  # fmt: skip
+    commands, forces, saturated, states, closure, obs, res = reach_batch_step(rows, actions, r)
     n = rows.shape[0]
     achieved = np.empty((n, 5), dtype=np.float32)
     evaluation = np.empty((4, n))
     rewards = np.empty(n)
     goal_rows(
-        rows, states, actions, res, desired, env_consts[:, _TOLERANCE_START : _TOLERANCE_START + 3],
-        weights, length, dense, goal_low, goal_high, achieved, evaluation, rewards,
+        rows, states, actions, res, desired,
+        r.env_consts[:, _TOLERANCE_START : _TOLERANCE_START + 3], r.weights, length, dense,
+        goal_low, goal_high, achieved, evaluation, rewards,
     )  # fmt: skip
     return commands, forces, saturated, states, closure, obs, res, achieved, evaluation, rewards
 
 
 @njit(cache=True)
 def track_batch_step(
-    fns: np.ndarray, handles: np.ndarray, rows: np.ndarray, actions: np.ndarray, vmax: float,
-    h: float, substeps: int, force_limit: float, readouts: np.ndarray, projection: np.ndarray,
-    setpoint_limit: float, targets: np.ndarray, assembly: np.ndarray, env_consts: np.ndarray,
-    reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
-    log: np.ndarray, logged: np.ndarray, samples: np.ndarray, elapsed: np.ndarray,
+    rows: np.ndarray, actions: np.ndarray, r: ReachBatch, samples: np.ndarray, elapsed: np.ndarray,
     running: np.ndarray, extra_low: np.ndarray, extra_high: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`reach_batch_step` against each stepped environment's reference pose at its new
@@ -187,19 +219,16 @@ def track_batch_step(
     step ``(n, 7)``."""
     n = rows.shape[0]
     steps = elapsed + 1
+    targets = r.targets
     for k in range(n):
         i = rows[k]
         for d in range(5):
             targets[d, i] = samples[i, steps[i], d]
-    commands, forces, saturated, states, closure, obs, res = reach_batch_step(
-        fns, handles, rows, actions, vmax, h, substeps, force_limit, readouts, projection,
-        setpoint_limit, targets, assembly, env_consts, reach_consts, weights, low, high, log,
-        logged,
-    )  # fmt: skip
+    commands, forces, saturated, states, closure, obs, res = reach_batch_step(rows, actions, r)
     extra = np.empty((n, 3), dtype=np.float32)
     running_out = np.empty((n, RUNNING_SIZE))
     track_rows(
-        rows, steps, samples, res, actions, weights, reach_consts[6], extra_low, extra_high,
+        rows, steps, samples, res, actions, r.weights, r.reach_consts[6], extra_low, extra_high,
         running, extra, running_out,
     )  # fmt: skip
     return commands, forces, saturated, states, closure, obs, res, extra, running_out
@@ -207,12 +236,8 @@ def track_batch_step(
 
 @njit(cache=True)
 def mode_batch_step(
-    fns: np.ndarray, handles: np.ndarray, rows: np.ndarray, actions: np.ndarray, vmax: float,
-    h: float, substeps: int, force_limit: float, readouts: np.ndarray, projection: np.ndarray,
-    setpoint_limit: float, targets: np.ndarray, assembly: np.ndarray, env_consts: np.ndarray,
-    reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
-    log: np.ndarray, logged: np.ndarray, target_modes: np.ndarray, parallel_barrier: bool,
-    serial_barrier: bool, shaping: float, target_rho: np.ndarray,
+    rows: np.ndarray, actions: np.ndarray, r: ReachBatch, target_modes: np.ndarray,
+    parallel_barrier: bool, serial_barrier: bool, shaping: float, target_rho: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`reach_batch_step`, then :func:`~planar3p_gym.tasks.mode_change.mode_change_rows`
     of its outputs (``target_modes`` ``(N, 3)`` int64: each episode's target working mode;
@@ -220,30 +245,22 @@ def mode_batch_step(
     :func:`~planar3p_gym.tasks.travel_shaping.travel_rows` to ``target_rho`` ``(N, 3)`` (m);
     returns :func:`reach_batch_step`'s tuple, its results rejudged, then the travel terms
     ``(n,)`` (zeros without)."""
-    out = reach_batch_step(
-        fns, handles, rows, actions, vmax, h, substeps, force_limit, readouts, projection,
-        setpoint_limit, targets, assembly, env_consts, reach_consts, weights, low, high, log,
-        logged,
-    )  # fmt: skip
+    out = reach_batch_step(rows, actions, r)
     mode_change_rows(
-        rows, out[3], actions, out[6], target_modes, weights, reach_consts[6], parallel_barrier,
+        rows, out[3], actions, out[6], target_modes, r.weights, r.reach_consts[6], parallel_barrier,
         serial_barrier,
     )  # fmt: skip
     travel = np.zeros(rows.shape[0])
     if shaping > 0.0:
-        travel_rows(rows, out[3], out[6], shaping, target_rho, reach_consts[6], travel)
+        travel_rows(rows, out[3], out[6], shaping, target_rho, r.reach_consts[6], travel)
     return (*out, travel)
 
 
 @njit(cache=True)
 def assembly_batch_step(
-    fns: np.ndarray, handles: np.ndarray, rows: np.ndarray, actions: np.ndarray, vmax: float,
-    h: float, substeps: int, force_limit: float, readouts: np.ndarray, projection: np.ndarray,
-    setpoint_limit: float, targets: np.ndarray, assembly: np.ndarray, env_consts: np.ndarray,
-    reach_consts: np.ndarray, weights: np.ndarray, low: np.ndarray, high: np.ndarray,
-    log: np.ndarray, logged: np.ndarray, target_assembly: np.ndarray, last_sign: np.ndarray,
-    crossings: np.ndarray, serial_barrier: bool, signed_low: float, signed_high: float,
-    shaping: float, target_rho: np.ndarray,
+    rows: np.ndarray, actions: np.ndarray, r: ReachBatch, target_assembly: np.ndarray,
+    last_sign: np.ndarray, crossings: np.ndarray, serial_barrier: bool, signed_low: float,
+    signed_high: float, shaping: float, target_rho: np.ndarray,
 ) -> tuple[np.ndarray, ...]:  # fmt: skip
     """:func:`reach_batch_step`, then :func:`~planar3p_gym.tasks.assembly_change.assembly_rows`
     of its outputs (``target_assembly``, ``last_sign``, ``crossings``: ``(N,)`` int64, each
@@ -254,22 +271,18 @@ def assembly_batch_step(
     weight ``shaping`` to ``target_rho`` as :func:`mode_batch_step` adds it), then the stepped
     environments' signed margin entries ``(n,)`` float32, their ``(last sign, crossings)``
     after the step ``(2, n)`` int64 and their travel terms ``(n,)``."""
-    out = reach_batch_step(
-        fns, handles, rows, actions, vmax, h, substeps, force_limit, readouts, projection,
-        setpoint_limit, targets, assembly, env_consts, reach_consts, weights, low, high, log,
-        logged,
-    )  # fmt: skip
+    out = reach_batch_step(rows, actions, r)
     n = rows.shape[0]
     signed = np.empty(n, dtype=np.float32)
     counts = np.empty((2, n), dtype=np.int64)
     assembly_rows(
         rows, out[3], actions, out[6], target_assembly, last_sign, crossings,
-        env_consts[:, _TOLERANCE_START : _TOLERANCE_START + 3], weights, reach_consts[6],
+        r.env_consts[:, _TOLERANCE_START : _TOLERANCE_START + 3], r.weights, r.reach_consts[6],
         serial_barrier, signed_low, signed_high, signed, counts,
     )  # fmt: skip
     travel = np.zeros(n)
     if shaping > 0.0:
-        travel_rows(rows, out[3], out[6], shaping, target_rho, reach_consts[6], travel)
+        travel_rows(rows, out[3], out[6], shaping, target_rho, r.reach_consts[6], travel)
     return (*out, signed, counts, travel)
 
 

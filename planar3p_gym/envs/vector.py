@@ -38,6 +38,7 @@ from planar3p_gym.envs.actuation import on_off_actions
 from planar3p_gym.envs.assembly_change import Planar3PAssemblyChangeEnv
 from planar3p_gym.envs.batch_kernel import (
     BuiltBatch,
+    ReachBatch,
     assembly_batch_step,
     built_assembly_batch_step,
     built_batch_step,
@@ -821,12 +822,13 @@ class _BatchCore:
                 self._append_commands(i)
             self.log_steps = 0
         self.log_steps += 1
-        args = (
-            chipmunk.FUNCTIONS, self.handle_rows, idx, a, self.vmax, self.h, self.substeps,
+        batch = ReachBatch(
+            chipmunk.FUNCTIONS, self.handle_rows, self.vmax, self.h, self.substeps,
             self.force_limit, self.buf, self.constants, FOLLOWING_ERROR_LIMIT, self.targets,
             self.assembly, self.consts, reach.consts, reach.weights.as_array(), reach.low,
             reach.high, self.log, self.logged,
         )  # fmt: skip
+        args = (idx, a, batch)
         if self.goal is None:
             _, forces, saturated, states, closure, obs, res = reach_batch_step(*args)
         else:
