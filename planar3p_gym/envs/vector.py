@@ -64,7 +64,7 @@ from planar3p_gym.sim.sensors import LAST_SIZE, Encoders
 from planar3p_gym.tasks import sampling as task_module
 from planar3p_gym.tasks.assembly_change import AssemblyChangeTask
 from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS, GoalKernel, goal_bounds
-from planar3p_gym.tasks.kernel import HookKernel, ReachKernel, StepKernel
+from planar3p_gym.tasks.kernel import HookKernel, ReachKernel, ReachOutputsKernel, StepKernel
 from planar3p_gym.tasks.mode_change import ModeChangeTask
 from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
 from planar3p_gym.tasks.reach import ReachTask
@@ -480,7 +480,7 @@ def _hook_rows(env: Planar3PEnv) -> type | None:
 def _reach_step(kernel: Any) -> Any:
     """The reach outputs (:class:`~planar3p_gym.tasks.reach_step.ReachStep`) a batched kernel
     computes (its own, or those of the reach kernel it is built on)."""
-    if isinstance(kernel, (ReachKernel, HookKernel)):
+    if isinstance(kernel, ReachOutputsKernel):
         return kernel.reach
     return kernel.reach.reach
 

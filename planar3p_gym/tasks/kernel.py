@@ -53,6 +53,7 @@ __all__ = [
     "HookKernel",
     "KernelSettings",
     "ReachKernel",
+    "ReachOutputsKernel",
     "Sensing",
     "StepKernel",
     "StepOutputs",
@@ -436,7 +437,24 @@ class CompiledKernel(StepKernel):
         raise NotImplementedError
 
 
-class ReachKernel(CompiledKernel):
+class ReachOutputsKernel(CompiledKernel):
+    """The base of the kernels built on the reach task's compiled outputs on the projected
+    physics of the nominal machine (:class:`~planar3p_gym.tasks.reach_step.ReachStep`, kept in
+    :attr:`reach`, with the success tolerances the task's configuration sets)."""
+
+    def __init__(self, task: TaskHooks, settings: KernelSettings, machine: Sensing) -> None:
+        super().__init__(task, settings, machine)
+        #: The compiled outputs' constants and buffers (a batched step of the native vector
+        #: env reads their tolerances).
+        self.reach = ReachStep(
+            settings.design, settings.low, settings.high, settings.weights, settings.tolerances
+        )
+
+    def config_changed(self, tolerances: tuple[float, float, float]) -> None:
+        self.reach.tolerances = tolerances
+
+
+class ReachKernel(ReachOutputsKernel):
     """The reach task's compiled kernel on the projected physics of the nominal machine: one
     call of :func:`planar3p_gym.tasks.reach_step.reach_outputs` on the simulation's state array
     (the reference kernel where the physics broke down).  The target is fixed over the
@@ -444,14 +462,7 @@ class ReachKernel(CompiledKernel):
 
     def __init__(self, task: TaskHooks, settings: KernelSettings, machine: Sensing) -> None:
         super().__init__(task, settings, machine)
-        #: The compiled outputs' constants and buffers.
-        self.reach = ReachStep(
-            settings.design, settings.low, settings.high, settings.weights, settings.tolerances
-        )
         self.weights = settings.weights.as_array()
-
-    def config_changed(self, tolerances: tuple[float, float, float]) -> None:
-        self.reach.tolerances = tolerances
 
     def compiled_step(
         self,
@@ -498,7 +509,7 @@ class ReachKernel(CompiledKernel):
         return float(sum(terms.values()))
 
 
-class HookKernel(CompiledKernel):
+class HookKernel(ReachOutputsKernel):
     """The reference kernel's step with its costly part compiled, for a task on the projected
     physics of the nominal machine: the 31 observation entries, the errors and the measures
     (margins, ``sign det A``) come from the reach task's compiled outputs on the simulation's
@@ -508,17 +519,6 @@ class HookKernel(CompiledKernel):
     compiled margins share intermediate values instead of recomputing them."""
 
     moving_target = True
-
-    def __init__(self, task: TaskHooks, settings: KernelSettings, machine: Sensing) -> None:
-        super().__init__(task, settings, machine)
-        #: The compiled outputs' constants and buffers (their reward and reason are not used
-        #: here; a batched step of the native vector env reads their tolerances).
-        self.reach = ReachStep(
-            settings.design, settings.low, settings.high, settings.weights, settings.tolerances
-        )
-
-    def config_changed(self, tolerances: tuple[float, float, float]) -> None:
-        self.reach.tolerances = tolerances
 
     def compiled_step(
         self,
