@@ -1065,6 +1065,15 @@ def _inner_roots(
     return left, right, near | triple
 
 
+@njit(cache=True)
+def _clip(x: float, lo: float, hi: float) -> float:
+    """``np.clip(x, lo, hi)`` of one number, NaN as numpy treats it (a NaN ``x`` or bound
+    gives NaN)."""
+    m = x if math.isnan(x) else (x if x > lo else lo)
+    return m if math.isnan(m) else (m if m < hi else hi)
+
+
+@njit(cache=True, error_model="numpy")
 def _bracketed_newton(
     a3: FloatArray,
     a2: FloatArray,
@@ -1076,31 +1085,36 @@ def _bracketed_newton(
     direction: FloatArray,
 ) -> FloatArray:
     """Newton on the cubic, falling back to bisection whenever a step leaves ``(lo, hi)``;
-    ``direction`` is +1 where ``f`` increases through the root, -1 where it decreases."""
-    x = np.clip(x, lo, hi)
-    out = x.copy()
-    act = np.arange(x.size)
-    for _ in range(60):
-        f = ((a3 * x + a2) * x + a1) * x + a0
-        fp = (3.0 * a3 * x + 2.0 * a2) * x + a1
-        right_of_root = direction * f > 0.0
-        hi = np.where(right_of_root, x, hi)
-        lo = np.where(right_of_root, lo, x)
-        with np.errstate(divide="ignore", invalid="ignore"):
+    ``direction`` is +1 where ``f`` increases through the root, -1 where it decreases.
+    Compiled, one root after the other: a root's iterations depend on its own numbers only,
+    and a loop of scalars saves the array formulation's dozens of numpy calls per iteration
+    on arrays of a few hundred roots (``f / f'`` by numpy's rules: inf or NaN, no error)."""
+    out = np.empty(x.size)
+    for i in range(x.size):
+        c3, c2, c1, c0, sense = a3[i], a2[i], a1[i], a0[i], direction[i]
+        low, high = lo[i], hi[i]
+        xi = _clip(x[i], low, high)
+        out[i] = xi
+        for _ in range(60):
+            f = ((c3 * xi + c2) * xi + c1) * xi + c0
+            fp = (3.0 * c3 * xi + 2.0 * c2) * xi + c1
+            if sense * f > 0.0:  # right of the root
+                high = xi
+            else:
+                low = xi
             step = f / fp
-        xn = x - step
-        inside = (xn >= lo) & (xn <= hi)
-        tiny = np.abs(step) <= 1e-14 * (1.0 + np.abs(x))
-        ax = np.abs(x)
-        noise = 4e-16 * (((np.abs(a3) * ax + np.abs(a2)) * ax + np.abs(a1)) * ax + np.abs(a0))
-        done = (np.abs(f) <= noise) | (tiny & inside) | (hi - lo <= 1e-14 * (1.0 + ax))
-        xn = np.where(np.abs(f) <= noise, x, np.where(inside, xn, 0.5 * (lo + hi)))
-        out[act] = xn
-        if done.all():
-            break
-        keep = ~done
-        act, x, lo, hi, direction = act[keep], xn[keep], lo[keep], hi[keep], direction[keep]
-        a3, a2, a1, a0 = a3[keep], a2[keep], a1[keep], a0[keep]
+            xn = xi - step
+            inside = xn >= low and xn <= high
+            tiny = abs(step) <= 1e-14 * (1.0 + abs(xi))
+            ax = abs(xi)
+            noise = 4e-16 * (((abs(c3) * ax + abs(c2)) * ax + abs(c1)) * ax + abs(c0))
+            at_root = abs(f) <= noise
+            done = at_root or (tiny and inside) or (high - low <= 1e-14 * (1.0 + ax))
+            xn = xi if at_root else (xn if inside else 0.5 * (low + high))
+            out[i] = xn
+            if done:
+                break
+            xi = xn
     return out
 
 

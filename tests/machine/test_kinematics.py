@@ -375,6 +375,22 @@ def test_dk_batch_row_does_not_depend_on_the_batch(seed, n, line):
         np.testing.assert_array_equal(getattr(part, name), getattr(whole, name)[lo:hi], name)
 
 
+@settings(max_examples=200, deadline=None)
+@given(
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.floats(allow_nan=True, allow_infinity=True),
+)
+def test_the_compiled_clip_is_numpys(x, lo, hi):
+    """The direct kinematics' compiled Newton clips its start as ``np.clip`` does, NaN
+    included, so that its roots are the array formulation's to the bit."""
+    expected = np.clip(np.array([x]), np.array([lo]), np.array([hi]))[0]
+    got = kinematics._clip(x, lo, hi)
+    assert (math.isnan(got) and math.isnan(expected)) or (
+        np.float64(got).tobytes() == np.float64(expected).tobytes()  # (the sign of a zero too)
+    )
+
+
 # ------------------------------------------------------------------------------ hard DK cases
 def test_dk_theta_near_zero_and_pi():
     """theta = 0, pi exactly and within 1e-12 .. 1e-1 of them, both signs, all working modes:
