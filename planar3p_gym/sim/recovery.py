@@ -60,32 +60,6 @@ RECOVERY_FIELDS = (
 )  # fmt: skip
 
 
-def _pivot_structure() -> tuple[np.ndarray, ...]:
-    """Where the pivots' Jacobian (:func:`_pivots`) can be non-zero: a ``(12, 15)`` mask, each
-    row's columns and each column's rows (ascending, padded with -1) and their counts.  The
-    sums over the Jacobian skip its structural zeros, whose products are exact zeros that
-    leave a finite sum unchanged: the same numbers in fewer operations."""
-    nonzero = np.zeros((12, 15), dtype=np.bool_)
-    for i in range(3):
-        o, r = 3 + 3 * i, 4 * i
-        nonzero[r, [i, o, o + 2]] = True  # B_i (x)
-        nonzero[r + 1, [o + 1, o + 2]] = True  # B_i (y)
-        nonzero[r + 2, [o, o + 2, 12, 14]] = True  # C_i (x)
-        nonzero[r + 3, [o + 1, o + 2, 13, 14]] = True  # C_i (y)
-    row_cols = np.full((12, 4), -1, dtype=np.int64)
-    col_rows = np.full((15, 6), -1, dtype=np.int64)
-    for row in range(12):
-        cols = np.flatnonzero(nonzero[row])
-        row_cols[row, : cols.size] = cols
-    for col in range(15):
-        rows = np.flatnonzero(nonzero[:, col])
-        col_rows[col, : rows.size] = rows
-    return nonzero, row_cols, nonzero.sum(axis=1), col_rows, nonzero.sum(axis=0)
-
-
-_NONZERO, _ROW_COLS, _ROW_COUNT, _COL_ROWS, _COL_COUNT = _pivot_structure()
-
-
 def recovery_constants(
     origins: tuple[float, float, float],
     legs: tuple[float, float, float],
@@ -154,6 +128,35 @@ def _pivots(z: np.ndarray, rc: np.ndarray, phi: np.ndarray, jac: np.ndarray) -> 
             if not a <= worst:  # (a NaN makes the largest NaN)
                 worst = a
     return worst
+
+
+def _pivot_structure() -> tuple[np.ndarray, ...]:
+    """Where the pivots' Jacobian (:func:`_pivots`) can be non-zero: a ``(12, 15)`` mask, each
+    row's columns and each column's rows (ascending, padded with -1) and their counts.  Read
+    from :func:`_pivots` itself (its Python function, nothing compiled at import) at a generic
+    configuration, every coordinate and number distinct and no angle a multiple of pi/2.  The
+    sums over the Jacobian skip its structural zeros, whose products are exact zeros that
+    leave a finite sum unchanged: the same numbers in fewer operations."""
+    jac = np.empty((12, 15))
+    _pivots.py_func(
+        np.arange(1.0, 16.0) / 11.0,
+        np.arange(1.0, len(RECOVERY_FIELDS) + 1.0) / 7.0,
+        np.empty(12),
+        jac,
+    )
+    nonzero = jac != 0.0
+    row_cols = np.full((12, 4), -1, dtype=np.int64)
+    col_rows = np.full((15, 6), -1, dtype=np.int64)
+    for row in range(12):
+        cols = np.flatnonzero(nonzero[row])
+        row_cols[row, : cols.size] = cols
+    for col in range(15):
+        rows = np.flatnonzero(nonzero[:, col])
+        col_rows[col, : rows.size] = rows
+    return nonzero, row_cols, nonzero.sum(axis=1), col_rows, nonzero.sum(axis=0)
+
+
+_NONZERO, _ROW_COLS, _ROW_COUNT, _COL_ROWS, _COL_COUNT = _pivot_structure()
 
 
 @njit(cache=True)

@@ -10,6 +10,8 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import planar3p_gym
 from planar3p_gym.sim import chipmunk, recovery
@@ -217,3 +219,18 @@ def test_the_native_vector_env_recovers_as_the_single_envs(batch):
             done[i] = terminated or truncated
     assert recovered >= 5
     venv.close()
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_the_jacobians_zeros_are_where_the_sums_skip(seed):
+    """The recovery's sums over the pivots' Jacobian skip the entries outside its structure
+    (read from ``_pivots`` at one configuration); at any other configuration those entries are
+    exactly zero, so the sums add the same numbers."""
+    rng = np.random.default_rng(seed)
+    z = rng.uniform(-3.0, 3.0, 15)
+    rc = rng.uniform(0.05, 2.0, len(recovery.RECOVERY_FIELDS))
+    jac = np.full((12, 15), np.nan)
+    recovery._pivots(z, rc, np.empty(12), jac)
+    assert np.all(jac[~recovery._NONZERO] == 0.0)
+    assert np.isfinite(jac).all()
