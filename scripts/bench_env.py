@@ -260,7 +260,7 @@ def _vector_measures(
         env.reset(seed=seed)
         if isinstance(env, gym.vector.VectorEnv):
             T.vector_rate(env, min(0.05, duration), seed)  # warm-up: first-call caches
-            limit = gym.spec(k.split(" ")[0]).max_episode_steps or 1  # a time limit's steps
+            limit = env.spec.max_episode_steps or 1  # a time limit's steps
             out[k] = lambda r, env=env, limit=limit: T.vector_rate(
                 env, duration, seed + r, min_steps=limit
             )
