@@ -133,7 +133,7 @@ def soak(
         recovered = 0
         while True:
             a = env.action_space.sample() if policy == "random" else bang_bang(env, rng)
-            before = unwrapped.sim._public_values() if energy else None
+            before = unwrapped.sim.body_values() if energy else None
             _, _, terminated, truncated, info = env.step(a)
             out["steps"] += 1
             sim = unwrapped.sim
@@ -148,7 +148,7 @@ def soak(
                 out["max_overshoot_mm"] = max(out["max_overshoot_mm"], 1e3 * overshoot)
                 out["max_accepted_closure"] = max(out["max_accepted_closure"], state.closure_error)
                 if before is not None:
-                    x = excess_energy(sim, before, sim._public_values())
+                    x = excess_energy(sim, before, sim.body_values())
                     for level in ENERGY_LEVELS:
                         out["energy_steps_over"][str(level)] += x > level
                     out["max_excess_energy"] = max(out["max_excess_energy"], x)

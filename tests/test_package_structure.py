@@ -1,9 +1,10 @@
 """The package's shape: its layers import only downwards, nothing of the core reaches torch,
 Stable-Baselines3 or the agents, the import graph has no cycle (type-only imports included),
-the wheel's package list names every folder, no module reads another module's private
-attributes (an attribute ``obj._name`` on anything but ``self``/``cls`` only where ``_name`` is
-defined in the same module; no ``from planar3p_gym... import _name``; other libraries'
-privates, such as pymunk's C handles, are not the package's seams), and the environment has
+the wheel's package list names every folder, no module of the package, the agents or the
+scripts reads another module's private attributes (an attribute ``obj._name`` on anything but
+``self``/``cls`` only where ``_name`` is defined, imported included, in the same module; no
+``from planar3p_gym... import _name``; other libraries' privates, such as pymunk's C handles,
+are not the package's seams), and the environment has
 one step and never tests its task's type."""
 
 from __future__ import annotations
@@ -251,8 +252,18 @@ def test_the_command_line_lists_only_user_commands():
 NAMEDTUPLE_API = frozenset({"_replace", "_asdict", "_fields", "_make", "_field_defaults"})
 
 
+#: The trees whose modules may not read each other's privates: the package, the agents and
+#: the scripts (the tests may).
+SCANNED = (CORE, ROOT / "agents", ROOT / "scripts")
+
+
 def _modules() -> dict[Path, ast.Module]:
-    return {path: ast.parse(path.read_text()) for path in sorted(CORE.rglob("*.py"))}
+    """Every module of :data:`SCANNED`, by its path relative to its tree's folder."""
+    return {
+        path.relative_to(root.parent): ast.parse(path.read_text())
+        for root in SCANNED
+        for path in sorted(root.rglob("*.py"))
+    }
 
 
 def _own(node: ast.AST) -> bool:
@@ -260,12 +271,14 @@ def _own(node: ast.AST) -> bool:
 
 
 def _defined(tree: ast.Module) -> set[str]:
-    """Private names a module defines: its functions, classes, names it binds, and the
-    attributes it sets on ``self``/``cls`` (or through ``object.__setattr__(self, ...)``)."""
+    """Private names a module defines: its functions, classes, names it binds or imports, and
+    the attributes it sets on ``self``/``cls`` (or through ``object.__setattr__(self, ...)``)."""
     names: set[str] = set()
     for node in ast.walk(tree):
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
             names.add(node.name)
+        elif isinstance(node, (ast.Import, ast.ImportFrom)):
+            names.update(a.asname or a.name.split(".")[0] for a in node.names)
         elif isinstance(node, ast.Name) and isinstance(node.ctx, ast.Store):
             names.add(node.id)
         elif isinstance(node, ast.Attribute) and isinstance(node.ctx, ast.Store):
@@ -289,12 +302,11 @@ def private_reach_ins() -> list[str]:
     defined = {path: _defined(tree) for path, tree in modules.items()}
     everywhere = set().union(*defined.values())
     found = []
-    for path, tree in modules.items():
-        where = path.relative_to(CORE.parent)
+    for where, tree in modules.items():
         for node in ast.walk(tree):
             if isinstance(node, ast.Attribute) and _private(node.attr) and not _own(node.value):
                 # A private the package defines in another module, not in this one.
-                if node.attr in everywhere and node.attr not in defined[path]:
+                if node.attr in everywhere and node.attr not in defined[where]:
                     found.append(f"{where}:{node.lineno}: .{node.attr}")
             elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith(
                 "planar3p_gym"
@@ -313,7 +325,8 @@ def test_no_module_reads_another_module_s_private_attributes():
 
 def test_the_checker_finds_a_reach_in(tmp_path, monkeypatch):
     """The check is real: reads, writes and imports of another module's privates are reported,
-    an object's own privates and other libraries' are not."""
+    across trees and for privates a module imports, an object's own privates and other
+    libraries' are not."""
     package = tmp_path / "pkg"
     package.mkdir()
     (package / "a.py").write_text(
@@ -324,11 +337,16 @@ def test_the_checker_finds_a_reach_in(tmp_path, monkeypatch):
         "def f(a, body):\n    body._body = a._x\n\n\n"
         "class B:\n    def g(self, a):\n        self._z = 1\n        a._y = self._z\n"
     )
-    monkeypatch.setattr(sys.modules[__name__], "CORE", package)
+    (package / "c.py").write_text("from pymunk._chipmunk_cffi import lib as _cp\n")
+    scripts = tmp_path / "scripts"
+    scripts.mkdir()
+    (scripts / "d.py").write_text("import pkg.c as c\n\nstep = c._cp.cpSpaceStep\n")
+    monkeypatch.setattr(sys.modules[__name__], "SCANNED", (package, scripts))
     assert sorted(private_reach_ins()) == [
         "pkg/b.py:1: import _consts",
         "pkg/b.py:3: ._x",
         "pkg/b.py:9: ._y",
+        "scripts/d.py:3: ._cp",
     ]
 
 

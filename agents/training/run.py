@@ -55,9 +55,12 @@ __all__ = [
     "VEC_ENVS",
     "RunOptions",
     "RunPlan",
+    "algo_class",
     "evaluate",
     "execute",
     "latest_checkpoint",
+    "make_envs",
+    "model_kwargs",
     "plan_run",
     "vec_env_kind",
 ]
@@ -153,7 +156,9 @@ def _checkpoint_callback(base: type) -> type:
     return KeepNewestReplayBuffer
 
 
-def _algo_class(algo: str) -> Any:
+def algo_class(algo: str) -> Any:
+    """The SB3 (or sb3-contrib) class of an algorithm name (``ppo``, ``sac``, ``td3``,
+    ``dqn``, ``tqc``)."""
     from stable_baselines3 import DQN, PPO, SAC, TD3
 
     if algo == "tqc":
@@ -261,7 +266,7 @@ def _check_model(cfg: TrainConfig) -> Any:
     rejects is reported before the run directory exists; returns that model."""
     from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-    cls = _algo_class(cfg.algo)
+    cls = algo_class(cfg.algo)
     signature = inspect.signature(cls.__init__).parameters
     unknown = sorted(set(cfg.algo_kwargs) - set(signature) - {"self", "policy", "env"})
     if unknown:
@@ -281,7 +286,7 @@ def _check_model(cfg: TrainConfig) -> Any:
             warnings.simplefilter("ignore")
             if cfg.normalize is not None:
                 venv = VecNormalize(venv, gamma=cfg.algo_kwargs.get("gamma", 0.99), **cfg.normalize)
-            return cls(policy_class(cfg.policy), venv, device="cpu", **_model_kwargs(cfg, venv))
+            return cls(policy_class(cfg.policy), venv, device="cpu", **model_kwargs(cfg, venv))
     except Exception as exc:  # SB3 raises many kinds (TypeError, AssertionError, ...)
         raise ValueError(f"invalid hyperparameters for {cfg.algo.upper()}: {exc!r}") from exc
     finally:
@@ -326,7 +331,9 @@ def _check_type(key: str, value: Any, default: Any) -> None:
         raise ValueError(f"{what} must be finite, got {value!r}")
 
 
-def _model_kwargs(cfg: TrainConfig, venv: Any) -> dict[str, Any]:
+def model_kwargs(cfg: TrainConfig, venv: Any) -> dict[str, Any]:
+    """The keyword arguments a model of ``cfg`` is built with on ``venv``: the config's
+    hyperparameters, its policy's resolved arguments and its action noise."""
     from stable_baselines3.common.noise import NormalActionNoise
 
     kwargs = dict(cfg.algo_kwargs)
@@ -443,7 +450,7 @@ def _command_memory(cfg: TrainConfig, venv: Any) -> Any:
     return VecCommandMemory(venv) if observed_commands(policy_class(cfg.policy)) else venv
 
 
-def _make_envs(cfg: TrainConfig, vec_env: str, stats: Path | None) -> tuple[Any, Any]:
+def make_envs(cfg: TrainConfig, vec_env: str, stats: Path | None) -> tuple[Any, Any]:
     """The training and the evaluation environments; ``vec_env`` is resolved
     (:func:`vec_env_kind`)."""
     from stable_baselines3.common.env_util import make_vec_env
@@ -589,7 +596,7 @@ def execute(plan: RunPlan, status: Callable[[str], None] | None = None) -> dict[
 
     cfg, opt, run_dir = plan.cfg, plan.options, plan.run_dir
     torch.set_num_threads(opt.threads)
-    algo_cls = _algo_class(cfg.algo)
+    algo_cls = algo_class(cfg.algo)
     off_policy = cfg.algo in OFF_POLICY
     checkpoint, done_steps = plan.resume_from or (None, 0)
     stats = None
@@ -599,7 +606,7 @@ def execute(plan: RunPlan, status: Callable[[str], None] | None = None) -> dict[
     run_dir.mkdir(parents=True, exist_ok=True)
     kinds = {"native": "native vector env", "subproc": "SubprocVecEnv", "dummy": "DummyVecEnv"}
     say(f"making {cfg.n_envs} training environment(s) ({kinds[plan.vec_env]}) ...")
-    venv, eval_env = _make_envs(cfg, plan.vec_env, stats)
+    venv, eval_env = make_envs(cfg, plan.vec_env, stats)
     if checkpoint is not None:
         model = algo_cls.load(str(checkpoint), env=venv, tensorboard_log=str(run_dir / "tb"))
         buffer = run_dir / checkpoint_path(done_steps, "replay_buffer")
@@ -613,7 +620,7 @@ def execute(plan: RunPlan, status: Callable[[str], None] | None = None) -> dict[
             seed=cfg.seed,
             verbose=opt.verbose,
             tensorboard_log=str(run_dir / "tb"),
-            **_model_kwargs(cfg, venv),
+            **model_kwargs(cfg, venv),
         )
         kick = _kickstart(plan, model, venv, eval_env) if opt.kickstart is not None else None
         record = {

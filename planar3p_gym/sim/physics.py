@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from array import array
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar, NamedTuple
 
@@ -403,7 +404,7 @@ class Planar3PSim:
     #: (:func:`~planar3p_gym.sim.chipmunk.step_projected_viscous`), else through pymunk's API
     #: (the same numbers, ``tests/sim/test_chipmunk.py``).
     use_compiled_viscous: bool = True
-    #: Whether pymunk's batch readout lists the bodies as :meth:`_public_values` does (checked
+    #: Whether pymunk's batch readout lists the bodies as :meth:`body_values` does (checked
     #: on the first build).
     _batch_layout_ok: ClassVar[bool | None] = None
 
@@ -630,6 +631,7 @@ class Planar3PSim:
         self.space = space
         self._space = space  # the model's own space, for the recovery's re-warm step
         self._step_start: tuple = (np.zeros(60), (0.0, 0.0, 0.0))
+        self._before_projection: Callable[[], object] | None = None
         self._pivots = tuple((group[-2], group[-1]) for group in joints)
         # The constraints whose numbers depend on the machine (_set_numbers).
         self._rails = tuple(group[0] for group in joints)
@@ -686,7 +688,7 @@ class Planar3PSim:
             applied=push.memory,
         )
         if Planar3PSim._batch_layout_ok is None:  # checked once per process
-            public = self._public_values()
+            public = self.body_values()
             Planar3PSim._batch_layout_ok = self._batch_values(fast)[: len(public)] == public
         return fast if Planar3PSim._batch_layout_ok else None
 
@@ -930,9 +932,7 @@ class Planar3PSim:
             self._limit_following_error()
             start = None
         else:  # the step's start, for a recovery (_project)
-            start = np.array(self._public_values() if fast is None else self._batch_values(fast))[
-                :60
-            ]
+            start = np.array(self.body_values() if fast is None else self._batch_values(fast))[:60]
         for drive, v in zip(self.drives, (v0, v1, v2), strict=True):
             drive.velocity = (v, 0.0)
         totals, largest = [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]
@@ -950,6 +950,8 @@ class Planar3PSim:
             self._state = self._read()
         else:
             self._step_start = (start, (v0, v1, v2))
+            if self._before_projection is not None:
+                self._before_projection()
             self._state = self._project()
         return self._state
 
@@ -1029,7 +1031,7 @@ class Planar3PSim:
         does."""
         start, commands = self._step_start
         state = self._project_bodies()
-        end = np.array(self._public_values())
+        end = np.array(self.body_values())
         projector = self._projector
         assert projector is not None
         if not chipmunk.needs_recovery(start, end, state.closure_error, projector.constants):
@@ -1093,7 +1095,7 @@ class Planar3PSim:
             )
             chipmunk.write_bodies(chipmunk.FUNCTIONS, fast.handles)
             return self._projected_state(st, closure, readout)
-        v = self._public_values()
+        v = self.body_values()
         # (The drives' setpoints for the next step are pulled to within
         # FOLLOWING_ERROR_LIMIT of their sliders, :meth:`_limit_following_error`.)
         pr = projector.project(v, self._saturated, FOLLOWING_ERROR_LIMIT)
@@ -1258,6 +1260,15 @@ class Planar3PSim:
         self._setpoints = list(setpoints)
         self.geometry = geometry
 
+    def step_through_api(self, before_projection: Callable[[], object] | None = None) -> None:
+        """Take the episode's next control steps through pymunk's public API, one
+        :attr:`space` step at a time (the compiled path's numbers: ``tests/sim/
+        test_recovery.py``), for an instrument that wraps :attr:`space` to book every physics
+        step; ``before_projection`` is called between a step's physics and its projection.
+        The next :meth:`reset` builds the model anew, on the compiled path."""
+        self._fast = self._move = None
+        self._before_projection = before_projection
+
     @property
     def state_array(self) -> np.ndarray | None:
         """The projected state of the last step as the projection's array of 23 float64 (SI
@@ -1268,9 +1279,10 @@ class Planar3PSim:
         projector = self._projector
         return None if projector is None else projector.last_state
 
-    def _public_values(self) -> list[float]:
-        """``x, y, angle, vx, vy, angular velocity`` of every body in readout order, through
-        pymunk's public API."""
+    def body_values(self) -> list[float]:
+        """``x, y`` (m), ``angle`` (rad), ``vx, vy`` (m/s) and angular velocity (rad/s) of
+        every body in readout order (the platform, then the slider, drive and leg of each leg),
+        read through pymunk's public API: the numbers energy balances and tests compare."""
         out: list[float] = []
         for b in self._bodies:
             p, v = b.position, b.velocity
@@ -1279,14 +1291,14 @@ class Planar3PSim:
 
     @staticmethod
     def _batch_values(fast: FastPath) -> list[float]:
-        """The same numbers as :meth:`_public_values` (then those of any other body of the
+        """The same numbers as :meth:`body_values` (then those of any other body of the
         space), read by one compiled pass."""
         chipmunk.read_bodies(chipmunk.FUNCTIONS, fast.handles)
         return fast.read.memory[: fast.read.array.num].tolist()
 
     def _read(self) -> SimState:
         k, legs_len, origins = self._k, self._legs, self._origins
-        v = self._public_values() if self._fast is None else self._batch_values(self._fast)
+        v = self.body_values() if self._fast is None else self._batch_values(self._fast)
         px, py, th, pvx, pvy, w = v[:6]
         c, s = math.cos(th), math.sin(th)
         half = 0.5 * k[0]

@@ -336,12 +336,14 @@ def _pymunk_floor(sim: Any) -> Callable[[], int]:
     """A function running ``sim.substeps`` of pymunk's own step on ``sim``'s space (Chipmunk's
     ``cpSpaceStep`` directly where the sim does, else ``Space.step``) and returning its wall
     time (ns)."""
-    from planar3p_gym.sim import chipmunk, physics
+    from planar3p_gym.sim import chipmunk
 
     h, substeps, clock = sim.dt / sim.substeps, sim.substeps, time.perf_counter_ns
     link = sim.batch_link()
     if link is not None:
-        cp_step, space = physics._cp.cpSpaceStep, link.space
+        from pymunk._chipmunk_cffi import lib  # Chipmunk's C API, as the simulation calls it
+
+        cp_step, space = lib.cpSpaceStep, link.space
     else:  # pragma: no cover - pymunk builds without the batch API
         cp_step, space = (lambda _s, dt: sim.space.step(dt)), None
 
@@ -464,7 +466,7 @@ def ppo_rate(env_id: str, timesteps: int, seed: int, kind: str = "recipe") -> fl
     cfg = config.resolve("ppo", recipe, seed, entry, n_timesteps=timesteps)
     cfg = dataclasses.replace(cfg, env_id=env_id)
     if kind == "recipe":
-        venv, eval_env = run._make_envs(cfg, "native", None)
+        venv, eval_env = run.make_envs(cfg, "native", None)
         eval_env.close()
     elif kind == "dummy":
         factory = config.EnvFactory(env_id, cfg.env_kwargs)
@@ -474,8 +476,8 @@ def ppo_rate(env_id: str, timesteps: int, seed: int, kind: str = "recipe") -> fl
     else:
         raise ValueError(f"kind must be 'recipe' or 'dummy', got {kind!r}")
     try:
-        model = run._algo_class("ppo")(
-            config.policy_class(cfg.policy), venv, seed=seed, **run._model_kwargs(cfg, venv)
+        model = run.algo_class("ppo")(
+            config.policy_class(cfg.policy), venv, seed=seed, **run.model_kwargs(cfg, venv)
         )
         t0 = time.perf_counter()
         model.learn(timesteps)

@@ -57,7 +57,7 @@ def test_the_compiled_step_is_its_parts_bit_for_bit(monkeypatch):
         if parts:
             monkeypatch.setattr(chipmunk, "step_projected", step_in_parts())
         sim = projected(pose)
-        runs.append([(sim.step(c), sim._public_values()) for c in commands(150, 7)])
+        runs.append([(sim.step(c), sim.body_values()) for c in commands(150, 7)])
     assert [s for s, _ in runs[0]] == [s for s, _ in runs[1]]
     assert [b for _, b in runs[0]] == [b for _, b in runs[1]]  # pymunk's own bodies
     assert any(any(s.saturated) for s, _ in runs[0])
@@ -162,7 +162,7 @@ def test_the_compiled_viscous_step_is_pymunks_bit_for_bit(dynamics):
             DESIGN, pose, MODE, substeps=2, iterations=10, projection=True, dynamics=dynamics
         )
         sim.use_compiled_viscous = compiled
-        runs.append([(sim.step(c), sim._public_values()) for c in commands(150, 3)])
+        runs.append([(sim.step(c), sim.body_values()) for c in commands(150, 3)])
     assert runs[0] == runs[1]
     assert any(any(s.saturated) for s, _ in runs[0])
 

@@ -47,7 +47,7 @@ def starts(mode=MODE, n: int = 3, seed: int = 1) -> np.ndarray:
 
 def body_values(sim: Planar3PSim) -> list[float]:
     """``x, y, angle, vx, vy, w`` of every body in readout order (public API)."""
-    return sim._public_values()
+    return sim.body_values()
 
 
 def perturbed_readout(sim: Planar3PSim, rng: np.random.Generator, size: float) -> list[float]:

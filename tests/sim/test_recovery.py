@@ -39,7 +39,7 @@ def machine(seed: int) -> tuple[Planar3PSim, np.ndarray]:
 
 
 def readout(sim: Planar3PSim) -> np.ndarray:
-    return np.array(sim._public_values())
+    return np.array(sim.body_values())
 
 
 def numbers(sim: Planar3PSim) -> np.ndarray:
@@ -101,9 +101,31 @@ def test_the_public_api_path_recovers_as_the_compiled_step(monkeypatch):
         monkeypatch.setattr(Planar3PSim, "use_fast_path", fast)
         sim, commands = machine(SEEDS[0])
         assert (sim._fast is not None) == fast
-        runs.append([(sim.step(c), sim.recovered, sim._public_values()) for c in commands])
+        runs.append([(sim.step(c), sim.recovered, sim.body_values()) for c in commands])
     assert runs[0] == runs[1]
     assert sum(r for _, r, _ in runs[0]) >= 5
+
+
+def test_stepping_through_the_api_mid_episode_changes_no_number():
+    """:meth:`Planar3PSim.step_through_api` from a compiled episode's middle: the same states
+    and bodies as the compiled steps, recovered ones included; its hook runs once a step,
+    between the physics and the projection; the next reset is compiled again."""
+    runs, hooks = [], []
+    for switch in (False, True):
+        sim, commands = machine(SEEDS[0])
+        run = [(sim.step(c), sim.recovered, sim.body_values()) for c in commands[:20]]
+        if switch:
+            sim.step_through_api(lambda sim=sim: hooks.append(sim.body_values()))
+            assert sim.batch_link() is None
+        run += [(sim.step(c), sim.recovered, sim.body_values()) for c in commands[20:]]
+        runs.append(run)
+    assert runs[0] == runs[1]
+    assert sum(r for _, r, _ in runs[1][20:]) >= 5
+    assert len(hooks) == STEPS - 20
+    assert hooks[0] != runs[1][19][2] and hooks[0] != runs[1][20][2]  # moved, not yet projected
+    pose, mode, _ = sim._origin
+    sim.reset(pose=pose, working_mode=mode)
+    assert sim.batch_link() is not None
 
 
 def test_the_batch_step_recovers_as_each_simulations_step():
@@ -148,7 +170,7 @@ def test_a_snapshot_replays_recovered_steps_bit_for_bit():
         sim.step(c)
     copy = Planar3PSim.from_state(sim.get_state())
     assert copy.state == sim.state
-    assert copy._public_values() == sim._public_values()
+    assert copy.body_values() == sim.body_values()
 
 
 def test_a_free_coast_through_the_singularity_makes_no_energy():

@@ -51,9 +51,9 @@ def starts(n: int) -> np.ndarray:
 
 def trace(sim: Planar3PSim, commands: np.ndarray) -> list:
     """Every state and every body's numbers along ``commands``."""
-    out = [sim.state, sim._public_values()]
+    out = [sim.state, sim.body_values()]
     for c in commands:
-        out += [sim.step(c), sim._public_values()]
+        out += [sim.step(c), sim.body_values()]
     return out
 
 
@@ -107,10 +107,10 @@ def test_a_rejected_reset_changes_nothing(pose):
     poses = starts(1)
     sim = Planar3PSim(DESIGN, poses[0], MODE, **MODELS["projected"])
     sim.step((0.01, 0.0, -0.01))
-    before = (sim.state, sim.get_state(), sim._public_values())
+    before = (sim.state, sim.get_state(), sim.body_values())
     with pytest.raises(ValueError):
         sim.reset(pose, MODE)
-    assert (sim.state, sim.get_state(), sim._public_values()) == before
+    assert (sim.state, sim.get_state(), sim.body_values()) == before
 
 
 def test_a_closed_simulation_cannot_be_reset():
@@ -168,7 +168,7 @@ def test_a_rejected_machine_changes_nothing():
     poses = starts(2)
     sim = Planar3PSim(DESIGN, poses[0], MODE, **MODELS["imperfect"])
     sim.step((0.01, 0.0, -0.01))
-    before = (sim.state, sim.get_state(), sim._public_values(), sim.design, sim.dynamics)
+    before = (sim.state, sim.get_state(), sim.body_values(), sim.design, sim.dynamics)
     unstable = {"slider_viscous": 1e6}  # explicit viscous force unstable at this step
     for kwargs, match in (
         ({"dynamics": {"slider_coulomb": 0.1}}, "only with a design"),
@@ -179,6 +179,4 @@ def test_a_rejected_machine_changes_nothing():
     ):
         with pytest.raises(ValueError, match=match):
             sim.reset(poses[1], MODE, **kwargs)
-        assert (sim.state, sim.get_state(), sim._public_values(), sim.design, sim.dynamics) == (
-            before
-        )
+        assert (sim.state, sim.get_state(), sim.body_values(), sim.design, sim.dynamics) == (before)

@@ -235,7 +235,7 @@ def test_pymunk_floor_steps_the_envs_own_space_and_leaves_the_env_reset(env_id):
 
 
 def test_pymunk_floor_calls_cp_space_step_substeps_times(monkeypatch):
-    from planar3p_gym.sim import physics
+    import pymunk._chipmunk_cffi as cffi_module
 
     env = throughput.make_env("Planar3P-v0")
     env.reset(seed=0)
@@ -246,10 +246,10 @@ def test_pymunk_floor_calls_cp_space_step_substeps_times(monkeypatch):
         def cpSpaceStep(self, space, h):
             calls.append((space, h))
 
-    monkeypatch.setattr(physics, "_cp", Lib())
+    monkeypatch.setattr(cffi_module, "lib", Lib())
     run = throughput._pymunk_floor(sim)
     assert run() >= 0
-    assert calls == [(sim._fast.space, sim._h)] * sim.substeps
+    assert calls == [(sim.batch_link().space, sim.dt / sim.substeps)] * sim.substeps
     monkeypatch.undo()  # (closing frees the simulation through Chipmunk's C API)
     env.close()
 
