@@ -62,12 +62,9 @@ from planar3p_gym.sim.batch_step import BatchState
 from planar3p_gym.sim.physics import FOLLOWING_ERROR_LIMIT, SimState
 from planar3p_gym.sim.sensors import LAST_SIZE, Encoders
 from planar3p_gym.tasks import sampling as task_module
-from planar3p_gym.tasks.assembly_change import AssemblyChangeTask
 from planar3p_gym.tasks.goal import RELABEL_INFO_KEYS, GoalKernel, goal_bounds
 from planar3p_gym.tasks.kernel import HookKernel, ReachKernel, ReachOutputsKernel, StepKernel
-from planar3p_gym.tasks.mode_change import ModeChangeTask
 from planar3p_gym.tasks.observation import OBS_SIZE, travel_goal_entries
-from planar3p_gym.tasks.reach import ReachTask
 from planar3p_gym.tasks.reach_step import REASONS, TERMS_START, BatchReach
 from planar3p_gym.tasks.rewards import TERM_NAMES
 from planar3p_gym.tasks.sampling import TaskConfig
@@ -444,14 +441,12 @@ def _built_machine(env: Planar3PEnv) -> bool:
     reference kernel of the reach task's own hooks, or of the mode or assembly change's
     (their travel term too), on the projected physics through the compiled steps (viscous friction's
     too), any action type, the joint-space goal too."""
-    m, task = env.machine, env.task
-    reach = isinstance(task, ReachTask) and task.own_hooks
-    change = type(task) in (ModeChangeTask, AssemblyChangeTask)
+    m = env.machine
     return (
         not m.nominal
         and type(env.kernel) is StepKernel
         and type(env) in (Planar3PEnv, Planar3PModeChangeEnv, Planar3PAssemblyChangeEnv)
-        and (reach or change)
+        and env.task.compiled_family in ("reach", "mode_change", "assembly_change")
         and env.projection
         and physics.Planar3PSim.use_compiled_viscous
         and chipmunk.AVAILABLE
@@ -471,10 +466,10 @@ def _hook_rows(env: Planar3PEnv) -> type | None:
     """The batched part of ``env``'s task where it runs the mode- or assembly-change task's
     own hooks on the compiled measures (:class:`_ModeRows`, :class:`_AssemblyRows`), else
     None."""
-    task = env.task
     if not isinstance(env.kernel, HookKernel):
         return None
-    return {ModeChangeTask: _ModeRows, AssemblyChangeTask: _AssemblyRows}.get(type(task))
+    rows = {"mode_change": _ModeRows, "assembly_change": _AssemblyRows}
+    return rows.get(env.task.compiled_family or "")
 
 
 def _reach_step(kernel: Any) -> Any:
@@ -952,12 +947,12 @@ class _BuiltCore(_BatchCore):
         self.width = env.observation_space.shape[0]
         #: Each episode's fixed extra entries of the observation (the mode change's target
         #: travels and working mode) and its target working mode, with the mode change.
-        self.mode = isinstance(task, ModeChangeTask)
+        self.mode = task.compiled_family == "mode_change"
         self.extra = np.zeros((n, self.width - OBS_SIZE), dtype=np.float32)
         self.target_modes = np.zeros((n, 3), dtype=np.int64)
         #: With the assembly change: each episode's target assembly mode and crossing count,
         #: and the signed margin entry's bounds.
-        self.assembly_change = isinstance(task, AssemblyChangeTask)
+        self.assembly_change = task.compiled_family == "assembly_change"
         self.target_assembly = np.zeros(n, dtype=np.int64)
         self.last_sign = np.zeros(n, dtype=np.int64)
         self.crossings = np.zeros(n, dtype=np.int64)

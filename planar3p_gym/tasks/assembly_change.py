@@ -155,6 +155,7 @@ class AssemblyChangeTask(TravelShaping, Task):
     """
 
     name: ClassVar[str] = "assembly_change"
+    hooks_family: ClassVar[str | None] = "assembly_change"
     observation_fields = (
         ("target_rho", 3, "slider travels of the target pose (m)"),
         ("target_assembly", 1, "the target's assembly mode (+-1)"),

@@ -36,6 +36,7 @@ if TYPE_CHECKING:
     from planar3p_gym.tasks.rewards import RewardWeights
 
 __all__ = [
+    "COMPILED_HOOKS",
     "ModeTriple",
     "Pose",
     "Task",
@@ -46,6 +47,17 @@ __all__ = [
 
 #: A pose ``(x, y, theta)`` (m, m, rad).
 Pose = tuple[float, float, float]
+#: The per-step hooks whose formulas compiled code computes in place of calling them (a task
+#: kernel, the native vector env's batched steps; :attr:`Task.compiled_family`): a subclass
+#: that overrides any of them is stepped through its hooks.
+COMPILED_HOOKS = (
+    "reference",
+    "observation_extra",
+    "is_success",
+    "termination",
+    "reward_terms",
+    "step_info",
+)
 #: A working mode: ``sign cos alpha_i`` of the three legs (+1 or -1 each).
 ModeTriple = tuple[int, int, int]
 
@@ -127,6 +139,11 @@ class Task:
     #: (:class:`~planar3p_gym.tasks.kernel.HookKernel`: within float64 rounding of the
     #: reference); the hooks run either way.
     compiled_measures: ClassVar[bool] = False
+    #: The compiled form of the per-step hooks (:data:`COMPILED_HOOKS`) of the class that
+    #: names it (``"reach"``, ``"goal"``, ``"track"``, ``"mode_change"``,
+    #: ``"assembly_change"``), which the task's kernel or the native vector env's batched
+    #: steps run; ``None``: none.  Read through :attr:`compiled_family`.
+    hooks_family: ClassVar[str | None] = None
     #: Whether the environment's ``travel_goal`` block (the fixed target's slider travels)
     #: applies to the task's observation.
     travel_goal: ClassVar[bool] = False
@@ -262,6 +279,16 @@ class Task:
         """Task metrics for ``info`` after ``step`` steps (``step == 0`` at reset); keys are
         :attr:`metric_keys`.  Called once per step, also on the step that ends the episode."""
         return {}
+
+    @property
+    def compiled_family(self) -> str | None:
+        """:attr:`hooks_family` while this task's per-step hooks (:data:`COMPILED_HOOKS`) are
+        those of the class that names it, else ``None`` (a subclass that overrides one is
+        stepped through its hooks, one environment at a time)."""
+        cls = type(self)
+        owner = next(c for c in cls.__mro__ if "hooks_family" in vars(c))
+        own = all(getattr(cls, h) is getattr(owner, h) for h in COMPILED_HOOKS)
+        return self.hooks_family if own else None
 
     def kernel(self, settings: KernelSettings, machine: Sensing) -> StepKernel:
         """The task's kernel (:mod:`planar3p_gym.tasks.kernel`): default the reference, this

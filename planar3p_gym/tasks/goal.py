@@ -38,7 +38,7 @@ from planar3p_gym.tasks.kernel import (
     StepOutputs,
 )
 from planar3p_gym.tasks.observation import SLICES, SPEED_BOUND_FACTOR, bounds
-from planar3p_gym.tasks.reach import COMPILED_HOOKS, ReachTask
+from planar3p_gym.tasks.reach import ReachTask
 from planar3p_gym.tasks.reach_step import TERMS_START, rejudge_row
 from planar3p_gym.tasks.rewards import TERM_NAMES, RewardWeights, weighted_terms
 from planar3p_gym.tasks.sampling import TaskConfig
@@ -417,6 +417,7 @@ class GoalTask(ReachTask):
     """
 
     name: ClassVar[str] = "goal"
+    hooks_family: ClassVar[str | None] = "goal"
     travel_goal: ClassVar[bool] = False
     option_keys: ClassVar[tuple[str, ...]] = (
         "start",
@@ -542,9 +543,8 @@ class GoalTask(ReachTask):
     def kernel(self, settings: KernelSettings, machine: Sensing) -> StepKernel:
         """The compiled goal kernel (:class:`GoalKernel`) on the projected physics of the
         nominal machine when the per-step hooks are the goal task's own
-        (:data:`~planar3p_gym.tasks.reach.COMPILED_HOOKS`), else the reference."""
-        own = all(getattr(type(self), h) is getattr(GoalTask, h) for h in COMPILED_HOOKS)
-        if own and settings.projection and settings.nominal:
+        (:attr:`~planar3p_gym.tasks.base.Task.compiled_family`), else the reference."""
+        if self.compiled_family == "goal" and settings.projection and settings.nominal:
             return GoalKernel(self, settings, machine)
         return StepKernel(self, settings, machine)
 

@@ -114,6 +114,7 @@ class ModeChangeTask(TravelShaping, Task):
     """
 
     name: ClassVar[str] = "mode_change"
+    hooks_family: ClassVar[str | None] = "mode_change"
     observation_fields = (
         ("target_rho", 3, "slider travels of the target pose in its working mode (m)"),
         ("target_working_mode", 3, "the target's working mode, sign cos alpha_i (+-1)"),

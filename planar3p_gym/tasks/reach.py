@@ -23,28 +23,17 @@ import numpy as np
 
 from planar3p_gym.machine import kinematics
 from planar3p_gym.tasks import sampling as task
-from planar3p_gym.tasks.base import Pose, Task, pose_list
+from planar3p_gym.tasks.base import COMPILED_HOOKS, Pose, Task, pose_list
 from planar3p_gym.tasks.kernel import KernelSettings, ReachKernel, Sensing, StepKernel
 
-__all__ = ["COMPILED_HOOKS", "ReachTask"]
-
-#: The per-step hooks whose formulas the reach kernel compiles
-#: (:class:`planar3p_gym.tasks.kernel.ReachKernel`): a subclass that overrides any of them gets
-#: the reference kernel, its hooks.
-COMPILED_HOOKS = (
-    "reference",
-    "observation_extra",
-    "is_success",
-    "termination",
-    "reward_terms",
-    "step_info",
-)
+__all__ = ["COMPILED_HOOKS", "ReachTask"]  # (the hooks' tuple, defined in tasks.base)
 
 
 class ReachTask(Task):
     """Reach a target pose (see the module docstring)."""
 
     name: ClassVar[str] = "reach"
+    hooks_family: ClassVar[str | None] = "reach"
     option_keys: ClassVar[tuple[str, ...]] = ("start", "target", "working_mode", "pair")
     travel_goal: ClassVar[bool] = True
 
@@ -120,15 +109,10 @@ class ReachTask(Task):
     def reference(self, step: int) -> Pose:
         return self._target
 
-    @property
-    def own_hooks(self) -> bool:
-        """Whether the per-step hooks are the reach task's own (:data:`COMPILED_HOOKS`), which
-        the compiled kernels and the native vector env's batched steps compute."""
-        return all(getattr(type(self), h) is getattr(ReachTask, h) for h in COMPILED_HOOKS)
-
     def kernel(self, settings: KernelSettings, machine: Sensing) -> StepKernel:
         """The compiled reach kernel on the projected physics of the nominal machine when the
-        per-step hooks are the reach task's own (:data:`COMPILED_HOOKS`), else the reference."""
-        if self.own_hooks and settings.projection and settings.nominal:
+        per-step hooks are the reach task's own (:attr:`~Task.compiled_family`), else the
+        reference."""
+        if self.compiled_family == "reach" and settings.projection and settings.nominal:
             return ReachKernel(self, settings, machine)
         return super().kernel(settings, machine)

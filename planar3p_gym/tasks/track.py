@@ -39,7 +39,6 @@ from planar3p_gym.tasks.kernel import (
 )
 from planar3p_gym.tasks.motions import MIN_JERK_PEAK
 from planar3p_gym.tasks.observation import SPEED_BOUND_FACTOR
-from planar3p_gym.tasks.reach import COMPILED_HOOKS
 from planar3p_gym.tasks.reach_step import rejudge_row
 from planar3p_gym.tasks.track_references import (
     CHECK_POINTS,
@@ -117,6 +116,7 @@ class TrackTask(Task):
     """
 
     name: ClassVar[str] = "track"
+    hooks_family: ClassVar[str | None] = "track"
     observation_fields = (
         ("reference_velocity", 3, "x_dot, y_dot, theta_dot of the reference (m/s, m/s, rad/s)"),
     )
@@ -465,9 +465,8 @@ class TrackTask(Task):
     def kernel(self, settings: KernelSettings, machine: Sensing) -> StepKernel:
         """The compiled tracking kernel (:class:`TrackKernel`) on the projected physics of the
         nominal machine when the per-step hooks are the tracking task's own
-        (:data:`~planar3p_gym.tasks.reach.COMPILED_HOOKS`), else the reference."""
-        own = all(getattr(type(self), h) is getattr(TrackTask, h) for h in COMPILED_HOOKS)
-        if own and settings.projection and settings.nominal:
+        (:attr:`~planar3p_gym.tasks.base.Task.compiled_family`), else the reference."""
+        if self.compiled_family == "track" and settings.projection and settings.nominal:
             return TrackKernel(self, settings, machine)
         return StepKernel(self, settings, machine)
 

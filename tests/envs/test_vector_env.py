@@ -3,15 +3,21 @@ Gymnasium's next-step autoreset, and the same trajectories as ``num_envs`` singl
 
 from __future__ import annotations
 
+import sys
+import types
+from typing import Any
+
 import gymnasium as gym
 import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode
 
 import planar3p_gym
+from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.envs.vector import COMMAND_LOG, INFO_KEYS, NUMPY_BATCH_MIN, Planar3PVectorEnv
 from planar3p_gym.sim.randomization import REALISTIC_RANDOMIZATION
 from planar3p_gym.sim.sensors import REALISTIC_SENSORS
+from planar3p_gym.tasks.mode_change import ModeChangeTask
 
 #: The built machine's features (the ids' own: a randomised machine, encoders, one step of
 #: action delay).
@@ -774,3 +780,44 @@ def test_bad_discrete_on_off_actions_are_rejected_before_any_env_steps(n):
     obs, *_ = venv.step(np.arange(n) * 1.0)  # (integral floats are accepted, as by one env)
     assert obs.shape[0] == n
     venv.close()
+
+
+class _SameModeChange(ModeChangeTask):
+    """The mode change with its own hooks (a subclass that adds nothing)."""
+
+
+class _BonusModeChange(ModeChangeTask):
+    """The mode change with a hook of its own: one more reward term."""
+
+    def reward_terms(self, **kwargs: Any) -> dict[str, float]:
+        return {**super().reward_terms(**kwargs), "bonus": 1.0}
+
+
+@pytest.mark.parametrize(("name", "batched"), [("Same", True), ("Bonus", False)])
+def test_a_task_subclass_is_batched_exactly_while_its_hooks_are_its_class_s(
+    monkeypatch, name, batched
+):
+    """The batched step runs a task's compiled hooks where its class's hooks are its own
+    (:attr:`~planar3p_gym.tasks.base.Task.compiled_family`), and steps a subclass that
+    overrides one env by env, through its hook: either way the single envs' numbers."""
+    module = types.ModuleType("subclassed_tasks")
+    module.Same, module.Bonus = _SameModeChange, _BonusModeChange
+    monkeypatch.setitem(sys.modules, "subclassed_tasks", module)
+    task = f"subclassed_tasks:{name}"
+    venv = Planar3PVectorEnv(num_envs=NUMPY_BATCH_MIN, task=task)
+    assert (venv._core is not None) == batched
+    singles = [Planar3PEnv(task=task) for _ in range(NUMPY_BATCH_MIN)]
+    obs, _ = venv.reset(seed=3)
+    assert np.array_equal(obs, [env.reset(seed=3 + i)[0] for i, env in enumerate(singles)])
+    rng = np.random.default_rng(0)
+    for _ in range(40):
+        actions = rng.uniform(-1.0, 1.0, (NUMPY_BATCH_MIN, 3)).astype(np.float32)
+        obs, reward, terminated, truncated, _ = venv.step(actions)
+        for i, env in enumerate(singles):
+            one = env.step(actions[i])
+            assert np.array_equal(obs[i], one[0]) and reward[i] == one[1]
+            assert (terminated[i], truncated[i]) == (one[2], one[3])
+    assert ("bonus" in singles[0].episode.info["reward_terms"]) == (name == "Bonus")
+    venv.close()
+    for env in singles:
+        env.close()

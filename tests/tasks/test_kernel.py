@@ -16,6 +16,7 @@ from planar3p_gym.envs.core import Planar3PEnv
 from planar3p_gym.machine.angles import wrap_angle
 from planar3p_gym.machine.norm import hypot
 from planar3p_gym.tasks import ReachTask
+from planar3p_gym.tasks.base import COMPILED_HOOKS
 from planar3p_gym.tasks.goal import GoalKernel
 from planar3p_gym.tasks.kernel import CompiledKernel, HookKernel, ReachKernel, StepKernel
 from planar3p_gym.tasks.observation import pose_errors
@@ -57,6 +58,34 @@ def test_each_task_picks_its_kernel(env_id, kernel):
     reach task's own hooks; the reference (the hooks) everywhere else."""
     env = gym.make(env_id).unwrapped
     assert type(env.kernel) is kernel
+    env.close()
+
+
+@pytest.mark.parametrize(
+    ("env_id", "family"),
+    [
+        ("Planar3P-v0", "reach"),
+        ("Planar3PReal-v0", "reach"),
+        ("Planar3PGoal-v0", "goal"),
+        ("Planar3PTrack-v0", "track"),
+        ("Planar3PModeChange-v0", "mode_change"),
+        ("Planar3PAssemblyChange-v0", "assembly_change"),
+    ],
+)
+def test_a_task_s_compiled_hooks_are_its_class_s_own(env_id, family):
+    """Each task's compiled hooks are named by its class; a subclass keeps them while its
+    per-step hooks are the class's and loses them (the reference kernel, its hooks) when it
+    overrides one, whatever other methods it adds."""
+    env = gym.make(env_id).unwrapped
+    cls = type(env.task)
+    assert env.task.compiled_family == family
+    same = type("Same", (cls,), {"describe": lambda self: "a method that is not a hook"})
+    assert object.__new__(same).compiled_family == family
+    for hook in COMPILED_HOOKS:
+        method = getattr(cls, hook)
+        override = {hook: lambda self, *a, m=method, **k: m(self, *a, **k)}  # the same results
+        other = type("Other", (cls,), override)
+        assert object.__new__(other).compiled_family is None, hook
     env.close()
 
 
