@@ -367,6 +367,29 @@ def test_the_environment_never_tests_its_task_s_type(method):
     assert not [t for t in tests if "task" in t], tests
 
 
+def test_the_vector_env_never_tests_its_task_s_type():
+    """The native vector env chooses its batched step by the task's compiled hooks
+    (:attr:`~planar3p_gym.tasks.base.Task.compiled_family`), not by the task's class: no
+    ``type(...)``/``isinstance(...)`` of anything of the task, and no task class imported."""
+    tree = ast.parse((CORE / "envs" / "vector.py").read_text())
+    tests = [
+        ast.unparse(node)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Call)
+        and isinstance(node.func, ast.Name)
+        and node.func.id in ("type", "isinstance", "issubclass")
+    ]
+    assert tests and not [t for t in tests if "task" in t.lower()], tests
+    imported = [
+        a.name
+        for node in ast.walk(tree)
+        if isinstance(node, ast.ImportFrom)
+        for a in node.names
+        if a.name.endswith("Task")
+    ]
+    assert imported == []
+
+
 def test_the_environment_has_one_step():
     """One step for every id (no second step method beside ``step``)."""
     methods = [name for name, value in vars(Planar3PEnv).items() if callable(value)]
