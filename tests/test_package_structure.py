@@ -338,15 +338,15 @@ def test_the_checker_finds_a_reach_in(tmp_path, monkeypatch):
         "class B:\n    def g(self, a):\n        self._z = 1\n        a._y = self._z\n"
     )
     (package / "c.py").write_text("from pymunk._chipmunk_cffi import lib as _cp\n")
-    scripts = tmp_path / "scripts"
-    scripts.mkdir()
-    (scripts / "d.py").write_text("import pkg.c as c\n\nstep = c._cp.cpSpaceStep\n")
-    monkeypatch.setattr(sys.modules[__name__], "SCANNED", (package, scripts))
+    tools = tmp_path / "tools"
+    tools.mkdir()
+    (tools / "d.py").write_text("import pkg.c as c\n\nstep = c._cp.cpSpaceStep\n")
+    monkeypatch.setattr(sys.modules[__name__], "SCANNED", (package, tools))
     assert sorted(private_reach_ins()) == [
         "pkg/b.py:1: import _consts",
         "pkg/b.py:3: ._x",
         "pkg/b.py:9: ._y",
-        "scripts/d.py:3: ._cp",
+        "tools/d.py:3: ._cp",
     ]
 
 

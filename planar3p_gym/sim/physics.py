@@ -1261,11 +1261,11 @@ class Planar3PSim:
         self.geometry = geometry
 
     def step_through_api(self, before_projection: Callable[[], object] | None = None) -> None:
-        """Take the episode's next control steps through pymunk's public API, one
-        :attr:`space` step at a time (the compiled path's numbers: ``tests/sim/
-        test_recovery.py``), for an instrument that wraps :attr:`space` to book every physics
-        step; ``before_projection`` is called between a step's physics and its projection.
-        The next :meth:`reset` builds the model anew, on the compiled path."""
+        """Take the episode's next control steps through pymunk's public API, one step of
+        ``space`` (the pymunk space) at a time, with the compiled path's numbers
+        (``tests/sim/test_recovery.py``): for an instrument that wraps ``space`` to book every
+        physics step.  ``before_projection`` is called between a step's physics and its
+        projection.  The next :meth:`reset` builds the model anew, on the compiled path."""
         self._fast = self._move = None
         self._before_projection = before_projection
 
