@@ -350,6 +350,17 @@ def test_the_checker_finds_a_reach_in(tmp_path, monkeypatch):
     ]
 
 
+def _type_tests(tree: ast.AST) -> list[str]:
+    """The source of every ``type(...)``, ``isinstance(...)`` and ``issubclass(...)`` call."""
+    return [
+        ast.unparse(node)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Call)
+        and isinstance(node.func, ast.Name)
+        and node.func.id in ("type", "isinstance", "issubclass")
+    ]
+
+
 @pytest.mark.parametrize("method", ["__init__", "reset", "step"])
 def test_the_environment_never_tests_its_task_s_type(method):
     """No ``type(...)`` or ``isinstance(...)`` of anything of the task in the environment's
@@ -357,13 +368,7 @@ def test_the_environment_never_tests_its_task_s_type(method):
     (:meth:`planar3p_gym.tasks.base.Task.kernel`)."""
     source = inspect.getsource(getattr(Planar3PEnv, method))
     tree = ast.parse("\n".join(line[4:] for line in source.splitlines()))
-    tests = [
-        ast.unparse(node)
-        for node in ast.walk(tree)
-        if isinstance(node, ast.Call)
-        and isinstance(node.func, ast.Name)
-        and node.func.id in ("type", "isinstance", "issubclass")
-    ]
+    tests = _type_tests(tree)
     assert not [t for t in tests if "task" in t], tests
 
 
@@ -372,13 +377,7 @@ def test_the_vector_env_never_tests_its_task_s_type():
     (:attr:`~planar3p_gym.tasks.base.Task.compiled_family`), not by the task's class: no
     ``type(...)``/``isinstance(...)`` of anything of the task, and no task class imported."""
     tree = ast.parse((CORE / "envs" / "vector.py").read_text())
-    tests = [
-        ast.unparse(node)
-        for node in ast.walk(tree)
-        if isinstance(node, ast.Call)
-        and isinstance(node.func, ast.Name)
-        and node.func.id in ("type", "isinstance", "issubclass")
-    ]
+    tests = _type_tests(tree)
     assert tests and not [t for t in tests if "task" in t.lower()], tests
     imported = [
         a.name
