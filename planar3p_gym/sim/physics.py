@@ -1265,7 +1265,13 @@ class Planar3PSim:
         ``space`` (the pymunk space) at a time, with the compiled path's numbers
         (``tests/sim/test_recovery.py``): for an instrument that wraps ``space`` to book every
         physics step.  ``before_projection`` is called between a step's physics and its
-        projection.  The next :meth:`reset` builds the model anew, on the compiled path."""
+        projection (with the projection on; without it, never).  The next :meth:`reset`
+        builds the model anew, on the compiled path.  ``ValueError``, nothing changed, where
+        ``before_projection`` is neither ``None`` nor callable."""
+        if before_projection is not None and not callable(before_projection):
+            raise ValueError(
+                f"before_projection must be None or a callable, got {before_projection!r}"
+            )
         self._fast = self._move = None
         self._before_projection = before_projection
 

@@ -128,6 +128,17 @@ def test_stepping_through_the_api_mid_episode_changes_no_number():
     assert sim.batch_link() is not None
 
 
+def test_stepping_through_the_api_rejects_a_hook_that_is_not_callable():
+    """A hook that is not callable is refused before anything changes: the simulation stays on
+    its compiled path and steps as a new one does."""
+    sim, commands = machine(SEEDS[0])
+    twin, _ = machine(SEEDS[0])
+    with pytest.raises(ValueError, match="before_projection must be None or a callable"):
+        sim.step_through_api(before_projection=1.0)
+    assert sim.batch_link() is not None
+    assert [sim.step(c) for c in commands[:10]] == [twin.step(c) for c in commands[:10]]
+
+
 def test_the_batch_step_recovers_as_each_simulations_step():
     """:func:`chipmunk.advance_batch` (the native vector env's step) against the same
     simulations stepped one by one, recovered steps included, bit for bit."""
